@@ -1,0 +1,328 @@
+"""Reading maneuvers: YAML text or files → `Maneuver`, pydantic errors → plain `Problem`s, library lookup."""
+
+from __future__ import annotations
+
+import difflib
+import json
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, get_args
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from planning.maneuver.problems import ManeuverError, Problem, with_lines
+from planning.maneuver.spec import FORMAT, NAME_PATTERN, Maneuver
+
+SHIPPED_LIBRARY = Path(__file__).resolve().parents[2] / "maneuvers"
+MAX_TEXT_BYTES = 1_000_000  # a maneuver file is a few kB; refuse megabytes before parsing them
+
+
+# ---- YAML ----------------------------------------------------------------------------------------------------
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that refuses duplicate keys and reads `1e-4` as a number (YAML 1.2 style)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: dict[Any, yaml.Node] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)  # type: ignore[no-untyped-call]
+            try:
+                duplicate = key in seen
+            except TypeError:  # an unhashable key; the base class reports it
+                break
+            if duplicate:
+                raise yaml.constructor.ConstructorError(
+                    "while reading a mapping", node.start_mark, f"found duplicate key {key!r}", key_node.start_mark
+                )
+            seen[key] = key_node
+        return super().construct_mapping(node, deep=deep)
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _yaml_problem(e: yaml.YAMLError) -> Problem:
+    if isinstance(e, yaml.MarkedYAMLError) and e.problem_mark is not None:
+        mark = e.problem_mark
+        what = e.problem or "syntax error"
+        ctx = f" ({e.context})" if e.context else ""
+        return Problem(
+            "", f"YAML syntax error at line {mark.line + 1}, column {mark.column + 1}: {what}{ctx}", line=mark.line + 1
+        )
+    return Problem("", f"YAML syntax error: {e}")
+
+
+def _line_map(node: yaml.Node | None, path: str = "", out: dict[str, int] | None = None) -> dict[str, int]:
+    """Returns field path → 1-based line for every node of a composed YAML document."""
+    out = {} if out is None else out
+    if node is None:
+        return out
+    out.setdefault(path, node.start_mark.line + 1)
+    if isinstance(node, yaml.MappingNode):
+        for k, v in node.value:
+            if isinstance(k, yaml.ScalarNode):
+                child = f"{path}.{k.value}" if path else str(k.value)
+                out.setdefault(child, k.start_mark.line + 1)
+                _line_map(v, child, out)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, v in enumerate(node.value):
+            _line_map(v, f"{path}[{i}]", out)
+    return out
+
+
+def read_yaml(text: str) -> tuple[Any, dict[str, int]]:
+    """Returns (data, path → line map) of YAML text; raises ManeuverError with line and column on bad syntax."""
+    if len(text.encode("utf-8", "replace")) > MAX_TEXT_BYTES:
+        raise ManeuverError([Problem("", f"the file is larger than {MAX_TEXT_BYTES // 1000} kB; not a maneuver")])
+    try:
+        data = yaml.load(text, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
+        lines = _line_map(yaml.compose(text, Loader=_Loader))
+    except yaml.YAMLError as e:
+        raise ManeuverError([_yaml_problem(e)]) from None
+    except RecursionError:
+        raise ManeuverError([Problem("", "the YAML nests too deeply")]) from None
+    return data, lines
+
+
+# ---- pydantic errors → problems --------------------------------------------------------------------------------
+def _models_in(annotation: Any) -> list[type[BaseModel]]:
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [m for a in get_args(annotation) for m in _models_in(a)]
+
+
+def _tag_of(model: type[BaseModel]) -> str | None:
+    field = model.model_fields.get("type")
+    args = get_args(field.annotation) if field is not None else ()
+    return str(args[0]) if args else None
+
+
+def _field(model: type[BaseModel], key: str) -> Any:
+    for name, f in model.model_fields.items():
+        if key in (name, f.alias):
+            return f
+    return None
+
+
+def _walk_loc(loc: tuple[str | int, ...]) -> tuple[str, type[BaseModel] | None]:
+    """Returns (field path like `events[3].t`, the model that holds the last field) for a pydantic error loc.
+
+    Pydantic puts the tag of a discriminated union into the loc (`events, 3, touchdown, t`); the file has no such
+    level, so tags are dropped from the path.
+    """
+    parts: list[str] = []
+    model: type[BaseModel] | None = Maneuver
+    parent: type[BaseModel] | None = Maneuver
+    union: list[type[BaseModel]] = []
+    for item in loc:
+        if isinstance(item, int):
+            parts.append(f"[{item}]")
+            continue
+        tagged = next((m for m in union if _tag_of(m) == item), None)
+        if tagged is not None:
+            model, union = tagged, []
+            continue
+        parts.append(f".{item}" if parts else str(item))
+        parent = model
+        f = _field(model, item) if model is not None else None
+        found = _models_in(f.annotation) if f is not None else []
+        model, union = (found[0], []) if len(found) == 1 else (None, found)
+    return "".join(parts), parent
+
+
+def _show(value: Any) -> str:
+    try:
+        text = json.dumps(value, default=str)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _fields_of(model: type[BaseModel] | None) -> list[str]:
+    if model is None:
+        return []
+    return [f.alias or name for name, f in model.model_fields.items()]
+
+
+_BOUNDS = {
+    "greater_than": ("greater than", "gt"),
+    "greater_than_equal": ("at least", "ge"),
+    "less_than": ("less than", "lt"),
+    "less_than_equal": ("at most", "le"),
+}
+_TIME_FIELDS = {"t", "duration", "from", "to", "cycle", "time"}
+
+
+def _message(err: Any, parent: type[BaseModel] | None, path: str) -> str:
+    kind, ctx, value = err["type"], err.get("ctx") or {}, err.get("input")
+    field = path.rsplit(".", 1)[-1]
+    if kind == "missing":
+        if path == "format":
+            return f"is required: start the file with `format: {FORMAT}`"
+        return "is required"
+    if kind == "extra_forbidden":
+        allowed = _fields_of(parent)
+        close = difflib.get_close_matches(field, allowed, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        return f"unknown field{hint} (allowed here: {', '.join(allowed)})" if allowed else f"unknown field{hint}"
+    if kind == "literal_error":
+        if field == "leg":
+            return f"unknown leg {_show(value)}; legs are FL, FR, RL, RR"
+        if path == "format":
+            return f"must be {FORMAT}, got {_show(value)}"
+        return f"must be one of {ctx.get('expected', '')}, got {_show(value)}"
+    if kind == "union_tag_invalid":
+        return f"unknown type {_show(ctx.get('tag'))}; expected one of {ctx.get('expected_tags', '')}"
+    if kind == "union_tag_not_found":
+        kinds = "maximize_height, lean or minimize_torque" if path.startswith("objectives") else "liftoff or touchdown"
+        return f"is required: {kinds}"
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        return f"must be a mapping of fields (key: value), got {_show(value)}"
+    if kind in ("tuple_type", "list_type"):
+        return f"must be a list, got {_show(value)}"
+    if kind in ("float_type", "float_parsing", "int_type", "int_parsing"):
+        return f"must be a number, got {_show(value)}"
+    if kind == "finite_number":
+        return f"must be a finite number, got {_show(value)}"
+    if kind in _BOUNDS:
+        words, key = _BOUNDS[kind]
+        unit = " s" if field in _TIME_FIELDS or re.fullmatch(r"t\[\d\]", field) else ""
+        return f"must be {words} {ctx.get(key, 0):g}{unit}, got {_show(value)}"
+    if kind == "string_type":
+        return f"must be text, got {_show(value)}"
+    if kind == "string_pattern_mismatch" and ctx.get("pattern") == NAME_PATTERN:
+        return f"must be lowercase letters, digits and single dashes (like reach-and-lean), got {_show(value)}"
+    if kind == "string_too_long":
+        return f"is too long (at most {ctx.get('max_length')} characters)"
+    msg = str(err.get("msg", "is invalid"))
+    for prefix in ("Value error, ", "Assertion failed, "):
+        msg = msg.removeprefix(prefix)
+    return msg[:1].lower() + msg[1:]
+
+
+def problems_from_validation_error(e: ValidationError) -> list[Problem]:
+    """Returns one plain Problem per pydantic error, with file-style field paths."""
+    out = []
+    for err in e.errors(include_url=False):
+        path, parent = _walk_loc(tuple(err["loc"]))
+        if err["type"] in ("union_tag_invalid", "union_tag_not_found"):
+            path = f"{path}.type"
+        out.append(Problem(path, _message(err, parent, path)))
+    return out
+
+
+# ---- public entry points ---------------------------------------------------------------------------------------
+def parse_maneuver(data: Any, *, lines: dict[str, int] | None = None, source: str | None = None) -> Maneuver:
+    """Returns the Maneuver of a parsed document (a dict); raises ManeuverError listing every shape problem."""
+    if isinstance(data, Maneuver):
+        return data
+    if not isinstance(data, dict):
+        kind = "empty" if data is None else f"a {type(data).__name__}"
+        raise ManeuverError(
+            [Problem("", f"a maneuver must be a mapping of fields (format, name, duration, ...), got {kind}")],
+            source,
+        )
+    try:
+        return Maneuver.model_validate(data)
+    except ValidationError as e:
+        raise ManeuverError(with_lines(problems_from_validation_error(e), lines), source) from None
+    except RecursionError:
+        raise ManeuverError([Problem("", "the document nests too deeply")], source) from None
+
+
+def _looks_like_path(s: str) -> bool:
+    if "\n" in s or len(s) > 4096:
+        return False
+    if s.endswith((".yaml", ".yml")):
+        return True
+    try:
+        return Path(s).is_file()
+    except OSError:
+        return False
+
+
+def load_maneuver(source: str | Path | dict[str, Any] | Maneuver) -> Maneuver:
+    """Returns the Maneuver of a file path, YAML text, a dict or a Maneuver; raises ManeuverError."""
+    if isinstance(source, (dict, Maneuver)):
+        return parse_maneuver(source)
+    name: str | None = None
+    if isinstance(source, Path) or _looks_like_path(source):
+        path = Path(source)
+        name = str(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise ManeuverError([Problem("", f"no such file: {path}")]) from None
+        except (OSError, UnicodeDecodeError) as e:
+            raise ManeuverError([Problem("", f"cannot read {path}: {e}")]) from None
+    else:
+        text = source
+    try:
+        data, lines = read_yaml(text)
+    except ManeuverError as e:
+        raise ManeuverError(e.problems, name) from None
+    return parse_maneuver(data, lines=lines, source=name)
+
+
+def find_maneuver(
+    name_or_path: str | Path, library_dirs: Sequence[str | Path] = (SHIPPED_LIBRARY,), *, allow_paths: bool = True
+) -> Path:
+    """Returns the file of a maneuver given by library name (first directory wins) or, if allowed, by path.
+
+    A name must match the format's name pattern, so a name never reaches outside the library directories; servers
+    pass ``allow_paths=False``.
+    """
+    s = str(name_or_path)
+    if allow_paths and (isinstance(name_or_path, Path) or "/" in s or s.endswith((".yaml", ".yml"))):
+        p = Path(s)
+        if p.is_file():
+            return p
+        raise ManeuverError([Problem("", f"no such file: {p}")])
+    if not re.fullmatch(NAME_PATTERN, s) or len(s) > 64:
+        raise ManeuverError(
+            [Problem("", f"{s!r} is not a maneuver name (lowercase letters, digits and single dashes)")]
+        )
+    for d in library_dirs:
+        for ext in (".yaml", ".yml"):
+            p = Path(d) / f"{s}{ext}"
+            if p.is_file():
+                return p
+    known = sorted({p.stem for d in library_dirs if Path(d).is_dir() for p in Path(d).glob("*.y*ml")})
+    close = difflib.get_close_matches(s, known, n=3)
+    hint = f"; did you mean {', '.join(close)}?" if close else f" (library: {', '.join(known) or 'empty'})"
+    raise ManeuverError([Problem("", f"no maneuver named {s!r}{hint}")])
+
+
+@dataclass(frozen=True)
+class LibraryEntry:
+    """One file of a maneuver library: its name, title and duration, or why it does not load."""
+
+    name: str
+    path: Path
+    title: str | None = None
+    duration_s: float | None = None
+    problems: tuple[Problem, ...] = ()
+
+
+def list_library(library_dirs: Sequence[str | Path] = (SHIPPED_LIBRARY,)) -> list[LibraryEntry]:
+    """Returns the maneuvers of the library directories sorted by name; an earlier directory shadows a later one."""
+    entries: dict[str, LibraryEntry] = {}
+    for d in library_dirs:
+        if not Path(d).is_dir():
+            continue
+        for p in sorted(Path(d).glob("*.y*ml")):
+            if p.stem in entries or p.suffix not in (".yaml", ".yml"):
+                continue
+            try:
+                m = load_maneuver(p)
+            except ManeuverError as e:
+                entries[p.stem] = LibraryEntry(p.stem, p, problems=tuple(e.problems))
+                continue
+            entries[p.stem] = LibraryEntry(m.name, p, m.title, m.duration)
+    return [entries[k] for k in sorted(entries)]

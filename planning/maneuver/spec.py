@@ -1,0 +1,237 @@
+"""The `footfall/maneuver@1` file format as pydantic models: what a maneuver says, checked field by field.
+
+These models check *shape* (types, ranges, required fields, no unknown fields). Rules that relate fields to each
+other (events in order, touchdowns after liftoffs, reach) live in ``validate.py`` so that every problem of a file is
+reported at once. Units: meters, seconds from the maneuver's start, degrees; frame: the maneuver frame (origin on the
+ground under the body center at the start, x forward, y left, z up).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic_core import PydanticCustomError
+
+FORMAT = "footfall/maneuver@1"
+MAX_DURATION_S = 60.0
+NAME_PATTERN = r"^[a-z0-9]+(-[a-z0-9]+)*$"
+
+LegName = Literal["FL", "FR", "RL", "RR"]
+GaitName = Literal["trot", "walk", "pace", "bound", "pronk"]
+TrackName = Literal["legs", "body"]
+
+# A real number: ints are fine, booleans and strings are not (strict), NaN/inf rejected by the model config.
+Real = Annotated[float, Field(strict=True)]
+Time = Annotated[float, Field(strict=True, ge=0.0)]
+Positive = Annotated[float, Field(strict=True, gt=0.0)]
+NonNegative = Annotated[float, Field(strict=True, ge=0.0)]
+
+
+def _vector(n: int, labels: str) -> Any:
+    """Returns a check that the input is a list of exactly n items, with a message naming the components."""
+
+    def check(value: Any) -> Any:
+        if isinstance(value, (list, tuple)) and len(value) == n:
+            return value
+        got = f"{len(value)} items" if isinstance(value, (list, tuple)) else repr(value)
+        raise PydanticCustomError("vector", "must be a list of {n} numbers {labels}, got {got}",
+                                  {"n": n, "labels": labels, "got": got})
+
+    return BeforeValidator(check)
+
+
+def _vector_2_or_3(value: Any) -> Any:
+    if isinstance(value, (list, tuple)) and len(value) in (2, 3):
+        return tuple(value) if len(value) == 3 else (*value, 0.0)
+    got = f"{len(value)} items" if isinstance(value, (list, tuple)) else repr(value)
+    raise PydanticCustomError("vector", "must be a list of 2 or 3 numbers [dx, dy] or [dx, dy, dz], got {got}",
+                              {"got": got})
+
+
+def _interval(value: Any) -> Any:
+    if isinstance(value, (list, tuple)) and len(value) == 2:
+        return value
+    got = f"{len(value)} items" if isinstance(value, (list, tuple)) else repr(value)
+    raise PydanticCustomError("vector", "must be a time interval [start, end] in seconds, got {got}", {"got": got})
+
+
+def _time_or_interval(value: Any) -> Any:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return (value, value)
+    return _interval(value)
+
+
+Vec2 = Annotated[tuple[Real, Real], _vector(2, "[x, y]")]
+Vec3 = Annotated[tuple[Real, Real, Real], _vector(3, "[x, y, z]")]
+Rpy = Annotated[tuple[Real, Real, Real], _vector(3, "[roll, pitch, yaw] in degrees")]
+Step = Annotated[tuple[Real, Real, Real], _vector(3, "[dx, dy, dyaw_deg]")]
+Offset = Annotated[tuple[Real, Real, Real], BeforeValidator(_vector_2_or_3)]
+Interval = Annotated[tuple[Time, Time], BeforeValidator(_interval)]
+TimeOrInterval = Annotated[tuple[Time, Time], BeforeValidator(_time_or_interval)]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False, populate_by_name=True)
+
+
+class Adjust(_Model):
+    """How far the solver may move a touchdown: in time (± s) and in place (a radius, or a legal polygon)."""
+
+    time: NonNegative = Field(0.0, description="the event may move by ± this many seconds")
+    radius: NonNegative | None = Field(None, description="the touchdown may move within this many meters")
+    region: tuple[Vec2, ...] | None = Field(
+        None, description="a legal touchdown polygon [[x, y], ...] in the maneuver frame (instead of radius)"
+    )
+
+    @model_validator(mode="after")
+    def _radius_or_region(self) -> Adjust:
+        if self.radius is not None and self.region is not None:
+            raise PydanticCustomError("adjust", "give either radius or region, not both")
+        if self.region is not None and len(self.region) < 3:
+            raise PydanticCustomError(
+                "adjust", "region must be a polygon of at least 3 points [[x, y], ...], got {n}", {"n": len(self.region)}
+            )
+        return self
+
+
+class LiftoffAdjust(_Model):
+    """How far the solver may move a liftoff in time (± s)."""
+
+    time: NonNegative = Field(0.0, description="the liftoff may move by ± this many seconds")
+
+
+class Liftoff(_Model):
+    """A foot leaves the ground at time t."""
+
+    t: Time = Field(description="time, s")
+    leg: LegName
+    type: Literal["liftoff"]
+    adjust: LiftoffAdjust | None = None
+
+
+class Touchdown(_Model):
+    """A foot lands at time t: at a point, at an offset from where it lifted off, or (neither) where it lifted off."""
+
+    t: Time = Field(description="time, s")
+    leg: LegName
+    type: Literal["touchdown"]
+    at: Vec3 | None = Field(None, description="contact point [x, y, z] in the maneuver frame, m")
+    offset: Offset | None = Field(
+        None, description="[dx, dy] or [dx, dy, dz] from where the foot lifted off, maneuver frame, m"
+    )
+    normal: Vec3 = Field((0.0, 0.0, 1.0), description="contact normal (need not be vertical)")
+    adjust: Adjust | None = None
+
+    @model_validator(mode="after")
+    def _at_or_offset(self) -> Touchdown:
+        if self.at is not None and self.offset is not None:
+            raise PydanticCustomError("touchdown", "give either at or offset, not both")
+        return self
+
+
+Event = Annotated[Liftoff | Touchdown, Field(discriminator="type")]
+
+
+class Gait(_Model):
+    """A periodic segment [from, to) expanded into liftoff/touchdown events, each leg stepping once per cycle."""
+
+    gait: GaitName
+    from_: Time = Field(alias="from", description="start time, s")
+    to: Time = Field(description="end time, s (every swing lands by then)")
+    cycle: Positive = Field(description="cycle period, s")
+    duty: Annotated[float, Field(strict=True, gt=0.0, lt=1.0)] = Field(
+        description="fraction of a cycle each foot is on the ground"
+    )
+    step: Step = Field((0.0, 0.0, 0.0), description="per cycle: dx, dy in the body frame (m), dyaw (degrees)")
+    height: Positive | None = Field(None, description="swing apex height above the line liftoff→touchdown, m")
+    adjust: Adjust | None = Field(None, description="adjust window given to every touchdown of the segment")
+
+
+class Keyframe(_Model):
+    """A body target at time t with an importance weight; rpy = roll, pitch, yaw in degrees (pitch > 0: nose down)."""
+
+    t: Time = Field(description="time, s")
+    position: Vec3 = Field(description="body center [x, y, z] in the maneuver frame, m")
+    rpy: Rpy = Field((0.0, 0.0, 0.0), description="roll, pitch, yaw, degrees, right-handed about x, y, z")
+    weight: NonNegative = Field(1.0, description="importance of reaching this pose")
+
+
+class Weights(_Model):
+    """Cost weights of the planner's named terms; the same names appear in the studio and the logs."""
+
+    force: NonNegative = Field(1.0e-4, description="contact force magnitude")
+    pose: NonNegative = Field(1.0, description="body pose tracking of the keyframes")
+    touchdown_time: NonNegative = Field(1.0, description="deviation from the nominal touchdown times")
+    touchdown_position: NonNegative = Field(10.0, description="deviation from the nominal touchdown positions")
+    hip_over_foot: NonNegative = Field(0.1, description="hips kept above their feet")
+
+
+class MaximizeHeight(_Model):
+    """Custom cost: the body as high as possible during the interval t = [start, end] (a jump)."""
+
+    type: Literal["maximize_height"]
+    t: Interval
+    weight: NonNegative = 1.0
+
+
+class Lean(_Model):
+    """Custom cost: lean the body as far as possible toward `direction` [x, y] at time t (or over [start, end])."""
+
+    type: Literal["lean"]
+    t: TimeOrInterval
+    direction: Vec2
+    weight: NonNegative = 1.0
+
+
+class MinimizeTorque(_Model):
+    """Custom cost: small joint torques during t = [start, end] (the whole maneuver when omitted)."""
+
+    type: Literal["minimize_torque"]
+    t: Interval | None = None
+    weight: NonNegative = 1.0
+
+
+Objective = Annotated[MaximizeHeight | Lean | MinimizeTorque, Field(discriminator="type")]
+
+
+def _tracks(value: Any) -> Any:
+    if isinstance(value, (list, tuple)) and len(set(map(str, value))) != len(value):
+        raise PydanticCustomError("tracks", "lists a track twice: {value}", {"value": list(value)})
+    if isinstance(value, (list, tuple)) and not value:
+        raise PydanticCustomError("tracks", "must name at least one of legs, body")
+    return value
+
+
+class Maneuver(_Model):
+    """A maneuver: sparse events, gait segments, body keyframes, cost weights and custom objectives."""
+
+    model_config = ConfigDict(title="footfall maneuver (footfall/maneuver@1)")
+
+    format: Literal["footfall/maneuver@1"] = Field(description="always footfall/maneuver@1")
+    name: str = Field(pattern=NAME_PATTERN, max_length=64, description="lowercase letters, digits, dashes")
+    title: str | None = Field(None, max_length=200)
+    description: str = Field("", max_length=10_000)
+    duration: Annotated[float, Field(strict=True, gt=0.0, le=MAX_DURATION_S)] = Field(description="total time, s")
+    start: Literal["stand"] = Field("stand", description="entry state")
+    tracks: Annotated[tuple[TrackName, ...], BeforeValidator(_tracks)] = Field(
+        ("legs", "body"), description="the tracks it drives; [body] only is a passive hint"
+    )
+    friction: Annotated[float, Field(strict=True, gt=0.0, le=3.0)] = Field(
+        0.6, description="friction coefficient assumed at contacts"
+    )
+    events: tuple[Event, ...] = ()
+    gaits: tuple[Gait, ...] = ()
+    body: tuple[Keyframe, ...] = ()
+    weights: Weights = Weights()
+    objectives: tuple[Objective, ...] = ()
+
+
+def maneuver_json_schema() -> dict[str, Any]:
+    """Returns the JSON Schema (draft 2020-12) of a maneuver file, with the aliases used in files (`from`)."""
+    schema = Maneuver.model_json_schema(by_alias=True, mode="validation")
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": "https://footfall.dev/schemas/maneuver@1.json",
+        **schema,
+    }

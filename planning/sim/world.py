@@ -1,0 +1,239 @@
+"""The MuJoCo world: a robot on a terrain scene, a state reader, a torque writer and disturbances."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import mujoco
+import numpy as np
+
+from planning.robot import LEGS, RobotModel
+
+
+class Scene(Protocol):
+    """What the world needs of a terrain scene (planning.terrain.scenes.TerrainScene provides it)."""
+
+    name: str
+    worldbody_xml: str
+    asset_xml: str
+    hfield_data: dict[str, np.ndarray]
+
+    def ground_height(self, x: float, y: float) -> float: ...
+
+
+@dataclass(frozen=True)
+class Push:
+    """A force (N, world frame) on the body's center of mass from t_s for duration_s."""
+
+    t_s: float
+    force_n: tuple[float, float, float]
+    duration_s: float = 0.1
+
+    @property
+    def impulse_ns(self) -> float:
+        return float(np.linalg.norm(self.force_n) * self.duration_s)
+
+
+class PushSpecError(ValueError):
+    """A malformed ``--push`` specification."""
+
+
+def parse_push(spec: str) -> Push:
+    """Returns the Push of a ``T:FX,FY,FZ[:DURATION]`` string; raises PushSpecError naming what is wrong."""
+    parts = spec.strip().split(":")
+    if len(parts) not in (2, 3):
+        raise PushSpecError(f"--push {spec!r}: expected T:FX,FY,FZ[:DURATION], e.g. 1.0:0,150,0:0.1")
+    try:
+        t = float(parts[0])
+    except ValueError:
+        raise PushSpecError(f"--push {spec!r}: time {parts[0]!r} is not a number") from None
+    comps = parts[1].split(",")
+    if len(comps) != 3:
+        raise PushSpecError(f"--push {spec!r}: force needs three components FX,FY,FZ, got {len(comps)}")
+    try:
+        f = tuple(float(c) for c in comps)
+    except ValueError:
+        raise PushSpecError(f"--push {spec!r}: force {parts[1]!r} is not three numbers") from None
+    dur = 0.1
+    if len(parts) == 3:
+        try:
+            dur = float(parts[2])
+        except ValueError:
+            raise PushSpecError(f"--push {spec!r}: duration {parts[2]!r} is not a number") from None
+    if not np.all(np.isfinite([t, dur, *f])):
+        raise PushSpecError(f"--push {spec!r}: numbers must be finite")
+    if t < 0 or dur <= 0:
+        raise PushSpecError(f"--push {spec!r}: time must be ≥ 0 and duration > 0")
+    return Push(t, (f[0], f[1], f[2]), dur)
+
+
+@dataclass
+class RobotState:
+    """The measured state, refreshed in place by World.read_state (arrays are reused, never reallocated)."""
+
+    t: float = 0.0
+    p_world_body: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    quat_world_body: np.ndarray = field(default_factory=lambda: np.array([1.0, 0, 0, 0]))
+    R_world_body: np.ndarray = field(default_factory=lambda: np.eye(3))
+    v_world_body: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    omega_world: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    p_world_com: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    v_world_com: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    q: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))
+    qd: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))
+    p_world_foot: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))  # foot centers
+    v_world_foot: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))
+    J_world_foot: np.ndarray = field(default_factory=lambda: np.zeros((4, 3, 3)))  # d p_world_foot / d q_leg
+    tau_bias: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))  # gravity + Coriolis on leg joints
+    contact: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
+    knee_contact: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
+    bad_contact: str | None = None  # name of a non-foot robot geom touching the world, if any
+
+    @property
+    def yaw(self) -> float:
+        R = self.R_world_body
+        return float(np.arctan2(R[1, 0], R[0, 0]))
+
+
+
+
+class World:
+    """One robot on one terrain in MuJoCo. Names are resolved to ids at construction."""
+
+    def __init__(self, robot: RobotModel, scene: Scene, timestep_s: float = 0.002) -> None:
+        self.robot = robot
+        self.scene = scene
+        xml = compose_mjcf(robot, scene)
+        self.model = mujoco.MjModel.from_xml_string(xml)
+        self.model.opt.timestep = timestep_s
+        for name, heights in scene.hfield_data.items():
+            hid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_HFIELD, name)
+            n = self.model.hfield_nrow[hid] * self.model.hfield_ncol[hid]
+            adr = self.model.hfield_adr[hid]
+            self.model.hfield_data[adr : adr + n] = np.asarray(heights, dtype=float).ravel()
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self.dt = float(m.opt.timestep)
+        self.body_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "trunk")
+        name = lambda kind, i: mujoco.mj_id2name(m, kind, i)  # noqa: E731
+        # Re-resolve the robot's names in the composed model (ids shift when the scene adds bodies first).
+        self.foot_geom = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_foot") for leg in LEGS])
+        self.foot_site = np.array(
+            [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{leg}_foot_site") for leg in LEGS]
+        )
+        rm = robot.model
+        jn = [[mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_JOINT, j) for j in lg.joint_ids] for lg in robot.legs]
+        jid = np.array([[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in row] for row in jn])
+        self.qpos_idx = m.jnt_qposadr[jid]
+        self.dof_idx = m.jnt_dofadr[jid]
+        an = [[mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in lg.actuator_ids] for lg in robot.legs]
+        self.act_idx = np.array([[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in row] for row in an])
+        self.free_qpos = int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "root")])
+        self.free_dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "root")])
+        robot_bodies = {b for b in range(m.nbody) if m.body_rootid[b] == self.body_id}
+        self.is_robot_geom = np.array([m.geom_bodyid[g] in robot_bodies for g in range(m.ngeom)])
+        self.leg_of_foot_geom = np.full(m.ngeom, -1)
+        self.leg_of_foot_geom[self.foot_geom] = np.arange(4)
+        knee_names = [f"{leg}_lleg_geom" for leg in LEGS]
+        self.leg_of_knee_geom = np.full(m.ngeom, -1)
+        for i, kn in enumerate(knee_names):
+            g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, kn)
+            if g >= 0:
+                self.leg_of_knee_geom[g] = i
+        self.geom_names = [name(mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)]
+        self.is_obstacle_geom = np.array([n.startswith("terrain_obstacle_") for n in self.geom_names])
+        self.pushes: list[Push] = []
+        self._jac = np.zeros((3, m.nv))
+        self._vel6 = np.zeros(6)
+        self.body_collisions = 0
+        self.reset()
+
+    # ------------------------------------------------------------------------------------------------------------
+    def reset(self, height: float | None = None) -> None:
+        """Puts the robot in its nominal stance at the origin, feet on the ground, at rest."""
+        mujoco.mj_resetData(self.model, self.data)
+        h = self.robot.standing_height_m if height is None else height
+        h += float(self.scene.ground_height(0.0, 0.0))
+        q = self.robot.home_qpos(h)
+        self.data.qpos[self.free_qpos : self.free_qpos + 7] = q[:7]
+        for i in range(4):
+            self.data.qpos[self.qpos_idx[i]] = self.robot.q_nominal[i]
+        mujoco.mj_forward(self.model, self.data)
+
+    @property
+    def t(self) -> float:
+        return float(self.data.time)
+
+    def set_torques(self, tau: np.ndarray) -> None:
+        """Writes joint torques tau (4,3) N·m to the actuators (MuJoCo clips to the actuator range)."""
+        self.data.ctrl[self.act_idx] = tau
+
+    def step(self) -> None:
+        """Advances the physics by one timestep, applying any push active now."""
+        xf = self.data.xfrc_applied[self.body_id]
+        xf[:] = 0.0
+        t = self.data.time
+        for p in self.pushes:
+            if p.t_s <= t < p.t_s + p.duration_s:
+                xf[:3] += p.force_n
+        mujoco.mj_step(self.model, self.data)
+
+    def read_state(self, s: RobotState) -> RobotState:
+        """Fills s in place from the simulation and returns it."""
+        m, d = self.model, self.data
+        s.t = float(d.time)
+        s.p_world_body[:] = d.qpos[self.free_qpos : self.free_qpos + 3]
+        s.quat_world_body[:] = d.qpos[self.free_qpos + 3 : self.free_qpos + 7]
+        s.R_world_body[:] = d.xmat[self.body_id].reshape(3, 3)
+        s.v_world_body[:] = d.qvel[self.free_dof : self.free_dof + 3]
+        s.omega_world[:] = s.R_world_body @ d.qvel[self.free_dof + 3 : self.free_dof + 6]
+        s.p_world_com[:] = d.subtree_com[self.body_id]
+        # subtree linear velocity needs mj_subtreeVel; the trunk dominates the mass, so use its CoM velocity
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, self.body_id, self._vel6, 0)
+        s.v_world_com[:] = self._vel6[3:]
+        s.q[:] = d.qpos[self.qpos_idx]
+        s.qd[:] = d.qvel[self.dof_idx]
+        s.tau_bias[:] = d.qfrc_bias[self.dof_idx]
+        for i in range(4):
+            sid = self.foot_site[i]
+            s.p_world_foot[i] = d.site_xpos[sid]
+            mujoco.mj_jacSite(m, d, self._jac, None, sid)
+            s.J_world_foot[i] = self._jac[:, self.dof_idx[i]]
+            s.v_world_foot[i] = self._jac @ d.qvel
+        s.contact[:] = False
+        s.knee_contact[:] = False
+        s.bad_contact = None
+        n = d.ncon
+        if n:
+            geoms = d.contact.geom[:n]
+            for g1, g2 in geoms:
+                r1, r2 = self.is_robot_geom[g1], self.is_robot_geom[g2]
+                if r1 == r2:
+                    continue
+                g = g1 if r1 else g2
+                other = g2 if r1 else g1
+                leg = self.leg_of_foot_geom[g]
+                if leg >= 0:
+                    s.contact[leg] = True
+                    if self.is_obstacle_geom[other]:
+                        pass  # a foot on an obstacle is not a fall; the report counts it separately
+                    continue
+                kl = self.leg_of_knee_geom[g]
+                if kl >= 0:
+                    s.knee_contact[kl] = True
+                s.bad_contact = self.geom_names[g]
+        return s
+
+
+def compose_mjcf(robot: RobotModel, scene: Scene) -> str:
+    """Returns the MJCF of the robot standing on the scene (the scene's assets and geoms inserted)."""
+    xml = robot.mjcf_xml
+    visual = """
+  <visual><headlight ambient="0.4 0.4 0.4" diffuse="0.6 0.6 0.6"/><global offwidth="1280" offheight="720"/></visual>"""
+    head, sep, rest = xml.partition("<worldbody>")
+    if not sep:
+        raise ValueError(f"{robot.mjcf_path}: no <worldbody>")
+    assets = f"\n  <asset>{scene.asset_xml}\n  </asset>" if scene.asset_xml.strip() else ""
+    world = f'<worldbody>\n    <light pos="0 0 4" dir="0 0 -1" directional="true"/>{scene.worldbody_xml}'
+    return head + visual + assets + "\n  " + world + rest
