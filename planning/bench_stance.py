@@ -53,7 +53,13 @@ def _robot_inputs(seed: int) -> tuple[float, np.ndarray, np.ndarray, np.ndarray,
         for leg in range(N_LEGS):
             p_body_center = robot.nominal_foot_body[leg] + np.array([0.0, 0.0, robot.foot_radius_m])
             J[leg] = robot.jacobian_leg(leg, robot.ik_leg(leg, p_body_center))
-        return float(robot.mass_kg), J, np.array(robot.nominal_foot_body, float), np.array(robot.tau_max), "spot"
+        return (
+            float(robot.mass_kg),
+            J,
+            np.array(robot.nominal_foot_body, float),
+            np.array(robot.tau_max),
+            "spot",
+        )
     except Exception:  # the robot package is optional for this benchmark; fall back to synthetic legs
         rng = np.random.default_rng(seed)
         J = np.empty((N_LEGS, 3, 3))
@@ -94,7 +100,9 @@ def bench_force_distribution(n: int = 500, seed: int = 0) -> dict[str, Any]:
     times: list[float] = []
     for k in range(n):
         t0 = time.perf_counter()
-        dist.solve(force[k], torque[k], p_com_foot, _MASKS[(k // 20) % 3], mu=0.6, fz_min_n=5.0, fz_max_n=600.0)
+        dist.solve(
+            force[k], torque[k], p_com_foot, _MASKS[(k // 20) % 3], mu=0.6, fz_min_n=5.0, fz_max_n=600.0
+        )
         times.append(time.perf_counter() - t0)
     return _summary(times, timed.times_s, source)
 

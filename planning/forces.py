@@ -152,7 +152,9 @@ def pyramid_rows(R_world_contact: np.ndarray, mu_face: float, out: np.ndarray) -
     return out
 
 
-def fill_wrench_matrix(p_com_foot_world: np.ndarray, force_gain: float, torque_gain: float, out: np.ndarray) -> None:
+def fill_wrench_matrix(
+    p_com_foot_world: np.ndarray, force_gain: float, torque_gain: float, out: np.ndarray
+) -> None:
     """Write into `out` (6,12) the map f → [force_gain Σ f; torque_gain Σ r × f] (r = foot position from the CoM)."""
     for i in range(N_LEGS):
         c = 3 * i
@@ -185,9 +187,7 @@ def dense_upper_csc(n: int) -> tuple[sp.csc_matrix, np.ndarray]:
 def block_constraint_csc(rows_per_leg: int) -> sp.csc_matrix:
     """Return the (4·rows_per_leg)×12 CSC matrix whose leg blocks are dense (every entry stored, values 0)."""
     indptr = np.arange(3 * N_LEGS + 1) * rows_per_leg
-    indices = np.concatenate(
-        [np.arange(rows_per_leg) + rows_per_leg * (j // 3) for j in range(3 * N_LEGS)]
-    )
+    indices = np.concatenate([np.arange(rows_per_leg) + rows_per_leg * (j // 3) for j in range(3 * N_LEGS)])
     data = np.zeros(indices.size)
     return sp.csc_matrix((data, indices, indptr), shape=(rows_per_leg * N_LEGS, 3 * N_LEGS))
 
@@ -224,7 +224,8 @@ class ForceDistributorParams:
     w_force: float = 1.0  # weight of the net-force residual, per (m g)²
     w_torque: float = 10.0  # weight of the torque residual about the CoM, per (m g · torque_length_m)²
     torque_length_m: float = 1.0  # m; turns a torque residual into a force-sized one
-    alpha: float = 1e-3  # regularization toward f_ref (zero when not given), per (m g)²
+    # Regularization toward f_ref (default: the desired force in equal shares), per (m g)².
+    alpha: float = 1e-3
     inscribed_pyramid: bool = True  # faces at μ/√2 so the pyramid lies inside the Coulomb cone
     eps_abs: float = 1e-7  # OSQP tolerances, scaled units
     eps_rel: float = 1e-7
@@ -240,7 +241,9 @@ class ForceDistributor:
     One OSQP problem with 12 variables and 20 rows (per leg: 4 pyramid faces, 1 normal-force row), set up once.
     """
 
-    def __init__(self, mass_kg: float, params: ForceDistributorParams | None = None, gravity_mps2: float = 9.81):
+    def __init__(
+        self, mass_kg: float, params: ForceDistributorParams | None = None, gravity_mps2: float = 9.81
+    ):
         if not (math.isfinite(mass_kg) and mass_kg > 0.0):
             raise ValueError(f"mass_kg: must be a positive finite number, got {mass_kg!r}")
         self.params = params or ForceDistributorParams()
@@ -273,7 +276,7 @@ class ForceDistributor:
             eps_abs=p.eps_abs,
             eps_rel=p.eps_rel,
             max_iter=p.max_iter,
-            polish=p.polish,
+            polishing=p.polish,
             warm_starting=True,
         )
 
@@ -318,11 +321,12 @@ class ForceDistributor:
         gravity compensation included: standing still asks for (0, 0, m g)). p_com_foot_world (4,3) m: contact
         points relative to the CoM. contact (4,) bool: stance legs. mu: friction coefficient; fz_min_n/fz_max_n:
         bounds on each stance leg's normal force, N. n_world_contact (4,3): contact normals (default +z).
-        f_world_ref (4,3) N: forces to regularize toward (default zero = least-norm forces).
+        f_world_ref (4,3) N: forces to regularize toward (default: the desired force shared equally by the stance
+        legs, a prior that leaves the net force unbiased).
 
         Never raises on values: non-finite inputs are repaired (a leg with a non-finite position is treated as
-        swinging) and named in `status.sanitized`; if OSQP fails the answer is an equal share of the desired force
-        clamped into the pyramid. Wrong shapes raise ValueError naming the field.
+        swinging) and named in `status.sanitized`; if OSQP fails the answer is the reference forces clamped into
+        the pyramid. Wrong shapes raise ValueError naming the field.
         """
         t0 = time.perf_counter()
         p = self.params
@@ -373,14 +377,17 @@ class ForceDistributor:
         np.dot(G.T, G, out=self._P)
         self._P.flat[:: 3 * N_LEGS + 1] += p.alpha
         np.take(self._P, self._p_gather, out=self._Px)
+        x_ref = self._x_ref.reshape(N_LEGS, 3)
         if f_world_ref is not None:
             ref = checked("f_world_ref", f_world_ref, (N_LEGS, 3))
             if not np.isfinite(ref).all():
                 ref = np.nan_to_num(ref, nan=0.0, posinf=0.0, neginf=0.0)
                 sanitized.append("f_world_ref")
-            np.multiply(ref.reshape(-1), 1.0 / fs, out=self._x_ref)
+            np.multiply(ref, 1.0 / fs, out=x_ref)
         else:
-            self._x_ref[:] = 0.0
+            # Equal shares of the desired force: unlike zero, this prior does not bias the net force.
+            x_ref[:] = F / (fs * max(int(stance.sum()), 1))
+        x_ref[~stance] = 0.0
         np.dot(G.T, self._w, out=self._q)
         self._q += p.alpha * self._x_ref
         np.negative(self._q, out=self._q)
@@ -401,11 +408,7 @@ class ForceDistributor:
         fallback = solver_status not in _USABLE or x is None or not np.isfinite(x).all()
         if fallback:
             # Equal share of the desired force over the stance legs (or the reference), clamped below.
-            if f_world_ref is not None and "f_world_ref" not in sanitized:
-                self._f[:] = self._x_ref.reshape(N_LEGS, 3) * fs
-            else:
-                n_st = max(int(stance.sum()), 1)
-                self._f[:] = F / n_st
+            np.multiply(x_ref, fs, out=self._f)
             self._solver.warm_start(x=self._f.reshape(-1) / fs, y=self._y0)
         else:
             np.multiply(x.reshape(N_LEGS, 3), fs, out=self._f)

@@ -55,7 +55,7 @@ class StanceHandlerParams:
     foot positions are passed (torque residual per force_scale_n · 1 m).
     """
 
-    force_scale_n: float = 100.0  # N; the QP's variable is f / force_scale_n (about a quarter of Spot's weight)
+    force_scale_n: float = 100.0  # N; the QP's variable is f / force_scale_n (~ a quarter of Spot's weight)
     w_normal: float = 1.0  # deviation along each leg's contact normal
     w_tangent: float = 1.0  # deviation in the contact plane
     w_wrench_force: float = 1.0  # change of the net force Σ f
@@ -114,7 +114,7 @@ class StanceHandler:
             eps_abs=p.eps_abs,
             eps_rel=p.eps_rel,
             max_iter=p.max_iter,
-            polish=p.polish,
+            polishing=p.polish,
             warm_starting=True,
         )
 
@@ -317,15 +317,20 @@ class StanceHandler:
             a_minus = (b - T) / g
             a_plus = (b + T) / g
         fits_at_any_s = np.abs(b) <= T
-        lo = np.where(g > tiny, a_minus, np.where(g < -tiny, a_plus, np.where(fits_at_any_s, -np.inf, np.inf)))
-        hi = np.where(g > tiny, a_plus, np.where(g < -tiny, a_minus, np.where(fits_at_any_s, np.inf, -np.inf)))
+        lo = np.where(
+            g > tiny, a_minus, np.where(g < -tiny, a_plus, np.where(fits_at_any_s, -np.inf, np.inf))
+        )
+        hi = np.where(
+            g > tiny, a_plus, np.where(g < -tiny, a_minus, np.where(fits_at_any_s, np.inf, -np.inf))
+        )
         s_lo = np.maximum(lo.max(axis=1), 0.0)
         s_hi = np.minimum(hi.min(axis=1), 1.0)
         feasible = s_lo <= s_hi
         s = np.where(feasible, s_hi, 1.0)
         if not feasible[stance].all():
             # No scale fits: take the candidate scale with the least total excess torque (ties → larger s).
-            cand = np.concatenate([np.zeros((N_LEGS, 1)), np.ones((N_LEGS, 1)), lo, hi], axis=1).clip(0.0, 1.0)
+            cand = np.concatenate([np.zeros((N_LEGS, 1)), np.ones((N_LEGS, 1)), lo, hi], axis=1)
+            np.clip(cand, 0.0, 1.0, out=cand)
             excess = np.maximum(np.abs(b[:, None, :] - cand[:, :, None] * g[:, None, :]) - T[:, None, :], 0.0)
             total = excess.sum(axis=2)
             best = total <= total.min(axis=1, keepdims=True) * (1.0 + 1e-12) + 1e-12

@@ -247,10 +247,8 @@ def _looks_like_path(s: str) -> bool:
         return False
 
 
-def load_maneuver(source: str | Path | dict[str, Any] | Maneuver) -> Maneuver:
-    """Returns the Maneuver of a file path, YAML text, a dict or a Maneuver; raises ManeuverError."""
-    if isinstance(source, (dict, Maneuver)):
-        return parse_maneuver(source)
+def read_source(source: str | Path) -> tuple[Any, dict[str, int], str | None]:
+    """Returns (parsed document, path → line map, file name or None) of a file path or YAML text."""
     name: str | None = None
     if isinstance(source, Path) or _looks_like_path(source):
         path = Path(source)
@@ -267,6 +265,17 @@ def load_maneuver(source: str | Path | dict[str, Any] | Maneuver) -> Maneuver:
         data, lines = read_yaml(text)
     except ManeuverError as e:
         raise ManeuverError(e.problems, name) from None
+    return data, lines, name
+
+
+def load_maneuver(source: str | Path | dict[str, Any] | Maneuver) -> Maneuver:
+    """Returns the Maneuver of a file path, YAML text, a dict or a Maneuver; raises ManeuverError.
+
+    Only the shape is checked here; `validate_maneuver` checks the rules that relate fields to each other.
+    """
+    if isinstance(source, (dict, Maneuver)):
+        return parse_maneuver(source)
+    data, lines, name = read_source(source)
     return parse_maneuver(data, lines=lines, source=name)
 
 

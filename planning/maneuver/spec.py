@@ -81,7 +81,7 @@ class Adjust(_Model):
     time: NonNegative = Field(0.0, description="the event may move by ± this many seconds")
     radius: NonNegative | None = Field(None, description="the touchdown may move within this many meters")
     region: tuple[Vec2, ...] | None = Field(
-        None, description="a legal touchdown polygon [[x, y], ...] in the maneuver frame (instead of radius)"
+        None, max_length=64, description="a legal touchdown polygon [[x, y], ...] in the maneuver frame (instead of radius)"
     )
 
     @model_validator(mode="after")

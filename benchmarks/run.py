@@ -1,0 +1,150 @@
+"""What `footfall bench` runs: every planning stage's time per call (p50, p99, beside the bare solver where there is
+one) and the closed loop's real-time factor. A stage whose module is not in this build is absent, not zero.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from planning.sim.metrics import percentiles
+
+Progress = Callable[[str], None]
+
+
+def bench_physics_step(n: int = 3000) -> dict[str, Any]:
+    """Times one MuJoCo step of the robot standing on flat ground (state read and torque write excluded)."""
+    from planning.robot import load_robot
+    from planning.sim.world import World
+    from planning.terrain.scenes import build_terrain
+
+    robot = load_robot("spot")
+    w = World(robot, build_terrain("flat"))
+    tau = np.zeros((4, 3))
+    times = []
+    for _ in range(n):
+        tau[:] = 80.0 * (robot.q_nominal - w.data.qpos[w.qpos_idx]) - 2.0 * w.data.qvel[w.dof_idx]
+        w.set_torques(tau)
+        t0 = time.perf_counter()
+        w.step()
+        times.append((time.perf_counter() - t0) * 1e3)
+    return {**percentiles(times), "timestep_ms": w.dt * 1e3}
+
+
+def bench_closed_loop_stand(duration_s: float = 5.0) -> dict[str, Any]:
+    """Runs the `stand` maneuver headless; returns its real-time factor and per-stage times."""
+    from planning.maneuver import find_maneuver, load_maneuver
+    from planning.sim.run import RunOptions, run_maneuver
+
+    m = load_maneuver(find_maneuver("stand"))
+    rep = run_maneuver(m, RunOptions(duration_s=duration_s))
+    return {"rtf": rep["timing"]["rtf"], "success": rep["success"], "stages": rep["stages"]}
+
+
+def stand_survives(impulse_ns: float, duration_s: float = 0.1, direction: str = "lateral") -> bool:
+    """Returns whether `stand` survives a push of impulse_ns N·s (over duration_s) without a fall or a step."""
+    from planning.maneuver import find_maneuver, load_maneuver
+    from planning.sim.run import ManeuverSession, RunOptions
+    from planning.sim.world import Push
+
+    f = impulse_ns / duration_s
+    force = (0.0, f, 0.0) if direction == "lateral" else (f, 0.0, 0.0)
+    m = load_maneuver(find_maneuver("stand"))
+    sess = ManeuverSession(m, RunOptions(pushes=[Push(0.5, force, duration_s)], duration_s=3.0))
+    rep = sess.run()
+    return not rep["fell"] and rep["final_pose_error"]["position_m"] < 0.15
+
+
+def max_stand_impulse(lo: float = 10.0, hi: float = 60.0, tol: float = 1.0) -> float:
+    """Returns the largest lateral impulse (N·s, 0.1 s push) that `stand` survives, by bisection."""
+    if not stand_survives(lo):
+        return 0.0
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        if stand_survives(mid):
+            lo = mid
+        else:
+            hi = mid
+    return round(lo, 1)
+
+
+def _optional(module: str, fn: str) -> Callable[..., Any] | None:
+    """Returns a bench function of a stage module, or None when the stage is not in this build."""
+    try:
+        return getattr(importlib.import_module(module), fn)  # type: ignore[no-any-return]
+    except (ImportError, AttributeError):
+        return None
+
+
+def run_benchmarks(quick: bool = False, only: list[str] | None = None, progress: Progress | None = None) -> dict[str, Any]:
+    """Returns {"stages": {...}, "closed_loop": {...}, "robustness": {...}} as in CONTRACT.md."""
+    say = progress or (lambda _m: None)
+    stages: dict[str, Any] = {}
+    n = 300 if quick else 2000
+
+    def want(name: str) -> bool:
+        return only is None or name in only
+
+    if want("physics_step"):
+        say("bench: physics_step")
+        stages["physics_step"] = bench_physics_step(n)
+    if want("stance_handler"):
+        say("bench: stance_handler")
+        from planning.bench_stance import bench_force_distribution, bench_stance_handler
+
+        stages["stance_handler"] = bench_stance_handler(n=n // 4)
+        stages["force_distribution"] = bench_force_distribution(n=n // 4)
+    optional = [
+        ("swing_select", "planning.swing.bench", "bench_swing_select"),
+        ("step_selection_25", "planning.steps.bench", "bench_step_selection_25"),
+        ("step_selection_100", "planning.steps.bench", "bench_step_selection_100"),
+        ("step_qp", "planning.terrain.bench", "bench_step_qp"),
+        ("centroidal_tick", "planning.centroidal.bench", "bench_centroidal_tick"),
+        ("perception", "planning.terrain.bench", "bench_perception"),
+    ]
+    for name, module, fn_name in optional:
+        fn = _optional(module, fn_name)
+        if fn is not None and want(name):
+            say(f"bench: {name}")
+            stages[name] = fn()
+    out: dict[str, Any] = {"stages": stages, "closed_loop": {}, "robustness": {}}
+    if want("closed_loop"):
+        say("bench: closed loop (stand)")
+        stand = bench_closed_loop_stand(2.0 if quick else 5.0)
+        out["closed_loop"]["stand_rtf"] = stand["rtf"]
+        out["closed_loop"]["stand_stages"] = stand["stages"]
+    if want("robustness") and not quick:
+        say("bench: largest lateral impulse survived standing (bisection)")
+        out["robustness"]["stand_max_lateral_impulse_ns"] = max_stand_impulse()
+    return out
+
+
+def format_table(result: dict[str, Any]) -> str:
+    """Returns the benchmark result as a plain-text table."""
+    lines = [f"{'stage':24s} {'p50 ms':>9s} {'p99 ms':>9s} {'bare solver p50 ms':>19s}  notes"]
+    for name, r in result["stages"].items():
+        if not isinstance(r, dict) or "p50_ms" not in r:
+            for sub, rr in (r or {}).items():
+                if isinstance(rr, dict) and "p50_ms" in rr:
+                    lines.append(_row(f"{name}.{sub}", rr))
+            continue
+        lines.append(_row(name, r))
+    for k, v in result.get("closed_loop", {}).items():
+        if not isinstance(v, dict):
+            lines.append(f"{'closed_loop.' + k:24s} {v}")
+    for k, v in result.get("robustness", {}).items():
+        lines.append(f"{'robustness.' + k:24s} {v}")
+    return "\n".join(lines)
+
+
+def _row(name: str, r: dict[str, Any]) -> str:
+    bare = r.get("bare_solver_p50_ms")
+    notes = ", ".join(
+        f"{k}={v}" for k, v in r.items() if k not in ("p50_ms", "p99_ms", "bare_solver_p50_ms") and not isinstance(v, (dict, list))
+    )
+    bare_s = f"{bare:19.4f}" if isinstance(bare, (int, float)) else f"{'':19s}"
+    return f"{name:24s} {r['p50_ms']:9.4f} {r['p99_ms']:9.4f} {bare_s}  {notes}"

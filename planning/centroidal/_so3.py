@@ -1,0 +1,122 @@
+"""Rotation helpers, vectorized over leading axes: hat, exp, log, left Jacobians, roll-pitch-yaw.
+
+Rotation vectors are world-frame ("left") perturbations: R = exp(θ) R̄. Angles in radians.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_SMALL = 1e-6
+
+
+def hat(v: np.ndarray) -> np.ndarray:
+    """Returns the skew matrices (..., 3, 3) with hat(a) @ b == cross(a, b) for vectors a (..., 3)."""
+    v = np.asarray(v, dtype=float)
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1] = -v[..., 2]
+    out[..., 0, 2] = v[..., 1]
+    out[..., 1, 0] = v[..., 2]
+    out[..., 1, 2] = -v[..., 0]
+    out[..., 2, 0] = -v[..., 1]
+    out[..., 2, 1] = v[..., 0]
+    return out
+
+
+def _coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Returns (sin θ/θ, (1-cos θ)/θ², (θ - sin θ)/θ³) with Taylor series near zero."""
+    t2 = theta * theta
+    small = theta < _SMALL * 100
+    ts = np.where(small, 1.0, theta)
+    a = np.where(small, 1.0 - t2 / 6.0, np.sin(ts) / ts)
+    b = np.where(small, 0.5 - t2 / 24.0, (1.0 - np.cos(ts)) / (ts * ts))
+    c = np.where(small, 1.0 / 6.0 - t2 / 120.0, (ts - np.sin(ts)) / (ts * ts * ts))
+    return a, b, c
+
+
+def exp(w: np.ndarray) -> np.ndarray:
+    """Returns rotation matrices (..., 3, 3) = exp(hat(w)) for rotation vectors w (..., 3)."""
+    w = np.asarray(w, dtype=float)
+    theta = np.linalg.norm(w, axis=-1)
+    a, b, _ = _coeffs(theta)
+    W = hat(w)
+    return np.eye(3) + a[..., None, None] * W + b[..., None, None] * (W @ W)
+
+
+def log(R: np.ndarray) -> np.ndarray:
+    """Returns rotation vectors (..., 3) with exp(log(R)) == R, angle in [0, π]."""
+    R = np.asarray(R, dtype=float)
+    tr = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) * 0.5, -1.0, 1.0)
+    theta = np.arccos(tr)
+    v = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    s = np.sin(theta)
+    small = theta < 1e-5
+    near_pi = theta > np.pi - 1e-4
+    scale = np.where(small, 0.5 + theta * theta / 12.0, theta / (2.0 * np.where(small | near_pi, 1.0, s)))
+    out = scale[..., None] * v
+    if np.any(near_pi):
+        # Near π the antisymmetric part vanishes; the axis is the dominant column of (R + I) / 2.
+        idx = np.nonzero(near_pi)
+        Rp = R[idx]
+        B = (Rp + np.eye(3)) * 0.5
+        col = np.argmax(np.diagonal(B, axis1=-2, axis2=-1), axis=-1)
+        axis = B[np.arange(len(col)), :, col]
+        axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
+        # Pick the sign consistent with the (small) antisymmetric part.
+        sign = np.where(np.sum(axis * v[idx], axis=-1) < 0.0, -1.0, 1.0)
+        out[idx] = axis * (theta[idx] * sign)[..., None]
+    return out
+
+
+def left_jacobian(w: np.ndarray) -> np.ndarray:
+    """Returns J_l(w) (..., 3, 3): exp(w + δ) ≈ exp(J_l(w) δ) exp(w)."""
+    w = np.asarray(w, dtype=float)
+    theta = np.linalg.norm(w, axis=-1)
+    _, b, c = _coeffs(theta)
+    W = hat(w)
+    return np.eye(3) + b[..., None, None] * W + c[..., None, None] * (W @ W)
+
+
+def left_jacobian_inv(w: np.ndarray) -> np.ndarray:
+    """Returns J_l(w)^-1 (..., 3, 3): log(exp(ε) exp(w)) ≈ w + J_l(w)^-1 ε."""
+    w = np.asarray(w, dtype=float)
+    theta = np.linalg.norm(w, axis=-1)
+    t2 = theta * theta
+    small = theta < 1e-4
+    ts = np.where(small, 1.0, theta)
+    d = np.where(small, 1.0 / 12.0 + t2 / 720.0, 1.0 / (ts * ts) - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(ts)))
+    W = hat(w)
+    return np.eye(3) - 0.5 * W + d[..., None, None] * (W @ W)
+
+
+def rpy_to_R(rpy: np.ndarray) -> np.ndarray:
+    """Returns R_world_body (..., 3, 3) = Rz(yaw) Ry(pitch) Rx(roll) for rpy (..., 3) in radians."""
+    rpy = np.asarray(rpy, dtype=float)
+    r, p, y = rpy[..., 0], rpy[..., 1], rpy[..., 2]
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    R = np.empty(rpy.shape[:-1] + (3, 3))
+    R[..., 0, 0] = cy * cp
+    R[..., 0, 1] = cy * sp * sr - sy * cr
+    R[..., 0, 2] = cy * sp * cr + sy * sr
+    R[..., 1, 0] = sy * cp
+    R[..., 1, 1] = sy * sp * sr + cy * cr
+    R[..., 1, 2] = sy * sp * cr - cy * sr
+    R[..., 2, 0] = -sp
+    R[..., 2, 1] = cp * sr
+    R[..., 2, 2] = cp * cr
+    return R
+
+
+def R_to_rpy(R: np.ndarray) -> np.ndarray:
+    """Returns roll, pitch, yaw (..., 3) in radians of R_world_body = Rz(yaw) Ry(pitch) Rx(roll)."""
+    R = np.asarray(R, dtype=float)
+    pitch = np.arcsin(np.clip(-R[..., 2, 0], -1.0, 1.0))
+    roll = np.arctan2(R[..., 2, 1], R[..., 2, 2])
+    yaw = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    return np.stack([roll, pitch, yaw], axis=-1)
+
+
+def interpolate(R0: np.ndarray, R1: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Returns exp(α log(R1 R0ᵀ)) R0 (..., 3, 3): geodesic interpolation, α in [0, 1]."""
+    d = log(R1 @ np.swapaxes(R0, -1, -2))
+    return exp(np.asarray(alpha)[..., None] * d) @ R0

@@ -1,0 +1,100 @@
+"""What a run measured: a recorder that watches the loop, and the JSON run report of CONTRACT.md."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from planning.robot import LEGS
+from planning.sim.world import RobotState
+
+
+def percentiles(values: list[float] | np.ndarray) -> dict[str, float]:
+    """Returns {"p50_ms", "p99_ms"} of a list of milliseconds (absent values → empty dict)."""
+    if len(values) == 0:
+        return {}
+    a = np.asarray(values, dtype=float)
+    return {"p50_ms": round(float(np.percentile(a, 50)), 4), "p99_ms": round(float(np.percentile(a, 99)), 4)}
+
+
+@dataclass
+class Touchdown:
+    leg: int
+    t: float
+    p_world: np.ndarray  # contact point (foot center minus radius along z)
+
+
+@dataclass
+class Recorder:
+    """Watches every physics step: touchdowns (contact rising edges), the body path, velocity samples."""
+
+    foot_radius_m: float
+    sample_period_s: float = 0.02
+    touchdowns: list[Touchdown] = field(default_factory=list)
+    t: list[float] = field(default_factory=list)
+    p_body: list[np.ndarray] = field(default_factory=list)
+    rpy_body: list[np.ndarray] = field(default_factory=list)
+    v_body: list[np.ndarray] = field(default_factory=list)
+    yaw_rate: list[float] = field(default_factory=list)
+    _prev_contact: np.ndarray = field(default_factory=lambda: np.ones(4, dtype=bool))
+    _next_sample: float = 0.0
+    max_horizontal_drift_m: float = 0.0
+
+    def __call__(self, s: RobotState) -> None:
+        rising = s.contact & ~self._prev_contact
+        if rising.any():
+            for leg in np.flatnonzero(rising):
+                p = s.p_world_foot[leg].copy()
+                p[2] -= self.foot_radius_m
+                self.touchdowns.append(Touchdown(int(leg), s.t, p))
+        self._prev_contact[:] = s.contact
+        if s.t + 1e-9 >= self._next_sample:
+            self._next_sample += self.sample_period_s
+            self.t.append(s.t)
+            self.p_body.append(s.p_world_body.copy())
+            R = s.R_world_body
+            self.rpy_body.append(
+                np.array(
+                    [np.arctan2(R[2, 1], R[2, 2]), np.arcsin(np.clip(-R[2, 0], -1, 1)), np.arctan2(R[1, 0], R[0, 0])]
+                )
+            )
+            # body-frame horizontal velocity (heading frame) and yaw rate
+            c, sn = R[0, 0], R[1, 0]
+            n = np.hypot(c, sn) or 1.0
+            c, sn = c / n, sn / n
+            v = s.v_world_body
+            self.v_body.append(np.array([c * v[0] + sn * v[1], -sn * v[0] + c * v[1]]))
+            self.yaw_rate.append(float(s.omega_world[2]))
+
+
+def match_touchdowns(
+    planned: list[tuple[int, float, np.ndarray, float, float]], actual: list[Touchdown]
+) -> list[dict[str, Any]]:
+    """Pairs each planned touchdown (leg, t, p, time window, radius) with the nearest actual one of that leg."""
+    out: list[dict[str, Any]] = []
+    used: set[int] = set()
+    for leg, t, p, win, radius in planned:
+        best, best_dt = None, np.inf
+        for k, a in enumerate(actual):
+            if a.leg != leg or k in used:
+                continue
+            d = abs(a.t - t)
+            if d < best_dt:
+                best, best_dt = k, d
+        row: dict[str, Any] = {"leg": LEGS[leg], "planned_t": round(t, 4), "planned_at": np.round(p, 4).tolist()}
+        if best is None or best_dt > max(0.3, 2 * win + 0.15):
+            row.update(actual_t=None, actual_at=None, error_m=None, within_window=False)
+        else:
+            used.add(best)
+            a = actual[best]
+            err = float(np.linalg.norm(a.p_world[:2] - p[:2]))
+            row.update(
+                actual_t=round(a.t, 4),
+                actual_at=np.round(a.p_world, 4).tolist(),
+                error_m=round(err, 4),
+                within_window=bool(best_dt <= win + 0.1 and err <= radius + 0.08),
+            )
+        out.append(row)
+    return out

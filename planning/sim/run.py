@@ -1,0 +1,146 @@
+"""Headless (or paced) runs of a maneuver in MuJoCo, ending in the JSON run report of CONTRACT.md."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from planning.balance import BodyTarget
+from planning.controller import Controller, ControllerParams
+from planning.geometry import rpy_to_R
+from planning.maneuver import BodyReference, Maneuver, build_schedule
+from planning.robot import RobotModel, load_robot
+from planning.sim.loop import Loop, ProgressFn
+from planning.sim.metrics import Recorder, match_touchdowns, percentiles
+from planning.sim.world import Push, World
+from planning.terrain.scenes import build_terrain
+
+POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
+YAW_TOLERANCE_RAD = 0.2
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How to run: terrain, disturbances, length, pacing."""
+
+    terrain: str = "flat"
+    pushes: Sequence[Push] = ()
+    duration_s: float | None = None  # None: the maneuver's duration
+    realtime: bool = False
+    robot: str = "spot"
+    seed: int = 0
+    controller: ControllerParams = field(default_factory=ControllerParams)
+
+
+class ManeuverSession:
+    """A robot in a world executing one maneuver: the loop plus what the report needs. Usable step by step."""
+
+    def __init__(self, maneuver: Maneuver, options: RunOptions, robot: RobotModel | None = None) -> None:
+        self.maneuver = maneuver
+        self.options = options
+        self.robot = robot or load_robot(options.robot)
+        self.scene = build_terrain(options.terrain, seed=options.seed)
+        self.world = World(self.robot, self.scene)
+        self.world.pushes = list(options.pushes)
+        self.schedule = build_schedule(maneuver, self.robot)
+        self.body_ref = BodyReference(maneuver, self.robot)
+        z0 = float(self.scene.ground_height(0.0, 0.0))
+        self._offset = np.array([0.0, 0.0, z0])
+        self.controller = Controller(self.robot, self._target, options.controller)
+        self.recorder = Recorder(self.robot.foot_radius_m)
+        self.loop = Loop(self.world, self.controller.stages, self.controller.actuate, monitors=[self.recorder])
+        self._tgt = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
+
+    def _target(self, t: float) -> BodyTarget:
+        p, v, rpy, omega = self.body_ref.sample(t)
+        self._tgt.p_world_body = p + self._offset
+        self._tgt.v_world_body = v
+        self._tgt.R_world_body = rpy_to_R(rpy)
+        self._tgt.omega_world = omega
+        return self._tgt
+
+    def run(self, progress: ProgressFn | None = None) -> dict[str, Any]:
+        """Runs to the end (or a fall) and returns the run report."""
+        duration = self.options.duration_s if self.options.duration_s is not None else self.maneuver.duration
+        t0 = time.perf_counter()
+        res = self.loop.run(duration, realtime=self.options.realtime, progress=progress)
+        wall = time.perf_counter() - t0
+        return self.report(wall)
+
+    def report(self, wall_s: float) -> dict[str, Any]:
+        """Returns the JSON-ready run report of what has run so far."""
+        s = self.loop.state
+        m = self.maneuver
+        t_end = self.world.t
+        # final pose against the last keyframe (or the held start pose)
+        p_goal, _, rpy_goal, _ = self.body_ref.sample(t_end)
+        p_goal = p_goal + self._offset
+        pos_err = float(np.linalg.norm(s.p_world_body - p_goal))
+        dyaw = float((s.yaw - rpy_goal[2] + np.pi) % (2 * np.pi) - np.pi)
+        planned = [
+            (sw.leg, sw.t_touchdown, sw.p_touchdown + self._offset, sw.adjust.time_s, sw.adjust.radius_m or 0.0)
+            for sw in self.schedule.all_swings()
+            if sw.t_touchdown <= t_end
+        ]
+        tds = match_touchdowns(planned, self.recorder.touchdowns)
+        errs = [r["error_m"] for r in tds if r["error_m"] is not None]
+        events_ok = all(r["within_window"] for r in tds)
+        fell = self.loop.fell
+        pose_ok = pos_err <= POSITION_TOLERANCE_M and abs(dyaw) <= YAW_TOLERANCE_RAD
+        success = (not fell) and events_ok and pose_ok
+        reason = self.loop.failure_reason
+        if reason is None and not events_ok:
+            missed = next(r for r in tds if not r["within_window"])
+            reason = f"touchdown of {missed['leg']} planned at {missed['planned_t']} s missed its window"
+        if reason is None and not pose_ok:
+            reason = f"final pose off by {pos_err:.3f} m and {dyaw:.3f} rad"
+        stage_times = {st.name: percentiles(st.times_ms) for st in self.controller.stages}
+        rec = self.recorder
+        drift = 0.0
+        if rec.p_body:
+            P = np.array(rec.p_body)
+            drift = float(np.max(np.linalg.norm(P[:, :2] - P[0, :2], axis=1)))
+        return {
+            "maneuver": m.name,
+            "mode": "maneuver",
+            "robot": self.robot.name,
+            "terrain": self.options.terrain,
+            "duration_s": round(t_end, 4),
+            "success": bool(success),
+            "fell": bool(fell),
+            "fall_time_s": None if self.loop.fall_time is None else round(self.loop.fall_time, 4),
+            "failure_reason": None if success else reason,
+            "final_pose_error": {"position_m": round(pos_err, 4), "yaw_rad": round(abs(dyaw), 4)},
+            "touchdowns": tds,
+            "foot_placement_error_m": {
+                "median": round(float(np.median(errs)), 4) if errs else None,
+                "max": round(float(np.max(errs)), 4) if errs else None,
+            },
+            "no_step_touchdowns": 0,
+            "body_collisions": 0 if not fell else 1,
+            "max_horizontal_drift_m": round(drift, 4),
+            "pushes": [
+                {"t": p.t_s, "force_n": list(p.force_n), "duration_s": p.duration_s, "impulse_ns": p.impulse_ns}
+                for p in self.world.pushes
+            ],
+            "solver": {
+                "tick_ms_p50": stage_times.get("balance", {}).get("p50_ms"),
+                "tick_ms_p99": stage_times.get("balance", {}).get("p99_ms"),
+                "qp_ms_p50": None,
+                "fallback_ticks": 0,
+                "linearization_error_p50": None,
+            },
+            "stages": stage_times,
+            "timing": {"wall_s": round(wall_s, 3), "rtf": round(t_end / wall_s, 3) if wall_s > 0 else None},
+        }
+
+
+def run_maneuver(
+    maneuver: Maneuver, options: RunOptions | None = None, progress: ProgressFn | None = None
+) -> dict[str, Any]:
+    """Simulates a maneuver and returns its run report (CONTRACT.md)."""
+    return ManeuverSession(maneuver, options or RunOptions()).run(progress)

@@ -1,0 +1,239 @@
+"""The `footfall` command line: run, walk, validate, terrains, bench, serve.
+
+Exit codes: 0 success, 1 the run failed (fell, missed an event, ended off its final pose), 2 invalid input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+EXIT_OK, EXIT_FAILED, EXIT_INVALID = 0, 1, 2
+
+DESCRIPTION = """\
+footfall: author legged-robot maneuvers and run them through a planning and control stack on a MuJoCo
+simulation of a Spot-class quadruped.
+
+examples:
+  footfall terrains                                   list the terrains
+  footfall validate bow                               check a library maneuver (or a path to a .yaml file)
+  footfall run stand --push 1.0:0,150,0:0.1 --report out.json
+                                                      stand, take a 15 N·s sideways push, write the run report
+  footfall run maneuvers/crouch.yaml --realtime       run a file, paced to the wall clock
+  footfall bench --json bench.json                    time every stage and the closed loop
+  footfall serve                                      REST API on :8000 and the 3D studio on :8080
+"""
+
+
+class UsageError(Exception):
+    """Invalid input from the command line: printed as one line, exit code 2."""
+
+
+def _err(msg: str) -> None:
+    print(f"footfall: error: {msg}", file=sys.stderr)
+
+
+class _Progress:
+    """A single updating progress line on a terminal (silent when stderr is not a terminal)."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.active = sys.stderr.isatty()
+        self.shown = False
+
+    def __call__(self, t: float, duration: float, rtf: float) -> None:
+        if not self.active:
+            return
+        self.shown = True
+        sys.stderr.write(f"\r{self.label}: t = {t:6.2f} / {duration:.2f} s   real-time factor {rtf:5.2f}×   ")
+        sys.stderr.flush()
+
+    def done(self) -> None:
+        if self.shown:
+            sys.stderr.write("\n")
+
+
+def _parse_pushes(specs: list[str] | None) -> list[Any]:
+    from planning.sim.world import PushSpecError, parse_push
+
+    out = []
+    for spec in specs or []:
+        try:
+            out.append(parse_push(spec))
+        except PushSpecError as e:
+            raise UsageError(str(e)) from None
+    return out
+
+
+def _check_terrain(name: str) -> None:
+    from planning.terrain.scenes import TERRAIN_NAMES
+
+    if name not in TERRAIN_NAMES:
+        raise UsageError(f"--terrain {name!r}: unknown terrain (one of: {', '.join(TERRAIN_NAMES)})")
+
+
+def _load(name_or_path: str) -> Any:
+    from planning.maneuver import ManeuverError, find_maneuver, load_maneuver
+
+    try:
+        return load_maneuver(find_maneuver(name_or_path))
+    except ManeuverError as e:
+        raise UsageError(str(e)) from None
+
+
+def _write_report(report: dict[str, Any], path: str | None) -> None:
+    if path:
+        try:
+            Path(path).write_text(json.dumps(report, indent=2) + "\n")
+        except OSError as e:
+            raise UsageError(f"--report {path}: cannot write: {e.strerror}") from None
+
+
+def _summary(report: dict[str, Any]) -> str:
+    verdict = "success" if report["success"] else f"FAILED ({report['failure_reason']})"
+    fpe = report["final_pose_error"]
+    return (
+        f"{report.get('maneuver') or report.get('mode')} on {report['terrain']}: {verdict}; "
+        f"{report['duration_s']:.2f} s simulated in {report['timing']['wall_s']:.2f} s "
+        f"({report['timing']['rtf']:.2f}× real time); final pose error {fpe['position_m']:.3f} m, "
+        f"{fpe['yaw_rad']:.3f} rad"
+    )
+
+
+# ---- commands ------------------------------------------------------------------------------------------------
+def cmd_run(a: argparse.Namespace) -> int:
+    from planning.maneuver import validate_maneuver
+    from planning.robot import RobotDescriptionError, load_robot
+    from planning.sim.run import RunOptions, run_maneuver
+
+    _check_terrain(a.terrain)
+    pushes = _parse_pushes(a.push)
+    if a.duration is not None and not (0 < a.duration <= 600):
+        raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
+    try:
+        robot = load_robot(a.robot)
+    except RobotDescriptionError as e:
+        raise UsageError(str(e)) from None
+    maneuver = _load(a.maneuver)
+    result = validate_maneuver(maneuver, robot)
+    if not result.ok:
+        raise UsageError(
+            f"maneuver {maneuver.name} has failures:\n" + "\n".join(f"  {p}" for p in result.failures)
+        )
+    progress = _Progress(maneuver.name)
+    opts = RunOptions(terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot)
+    report = run_maneuver(maneuver, opts, progress=progress)
+    progress.done()
+    _write_report(report, a.report)
+    print(_summary(report))
+    return EXIT_OK if report["success"] else EXIT_FAILED
+
+
+def cmd_validate(a: argparse.Namespace) -> int:
+    from planning.maneuver import validate_maneuver
+    from planning.robot import load_robot
+
+    maneuver = _load(a.maneuver)
+    result = validate_maneuver(maneuver, load_robot(a.robot))
+    for p in result.failures:
+        print(f"failure: {p.located() if hasattr(p, 'located') else p}")
+    for p in result.warnings:
+        print(f"warning: {p.located() if hasattr(p, 'located') else p}")
+    n_f, n_w = len(result.failures), len(result.warnings)
+    print(f"{maneuver.name}: {'valid' if result.ok else 'invalid'} ({n_f} failures, {n_w} warnings)")
+    return EXIT_OK if result.ok else EXIT_INVALID
+
+
+def cmd_terrains(a: argparse.Namespace) -> int:
+    from planning.terrain.scenes import TERRAIN_NAMES, build_terrain
+
+    for name in TERRAIN_NAMES:
+        print(f"{name:12s} {build_terrain(name).description}")
+    return EXIT_OK
+
+
+def cmd_bench(a: argparse.Namespace) -> int:
+    from benchmarks.run import run_benchmarks
+
+    result = run_benchmarks(quick=a.quick, only=a.only, progress=lambda msg: print(msg, file=sys.stderr))
+    if a.json:
+        Path(a.json).write_text(json.dumps(result, indent=2) + "\n")
+    from benchmarks.run import format_table
+
+    print(format_table(result))
+    return EXIT_OK
+
+
+def cmd_serve(a: argparse.Namespace) -> int:
+    try:
+        from server.app import serve
+    except ImportError as e:  # the service lands with its issue
+        raise UsageError(f"serve is not available in this build: {e}") from None
+    serve(host=a.host, port=a.port, viewer_port=a.viewer_port)
+    return EXIT_OK
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="footfall", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    r = sub.add_parser("run", help="simulate a maneuver in MuJoCo (headless unless --realtime)")
+    r.add_argument("maneuver", metavar="MANEUVER", help="a library name (footfall run stand) or a .yaml path")
+    r.add_argument("--terrain", default="flat", metavar="NAME", help="terrain scene (footfall terrains lists them)")
+    r.add_argument(
+        "--push",
+        action="append",
+        metavar="SPEC",
+        help="T:FX,FY,FZ[:DURATION]: at T s a force in N on the body's center of mass for DURATION s "
+        "(default 0.1); repeatable",
+    )
+    r.add_argument("--duration", type=float, metavar="S", help="simulated seconds (default: the maneuver's)")
+    r.add_argument("--report", metavar="FILE", help="write the JSON run report here")
+    r.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+    r.add_argument("--robot", default="spot", help="robot description: spot (default) or go1, or a .yaml path")
+    r.set_defaults(fn=cmd_run)
+
+    v = sub.add_parser("validate", help="check a maneuver without simulating (warnings and failures)")
+    v.add_argument("maneuver", metavar="MANEUVER", help="a library name or a .yaml path")
+    v.add_argument("--robot", default="spot", help="robot description to check reach against")
+    v.set_defaults(fn=cmd_validate)
+
+    t = sub.add_parser("terrains", help="list the terrain names")
+    t.set_defaults(fn=cmd_terrains)
+
+    b = sub.add_parser("bench", help="time every planning stage and the closed loop (p50 / p99)")
+    b.add_argument("--json", metavar="FILE", help="also write the results as JSON")
+    b.add_argument("--quick", action="store_true", help="fewer samples (for a smoke test)")
+    b.add_argument("--only", action="append", metavar="STAGE", help="run only this stage (repeatable)")
+    b.set_defaults(fn=cmd_bench)
+
+    s = sub.add_parser("serve", help="REST API and browser studio")
+    s.add_argument("--host", default="127.0.0.1")
+    s.add_argument("--port", type=int, default=8000)
+    s.add_argument("--viewer-port", type=int, default=8080)
+    s.set_defaults(fn=cmd_serve)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    a = parser.parse_args(argv)
+    if not getattr(a, "fn", None):
+        parser.print_help()
+        return EXIT_INVALID
+    try:
+        return int(a.fn(a))
+    except UsageError as e:
+        _err(str(e))
+        return EXIT_INVALID
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
