@@ -6,8 +6,9 @@ conditioned whatever the robot's mass; torques are scaled by m g · `torque_leng
 
 The QP is built once with a fixed sparsity pattern (dense 12×12 upper-triangular cost, dense 3-column block per leg
 in the constraints); each tick changes only values and bounds (`Px`, `q`, `Ax` when μ or the normals change, `l`,
-`u`) and warm-starts from the previous answer. A swing leg keeps its rows: its normal-force row gets bounds [0, 0],
-which together with the pyramid rows forces the whole 3-vector to zero.
+`u`) and warm-starts from the previous answer. A swing leg keeps its rows and columns but its rows get infinite bounds and
+its columns drop out of the wrench map, so its optimum is exactly zero; the final clamp writes that zero exactly.
+(Pinning swing legs with [0, 0] bounds instead is equivalent on paper but makes OSQP's adaptive ρ oscillate.)
 
 The friction-pyramid helpers here are shared with the stance handler (planning/stance.py).
 """
@@ -128,10 +129,13 @@ def clamp_to_pyramid(
     """
     np.einsum("ijk,ij->ik", R_world_contact, f_world_leg, out=scratch)  # contact-frame components
     fn = scratch[:, 2]
-    np.clip(fn, fn_lo_n, fn_hi_n, out=fn)
+    np.minimum(fn, fn_hi_n, out=fn)
+    np.maximum(fn, fn_lo_n, out=fn)
     np.maximum(fn, 0.0, out=fn)
+    ft_max = mu_face * fn
     for k in (0, 1):
-        np.clip(scratch[:, k], -mu_face * fn, mu_face * fn, out=scratch[:, k])
+        np.minimum(scratch[:, k], ft_max, out=scratch[:, k])
+        np.maximum(scratch[:, k], -ft_max, out=scratch[:, k])
     np.einsum("ijk,ik->ij", R_world_contact, scratch, out=out)
     return out
 
@@ -156,10 +160,8 @@ def fill_wrench_matrix(
     p_com_foot_world: np.ndarray, force_gain: float, torque_gain: float, out: np.ndarray
 ) -> None:
     """Write into `out` (6,12) the map f → [force_gain Σ f; torque_gain Σ r × f] (r = foot position from the CoM)."""
-    for i in range(N_LEGS):
-        c = 3 * i
-        out[0:3, c : c + 3] = 0.0
-        out[0, c] = out[1, c + 1] = out[2, c + 2] = force_gain
+    out[0:3] = 0.0
+    out[0, 0::3] = out[1, 1::3] = out[2, 2::3] = force_gain
     rx = p_com_foot_world[:, 0] * torque_gain
     ry = p_com_foot_world[:, 1] * torque_gain
     rz = p_com_foot_world[:, 2] * torque_gain
@@ -294,6 +296,7 @@ class ForceDistributor:
         self._f_out = self._f.view()
         self._f_out.flags.writeable = False
         self._y0 = np.zeros(n_row)
+        self._col_mask = np.zeros(n_var)
         self.last_solve_ms = 0.0
         self.last_status = SolveStatus(solver="not run")
 
@@ -370,6 +373,8 @@ class ForceDistributor:
         # Cost: P = GᵀG + αI, q = -(Gᵀw + α x_ref) with G, w the weighted, scaled wrench map and target.
         G = self._G
         fill_wrench_matrix(r, self._sqrt_wf, self._sqrt_wt, G)
+        self._col_mask.reshape(N_LEGS, 3)[:] = stance[:, None]
+        G *= self._col_mask  # swing legs decouple: their block of P is αI and of q zero, so their optimum is 0
         self._w[0:3] = F
         self._w[0:3] *= self._sqrt_wf / fs
         self._w[3:6] = T
@@ -392,11 +397,18 @@ class ForceDistributor:
         self._q += p.alpha * self._x_ref
         np.negative(self._q, out=self._q)
 
-        # Bounds: the normal-force row carries stance / swing.
+        # Bounds. Swing legs get no rows at all: their decoupled cost already puts them at zero, and pinning
+        # them with [0, 0] rows instead makes OSQP's adaptive ρ oscillate. The final clamp makes them exactly 0.
         np.copyto(self._fn_lo, np.where(stance, fz_lo, 0.0))
         np.copyto(self._fn_hi, np.where(stance, fz_hi, 0.0))
-        self._l[4::5] = self._fn_lo / fs
-        np.minimum(self._fn_hi / fs, OSQP_INF, out=self._u[4::5])
+        l_leg = self._l.reshape(N_LEGS, 5)
+        u_leg = self._u.reshape(N_LEGS, 5)
+        l_leg[:, 0:4] = -OSQP_INF
+        u_leg[:, 0:4] = 0.0
+        l_leg[:, 4] = self._fn_lo / fs
+        np.minimum(self._fn_hi / fs, OSQP_INF, out=u_leg[:, 4])
+        l_leg[~stance] = -OSQP_INF
+        u_leg[~stance] = OSQP_INF
 
         if a_changed:
             self._solver.update(q=self._q, l=self._l, u=self._u, Px=self._Px, Ax=self._rows.ravel())

@@ -14,9 +14,10 @@ the net wrench about the CoM, so a leg that hits its limits hands the missing fo
 
 Guarantees, whatever the inputs: stance torques within their limits, applied forces within the pyramid (n·f ≥ 0),
 swing legs zero, no exception on values. When the QP is infeasible (the limits cannot carry fz_min) it is solved
-again with fz_min = 0; when that fails too, or OSQP does not converge, the planned forces are clamped into the
-pyramid and scaled down per leg until the torques fit; only when no scale fits (τ_bias alone beyond the limits)
-are the torques clipped. `last_status` reports which of these happened.
+again with fz_min = 0 and without the torque rows of legs whose τ_bias alone exceeds their limits. Whatever the
+QP returns (or, when OSQP fails, the planned forces) is then clamped into the pyramid and scaled down per leg
+until the torques fit exactly; only when no scale fits (τ_bias beyond the limits) are the torques clipped.
+`last_status` reports which of these happened.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from planning.forces import (
 )
 
 _USABLE = ("solved", "solved inaccurate")
+_X_TYPICAL = 4.0  # largest |f| / force_scale_n the cost is left unscaled for
 _ROWS = 8  # per leg: 3 joint torques, 4 pyramid faces, 1 normal force
 
 
@@ -136,6 +138,7 @@ class StanceHandler:
         self._tau = np.zeros((N_LEGS, 3))
         self._y0 = np.zeros(n_row)
         self._zero_bias = np.zeros((N_LEGS, 3))
+        self._col_mask = np.zeros(n_var)
         self._f_view = self._f.view()
         self._f_view.flags.writeable = False
         self._tau_view = self._tau.view()
@@ -219,34 +222,46 @@ class StanceHandler:
                 r = np.nan_to_num(r, nan=0.0, posinf=0.0, neginf=0.0)
                 sanitized.append("p_com_foot_world")
             fill_wrench_matrix(r, math.sqrt(p.w_wrench_force), math.sqrt(p.w_wrench_torque), G)
-            G *= np.repeat(use, 3)[None, :]
+            self._col_mask.reshape(N_LEGS, 3)[:] = use[:, None]
+            G *= self._col_mask
             np.dot(G.T, G, out=self._P)
         else:
             self._P[:] = 0.0
         for i in range(N_LEGS):
             self._P[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] += self._W[i]
-        np.take(self._P, self._p_gather, out=self._Px)
         np.multiply(f_des.reshape(-1), 1.0 / fs, out=self._x_des)
         self._x_des.reshape(N_LEGS, 3)[~stance] = 0.0
+        # OSQP equilibrates the cost once, at setup; a plan far out of range (|f_des| ≫ force_scale_n) gives
+        # duals far from that scale and ADMM crawls. Scaling the whole cost down keeps q of order one and leaves
+        # the minimizer unchanged.
+        cost_scale = 1.0 / max(1.0, float(np.abs(self._x_des).max()) / _X_TYPICAL)
         np.dot(self._P, self._x_des, out=self._q)
-        np.negative(self._q, out=self._q)
+        self._q *= -cost_scale
+        np.take(self._P, self._p_gather, out=self._Px)
+        self._Px *= cost_scale
 
         # Constraints: torque rows -Jᵀ f scaled by 1/τ_scale, then the pyramid and normal rows.
         np.copyto(self._tau_scale, np.where(np.isfinite(T), np.maximum(T, 1.0), 1.0))
         np.multiply(J, -fs / self._tau_scale[:, None, :], out=self._B[:, :, 0:3])
         pyramid_rows(self._R, mu_face, self._pyr)
         self._B[:, :, 3:8] = self._pyr
-        self._set_bounds(b, T, stance, sanitized)
+        self._set_bounds(b, T, stance)
 
         self._solver.update(q=self._q, l=self._l, u=self._u, Px=self._Px, Ax=self._B.ravel())
         res = self._solver.solve(raise_error=False)
         status, iterations = str(res.info.status), int(res.info.iter)
         relaxed_qp = False
         if status.startswith("primal infeasible"):
-            # The torque limits cannot carry fz_min on some leg: retry letting the normal force go to zero.
+            # The limits cannot carry fz_min on some leg: retry letting the normal force go to zero. Then f = 0
+            # is feasible on every leg whose bias alone fits its limits; a leg whose bias does not fit loses its
+            # torque rows here and is scaled or clipped by _fit_torques, so it cannot spoil the other legs.
             relaxed_qp = True
             self._l[7::_ROWS] = 0.0
-            self._solver.update(l=self._l)
+            hopeless = stance & (np.abs(b) > T).any(axis=1)
+            if hopeless.any():
+                self._l.reshape(N_LEGS, _ROWS)[hopeless, 0:3] = -OSQP_INF
+                self._u.reshape(N_LEGS, _ROWS)[hopeless, 0:3] = OSQP_INF
+            self._solver.update(l=self._l, u=self._u)
             res = self._solver.solve(raise_error=False)
             status, iterations = str(res.info.status), iterations + int(res.info.iter)
         x = res.x
@@ -286,22 +301,26 @@ class StanceHandler:
             return np.nan_to_num(b, nan=0.0, posinf=0.0, neginf=0.0)
         return b
 
-    def _set_bounds(self, b: np.ndarray, T: np.ndarray, stance: np.ndarray, sanitized: list[str]) -> None:
-        """Write l, u: torque rows (τ_bias ± τ_max scaled) and normal rows on stance legs; swing legs f = 0."""
+    def _set_bounds(self, b: np.ndarray, T: np.ndarray, stance: np.ndarray) -> None:
+        """Write l, u: torque rows (τ_bias ± τ_max, scaled), pyramid and normal rows on stance legs; none on swing."""
         p = self.params
         fs = p.force_scale_n
         l_leg = self._l.reshape(N_LEGS, _ROWS)
         u_leg = self._u.reshape(N_LEGS, _ROWS)
         lo = (-T - b) / self._tau_scale
         hi = (T - b) / self._tau_scale
-        l_leg[:, 0:3] = np.where(stance[:, None], np.clip(lo, -OSQP_INF, OSQP_INF), -OSQP_INF)
-        u_leg[:, 0:3] = np.where(stance[:, None], np.clip(hi, -OSQP_INF, OSQP_INF), OSQP_INF)
+        l_leg[:, 0:3] = np.maximum(lo, -OSQP_INF)
+        u_leg[:, 0:3] = np.minimum(hi, OSQP_INF)
         l_leg[:, 3:7] = -OSQP_INF
         u_leg[:, 3:7] = 0.0
         np.copyto(self._fn_lo, np.where(stance, p.fz_min_n, 0.0))
         np.copyto(self._fn_hi, np.where(stance, p.fz_max_n, 0.0))
         l_leg[:, 7] = self._fn_lo / fs
         u_leg[:, 7] = np.minimum(self._fn_hi / fs, OSQP_INF)
+        # Swing legs: no rows at all. Their cost block is decoupled (x_des = 0, no wrench coupling), so the QP
+        # answer is zero anyway; pinning them with [0, 0] rows instead makes OSQP's adaptive ρ oscillate.
+        l_leg[~stance] = -OSQP_INF
+        u_leg[~stance] = OSQP_INF
 
     def _fit_torques(self, J: np.ndarray, b: np.ndarray, T: np.ndarray, stance: np.ndarray) -> bool:
         """Scale each stance leg's force by the largest s in [0, 1] whose torques τ = b - s Jᵀf fit the limits,
@@ -343,6 +362,7 @@ class StanceHandler:
         self._tau[~stance] = 0.0
         before = self._scratch
         np.copyto(before, self._tau)
-        np.clip(self._tau, -T, T, out=self._tau)
+        np.minimum(self._tau, T, out=self._tau)
+        np.maximum(self._tau, -T, out=self._tau)
         excess = np.abs(before - self._tau)
         return bool((excess > 1e-9 * (1.0 + np.where(np.isfinite(T), T, 0.0))).any())

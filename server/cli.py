@@ -81,6 +81,9 @@ def _load(name_or_path: str) -> Any:
     try:
         return load_maneuver(find_maneuver(name_or_path))
     except ManeuverError as e:
+        if len(e.problems) == 1:
+            head = f"{e.source}: " if e.source else ""
+            raise UsageError(f"{head}{e.problems[0].located()}") from None
         raise UsageError(str(e)) from None
 
 
@@ -106,17 +109,13 @@ def _summary(report: dict[str, Any]) -> str:
 # ---- commands ------------------------------------------------------------------------------------------------
 def cmd_run(a: argparse.Namespace) -> int:
     from planning.maneuver import validate_maneuver
-    from planning.robot import RobotDescriptionError, load_robot
     from planning.sim.run import RunOptions, run_maneuver
 
     _check_terrain(a.terrain)
     pushes = _parse_pushes(a.push)
     if a.duration is not None and not (0 < a.duration <= 600):
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
-    try:
-        robot = load_robot(a.robot)
-    except RobotDescriptionError as e:
-        raise UsageError(str(e)) from None
+    robot = _robot(a.robot)
     maneuver = _load(a.maneuver)
     result = validate_maneuver(maneuver, robot)
     if not result.ok:
@@ -132,12 +131,20 @@ def cmd_run(a: argparse.Namespace) -> int:
     return EXIT_OK if report["success"] else EXIT_FAILED
 
 
+def _robot(name: str) -> Any:
+    from planning.robot import RobotDescriptionError, load_robot
+
+    try:
+        return load_robot(name)
+    except RobotDescriptionError as e:
+        raise UsageError(str(e)) from None
+
+
 def cmd_validate(a: argparse.Namespace) -> int:
     from planning.maneuver import validate_maneuver
-    from planning.robot import load_robot
 
     maneuver = _load(a.maneuver)
-    result = validate_maneuver(maneuver, load_robot(a.robot))
+    result = validate_maneuver(maneuver, _robot(a.robot))
     for p in result.failures:
         print(f"failure: {p.located() if hasattr(p, 'located') else p}")
     for p in result.warnings:

@@ -39,9 +39,7 @@ def omega_world_from_rpy(rpy: np.ndarray, rpy_dot: np.ndarray) -> np.ndarray:
     _, pitch, yaw = rpy
     droll, dpitch, dyaw = rpy_dot
     cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
-    return np.array(
-        [cy * cp * droll - sy * dpitch, sy * cp * droll + cy * dpitch, dyaw - sp * droll]
-    )
+    return np.array([cy * cp * droll - sy * dpitch, sy * cp * droll + cy * dpitch, dyaw - sp * droll])
 
 
 def rotation_from_rpy(rpy: np.ndarray) -> np.ndarray:
@@ -60,8 +58,14 @@ def rotation_from_rpy(rpy: np.ndarray) -> np.ndarray:
 class BodyReference:
     """The body pose the maneuver asks for over time: p_world_body (m) and rpy (rad), with rates and a weight."""
 
-    def __init__(self, t_knot: np.ndarray, pose_knot: np.ndarray, weight_knot: np.ndarray, *,
-                 from_keyframes: bool = True) -> None:
+    def __init__(
+        self,
+        t_knot: np.ndarray,
+        pose_knot: np.ndarray,
+        weight_knot: np.ndarray,
+        *,
+        from_keyframes: bool = True,
+    ) -> None:
         """t_knot (K,) strictly increasing s; pose_knot (K,6) [x, y, z, roll, pitch, yaw] m and rad; weight (K,)."""
         t = np.asarray(t_knot, dtype=float).reshape(-1)
         pose = np.asarray(pose_knot, dtype=float).reshape(len(t), 6)
@@ -92,8 +96,14 @@ class BodyReference:
                     ts[0], poses[0], ws[0] = 0.0, pose, k.weight
                     continue
                 if k.t <= ts[-1]:
-                    raise ManeuverError([Problem(f"body[{i}].t", f"keyframe at {k.t:g} s does not come after the "
-                                                 f"previous one at {ts[-1]:g} s")])
+                    raise ManeuverError(
+                        [
+                            Problem(
+                                f"body[{i}].t",
+                                f"keyframe at {k.t:g} s does not come after the previous one at {ts[-1]:g} s",
+                            )
+                        ]
+                    )
                 ts.append(k.t)
                 poses.append(pose)
                 ws.append(k.weight)
@@ -130,7 +140,9 @@ class BodyReference:
         y0, y1 = self.pose_knot[k], self.pose_knot[k + 1]
         m0, m1 = self.slope_knot[k] * h, self.slope_knot[k + 1] * h
         pose = (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * m0 + (3 * s2 - 2 * s3) * y1 + (s3 - s2) * m1
-        rate = ((6 * s2 - 6 * s) * y0 + (3 * s2 - 4 * s + 1) * m0 + (6 * s - 6 * s2) * y1 + (3 * s2 - 2 * s) * m1) / h
+        rate = (
+            (6 * s2 - 6 * s) * y0 + (3 * s2 - 4 * s + 1) * m0 + (6 * s - 6 * s2) * y1 + (3 * s2 - 2 * s) * m1
+        ) / h
         return pose, rate
 
     def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

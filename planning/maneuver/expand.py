@@ -318,7 +318,9 @@ def build_schedule(maneuver: Maneuver, robot: Any) -> Schedule:
         leg, path = payload[1], payload[2]
         if payload[0] == "lift":
             if open_[leg] is not None:
-                problems.append(Problem(path, f"liftoff of {LEGS[leg]} at {t:g} s while it is already in the air"))
+                problems.append(
+                    Problem(path, f"liftoff of {LEGS[leg]} at {t:g} s while it is already in the air")
+                )
                 continue
             open_[leg] = _Open(t, p_foot[leg].copy(), payload[3] if len(payload) > 3 else 0.0, path)
             continue
@@ -338,9 +340,7 @@ def build_schedule(maneuver: Maneuver, robot: Any) -> Schedule:
                 p_td = o.p.copy()
         else:
             p_td = np.array([target[0], target[1], o.p[2]])
-        swings[leg].append(
-            Swing(leg, o.t, t, o.p, p_td, normal, adj, o.adjust_s, height, o.path, path)
-        )
+        swings[leg].append(Swing(leg, o.t, t, o.p, p_td, normal, adj, o.adjust_s, height, o.path, path))
         p_foot[leg] = p_td
         open_[leg] = None
     for leg, o in enumerate(open_):

@@ -34,7 +34,10 @@ class _Loader(yaml.SafeLoader):
                 break
             if duplicate:
                 raise yaml.constructor.ConstructorError(
-                    "while reading a mapping", node.start_mark, f"found duplicate key {key!r}", key_node.start_mark
+                    "while reading a mapping",
+                    node.start_mark,
+                    f"found duplicate key {key!r}",
+                    key_node.start_mark,
                 )
             seen[key] = key_node
         return super().construct_mapping(node, deep=deep)
@@ -53,7 +56,9 @@ def _yaml_problem(e: yaml.YAMLError) -> Problem:
         what = e.problem or "syntax error"
         ctx = f" ({e.context})" if e.context else ""
         return Problem(
-            "", f"YAML syntax error at line {mark.line + 1}, column {mark.column + 1}: {what}{ctx}", line=mark.line + 1
+            "",
+            f"YAML syntax error at line {mark.line + 1}, column {mark.column + 1}: {what}{ctx}",
+            line=mark.line + 1,
         )
     return Problem("", f"YAML syntax error: {e}")
 
@@ -79,7 +84,9 @@ def _line_map(node: yaml.Node | None, path: str = "", out: dict[str, int] | None
 def read_yaml(text: str) -> tuple[Any, dict[str, int]]:
     """Returns (data, path → line map) of YAML text; raises ManeuverError with line and column on bad syntax."""
     if len(text.encode("utf-8", "replace")) > MAX_TEXT_BYTES:
-        raise ManeuverError([Problem("", f"the file is larger than {MAX_TEXT_BYTES // 1000} kB; not a maneuver")])
+        raise ManeuverError(
+            [Problem("", f"the file is larger than {MAX_TEXT_BYTES // 1000} kB; not a maneuver")]
+        )
     try:
         data = yaml.load(text, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
         lines = _line_map(yaml.compose(text, Loader=_Loader))
@@ -170,7 +177,9 @@ def _message(err: Any, parent: type[BaseModel] | None, path: str) -> str:
         allowed = _fields_of(parent)
         close = difflib.get_close_matches(field, allowed, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        return f"unknown field{hint} (allowed here: {', '.join(allowed)})" if allowed else f"unknown field{hint}"
+        return (
+            f"unknown field{hint} (allowed here: {', '.join(allowed)})" if allowed else f"unknown field{hint}"
+        )
     if kind == "literal_error":
         if field == "leg":
             return f"unknown leg {_show(value)}; legs are FL, FR, RL, RR"
@@ -180,7 +189,11 @@ def _message(err: Any, parent: type[BaseModel] | None, path: str) -> str:
     if kind == "union_tag_invalid":
         return f"unknown type {_show(ctx.get('tag'))}; expected one of {ctx.get('expected_tags', '')}"
     if kind == "union_tag_not_found":
-        kinds = "maximize_height, lean or minimize_torque" if path.startswith("objectives") else "liftoff or touchdown"
+        kinds = (
+            "maximize_height, lean or minimize_torque"
+            if path.startswith("objectives")
+            else "liftoff or touchdown"
+        )
         return f"is required: {kinds}"
     if kind in ("model_type", "model_attributes_type", "dict_type"):
         return f"must be a mapping of fields (key: value), got {_show(value)}"
@@ -197,7 +210,9 @@ def _message(err: Any, parent: type[BaseModel] | None, path: str) -> str:
     if kind == "string_type":
         return f"must be text, got {_show(value)}"
     if kind == "string_pattern_mismatch" and ctx.get("pattern") == NAME_PATTERN:
-        return f"must be lowercase letters, digits and single dashes (like reach-and-lean), got {_show(value)}"
+        return (
+            f"must be lowercase letters, digits and single dashes (like reach-and-lean), got {_show(value)}"
+        )
     if kind == "string_too_long":
         return f"is too long (at most {ctx.get('max_length')} characters)"
     msg = str(err.get("msg", "is invalid"))
@@ -225,7 +240,11 @@ def parse_maneuver(data: Any, *, lines: dict[str, int] | None = None, source: st
     if not isinstance(data, dict):
         kind = "empty" if data is None else f"a {type(data).__name__}"
         raise ManeuverError(
-            [Problem("", f"a maneuver must be a mapping of fields (format, name, duration, ...), got {kind}")],
+            [
+                Problem(
+                    "", f"a maneuver must be a mapping of fields (format, name, duration, ...), got {kind}"
+                )
+            ],
             source,
         )
     try:
@@ -280,7 +299,10 @@ def load_maneuver(source: str | Path | dict[str, Any] | Maneuver) -> Maneuver:
 
 
 def find_maneuver(
-    name_or_path: str | Path, library_dirs: Sequence[str | Path] = (SHIPPED_LIBRARY,), *, allow_paths: bool = True
+    name_or_path: str | Path,
+    library_dirs: Sequence[str | Path] = (SHIPPED_LIBRARY,),
+    *,
+    allow_paths: bool = True,
 ) -> Path:
     """Returns the file of a maneuver given by library name (first directory wins) or, if allowed, by path.
 

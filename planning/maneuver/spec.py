@@ -35,8 +35,11 @@ def _vector(n: int, labels: str) -> Any:
         if isinstance(value, (list, tuple)) and len(value) == n:
             return value
         got = f"{len(value)} items" if isinstance(value, (list, tuple)) else repr(value)
-        raise PydanticCustomError("vector", "must be a list of {n} numbers {labels}, got {got}",
-                                  {"n": n, "labels": labels, "got": got})
+        raise PydanticCustomError(
+            "vector",
+            "must be a list of {n} numbers {labels}, got {got}",
+            {"n": n, "labels": labels, "got": got},
+        )
 
     return BeforeValidator(check)
 
@@ -45,15 +48,18 @@ def _vector_2_or_3(value: Any) -> Any:
     if isinstance(value, (list, tuple)) and len(value) in (2, 3):
         return tuple(value) if len(value) == 3 else (*value, 0.0)
     got = f"{len(value)} items" if isinstance(value, (list, tuple)) else repr(value)
-    raise PydanticCustomError("vector", "must be a list of 2 or 3 numbers [dx, dy] or [dx, dy, dz], got {got}",
-                              {"got": got})
+    raise PydanticCustomError(
+        "vector", "must be a list of 2 or 3 numbers [dx, dy] or [dx, dy, dz], got {got}", {"got": got}
+    )
 
 
 def _interval(value: Any) -> Any:
     if isinstance(value, (list, tuple)) and len(value) == 2:
         return value
     got = f"{len(value)} items" if isinstance(value, (list, tuple)) else repr(value)
-    raise PydanticCustomError("vector", "must be a time interval [start, end] in seconds, got {got}", {"got": got})
+    raise PydanticCustomError(
+        "vector", "must be a time interval [start, end] in seconds, got {got}", {"got": got}
+    )
 
 
 def _time_or_interval(value: Any) -> Any:
@@ -81,7 +87,9 @@ class Adjust(_Model):
     time: NonNegative = Field(0.0, description="the event may move by ± this many seconds")
     radius: NonNegative | None = Field(None, description="the touchdown may move within this many meters")
     region: tuple[Vec2, ...] | None = Field(
-        None, max_length=64, description="a legal touchdown polygon [[x, y], ...] in the maneuver frame (instead of radius)"
+        None,
+        max_length=64,
+        description="a legal touchdown polygon [[x, y], ...] in the maneuver frame (instead of radius)",
     )
 
     @model_validator(mode="after")
@@ -90,7 +98,9 @@ class Adjust(_Model):
             raise PydanticCustomError("adjust", "give either radius or region, not both")
         if self.region is not None and len(self.region) < 3:
             raise PydanticCustomError(
-                "adjust", "region must be a polygon of at least 3 points [[x, y], ...], got {n}", {"n": len(self.region)}
+                "adjust",
+                "region must be a polygon of at least 3 points [[x, y], ...], got {n}",
+                {"n": len(self.region)},
             )
         return self
 
@@ -163,7 +173,9 @@ class Weights(_Model):
     force: NonNegative = Field(1.0e-4, description="contact force magnitude")
     pose: NonNegative = Field(1.0, description="body pose tracking of the keyframes")
     touchdown_time: NonNegative = Field(1.0, description="deviation from the nominal touchdown times")
-    touchdown_position: NonNegative = Field(10.0, description="deviation from the nominal touchdown positions")
+    touchdown_position: NonNegative = Field(
+        10.0, description="deviation from the nominal touchdown positions"
+    )
     hip_over_foot: NonNegative = Field(0.1, description="hips kept above their feet")
 
 
@@ -212,7 +224,9 @@ class Maneuver(_Model):
     name: str = Field(pattern=NAME_PATTERN, max_length=64, description="lowercase letters, digits, dashes")
     title: str | None = Field(None, max_length=200)
     description: str = Field("", max_length=10_000)
-    duration: Annotated[float, Field(strict=True, gt=0.0, le=MAX_DURATION_S)] = Field(description="total time, s")
+    duration: Annotated[float, Field(strict=True, gt=0.0, le=MAX_DURATION_S)] = Field(
+        description="total time, s"
+    )
     start: Literal["stand"] = Field("stand", description="entry state")
     tracks: Annotated[tuple[TrackName, ...], BeforeValidator(_tracks)] = Field(
         ("legs", "body"), description="the tracks it drives; [body] only is a passive hint"
@@ -223,7 +237,7 @@ class Maneuver(_Model):
     events: tuple[Event, ...] = ()
     gaits: tuple[Gait, ...] = ()
     body: tuple[Keyframe, ...] = ()
-    weights: Weights = Weights()
+    weights: Weights = Field(default_factory=lambda: Weights.model_validate({}))
     objectives: tuple[Objective, ...] = ()
 
 

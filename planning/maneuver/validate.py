@@ -137,16 +137,21 @@ def check_events_in_order(ctx: Context) -> Iterator[Problem]:
     ev = ctx.maneuver.events
     for i in range(1, len(ev)):
         if ev[i].t < ev[i - 1].t:
-            yield _fail(f"events[{i}].t", f"{ev[i].type} of {ev[i].leg} at {_s(ev[i].t)} comes before events[{i - 1}] "
-                        f"at {_s(ev[i - 1].t)}; list events in time order")
+            yield _fail(
+                f"events[{i}].t",
+                f"{ev[i].type} of {ev[i].leg} at {_s(ev[i].t)} comes before events[{i - 1}] "
+                f"at {_s(ev[i - 1].t)}; list events in time order",
+            )
 
 
 def check_events_within_duration(ctx: Context) -> Iterator[Problem]:
     d = ctx.maneuver.duration
     for i, ev in enumerate(ctx.maneuver.events):
         if ev.t > d:
-            yield _fail(f"events[{i}].t", f"{ev.type} of {ev.leg} at {_s(ev.t)} is after the end of the maneuver "
-                        f"(duration {_s(d)})")
+            yield _fail(
+                f"events[{i}].t",
+                f"{ev.type} of {ev.leg} at {_s(ev.t)} is after the end of the maneuver (duration {_s(d)})",
+            )
 
 
 def check_liftoff_touchdown_pairs(ctx: Context) -> Iterator[Problem]:
@@ -155,23 +160,36 @@ def check_liftoff_touchdown_pairs(ctx: Context) -> Iterator[Problem]:
         if isinstance(ev, Liftoff):
             if ev.leg in open_:
                 k, t0 = open_[ev.leg]
-                yield _fail(f"events[{i}]", f"liftoff of {ev.leg} at {_s(ev.t)} while it is already in the air "
-                            f"(it lifted off at {_s(t0)}, events[{k}]); add its touchdown in between")
+                yield _fail(
+                    f"events[{i}]",
+                    f"liftoff of {ev.leg} at {_s(ev.t)} while it is already in the air "
+                    f"(it lifted off at {_s(t0)}, events[{k}]); add its touchdown in between",
+                )
                 continue
             open_[ev.leg] = (i, ev.t)
             continue
         if ev.leg not in open_:
-            yield _fail(f"events[{i}]", f"touchdown of {ev.leg} at {_s(ev.t)} while it is on the ground; "
-                        f"add a liftoff of {ev.leg} before it")
+            yield _fail(
+                f"events[{i}]",
+                f"touchdown of {ev.leg} at {_s(ev.t)} while it is on the ground; "
+                f"add a liftoff of {ev.leg} before it",
+            )
             continue
         k, t0 = open_.pop(ev.leg)
         if ev.t < t0:
-            yield _fail(f"events[{i}].t", f"touchdown of {ev.leg} at {_s(ev.t)} comes before its liftoff at {_s(t0)}")
+            yield _fail(
+                f"events[{i}].t", f"touchdown of {ev.leg} at {_s(ev.t)} comes before its liftoff at {_s(t0)}"
+            )
         elif ev.t == t0:
-            yield _fail(f"events[{i}].t", f"touchdown of {ev.leg} at {_s(ev.t)} is at the same time as its liftoff")
+            yield _fail(
+                f"events[{i}].t", f"touchdown of {ev.leg} at {_s(ev.t)} is at the same time as its liftoff"
+            )
     for leg, (k, t0) in open_.items():
-        yield _fail(f"events[{k}]", f"{leg} lifts off at {_s(t0)} and never touches down; add a touchdown before "
-                    f"the end ({_s(ctx.maneuver.duration)})")
+        yield _fail(
+            f"events[{k}]",
+            f"{leg} lifts off at {_s(t0)} and never touches down; add a touchdown before "
+            f"the end ({_s(ctx.maneuver.duration)})",
+        )
 
 
 def check_touchdown_normals(ctx: Context) -> Iterator[Problem]:
@@ -183,7 +201,9 @@ def check_touchdown_normals(ctx: Context) -> Iterator[Problem]:
         if norm < 1e-9:
             yield _fail(f"events[{i}].normal", "must not be the zero vector")
         elif n[2] / norm < -1e-9:
-            yield _warn(f"events[{i}].normal", f"{list(ev.normal)} points downward: the foot would push on a ceiling")
+            yield _warn(
+                f"events[{i}].normal", f"{list(ev.normal)} points downward: the foot would push on a ceiling"
+            )
 
 
 def _segments_cross(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> bool:
@@ -195,10 +215,6 @@ def _segments_cross(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) 
 
 def polygon_problem(poly: np.ndarray) -> str | None:
     """Returns why a polygon (K,2) is not a usable region (zero area, edges crossing), or None."""
-    x, y = poly[:, 0], poly[:, 1]
-    area = 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
-    if area < 1e-6:
-        return "has no area (its points lie on a line or coincide)"
     k = len(poly)
     for i in range(k):
         for j in range(i + 2, k):
@@ -206,6 +222,10 @@ def polygon_problem(poly: np.ndarray) -> str | None:
                 continue
             if _segments_cross(poly[i], poly[(i + 1) % k], poly[j], poly[(j + 1) % k]):
                 return f"edges {i}–{i + 1} and {j}–{(j + 1) % k} cross; list the points around the polygon in order"
+    x, y = poly[:, 0], poly[:, 1]
+    area = 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+    if area < 1e-6:
+        return "has no area (its points lie on a line or coincide)"
     return None
 
 
@@ -224,9 +244,9 @@ def point_in_polygon(p: np.ndarray, poly: np.ndarray) -> bool:
 
 
 def check_adjust_regions(ctx: Context) -> Iterator[Problem]:
-    for path, adjust in [(f"events[{i}]", getattr(e, "adjust", None)) for i, e in enumerate(ctx.maneuver.events)] + [
-        (f"gaits[{j}]", g.adjust) for j, g in enumerate(ctx.maneuver.gaits)
-    ]:
+    for path, adjust in [
+        (f"events[{i}]", getattr(e, "adjust", None)) for i, e in enumerate(ctx.maneuver.events)
+    ] + [(f"gaits[{j}]", g.adjust) for j, g in enumerate(ctx.maneuver.gaits)]:
         region = getattr(adjust, "region", None)
         if region is None:
             continue
@@ -234,8 +254,11 @@ def check_adjust_regions(ctx: Context) -> Iterator[Problem]:
         if why:
             yield _fail(f"{path}.adjust.region", why)
         elif path.startswith("gaits"):
-            yield _warn(f"{path}.adjust.region", "one region in the maneuver frame applies to every touchdown of the "
-                        "gait, for every leg; a radius is usually what is meant")
+            yield _warn(
+                f"{path}.adjust.region",
+                "one region in the maneuver frame applies to every touchdown of the "
+                "gait, for every leg; a radius is usually what is meant",
+            )
     s = ctx.schedule
     if s is None:
         return
@@ -243,8 +266,11 @@ def check_adjust_regions(ctx: Context) -> Iterator[Problem]:
         r = sw.adjust.region_xy
         if r is not None and sw.touchdown_path.startswith("events") and polygon_problem(r) is None:
             if not point_in_polygon(sw.p_touchdown[:2], r):
-                yield _warn(f"{sw.touchdown_path}.adjust.region", f"the touchdown target "
-                            f"{np.round(sw.p_touchdown, 3).tolist()} lies outside its region; the planner will move it")
+                yield _warn(
+                    f"{sw.touchdown_path}.adjust.region",
+                    f"the touchdown target "
+                    f"{np.round(sw.p_touchdown, 3).tolist()} lies outside its region; the planner will move it",
+                )
 
 
 def check_adjust_windows_overlap(ctx: Context) -> Iterator[Problem]:
@@ -261,8 +287,11 @@ def check_adjust_windows_overlap(ctx: Context) -> Iterator[Problem]:
             if (a0 > 0 or a1 > 0) and t0 + a0 > t1 - a1 and p1 not in reported:
                 reported.add(p1)
                 path = p1 if a1 > 0 else p0
-                yield _fail(f"{path}.adjust.time", f"the adjust windows of {LEGS[leg]}'s {k0} at {_s(t0)} (±{_s(a0)}) "
-                            f"and {k1} at {_s(t1)} (±{_s(a1)}) overlap; the planner could swap them")
+                yield _fail(
+                    f"{path}.adjust.time",
+                    f"the adjust windows of {LEGS[leg]}'s {k0} at {_s(t0)} (±{_s(a0)}) "
+                    f"and {k1} at {_s(t1)} (±{_s(a1)}) overlap; the planner could swap them",
+                )
 
 
 # ---- gaits -----------------------------------------------------------------------------------------------------
@@ -270,18 +299,25 @@ def check_gait_spans(ctx: Context) -> Iterator[Problem]:
     d = ctx.maneuver.duration
     for j, g in enumerate(ctx.maneuver.gaits):
         if g.from_ >= g.to:
-            yield _fail(f"gaits[{j}].to", f"the segment ends at {_s(g.to)}, not after its start at {_s(g.from_)}")
+            yield _fail(
+                f"gaits[{j}].to", f"the segment ends at {_s(g.to)}, not after its start at {_s(g.from_)}"
+            )
             continue
         if g.to > d:
             yield _fail(f"gaits[{j}].to", f"{_s(g.to)} is after the end of the maneuver (duration {_s(d)})")
         n = gait_cycles(g)
         span = g.to - g.from_
         if n == 0:
-            yield _fail(f"gaits[{j}].cycle", f"a {_s(g.cycle)} cycle does not fit in the {_s(span)} segment; "
-                        "no step would be taken")
+            yield _fail(
+                f"gaits[{j}].cycle",
+                f"a {_s(g.cycle)} cycle does not fit in the {_s(span)} segment; no step would be taken",
+            )
         elif span - n * g.cycle > 1e-6:
-            yield _warn(f"gaits[{j}].to", f"the segment lasts {_s(round(span, 6))}, not a whole number of "
-                        f"{_s(g.cycle)} cycles; its last {_s(round(span - n * g.cycle, 6))} take no step")
+            yield _warn(
+                f"gaits[{j}].to",
+                f"the segment lasts {_s(round(span, 6))}, not a whole number of "
+                f"{_s(g.cycle)} cycles; its last {_s(round(span - n * g.cycle, 6))} take no step",
+            )
 
 
 def check_gaits_overlap(ctx: Context) -> Iterator[Problem]:
@@ -289,8 +325,11 @@ def check_gaits_overlap(ctx: Context) -> Iterator[Problem]:
     for a, b in zip(order, order[1:], strict=False):
         ga, gb = ctx.maneuver.gaits[a], ctx.maneuver.gaits[b]
         if gb.from_ < ga.to:
-            yield _fail(f"gaits[{b}].from", f"the {gb.gait} starting at {_s(gb.from_)} overlaps gaits[{a}] "
-                        f"({ga.gait} {_s(ga.from_)}–{_s(ga.to)})")
+            yield _fail(
+                f"gaits[{b}].from",
+                f"the {gb.gait} starting at {_s(gb.from_)} overlaps gaits[{a}] "
+                f"({ga.gait} {_s(ga.from_)}–{_s(ga.to)})",
+            )
 
 
 def check_gait_event_clash(ctx: Context) -> Iterator[Problem]:
@@ -305,7 +344,10 @@ def check_gait_event_clash(ctx: Context) -> Iterator[Problem]:
         for _leg, lo, td in ctx.explicit_swings:
             t0, t1 = events[lo].t, events[td].t
             if t0 <= g.from_ and t1 >= g.to and t0 < t1:
-                yield _fail(f"events[{lo}]", f"{events[lo].leg} is in the air from {_s(t0)} to {_s(t1)}, across {what}")
+                yield _fail(
+                    f"events[{lo}]",
+                    f"{events[lo].leg} is in the air from {_s(t0)} to {_s(t1)}, across {what}",
+                )
 
 
 def check_event_count(ctx: Context) -> Iterator[Problem]:
@@ -313,8 +355,11 @@ def check_event_count(ctx: Context) -> Iterator[Problem]:
     if n > MAX_EVENTS:
         listed = len(ctx.maneuver.events)
         path = "gaits" if n - listed > listed else "events"
-        yield _fail(path, f"the maneuver has {n} events after gait expansion ({listed} listed, {n - listed} from "
-                    f"gaits); at most {MAX_EVENTS} are allowed")
+        yield _fail(
+            path,
+            f"the maneuver has {n} events after gait expansion ({listed} listed, {n - listed} from "
+            f"gaits); at most {MAX_EVENTS} are allowed",
+        )
 
 
 # ---- body keyframes --------------------------------------------------------------------------------------------
@@ -322,10 +367,15 @@ def check_keyframe_times(ctx: Context) -> Iterator[Problem]:
     body, d = ctx.maneuver.body, ctx.maneuver.duration
     for i, k in enumerate(body):
         if i > 0 and k.t <= body[i - 1].t:
-            yield _fail(f"body[{i}].t", f"keyframe at {_s(k.t)} does not come after body[{i - 1}] at "
-                        f"{_s(body[i - 1].t)}; list keyframes in time order, one per time")
+            yield _fail(
+                f"body[{i}].t",
+                f"keyframe at {_s(k.t)} does not come after body[{i - 1}] at "
+                f"{_s(body[i - 1].t)}; list keyframes in time order, one per time",
+            )
         if k.t > d:
-            yield _fail(f"body[{i}].t", f"keyframe at {_s(k.t)} is after the end of the maneuver (duration {_s(d)})")
+            yield _fail(
+                f"body[{i}].t", f"keyframe at {_s(k.t)} is after the end of the maneuver (duration {_s(d)})"
+            )
 
 
 def check_keyframe_weights(ctx: Context) -> Iterator[Problem]:
@@ -373,8 +423,11 @@ def check_body_path_reach(ctx: Context) -> Iterator[Problem]:
             leg = err.split(":", 1)[0]
             if leg not in seen:
                 seen.add(leg)
-                yield _warn("body", f"between keyframes, at {_s(round(float(t), 3))}, the body path puts the {leg} "
-                            f"foot out of reach — {err}")
+                yield _warn(
+                    "body",
+                    f"between keyframes, at {_s(round(float(t), 3))}, the body path puts the {leg} "
+                    f"foot out of reach — {err}",
+                )
 
 
 def check_body_speed(ctx: Context) -> Iterator[Problem]:
@@ -390,11 +443,17 @@ def check_body_speed(ctx: Context) -> Iterator[Problem]:
         v = max(float(np.linalg.norm(body.sample(float(t))[1])) for t in ts)
         w = max(float(np.linalg.norm(body.sample(float(t))[3])) for t in ts)
         if v > P.max_body_speed_mps:
-            yield _warn(f"body[{i}].t", f"reaching this keyframe moves the body at up to {v:.2f} m/s; "
-                        f"give it more time (above {P.max_body_speed_mps:g} m/s it is unlikely to be tracked)")
+            yield _warn(
+                f"body[{i}].t",
+                f"reaching this keyframe moves the body at up to {v:.2f} m/s; "
+                f"give it more time (above {P.max_body_speed_mps:g} m/s it is unlikely to be tracked)",
+            )
         if w > P.max_body_rate_rps:
-            yield _warn(f"body[{i}].t", f"reaching this keyframe turns the body at up to {w:.1f} rad/s; "
-                        f"give it more time (above {P.max_body_rate_rps:g} rad/s it is unlikely to be tracked)")
+            yield _warn(
+                f"body[{i}].t",
+                f"reaching this keyframe turns the body at up to {w:.1f} rad/s; "
+                f"give it more time (above {P.max_body_rate_rps:g} rad/s it is unlikely to be tracked)",
+            )
 
 
 def check_start_keyframe(ctx: Context) -> Iterator[Problem]:
@@ -405,8 +464,11 @@ def check_start_keyframe(ctx: Context) -> Iterator[Problem]:
     dp = np.linalg.norm(np.array(k.position) - [0.0, 0.0, ctx.robot.standing_height_m])
     da = float(np.max(np.abs(np.radians(k.rpy))))
     if dp > P.start_pose_tol_m or da > P.start_pose_tol_rad:
-        yield _warn("body[0]", "keyframe at 0 s differs from the standing start pose "
-                    f"[0, 0, {ctx.robot.standing_height_m:g}] level; the robot cannot be there at once, give it time")
+        yield _warn(
+            "body[0]",
+            "keyframe at 0 s differs from the standing start pose "
+            f"[0, 0, {ctx.robot.standing_height_m:g}] level; the robot cannot be there at once, give it time",
+        )
 
 
 # ---- feet ------------------------------------------------------------------------------------------------------
@@ -423,8 +485,11 @@ def check_touchdown_reach(ctx: Context) -> Iterator[Problem]:
         dist = float(np.linalg.norm(ctx.foot_center(sw.p_touchdown, sw.normal) - hip))
         ratio = dist / reach
         if ratio > ctx.params.reach_warn_fraction and ratio > worst.get(sw.touchdown_path, (0.0, ""))[0]:
-            worst[sw.touchdown_path] = (ratio, f"touchdown of {LEGS[sw.leg]} at {_s(round(sw.t_touchdown, 6))} is "
-                                        f"{dist:.2f} m from its hip ({ratio:.0%} of the leg's {reach:.2f} m reach)")
+            worst[sw.touchdown_path] = (
+                ratio,
+                f"touchdown of {LEGS[sw.leg]} at {_s(round(sw.t_touchdown, 6))} is "
+                f"{dist:.2f} m from its hip ({ratio:.0%} of the leg's {reach:.2f} m reach)",
+            )
     for path, (ratio, msg) in worst.items():
         if ratio > 1.0:
             yield _fail(path, f"{msg}: out of reach with the body where the maneuver puts it")
@@ -440,9 +505,12 @@ def check_swing_durations(ctx: Context) -> Iterator[Problem]:
     for sw in s.all_swings():
         if 0.0 < sw.duration_s < ctx.params.min_swing_s and sw.touchdown_path not in reported:
             reported.add(sw.touchdown_path)
-            yield _warn(sw.touchdown_path, f"{LEGS[sw.leg]} swings for only {_s(round(sw.duration_s, 6))} "
-                        f"({_s(round(sw.t_liftoff, 6))} → {_s(round(sw.t_touchdown, 6))}); below "
-                        f"{_s(ctx.params.min_swing_s)} the foot may not clear the ground")
+            yield _warn(
+                sw.touchdown_path,
+                f"{LEGS[sw.leg]} swings for only {_s(round(sw.duration_s, 6))} "
+                f"({_s(round(sw.t_liftoff, 6))} → {_s(round(sw.t_touchdown, 6))}); below "
+                f"{_s(ctx.params.min_swing_s)} the foot may not clear the ground",
+            )
 
 
 def _dynamic_windows(m: Maneuver) -> list[tuple[float, float]]:
@@ -470,7 +538,10 @@ def check_support_feet(ctx: Context) -> Iterator[Problem]:
         covered = any(w0 <= a and b <= w1 for w0, w1 in windows)
         if int(mask.sum()) < ctx.params.min_support_feet and not covered:
             if low_from is None:
-                low_from, low_path = a, next((e.path for e in s.events() if e.t == a and e.type == "liftoff"), "")
+                low_from, low_path = (
+                    a,
+                    next((e.path for e in s.events() if e.t == a and e.type == "liftoff"), ""),
+                )
             low_legs |= {LEGS[i] for i in range(4) if not mask[i]}
             continue
         if low_from is not None:
@@ -480,18 +551,25 @@ def check_support_feet(ctx: Context) -> Iterator[Problem]:
         spans.append((low_from, ctx.maneuver.duration, low_legs, low_path))
     for a, b, legs, path in spans:
         n_air = len(legs)
-        yield _warn(path or "events", f"from {_s(round(a, 6))} to {_s(round(b, 6))} {4 - n_air if n_air < 4 else 'no'} "
-                    f"feet may be on the ground ({', '.join(sorted(legs, key=LEGS.index))} in the air): statically "
-                    "unstable; fine for a dynamic move (a gait or a maximize_height objective says so)")
+        yield _warn(
+            path or "events",
+            f"from {_s(round(a, 6))} to {_s(round(b, 6))} {4 - n_air if n_air < 4 else 'no'} "
+            f"feet may be on the ground ({', '.join(sorted(legs, key=LEGS.index))} in the air): statically "
+            "unstable; fine for a dynamic move (a gait or a maximize_height objective says so)",
+        )
 
 
 # ---- the rest --------------------------------------------------------------------------------------------------
 def check_tracks(ctx: Context) -> Iterator[Problem]:
     m = ctx.maneuver
     if "legs" not in m.tracks and (m.events or m.gaits):
-        yield _warn("tracks", "does not include legs, yet the maneuver has events or gaits: it is only a hint")
+        yield _warn(
+            "tracks", "does not include legs, yet the maneuver has events or gaits: it is only a hint"
+        )
     if "body" not in m.tracks and m.body:
-        yield _warn("tracks", "does not include body, yet the maneuver has body keyframes: they are only a hint")
+        yield _warn(
+            "tracks", "does not include body, yet the maneuver has body keyframes: they are only a hint"
+        )
 
 
 def check_objectives(ctx: Context) -> Iterator[Problem]:
@@ -502,8 +580,10 @@ def check_objectives(ctx: Context) -> Iterator[Problem]:
             if b < a or (isinstance(o, MaximizeHeight) and b == a):
                 yield _fail(f"objectives[{i}].t", f"the window [{a:g}, {b:g}] s is empty; give [start, end]")
             elif b > d:
-                yield _fail(f"objectives[{i}].t", f"the window ends at {_s(b)}, after the end of the maneuver "
-                            f"(duration {_s(d)})")
+                yield _fail(
+                    f"objectives[{i}].t",
+                    f"the window ends at {_s(b)}, after the end of the maneuver (duration {_s(d)})",
+                )
         if getattr(o, "direction", None) is not None and float(np.hypot(*o.direction)) < 1e-9:  # type: ignore[union-attr]
             yield _fail(f"objectives[{i}].direction", "must not be the zero vector")
 
@@ -563,13 +643,14 @@ def validate_maneuver(
         try:
             problems.extend(rule(ctx))
         except Exception as e:  # a rule must never turn a user's file into a traceback
-            problems.append(_fail("", f"could not run the check {rule.__name__.removeprefix('check_')}: {e!r}"))
+            problems.append(
+                _fail("", f"could not run the check {rule.__name__.removeprefix('check_')}: {e!r}")
+            )
+    problems = with_lines(problems, lines)
     failures = [p for p in problems if p.severity == "failure"]
     if not failures and not isinstance(ctx.schedule_or_problems, Schedule):
-        failures = list(ctx.schedule_or_problems)  # a condition no rule names; the builder's words then
-    problems = with_lines(problems, lines)
-    failures = with_lines(failures, lines) if failures and failures[0] not in problems else failures
-    failures = [p for p in problems if p.severity == "failure"] or with_lines(failures, lines)
+        # the schedule does not build for a reason no rule names: report the builder's words
+        failures = with_lines(ctx.schedule_or_problems, lines)
     warnings = [p for p in problems if p.severity == "warning"]
     ok = not failures
     return ValidationResult(ok, warnings, failures, maneuver, ctx.schedule, ctx.body)

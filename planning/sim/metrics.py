@@ -38,17 +38,26 @@ class Recorder:
     rpy_body: list[np.ndarray] = field(default_factory=list)
     v_body: list[np.ndarray] = field(default_factory=list)
     yaw_rate: list[float] = field(default_factory=list)
+    max_foot_slip_m: float = 0.0  # largest horizontal slide of a foot in contact from where it touched down
     _prev_contact: np.ndarray = field(default_factory=lambda: np.ones(4, dtype=bool))
+    _anchor: np.ndarray | None = None
     _next_sample: float = 0.0
-    max_horizontal_drift_m: float = 0.0
 
     def __call__(self, s: RobotState) -> None:
+        if self._anchor is None:
+            self._anchor = s.p_world_foot[:, :2].copy()
         rising = s.contact & ~self._prev_contact
         if rising.any():
             for leg in np.flatnonzero(rising):
                 p = s.p_world_foot[leg].copy()
                 p[2] -= self.foot_radius_m
                 self.touchdowns.append(Touchdown(int(leg), s.t, p))
+                self._anchor[leg] = p[:2]
+        if s.contact.any():
+            slip = np.hypot(*(s.p_world_foot[:, :2] - self._anchor).T)
+            m = float(np.max(np.where(s.contact, slip, 0.0)))
+            if m > self.max_foot_slip_m:
+                self.max_foot_slip_m = m
         self._prev_contact[:] = s.contact
         if s.t + 1e-9 >= self._next_sample:
             self._next_sample += self.sample_period_s

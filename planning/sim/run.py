@@ -47,7 +47,7 @@ class ManeuverSession:
         self.world = World(self.robot, self.scene)
         self.world.pushes = list(options.pushes)
         self.schedule = build_schedule(maneuver, self.robot)
-        self.body_ref = BodyReference(maneuver, self.robot)
+        self.body_ref = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
         z0 = float(self.scene.ground_height(0.0, 0.0))
         self._offset = np.array([0.0, 0.0, z0])
         self.controller = Controller(self.robot, self._target, options.controller)
@@ -70,6 +70,18 @@ class ManeuverSession:
         res = self.loop.run(duration, realtime=self.options.realtime, progress=progress)
         wall = time.perf_counter() - t0
         return self.report(wall)
+
+    def _velocity_rms(self) -> dict[str, float | None]:
+        rec = self.recorder
+        err = np.zeros((len(rec.t), 3))
+        for k, t in enumerate(rec.t):
+            _, v_ref, rpy_ref, w_ref = self.body_ref.sample(t)
+            yaw = rec.rpy_body[k][2]
+            c, sn = np.cos(yaw), np.sin(yaw)
+            v_ref_h = np.array([c * v_ref[0] + sn * v_ref[1], -sn * v_ref[0] + c * v_ref[1]])
+            err[k, :2] = rec.v_body[k] - v_ref_h
+            err[k, 2] = rec.yaw_rate[k] - w_ref[2]
+        return velocity_rms(err)
 
     def report(self, wall_s: float) -> dict[str, Any]:
         """Returns the JSON-ready run report of what has run so far."""
@@ -121,8 +133,10 @@ class ManeuverSession:
                 "max": round(float(np.max(errs)), 4) if errs else None,
             },
             "no_step_touchdowns": 0,
+            "velocity_tracking_rms": self._velocity_rms(),
             "body_collisions": 0 if not fell else 1,
             "max_horizontal_drift_m": round(drift, 4),
+            "max_foot_slip_m": round(rec.max_foot_slip_m, 4),
             "pushes": [
                 {"t": p.t_s, "force_n": list(p.force_n), "duration_s": p.duration_s, "impulse_ns": p.impulse_ns}
                 for p in self.world.pushes
@@ -137,6 +151,14 @@ class ManeuverSession:
             "stages": stage_times,
             "timing": {"wall_s": round(wall_s, 3), "rtf": round(t_end / wall_s, 3) if wall_s > 0 else None},
         }
+
+
+def velocity_rms(err: np.ndarray) -> dict[str, float | None]:
+    """Returns {"vx", "vy", "yaw_rate"} RMS of an (N,3) array of tracking errors (m/s, m/s, rad/s)."""
+    if len(err) == 0:
+        return {"vx": None, "vy": None, "yaw_rate": None}
+    rms = np.sqrt(np.mean(np.square(err), axis=0))
+    return {"vx": round(float(rms[0]), 4), "vy": round(float(rms[1]), 4), "yaw_rate": round(float(rms[2]), 4)}
 
 
 def run_maneuver(

@@ -194,6 +194,7 @@ class StepPath:
     this touchdown lifts off again. p_world_touchdown: (K,3) m. t_liftoff_now: (4,) s, next liftoff of the legs in
     stance now (inf when not within the path, nan for legs in swing now). body: the body motion it assumes.
     kind: which generator made it ("reference", "offset", "timing", "template", "footprint", "push", ...).
+    gait: the gait it was planned for. violation: how far it violates the robot's constraints (0 = feasible).
     """
 
     leg: I64
@@ -204,6 +205,7 @@ class StepPath:
     body: BodyMotion
     kind: str = "reference"
     gait: str = ""
+    violation: float = 0.0
     _first: I64 = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:

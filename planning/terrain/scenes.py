@@ -8,6 +8,8 @@ ground at z=0), so walking to ``goal_xy`` = (6, 0) crosses it. Each scene gives:
 - ``asset_xml``: textures, materials and height fields to insert inside ``<asset>``;
 - ``hfield_data``: normalized heights to write into ``model.hfield_data`` after compile (the XML already carries
   them as ``elevation``, so writing them is optional);
+- ``obstacle_boxes``: (x0, x1, y0, y1, z0, z1) of every obstacle geom (all are axis-aligned boxes), for
+  ground-truth maps;
 - ``ground_height(x, y)``: the true height of the surface a foot can stand on (the floor under a table, not its top;
   the floor beside a rail post, not the post's top), for tests and metrics.
 
@@ -140,6 +142,7 @@ class TerrainScene:
     params: Any
     seed: int
     obstacle_geom_names: tuple[str, ...]
+    obstacle_boxes: tuple[tuple[float, float, float, float, float, float], ...]
     _ground: tuple[_GroundPiece, ...] = field(repr=False)
 
     def ground_height(self, x: ArrayLike, y: ArrayLike) -> Any:
@@ -168,6 +171,7 @@ class _Builder:
         self.lines: list[str] = []
         self.ground: list[_GroundPiece] = []
         self.obstacles: list[str] = []
+        self.obstacle_boxes: list[tuple[float, float, float, float, float, float]] = []
         self.assets: list[str] = []
         self.hfields: dict[str, NDArray[np.float64]] = {}
         self._names: set[str] = set()
@@ -209,6 +213,7 @@ class _Builder:
         )
         if obstacle:
             self.obstacles.append(n)
+            self.obstacle_boxes.append((x[0], x[1], y[0], y[1], z[0], z[1]))
         elif support:
             self.ground.append(_Box(x[0], x[1], y[0], y[1], z[1]))
 
@@ -274,6 +279,7 @@ class _Builder:
             params=params,
             seed=seed,
             obstacle_geom_names=tuple(self.obstacles),
+            obstacle_boxes=tuple(self.obstacle_boxes),
             _ground=tuple(self.ground),
         )
 

@@ -176,6 +176,19 @@ def test_bias_beyond_the_limits_clips_torques_and_says_so() -> None:
     assert (handler.f_world_applied[:, 2] > 0.0).all()
 
 
+def test_one_hopeless_leg_does_not_spoil_the_others() -> None:
+    J = np.tile(np.diag([0.4, 0.4, 0.4]), (4, 1, 1))
+    handler = StanceHandler()
+    tau_bias = np.zeros((4, 3))
+    tau_bias[2] = 500.0  # RL: its bias alone is beyond every limit
+    f_des = np.tile([3.0, -2.0, 80.0], (4, 1))
+    tau = handler.solve(f_des, J, ALL, TAU_MAX_SPOT, tau_bias_leg=tau_bias)
+    status = handler.last_status
+    assert not status.fallback and status.torque_clipped
+    np.testing.assert_allclose(handler.f_world_applied[[0, 1, 3]], f_des[[0, 1, 3]], atol=1e-3)
+    assert (np.abs(tau) <= TAU_MAX_SPOT).all()
+
+
 def test_wrench_term_hands_a_saturated_legs_load_to_the_others() -> None:
     J = np.tile(np.diag([0.4, 0.4, 0.4]), (4, 1, 1))
     tau_max = TAU_MAX_SPOT.copy()

@@ -1,0 +1,240 @@
+"""Single-rigid-body dynamics: the discrete map the QP uses, its linearization, and rollouts.
+
+State at a knot: CoM position p (m), velocity v (m/s), orientation R_world_body, angular velocity ω (rad/s, world).
+Over an interval of length dt the contact forces f_i (N, world) are constant and act at fixed contact points
+p_foot_i. The discrete map (exact for the translation, second order for the rotation):
+
+    a     = Σ f_i / m + g
+    p⁺    = p + dt v + ½ dt² a
+    v⁺    = v + dt a
+    c     = p + ½ dt v + dt²/6 g               (the mean CoM over the interval; the f × f part drops out)
+    τ     = Σ p_foot_i × f_i − c × Σ f_i       (= Σ (p_foot_i − mean CoM) × f_i, exactly)
+    ω⁺    = ω + dt I_w⁻¹ (τ − ω × I_w ω),      I_w = R I_body Rᵀ
+    R⁺    = exp(dt (ω + ω⁺)/2) R
+
+Orientation is parametrized about a reference R̄ (the linearization point) by a world-frame rotation vector:
+R = exp(θ) R̄. The products in τ (force × position, both unknown) are linearized about the previous solution, so
+the error of the linear model is Σ δp_foot_i × δf_i − δc × δF: the product of the two estimates' errors.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planning.centroidal import _so3
+
+_E_XY = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])  # (3,2): a horizontal foothold shift into world
+
+
+def torque(p: np.ndarray, v: np.ndarray, f: np.ndarray, p_feet: np.ndarray, dt: np.ndarray, g: np.ndarray):
+    """Returns (τ (N,3) N·m, ΣF (N,3) N, c (N,3) m): interval torques about the mean CoM, vectorized over N."""
+    F = f.sum(axis=1)
+    c = p + 0.5 * dt[:, None] * v + (dt * dt / 6.0)[:, None] * g
+    tau = np.cross(p_feet, f).sum(axis=1) - np.cross(c, F)
+    return tau, F, c
+
+
+def discrete_step(
+    p: np.ndarray,
+    v: np.ndarray,
+    R: np.ndarray,
+    w: np.ndarray,
+    f: np.ndarray,
+    p_feet: np.ndarray,
+    dt: np.ndarray,
+    mass: float,
+    inertia_body: np.ndarray,
+    g: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Returns (p⁺, v⁺, R⁺, ω⁺) of the nonlinear discrete map, vectorized over N intervals.
+
+    p, v, w: (N,3); R: (N,3,3); f, p_feet: (N,4,3); dt: (N,) s.
+    """
+    dt = np.asarray(dt, dtype=float)
+    tau, F, _ = torque(p, v, f, p_feet, dt, g)
+    a = F / mass + g
+    p1 = p + dt[:, None] * v + 0.5 * (dt * dt)[:, None] * a
+    v1 = v + dt[:, None] * a
+    Iw = R @ inertia_body @ np.swapaxes(R, -1, -2)
+    Iw_inv = R @ np.linalg.inv(inertia_body) @ np.swapaxes(R, -1, -2)
+    h = np.cross(w, np.einsum("nij,nj->ni", Iw, w))
+    w1 = w + dt[:, None] * np.einsum("nij,nj->ni", Iw_inv, tau - h)
+    R1 = _so3.exp(0.5 * dt[:, None] * (w + w1)) @ R
+    return p1, v1, R1, w1
+
+
+def rollout_discrete(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    R0: np.ndarray,
+    w0: np.ndarray,
+    f: np.ndarray,
+    p_feet: np.ndarray,
+    dt: np.ndarray,
+    mass: float,
+    inertia_body: np.ndarray,
+    g: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Returns knot states (p (N+1,3), v, R (N+1,3,3), ω) of the nonlinear discrete map from one start state.
+
+    The translation is linear in the forces and done in closed form for all intervals at once; only the
+    rotation runs knot by knot.
+    """
+    N = dt.size
+    F = f.sum(axis=1)
+    a = F / mass + g
+    v = np.empty((N + 1, 3))
+    v[0] = v0
+    np.cumsum(dt[:, None] * a, axis=0, out=v[1:])
+    v[1:] += v0
+    p = np.empty((N + 1, 3))
+    p[0] = p0
+    np.cumsum(dt[:, None] * v[:-1] + 0.5 * (dt * dt)[:, None] * a, axis=0, out=p[1:])
+    p[1:] += p0
+    tau, _, _ = torque(p[:-1], v[:-1], f, p_feet, dt, g)
+    I_inv = np.linalg.inv(inertia_body)
+    R = np.empty((N + 1, 3, 3))
+    w = np.empty((N + 1, 3))
+    R[0] = R0
+    w[0] = w0
+    for k in range(N):
+        Rk, wk, h = R[k], w[k], dt[k]
+        wb = Rk.T @ wk  # body-frame rates: I_w⁻¹ x = R I⁻¹ Rᵀ x
+        gyro = np.cross(wb, inertia_body @ wb)
+        w[k + 1] = wk + h * (Rk @ (I_inv @ (Rk.T @ tau[k] - gyro)))
+        R[k + 1] = _so3.exp(0.5 * h * (wk + w[k + 1])) @ Rk
+    return p, v, R, w
+
+
+def rollout_continuous(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    R0: np.ndarray,
+    w0: np.ndarray,
+    f: np.ndarray,
+    p_feet: np.ndarray,
+    dt: np.ndarray,
+    mass: float,
+    inertia_body: np.ndarray,
+    g: np.ndarray,
+    max_substep: float = 0.002,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Returns knot states of the continuous SRB equations (RK4, substeps <= max_substep s) under the same forces.
+
+    The reference for how good the discrete map is; not used in the tick (too slow for the hot path).
+    """
+    I_inv = np.linalg.inv(inertia_body)
+    N = dt.size
+    P = np.empty((N + 1, 3))
+    V = np.empty((N + 1, 3))
+    RR = np.empty((N + 1, 3, 3))
+    W = np.empty((N + 1, 3))
+    P[0], V[0], RR[0], W[0] = p0, v0, R0, w0
+    p, v, R, w = (np.array(x, dtype=float) for x in (p0, v0, R0, w0))
+    for k in range(N):
+        F = f[k].sum(axis=0)
+        a = F / mass + g
+        m1 = np.cross(p_feet[k], f[k]).sum(axis=0)
+        n_sub = max(1, int(np.ceil(dt[k] / max_substep - 1e-9)))
+        h = dt[k] / n_sub
+
+        def rhs(pp, vv, phi, ww, R_start, F=F, a=a, m1=m1):
+            Rc = _so3.exp(phi) @ R_start
+            tau = m1 - np.cross(pp, F)
+            wb = Rc.T @ ww
+            wdot = Rc @ (I_inv @ (Rc.T @ tau - np.cross(wb, inertia_body @ wb)))
+            phidot = _so3.left_jacobian_inv(phi) @ ww
+            return vv, a, phidot, wdot
+
+        for _ in range(n_sub):
+            z = np.zeros(3)
+            k1 = rhs(p, v, z, w, R)
+            k2 = rhs(p + 0.5 * h * k1[0], v + 0.5 * h * k1[1], 0.5 * h * k1[2], w + 0.5 * h * k1[3], R)
+            k3 = rhs(p + 0.5 * h * k2[0], v + 0.5 * h * k2[1], 0.5 * h * k2[2], w + 0.5 * h * k2[3], R)
+            k4 = rhs(p + h * k3[0], v + h * k3[1], h * k3[2], w + h * k3[3], R)
+            p = p + h / 6.0 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+            v = v + h / 6.0 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+            phi = h / 6.0 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
+            w = w + h / 6.0 * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3])
+            R = _so3.exp(phi) @ R
+        P[k + 1], V[k + 1], RR[k + 1], W[k + 1] = p, v, R, w
+    return P, V, RR, W
+
+
+@dataclass
+class Linearization:
+    """Jacobian blocks of the discrete map about a point, per interval (N leading).
+
+    Rotation rows:  θ⁺ − Jth θ − ½ Jw (ω + ω⁺) = F0 − Jw ω̄_mid
+    Angular rows:   ω⁺ − ω − dt (G_th θ + G_w ω + I⁻¹ T z) = dt (ḡ − G_w ω̄ − I⁻¹ T z̄)
+    with T z = T_p p + T_v v + Σ_i T_f[i] f_i + Σ_i T_d[i] d_i (d: horizontal foothold shift of leg i's foot).
+    """
+
+    Jth: np.ndarray  # (N,3,3)
+    Jw: np.ndarray  # (N,3,3)   already × dt
+    rot_rhs: np.ndarray  # (N,3)
+    I_inv: np.ndarray  # (N,3,3) world inverse inertia at the reference
+    G_th: np.ndarray  # (N,3,3)
+    G_w: np.ndarray  # (N,3,3)
+    T_p: np.ndarray  # (N,3,3)
+    T_v: np.ndarray  # (N,3,3)
+    T_f: np.ndarray  # (N,4,3,3) per newton
+    T_d: np.ndarray  # (N,4,3,2) per meter of shift
+    ang_rhs: np.ndarray  # (N,3)
+    tau: np.ndarray  # (N,3) torque at the linearization point
+
+
+def linearize(
+    p: np.ndarray,
+    v: np.ndarray,
+    R: np.ndarray,
+    w: np.ndarray,
+    f: np.ndarray,
+    p_feet: np.ndarray,
+    d: np.ndarray,
+    dt: np.ndarray,
+    inertia_body: np.ndarray,
+    g: np.ndarray,
+) -> Linearization:
+    """Returns the linearization of the discrete map about knot states p, v, R, w (N+1 leading), forces f (N,4,3) N,
+    contact points p_feet (N,4,3) (those the shifts d (N,4,2) already moved) and steps dt (N,)."""
+    N = dt.size
+    dtc = dt[:, None]
+    Rk, Rk1 = R[:-1], R[1:]
+    wk, wk1 = w[:-1], w[1:]
+    # Rotation rows.
+    a = 0.5 * dtc * (wk + wk1)
+    Ea = _so3.exp(a)
+    F0 = _so3.log(Ea @ Rk @ np.swapaxes(Rk1, -1, -2))
+    Jli = _so3.left_jacobian_inv(F0)
+    Jw = Jli @ _so3.left_jacobian(a) * dt[:, None, None]
+    Jth = Jli @ Ea
+    rot_rhs = F0 - np.einsum("nij,nj->ni", Jw, 0.5 * (wk + wk1))
+    # Angular-velocity rows.
+    RkT = np.swapaxes(Rk, -1, -2)
+    Ib = Rk @ inertia_body @ RkT
+    Ii = Rk @ np.linalg.inv(inertia_body) @ RkT
+    tau, F, c = torque(p[:-1], v[:-1], f, p_feet, dt, g)
+    Iw = np.einsum("nij,nj->ni", Ib, wk)
+    y = tau - np.cross(wk, Iw)
+    gbar = np.einsum("nij,nj->ni", Ii, y)
+    H_w = _so3.hat(wk)
+    G_w = -Ii @ (H_w @ Ib - _so3.hat(Iw))
+    dIw_dth = -_so3.hat(Iw) + Ib @ H_w
+    G_th = -_so3.hat(gbar) + Ii @ _so3.hat(y) - Ii @ H_w @ dIw_dth
+    HF = _so3.hat(F)
+    T_p = HF
+    T_v = 0.5 * dt[:, None, None] * HF
+    T_f = _so3.hat(p_feet - c[:, None, :])  # (N,4,3,3)
+    T_d = -_so3.hat(f) @ _E_XY  # (N,4,3,2)
+    Tz = (
+        np.einsum("nij,nj->ni", T_p, p[:-1])
+        + np.einsum("nij,nj->ni", T_v, v[:-1])
+        + np.einsum("nlij,nlj->ni", T_f, f)
+        + np.einsum("nlij,nlj->ni", T_d, d)
+    )
+    ang_rhs = dtc * (gbar - np.einsum("nij,nj->ni", G_w, wk) - np.einsum("nij,nj->ni", Ii, Tz))
+    assert Jth.shape == (N, 3, 3)
+    return Linearization(Jth, Jw, rot_rhs, Ii, G_th, G_w, T_p, T_v, T_f, T_d, ang_rhs, tau)

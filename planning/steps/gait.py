@@ -1,0 +1,283 @@
+"""Gaits (a table with units, MJPC style) and the clock that walks them and switches between them safely.
+
+A gait is a cycle time, a duty factor and, per leg, the global phase at which that leg touches down. Leg ``l`` is
+in stance while ``(phase - offset_l) mod 1 < duty``: stance first, then swing. The clock keeps one global phase
+and, when a switch is requested, changes gait at a safe boundary: no foot in the air is ever declared on the
+ground before its planned touchdown, and a foot on the ground is never lifted mid-way through the new gait's swing.
+Legs that disagree with the new gait at the switch get a short per-leg hold (finish the swing, or stay in stance
+until the new gait's next liftoff), so the new pattern is reached within about one cycle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from planning.steps.state import N_LEGS, B, F64, I64
+
+
+@dataclass(frozen=True)
+class Gait:
+    """One gait. cycle_s: s. duty: stance fraction of the cycle. offset: (4,) touchdown phase per leg FL, FR,
+    RL, RR in cycles. swing_height_m: m. max_speed_mps: forward speed limit for this gait, m/s."""
+
+    name: str
+    cycle_s: float
+    duty: float
+    offset: tuple[float, float, float, float]
+    swing_height_m: float
+    max_speed_mps: float
+
+    def __post_init__(self) -> None:
+        if not self.cycle_s > 0.0:
+            raise ValueError(f"gait {self.name}: cycle_s must be > 0, got {self.cycle_s}")
+        if not 0.0 < self.duty <= 1.0:
+            raise ValueError(f"gait {self.name}: duty must be in (0, 1], got {self.duty}")
+        if len(self.offset) != N_LEGS:
+            raise ValueError(f"gait {self.name}: offset needs 4 phases (FL, FR, RL, RR)")
+
+    @property
+    def is_stand(self) -> bool:
+        return self.duty >= 1.0
+
+    @property
+    def stance_s(self) -> float:
+        return self.duty * self.cycle_s
+
+    @property
+    def swing_s(self) -> float:
+        return (1.0 - self.duty) * self.cycle_s
+
+
+# Gait table. Offsets are the global phase of each leg's touchdown; stance lasts duty * cycle from there.
+#       name      cycle   duty    touchdown phase offset        swing height   max speed
+#                 s       -       FL     FR     RL     RR       m              m/s
+_GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], float, float], ...] = (
+    ("stand",     1.00,   1.00,   (0.00,  0.00,  0.00,  0.00),  0.00,          0.0),
+    ("walk",      1.00,   0.75,   (0.25,  0.75,  0.00,  0.50),  0.08,          0.5),
+    ("trot",      0.50,   0.60,   (0.00,  0.50,  0.50,  0.00),  0.10,          1.6),
+    ("pace",      0.50,   0.60,   (0.00,  0.50,  0.00,  0.50),  0.10,          1.0),
+    ("bound",     0.40,   0.60,   (0.00,  0.00,  0.50,  0.50),  0.12,          1.6),
+)  # fmt: skip
+
+GAITS: dict[str, Gait] = {row[0]: Gait(*row) for row in _GAIT_TABLE}
+GAIT_NAMES: tuple[str, ...] = tuple(GAITS)
+
+
+def get_gait(gait: Gait | str) -> Gait:
+    """Returns the Gait for a name (or the Gait itself); raises ValueError naming the choices otherwise."""
+    if isinstance(gait, Gait):
+        return gait
+    try:
+        return GAITS[gait]
+    except (KeyError, TypeError):
+        raise ValueError(f"gait: unknown gait {gait!r} (choices: {', '.join(GAIT_NAMES)})") from None
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """Planned contact events from a time on, per touchdown, sorted by touchdown time.
+
+    leg: (K,). t_touchdown: (K,) s. t_liftoff: (K,) s, liftoff that ends the stance begun at this touchdown (inf
+    when beyond the window). t_liftoff_now: (4,) s, next liftoff of legs in stance now (inf beyond the window,
+    nan for legs in swing now). contact_now: (4,) planned contact at the start time.
+    """
+
+    leg: I64
+    t_touchdown: F64
+    t_liftoff: F64
+    t_liftoff_now: F64
+    contact_now: B
+
+
+_EPS_S = 1e-9  # s, nudge used to read the state just after an event
+
+
+class GaitClock:
+    """Advances the global gait phase and switches gait at a safe boundary (see the module docstring).
+
+    The clock is the plan of contacts (not a contact sensor); it holds per-leg holds created at a switch.
+    """
+
+    def __init__(self, gait: Gait | str = "stand", t0: float = 0.0, max_start_progress: float = 0.2) -> None:
+        """gait: initial gait. t0: s. max_start_progress: fraction of a swing already elapsed under which a foot
+        in stance may lift off immediately when a new gait says it should be swinging."""
+        self.gait: Gait = get_gait(gait)
+        self._t_ref = float(t0)  # s, time at which the global phase was 0
+        self._holds: list[list[tuple[float, bool]]] = [[] for _ in range(N_LEGS)]
+        self._pending: Gait | None = None
+        self._t_last = float(t0)
+        self.max_start_progress = float(max_start_progress)
+        self.t_switch: float = float(t0)  # s, time of the last switch
+
+    # ---- queries ------------------------------------------------------------------------------------------------
+    @property
+    def pending(self) -> Gait | None:
+        return self._pending
+
+    def phase(self, t: float) -> float:
+        """Returns the global phase of the current gait at time t (s), in [0, 1)."""
+        return ((t - self._t_ref) / self.gait.cycle_s) % 1.0
+
+    def _gait_contact(self, gait: Gait, t_ref: float, leg: int, t: float) -> bool:
+        if gait.is_stand:
+            return True
+        ph = ((t - t_ref) / gait.cycle_s - gait.offset[leg]) % 1.0
+        return ph < gait.duty
+
+    def _swing_progress(self, gait: Gait, t_ref: float, leg: int, t: float) -> float:
+        ph = ((t - t_ref) / gait.cycle_s - gait.offset[leg]) % 1.0
+        return (ph - gait.duty) / (1.0 - gait.duty) if ph >= gait.duty else -1.0
+
+    def _next_gait_event(self, gait: Gait, t_ref: float, leg: int, t: float, touchdown: bool) -> float:
+        """Returns the first gait touchdown (or liftoff) time of ``leg`` strictly after t."""
+        if gait.is_stand:
+            return math.inf
+        base = gait.offset[leg] + (0.0 if touchdown else gait.duty)
+        m = math.floor((t - t_ref) / gait.cycle_s - base) + 1
+        te = t_ref + (base + m) * gait.cycle_s
+        while te <= t + _EPS_S:
+            te += gait.cycle_s
+        return te
+
+    def leg_contact(self, leg: int, t: float) -> bool:
+        """Returns the planned contact of one leg at time t (s), holds included."""
+        for t_end, c in self._holds[leg]:
+            if t < t_end:
+                return c
+        return self._gait_contact(self.gait, self._t_ref, leg, t)
+
+    def contact(self, t: float) -> B:
+        """Returns the planned contact flags (4,) at time t (s)."""
+        return np.array([self.leg_contact(i, t) for i in range(N_LEGS)], dtype=bool)
+
+    def _leg_events(self, leg: int, t_from: float, t_to: float) -> list[tuple[float, bool]]:
+        """Returns the contact changes (time, new contact) of one leg in (t_from, t_to], holds included."""
+        out: list[tuple[float, bool]] = []
+        c = self.leg_contact(leg, t_from)
+        t = t_from
+        holds = [h for h in self._holds[leg] if h[0] > t_from]
+        for t_end, _ in holds:
+            if t_end > t_to:
+                return out
+            c_new = self.leg_contact(leg, t_end + _EPS_S)
+            if c_new != c:
+                out.append((t_end, c_new))
+                c = c_new
+            t = t_end
+        if self.gait.is_stand:
+            return out
+        while True:
+            te = self._next_gait_event(self.gait, self._t_ref, leg, t, touchdown=not c)
+            if te > t_to:
+                return out
+            c = not c
+            out.append((te, c))
+            t = te
+
+    def schedule(self, t: float, n_cycles: int = 2) -> Schedule:
+        """Returns the planned touchdowns from time t (s): up to n_cycles touchdowns per leg, with liftoffs."""
+        cyc = self.gait.cycle_s if not self.gait.is_stand else 1.0
+        t_hold = max((h[-1][0] for h in self._holds if h), default=t)
+        t_to = max(t, t_hold) + (n_cycles + 1.5) * cyc
+        legs: list[int] = []
+        t_td: list[float] = []
+        t_lo: list[float] = []
+        t_lo_now = np.full(N_LEGS, np.nan)
+        contact_now = self.contact(t)
+        for leg in range(N_LEGS):
+            events = self._leg_events(leg, t, t_to)
+            if contact_now[leg]:
+                t_lo_now[leg] = next((te for te, c in events if not c), math.inf)
+            n = 0
+            for i, (te, c) in enumerate(events):
+                if c and n < n_cycles:
+                    legs.append(leg)
+                    t_td.append(te)
+                    t_lo.append(next((te2 for te2, c2 in events[i + 1 :] if not c2), math.inf))
+                    n += 1
+        order = np.argsort(np.asarray(t_td, dtype=np.float64), kind="stable")
+        return Schedule(
+            leg=np.asarray(legs, dtype=np.int64)[order],
+            t_touchdown=np.asarray(t_td, dtype=np.float64)[order],
+            t_liftoff=np.asarray(t_lo, dtype=np.float64)[order],
+            t_liftoff_now=t_lo_now,
+            contact_now=contact_now,
+        )
+
+    # ---- switching ----------------------------------------------------------------------------------------------
+    def request(self, gait: Gait | str) -> None:
+        """Queues a switch to ``gait``; it takes effect at the next safe boundary (see advance)."""
+        g = get_gait(gait)
+        self._pending = None if (g == self.gait and self._pending is None) else g
+
+    def advance(self, t: float) -> bool:
+        """Moves the clock to time t (s); applies a pending switch at a safe boundary. Returns True on a switch.
+
+        Boundaries: at once when standing or when the new gait is a stand (feet in the air finish their swing);
+        otherwise at the first touchdown since the last call, which anchors the new gait's phase.
+        """
+        t_prev, self._t_last = self._t_last, float(t)
+        for h in self._holds:
+            while h and h[0][0] <= t - 1.0:  # drop holds long past (keeps lists short)
+                h.pop(0)
+        g = self._pending
+        if g is None:
+            return False
+        if g == self.gait:
+            self._pending = None
+            return False
+        if self.gait.is_stand or g.is_stand:
+            self._switch(g, t, anchor=None)
+            return True
+        anchor: tuple[int, float] | None = None
+        for leg in range(N_LEGS):
+            for te, c in self._leg_events(leg, t_prev, t):
+                if c and (anchor is None or te > anchor[1]):
+                    anchor = (leg, te)
+        if anchor is None:
+            return False
+        self._switch(g, t, anchor=anchor)
+        return True
+
+    def _switch(self, g: Gait, t: float, anchor: tuple[int, float] | None) -> None:
+        if g.is_stand:
+            t_ref1 = t
+        elif anchor is None:
+            # From a stand: start where some leg lifts off now, choosing the phase with fewest legs mid-swing.
+            best: tuple[int, float] | None = None
+            for leg in range(N_LEGS):
+                ph = g.offset[leg] + g.duty
+                n_mid = sum(
+                    1
+                    for other in range(N_LEGS)
+                    if self._swing_progress(g, -ph * g.cycle_s, other, 0.0 + _EPS_S) > self.max_start_progress
+                )
+                if best is None or n_mid < best[0]:
+                    best = (n_mid, ph)
+            assert best is not None
+            t_ref1 = t - best[1] * g.cycle_s
+        else:
+            leg_a, t_a = anchor
+            t_ref1 = t_a - g.offset[leg_a] * g.cycle_s
+        holds: list[list[tuple[float, bool]]] = [[] for _ in range(N_LEGS)]
+        for leg in range(N_LEGS):
+            c0 = self.leg_contact(leg, t + _EPS_S)
+            c1 = self._gait_contact(g, t_ref1, leg, t + _EPS_S)
+            if c0 and not c1:
+                if self._swing_progress(g, t_ref1, leg, t + _EPS_S) > self.max_start_progress:
+                    holds[leg].append((self._next_gait_event(g, t_ref1, leg, t, touchdown=False), True))
+            elif not c0:
+                # Finish the swing in flight at its planned time, then follow the new gait (holding stance
+                # through a new-gait swing that would already be under way).
+                t_td0 = next((te for te, c in self._leg_events(leg, t, t + 10.0 * self.gait.cycle_s) if c), t)
+                holds[leg].append((t_td0, False))
+                if not self._gait_contact(g, t_ref1, leg, t_td0 + _EPS_S):
+                    holds[leg].append((self._next_gait_event(g, t_ref1, leg, t_td0, touchdown=False), True))
+        self.gait = g
+        self._t_ref = t_ref1
+        self._holds = holds
+        self._pending = None
+        self.t_switch = float(t)

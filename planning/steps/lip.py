@@ -1,0 +1,326 @@
+"""Linear inverted pendulum (LIP): capture points and closed-form state prediction along step paths.
+
+LIP: x'' = ω² (x - u) with ω = sqrt(g / z), x the CoM's ground projection, u the CoP (both world xy, m).
+The capture point (divergent component) ξ = x + x'/ω obeys ξ' = ω (ξ - u); the convergent component
+ζ = x - x'/ω obeys ζ' = -ω (ζ - u); so x = (ξ + ζ)/2 and x' = ω (ξ - ζ)/2. For a CoP that is constant, or
+moves linearly, over a support segment, both have closed forms, and over a sequence of segments ξ at any event
+time is a cumulative sum — which is what makes scoring dozens of step paths cheap.
+
+Two CoP estimates over a path (the seed's FIG. 8 discussion):
+- ``"cof"``: the CoP is the center of footprint (mean of the stance feet) of each support segment.
+- ``"tracking"``: the CoP starts each support segment at the center of footprint and moves linearly, through
+  the stance, a fraction β of the way toward the planned capture point at the segment's end (first pass, CoF),
+  clamped to the support polygon — what a balance controller stepping after the capture point does.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from planning.steps.state import N_LEGS, F64, I64, StepPath, WalkState
+
+GRAVITY_MPS2 = 9.81  # m/s²
+
+CopEstimate = Literal["cof", "tracking"]
+
+
+def lip_omega(z_m: float) -> float:
+    """Returns the LIP natural frequency ω = sqrt(g / z), 1/s, for a CoM height z (m) above the ground."""
+    if not (math.isfinite(z_m) and z_m > 0.0):
+        raise ValueError(f"z: CoM height must be finite and > 0, got {z_m}")
+    return math.sqrt(GRAVITY_MPS2 / z_m)
+
+
+def state_omega(state: WalkState, fallback_height_m: float) -> float:
+    """Returns ω for the state's CoM height above its stance feet (fallback height when implausible)."""
+    z = float(state.p_world_com[2]) - state.ground_z()
+    if not 0.3 * fallback_height_m < z < 3.0 * fallback_height_m:
+        z = fallback_height_m
+    return lip_omega(z)
+
+
+def capture_point(p_com: F64, v_com: F64, z: float) -> F64:
+    """Returns the capture point (2,) world m: x + v/ω for CoM position p_com (≥2,) m, velocity v_com (≥2,) m/s,
+    CoM height z (m) above the ground."""
+    w = lip_omega(z)
+    p = np.asarray(p_com, dtype=np.float64)
+    v = np.asarray(v_com, dtype=np.float64)
+    return p[:2] + v[:2] / w
+
+
+def capture_point_relative(xi_world: F64, p_world_foot: F64) -> F64:
+    """Returns Eq. 2, Δ = x + x'/ω - p: the capture point (..., 2) relative to foot positions (..., 2) m."""
+    return np.asarray(xi_world)[..., :2] - np.asarray(p_world_foot)[..., :2]
+
+
+def lip_predict(x0: F64, v0: F64, u0: F64, tau: float, omega: float, u1: F64 | None = None) -> tuple[F64, F64]:
+    """Returns (x, v) after tau s of LIP motion from x0 (m), v0 (m/s), with the CoP constant at u0 (m) or, when
+    u1 is given, moving linearly from u0 to u1 over the interval."""
+    x0, v0, u0 = (np.asarray(a, dtype=np.float64) for a in (x0, v0, u0))
+    w, wt = omega, omega * tau
+    xi0, zeta0 = x0 + v0 / w, x0 - v0 / w
+    ep, em = math.exp(wt), math.exp(-wt)
+    xi = u0 + (xi0 - u0) * ep
+    zeta = u0 + (zeta0 - u0) * em
+    if u1 is not None:
+        du = np.asarray(u1, dtype=np.float64) - u0
+        xi = xi - _g_plus(wt) * du
+        zeta = zeta + _g_minus(wt) * du
+    return 0.5 * (xi + zeta), 0.5 * w * (xi - zeta)
+
+
+def _g_plus(x: F64 | float) -> F64:
+    """(e^x - 1 - x)/x, the ramp term of ξ (→ x/2 for small x)."""
+    x = np.asarray(x, dtype=np.float64)
+    small = x < 1e-4
+    xs = np.where(small, 1.0, x)
+    return np.where(small, 0.5 * x, np.expm1(xs) / xs - 1.0)
+
+
+def _g_minus(x: F64 | float) -> F64:
+    """1 - (1 - e^-x)/x, the ramp term of ζ (→ x/2 for small x)."""
+    x = np.asarray(x, dtype=np.float64)
+    small = x < 1e-4
+    xs = np.where(small, 1.0, x)
+    return np.where(small, 0.5 * x, 1.0 + np.expm1(-xs) / xs)
+
+
+# ---- support polygon ----------------------------------------------------------------------------------------------
+_PAIRS = np.array([(i, j) for i in range(N_LEGS) for j in range(i, N_LEGS)], dtype=np.int64)  # (10,2) incl. i=j
+_TRIS = np.array([(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)], dtype=np.int64)
+
+
+def project_to_support(q: F64, feet: F64, stance: np.ndarray) -> F64:
+    """Returns the points (M,2) of the support polygons nearest to q (M,2).
+
+    feet: (M,4,2) foot xy, m; stance: (M,4) bool. The polygon is the convex hull of the stance feet (a segment
+    for two, a point for one); rows without a stance foot return q unchanged.
+    """
+    a = feet[:, _PAIRS[:, 0]]  # (M,10,2)
+    b = feet[:, _PAIRS[:, 1]]
+    ok = stance[:, _PAIRS[:, 0]] & stance[:, _PAIRS[:, 1]]  # (M,10)
+    ab = b - a
+    denom = np.einsum("mpi,mpi->mp", ab, ab)
+    s = np.einsum("mpi,mpi->mp", q[:, None, :] - a, ab) / np.where(denom > 1e-12, denom, 1.0)
+    s = np.clip(s, 0.0, 1.0)
+    c = a + s[..., None] * ab
+    d2 = np.einsum("mpi,mpi->mp", c - q[:, None, :], c - q[:, None, :])
+    d2 = np.where(ok, d2, np.inf)
+    best = np.argmin(d2, axis=1)
+    edge = np.take_along_axis(c, best[:, None, None], axis=1)[:, 0]
+    # Inside test: inside some triangle of three stance feet (covers the hull of 3 or 4 points).
+    p0, p1, p2 = feet[:, _TRIS[:, 0]], feet[:, _TRIS[:, 1]], feet[:, _TRIS[:, 2]]  # (M,4,2)
+    tri_ok = stance[:, _TRIS[:, 0]] & stance[:, _TRIS[:, 1]] & stance[:, _TRIS[:, 2]]
+
+    def cross(o: F64, u: F64, v: F64) -> F64:
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+
+    qq = q[:, None, :]
+    c0, c1, c2 = cross(p0, p1, qq), cross(p1, p2, qq), cross(p2, p0, qq)
+    inside = tri_ok & (((c0 >= 0) & (c1 >= 0) & (c2 >= 0)) | ((c0 <= 0) & (c1 <= 0) & (c2 <= 0)))
+    inside &= np.abs(cross(p0, p1, p2)) > 1e-12
+    keep = inside.any(axis=1) | ~stance.any(axis=1)
+    return np.where(keep[:, None], q, edge)
+
+
+# ---- batched prediction along step paths ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PathBatch:
+    """N step paths with the same touchdown legs, stacked. leg: (K,). t_td, t_lo: (N,K) s. t_lo_now: (N,4) s.
+    p_td: (N,K,3) m."""
+
+    leg: I64
+    t_td: F64
+    t_lo: F64
+    t_lo_now: F64
+    p_td: F64
+
+    @staticmethod
+    def of(paths: list[StepPath]) -> PathBatch:
+        leg = paths[0].leg
+        for p in paths[1:]:
+            if not np.array_equal(p.leg, leg):
+                raise ValueError("paths: every candidate must have the reference's touchdown legs, in order")
+        return PathBatch(
+            leg=leg,
+            t_td=np.stack([p.t_touchdown for p in paths]),
+            t_lo=np.stack([p.t_liftoff for p in paths]),
+            t_lo_now=np.stack([p.t_liftoff_now for p in paths]),
+            p_td=np.stack([p.p_world_touchdown for p in paths]),
+        )
+
+    @property
+    def n(self) -> int:
+        return int(self.t_td.shape[0])
+
+
+@dataclass(frozen=True)
+class Events:
+    """The contact events of a batch, sorted per path, and the support state between them.
+
+    times: (N,E) sorted event times (clipped to [t0, last touchdown]). bounds: (N,E+1) segment bounds, segment j
+    being [bounds_j, bounds_j+1). stance_seg: (N,E,4) legs in stance in each segment. slot_seg: (N,E,4) index of
+    each leg's current foot position into ``p_all`` in each segment. pos_td: (N,K) sorted position of each
+    touchdown. slot_td: (N,K,4) index into ``p_all`` of every leg's foothold just after each touchdown (a leg in
+    the air that has not landed yet counts at its next touchdown). p_all: (N,4+K,2) current feet then touchdowns.
+    """
+
+    times: F64
+    bounds: F64
+    stance_seg: np.ndarray
+    slot_seg: I64
+    pos_td: I64
+    slot_td: I64
+    p_all: F64
+
+
+def sort_events(batch: PathBatch, state: WalkState) -> Events:
+    """Returns the sorted contact events and support segments of every path in the batch."""
+    n, k = batch.t_td.shape
+    t0 = state.t
+    c0 = state.contact
+    e = 2 * k + N_LEGS
+    lo_now = np.where(np.isnan(batch.t_lo_now), np.inf, batch.t_lo_now)
+    times = np.concatenate([batch.t_td, batch.t_lo, lo_now], axis=1)  # (N,E)
+    ev_leg = np.concatenate([batch.leg, batch.leg, np.arange(N_LEGS)])
+    ev_type = np.concatenate([np.ones(k, bool), np.zeros(k, bool), np.zeros(N_LEGS, bool)])
+    ev_slot = np.concatenate([N_LEGS + np.arange(k), N_LEGS + np.arange(k), np.arange(N_LEGS)])
+    t_end = batch.t_td.max(axis=1) if k else np.full(n, t0)
+    times = np.clip(times, t0, t_end[:, None])
+    order = np.argsort(times, axis=1, kind="stable")
+    ts = np.take_along_axis(times, order, axis=1)
+    s_leg, s_type, s_slot = ev_leg[order], ev_type[order], ev_slot[order]
+    # Forward-fill, per leg, the last event so far: its type gives stance, its slot the foot's position.
+    is_leg = s_leg[:, :, None] == np.arange(N_LEGS)  # (N,E,4)
+    last = np.maximum.accumulate(np.where(is_leg, np.arange(e)[None, :, None], -1), axis=1)
+    has = last >= 0
+    lastc = np.maximum(last, 0)
+    stance_after = np.where(has, np.take_along_axis(s_type[:, :, None], lastc, axis=1), c0)
+    slot_after = np.where(has, np.take_along_axis(s_slot[:, :, None], lastc, axis=1), np.arange(N_LEGS))
+    stance_seg = np.concatenate([np.broadcast_to(c0, (n, 1, N_LEGS)), stance_after[:, :-1]], axis=1)
+    slot_seg = np.concatenate([np.broadcast_to(np.arange(N_LEGS), (n, 1, N_LEGS)), slot_after[:, :-1]], axis=1)
+    pos_td = np.empty((n, k), dtype=np.int64)
+    inv = np.empty_like(order)
+    np.put_along_axis(inv, order, np.arange(e)[None, :], axis=1)
+    pos_td[:] = inv[:, :k]
+    # Footholds per leg after each touchdown; legs in the air before their first touchdown count at it.
+    first = np.full(N_LEGS, -1, dtype=np.int64)
+    for i in range(k - 1, -1, -1):
+        first[batch.leg[i]] = i
+    init_cp = np.where(c0 | (first < 0), np.arange(N_LEGS), N_LEGS + first)
+    slot_cp = np.where(has, slot_after, init_cp)
+    slot_td = np.take_along_axis(slot_cp, pos_td[:, :, None], axis=1) if k else np.zeros((n, 0, N_LEGS), np.int64)
+    p_all = np.concatenate([np.broadcast_to(state.p_world_feet[:, :2], (n, N_LEGS, 2)), batch.p_td[:, :, :2]], 1)
+    bounds = np.concatenate([np.full((n, 1), t0), ts], axis=1)
+    return Events(ts, bounds, stance_seg, slot_seg, pos_td, slot_td, p_all)
+
+
+def gather_xy(p_all: F64, slots: I64) -> F64:
+    """Returns p_all (N,S,2) gathered at slots (N,...) → (N,...,2)."""
+    n = p_all.shape[0]
+    flat = slots.reshape(n, -1)
+    return np.take_along_axis(p_all, flat[:, :, None], axis=1).reshape(*slots.shape, 2)
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """LIP prediction of a batch of paths. xi_td: (N,K,2) capture point at each touchdown, world m.
+    x_td, v_td: (N,K,2) CoM position (m) and velocity (m/s) at each touchdown (only when asked for).
+    cop_start, cop_end: (N,E,2) CoP at the start and end of each support segment, m."""
+
+    xi_td: F64
+    x_td: F64 | None
+    v_td: F64 | None
+    cop_start: F64
+    cop_end: F64
+
+
+def predict_batch(
+    batch: PathBatch,
+    state: WalkState,
+    omega: float,
+    estimate: CopEstimate = "tracking",
+    tracking_fraction: float = 0.5,
+    events: Events | None = None,
+    with_states: bool = False,
+) -> Prediction:
+    """Returns the LIP prediction (capture points at touchdowns) of every path in the batch, closed form."""
+    ev = events if events is not None else sort_events(batch, state)
+    n, k = batch.t_td.shape
+    e = ev.times.shape[1]
+    t0 = state.t
+    x0 = state.p_world_com[:2]
+    v0 = state.v_world_com[:2]
+    xi0, zeta0 = x0 + v0 / omega, x0 - v0 / omega
+    # CoF of each segment; a segment with no stance foot keeps the previous segment's CoP (or the CoM).
+    feet = gather_xy(ev.p_all, ev.slot_seg)  # (N,E,4,2)
+    w = ev.stance_seg
+    cnt = w.sum(axis=2)
+    cof = np.einsum("nel,neli->nei", w.astype(np.float64), feet) / np.maximum(cnt, 1)[..., None]
+    if not np.all(cnt > 0):
+        idx = np.maximum.accumulate(np.where(cnt > 0, np.arange(e), -1), axis=1)
+        cof = np.where((idx >= 0)[..., None], np.take_along_axis(cof, np.maximum(idx, 0)[..., None], axis=1), x0)
+    # ξ at segment ends: ξ_e = exp(ω(t_e - t0)) (ξ0 - Σ_{j≤e} (a_j - a_j+1) u_j), a_j = exp(-ω(b_j - t0)).
+    rel = ev.bounds - t0
+    a = np.exp(-omega * rel)  # (N,E+1)
+    grow = 1.0 / a[:, 1:]  # exp(ω(t_e - t0))
+    da = (a[:, :-1] - a[:, 1:])[..., None]
+    xi_end = grow[..., None] * (xi0 - np.cumsum(da * cof, axis=1))  # (N,E,2)
+    u0, u1 = cof, cof
+    if estimate == "tracking" and e:
+        target = project_to_support(xi_end.reshape(-1, 2), feet.reshape(-1, N_LEGS, 2), w.reshape(-1, N_LEGS))
+        u1 = cof + tracking_fraction * (target.reshape(n, e, 2) - cof)
+        tau = np.diff(ev.bounds, axis=1)
+        ramp = (a[:, 1:] * _g_plus(omega * tau))[..., None]
+        xi_end = xi_end - grow[..., None] * np.cumsum(ramp * (u1 - u0), axis=1)
+    elif estimate not in ("cof", "tracking"):
+        raise ValueError(f"estimate: must be 'cof' or 'tracking', got {estimate!r}")
+    xi_td = np.take_along_axis(xi_end, ev.pos_td[..., None], axis=1) if k else np.zeros((n, 0, 2))
+    x_td = v_td = None
+    if with_states:
+        b = 1.0 / a  # exp(ω(b_j - t0))
+        shrink = a[:, 1:]
+        db = (b[:, 1:] - b[:, :-1])[..., None]
+        zeta_end = shrink[..., None] * (zeta0 + np.cumsum(db * u0, axis=1))
+        if estimate == "tracking":
+            tau = np.diff(ev.bounds, axis=1)
+            zeta_end = zeta_end + shrink[..., None] * np.cumsum((b[:, 1:] * _g_minus(omega * tau))[..., None]
+                                                                * (u1 - u0), axis=1)
+        zeta_td = np.take_along_axis(zeta_end, ev.pos_td[..., None], axis=1) if k else np.zeros((n, 0, 2))
+        x_td = 0.5 * (xi_td + zeta_td)
+        v_td = 0.5 * omega * (xi_td - zeta_td)
+    return Prediction(xi_td=xi_td, x_td=x_td, v_td=v_td, cop_start=u0, cop_end=u1)
+
+
+@dataclass(frozen=True)
+class TouchdownStates:
+    """Predicted LIP state at each touchdown of one path. t: (K,) s. p_com, v_com, xi: (K,2) world m, m/s, m.
+    xi_rel: (K,4,2) capture point relative to each leg's foothold (Eq. 2)."""
+
+    t: F64
+    p_com: F64
+    v_com: F64
+    xi: F64
+    xi_rel: F64
+
+
+def predict_touchdown_states(
+    path: StepPath, state: WalkState, omega: float, estimate: CopEstimate = "tracking", tracking_fraction: float = 0.5
+) -> TouchdownStates:
+    """Returns the LIP state and capture points at each touchdown of ``path`` from ``state``."""
+    batch = PathBatch.of([path])
+    ev = sort_events(batch, state)
+    pr = predict_batch(batch, state, omega, estimate, tracking_fraction, events=ev, with_states=True)
+    assert pr.x_td is not None and pr.v_td is not None
+    feet_td = gather_xy(ev.p_all, ev.slot_td)  # (1,K,4,2)
+    return TouchdownStates(
+        t=path.t_touchdown.copy(),
+        p_com=pr.x_td[0],
+        v_com=pr.v_td[0],
+        xi=pr.xi_td[0],
+        xi_rel=capture_point_relative(pr.xi_td[0][:, None, :], feet_td[0]),
+    )

@@ -1,0 +1,377 @@
+"""Piecewise-cubic 1-D trajectories and the bang-coast-bang profiles every swing policy is built from.
+
+Everything here is scalar Python on purpose: a profile has at most a handful of pieces, and plain float arithmetic
+is several times faster than NumPy on arrays that small. Sampling many times at once (``Poly1D.sample_many``) is
+vectorized.
+
+Units: seconds, meters (or whatever length the caller uses), m/s, m/s².
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+
+import numpy as np
+
+_EPS_T = 1e-12  # s; pieces shorter than this are dropped
+
+
+class Poly1D:
+    """p(t) = c0 + c1·τ + c2·τ² + c3·τ³ with τ = t − t_k on piece k; the last piece runs on forever.
+
+    Before the first break the start state is held (sampling before a plan starts only happens by rounding).
+    ``peak_v`` and ``peak_a`` are the largest |velocity| and |acceleration| over all pieces but the last (which
+    is a constant-velocity tail).
+    """
+
+    __slots__ = ("breaks", "coeffs", "peak_v", "peak_a", "_tb_np", "_c_np")
+
+    def __init__(
+        self, breaks: list[float], coeffs: list[tuple[float, float, float, float]], peak_v: float, peak_a: float
+    ) -> None:
+        self.breaks = breaks
+        self.coeffs = coeffs
+        self.peak_v = peak_v
+        self.peak_a = peak_a
+        self._tb_np: np.ndarray | None = None
+        self._c_np: np.ndarray | None = None
+
+    @property
+    def t_start(self) -> float:
+        return self.breaks[0]
+
+    @property
+    def t_end(self) -> float:
+        """Start time of the final constant-velocity tail."""
+        return self.breaks[-1]
+
+    def state(self, t: float) -> tuple[float, float, float]:
+        """Returns (p, v, a) at time t (s)."""
+        k = bisect.bisect_right(self.breaks, t) - 1
+        if k < 0:
+            k, tau = 0, 0.0
+        else:
+            tau = t - self.breaks[k]
+        c0, c1, c2, c3 = self.coeffs[k]
+        return (
+            c0 + tau * (c1 + tau * (c2 + tau * c3)),
+            c1 + tau * (2.0 * c2 + 3.0 * tau * c3),
+            2.0 * c2 + 6.0 * tau * c3,
+        )
+
+    def position(self, t: float) -> float:
+        k = bisect.bisect_right(self.breaks, t) - 1
+        if k < 0:
+            k, tau = 0, 0.0
+        else:
+            tau = t - self.breaks[k]
+        c0, c1, c2, c3 = self.coeffs[k]
+        return c0 + tau * (c1 + tau * (c2 + tau * c3))
+
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._tb_np is None:
+            self._tb_np = np.asarray(self.breaks, dtype=float)
+            self._c_np = np.asarray(self.coeffs, dtype=float)
+        assert self._c_np is not None
+        return self._tb_np, self._c_np
+
+    def sample_many(self, ts: np.ndarray, order: int = 0) -> np.ndarray:
+        """Returns p (order 0), v (1) or a (2) at the times ts (K,) as a (K,) array."""
+        tb, c = self._arrays()
+        if len(tb) == 1:
+            k = np.zeros(ts.shape, dtype=np.intp)
+        else:
+            k = np.searchsorted(tb, ts, side="right") - 1
+            np.clip(k, 0, len(tb) - 1, out=k)
+        tau = np.maximum(ts - tb[k], 0.0)
+        ck = c[k]
+        if order == 0:
+            return ck[:, 0] + tau * (ck[:, 1] + tau * (ck[:, 2] + tau * ck[:, 3]))
+        if order == 1:
+            return ck[:, 1] + tau * (2.0 * ck[:, 2] + 3.0 * tau * ck[:, 3])
+        return 2.0 * ck[:, 2] + 6.0 * tau * ck[:, 3]
+
+    def crossing_time(self, level: float) -> float | None:
+        """Returns the first time p(t) = level (s), or None when the trajectory never reaches it."""
+        for k, (c0, c1, c2, c3) in enumerate(self.coeffs):
+            last = k == len(self.coeffs) - 1
+            dur = math.inf if last else self.breaks[k + 1] - self.breaks[k]
+            tau = _first_root(c0 - level, c1, c2, c3, dur)
+            if tau is not None:
+                return self.breaks[k] + tau
+        return None
+
+
+def _first_root(c0: float, c1: float, c2: float, c3: float, dur: float) -> float | None:
+    """Returns the smallest τ in [0, dur] with c0 + c1 τ + c2 τ² + c3 τ³ = 0 (c3 = 0 for every piece we search)."""
+    if abs(c0) < 1e-12:
+        return 0.0
+    if c3 != 0.0:
+        # Cubic pieces: a few bisection steps on a sign change over a fine grid are plenty here.
+        n = 16
+        end = dur if math.isfinite(dur) else 10.0
+        prev_t, prev_v = 0.0, c0
+        for i in range(1, n + 1):
+            t = end * i / n
+            v = c0 + t * (c1 + t * (c2 + t * c3))
+            if (v > 0) != (prev_v > 0):
+                lo, hi = prev_t, t
+                for _ in range(40):
+                    mid = 0.5 * (lo + hi)
+                    vm = c0 + mid * (c1 + mid * (c2 + mid * c3))
+                    if (vm > 0) == (prev_v > 0):
+                        lo = mid
+                    else:
+                        hi = mid
+                return 0.5 * (lo + hi)
+            prev_t, prev_v = t, v
+        return None
+    roots: list[float] = []
+    if abs(c2) < 1e-15:
+        if abs(c1) > 1e-15:
+            roots.append(-c0 / c1)
+    else:
+        disc = c1 * c1 - 4.0 * c2 * c0
+        if disc >= 0.0:
+            sq = math.sqrt(disc)
+            roots += [(-c1 - sq) / (2.0 * c2), (-c1 + sq) / (2.0 * c2)]
+    best = None
+    for r in roots:
+        if -1e-12 <= r <= dur + 1e-12 and (best is None or r < best):
+            best = max(r, 0.0)
+    return best
+
+
+class Builder:
+    """Appends constant-acceleration and cubic pieces to a 1-D trajectory starting at (t, p, v)."""
+
+    __slots__ = ("t", "p", "v", "breaks", "coeffs", "peak_v", "peak_a")
+
+    def __init__(self, t: float, p: float, v: float) -> None:
+        self.t = t
+        self.p = p
+        self.v = v
+        self.breaks: list[float] = []
+        self.coeffs: list[tuple[float, float, float, float]] = []
+        self.peak_v = abs(v)
+        self.peak_a = 0.0
+
+    def accel(self, dt: float, a: float) -> None:
+        """Appends a piece of duration dt (s) at constant acceleration a."""
+        if dt <= _EPS_T:
+            return
+        self.breaks.append(self.t)
+        self.coeffs.append((self.p, self.v, 0.5 * a, 0.0))
+        self.p += dt * (self.v + 0.5 * a * dt)
+        self.v += a * dt
+        self.t += dt
+        if a != 0.0 and abs(a) > self.peak_a:
+            self.peak_a = abs(a)
+        if abs(self.v) > self.peak_v:
+            self.peak_v = abs(self.v)
+
+    def segments(self, segs: list[tuple[float, float]]) -> None:
+        for dt, a in segs:
+            self.accel(dt, a)
+
+    def cubic(self, dt: float, p1: float, v1: float) -> None:
+        """Appends the cubic (Hermite) piece that reaches (p1, v1) after dt (s)."""
+        if dt <= _EPS_T:
+            self.p, self.v = p1, v1
+            return
+        p0, v0 = self.p, self.v
+        d = p1 - p0
+        c2 = (3.0 * d - (2.0 * v0 + v1) * dt) / (dt * dt)
+        c3 = (-2.0 * d + (v0 + v1) * dt) / (dt * dt * dt)
+        self.breaks.append(self.t)
+        self.coeffs.append((p0, v0, c2, c3))
+        a0, a1 = abs(2.0 * c2), abs(2.0 * c2 + 6.0 * c3 * dt)
+        self.peak_a = max(self.peak_a, a0, a1)
+        vmax = max(abs(v0), abs(v1))
+        if c3 != 0.0:
+            tv = -c2 / (3.0 * c3)
+            if 0.0 < tv < dt:
+                vmax = max(vmax, abs(v0 + tv * (2.0 * c2 + 3.0 * tv * c3)))
+        self.peak_v = max(self.peak_v, vmax)
+        self.p, self.v, self.t = p1, v1, self.t + dt
+
+    def append_pieces(self, poly: Poly1D, t_from: float) -> None:
+        """Appends poly's pieces from t_from on (the builder must be at poly's state at t_from)."""
+        k = max(bisect.bisect_right(poly.breaks, t_from) - 1, 0)
+        n = len(poly.breaks)
+        for i in range(k, n - 1):
+            t_a = max(poly.breaks[i], t_from)
+            t_b = poly.breaks[i + 1]
+            if t_b - t_a <= _EPS_T:
+                continue
+            c0, c1, c2, c3 = poly.coeffs[i]
+            off = t_a - poly.breaks[i]
+            # Re-expand the piece about its new start.
+            self.breaks.append(self.t)
+            self.coeffs.append(
+                (
+                    c0 + off * (c1 + off * (c2 + off * c3)),
+                    c1 + off * (2.0 * c2 + 3.0 * off * c3),
+                    c2 + 3.0 * c3 * off,
+                    c3,
+                )
+            )
+            self.t = t_b
+        p, v, _ = poly.state(max(poly.t_end, t_from))
+        self.p, self.v = p, v
+        self.peak_v = max(self.peak_v, poly.peak_v)
+        self.peak_a = max(self.peak_a, poly.peak_a)
+
+    def finish(self, p: float | None = None, v: float | None = None) -> Poly1D:
+        """Closes the trajectory with a constant-velocity tail from the current (or the given exact) state."""
+        if p is not None:
+            self.p = p
+        if v is not None:
+            self.v = v
+        self.breaks.append(self.t)
+        self.coeffs.append((self.p, self.v, 0.0, 0.0))
+        return Poly1D(self.breaks, self.coeffs, self.peak_v, self.peak_a)
+
+
+# ---- bang-coast-bang primitives ------------------------------------------------------------------------------
+
+
+def rest_segments(p: float, v: float, p1: float, v_max: float, a_max: float) -> list[tuple[float, float]]:
+    """Returns the time-optimal (duration s, acceleration) pieces from (p, v) to rest at p1.
+
+    Bang to the velocity limit, coast, bang to rest; overshoots and comes back when the stopping distance is
+    longer than the way left. A start faster than v_max toward p1 is first slowed to v_max.
+    """
+    segs: list[tuple[float, float]] = []
+    d = p1 - p
+    s = 1.0 if d >= 0.0 else -1.0
+    D, V = s * d, s * v
+    if V > v_max:
+        dt = (V - v_max) / a_max
+        segs.append((dt, -s * a_max))
+        D -= 0.5 * (V + v_max) * dt
+        V = v_max
+    if V > 0.0 and V * V > 2.0 * a_max * D + 1e-12:
+        dt = V / a_max
+        segs.append((dt, -s * a_max))
+        D -= 0.5 * V * dt
+        V = 0.0
+        s, D = -s, -D
+    vp = math.sqrt(max(a_max * D + 0.5 * V * V, 0.0))
+    if vp <= v_max:
+        segs.append(((vp - V) / a_max, s * a_max))
+        segs.append((vp / a_max, -s * a_max))
+    else:
+        cruise = (D - (2.0 * v_max * v_max - V * V) / (2.0 * a_max)) / v_max
+        segs.append(((v_max - V) / a_max, s * a_max))
+        segs.append((max(cruise, 0.0), 0.0))
+        segs.append((v_max / a_max, -s * a_max))
+    return segs
+
+
+def rest_time(p: float, v: float, p1: float, v_max: float, a_max: float) -> float:
+    """Returns the duration (s) of the time-optimal motion from (p, v) to rest at p1."""
+    total = 0.0
+    for dt, _ in rest_segments(p, v, p1, v_max, a_max):
+        total += dt
+    return total
+
+
+def to_rest(b: Builder, p1: float, v_max: float, a_max: float) -> float:
+    """Appends the time-optimal motion to rest at p1; returns the arrival time (s)."""
+    b.segments(rest_segments(b.p, b.v, p1, v_max, a_max))
+    b.p, b.v = p1, 0.0  # remove rounding so the tail sits exactly on the target
+    return b.t
+
+
+def coast_time(p: float, v: float, p1: float, horizon: float, v_max: float, a_max: float) -> float:
+    """Returns the longest coast w (s) at velocity v after which a time-optimal motion still rests at p1 by horizon.
+
+    Returns −1 when even w = 0 arrives too late.
+    """
+    if rest_time(p, v, p1, v_max, a_max) > horizon + 1e-12:
+        return -1.0
+    if abs(v) < 1e-12:
+        return horizon - rest_time(p, 0.0, p1, v_max, a_max)
+    # Closed forms for the usual case (moving toward the target, no overshoot), verified before use.
+    d = p1 - p
+    s = 1.0 if d >= 0.0 else -1.0
+    D, V = s * d, s * v
+    if 0.0 < V <= v_max:
+        cands = []
+        disc = 0.5 * V * V + a_max * (D - V * horizon)
+        if disc >= 0.0:
+            u = V + math.sqrt(disc)
+            cands.append(horizon - (2.0 * u - V) / a_max)
+        if V < v_max:
+            rhs = horizon - (2.0 * v_max - V) / a_max - D / v_max + (2.0 * v_max**2 - V * V) / (2.0 * a_max * v_max)
+            cands.append(rhs / (1.0 - V / v_max))
+        for w in cands:
+            if 0.0 <= w <= horizon:
+                t = rest_time(p + v * w, v, p1, v_max, a_max)
+                if abs(w + t - horizon) < 1e-9:
+                    return w
+    # Bisection: w + rest_time(after coasting w) grows with w.
+    lo, hi = 0.0, horizon
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if mid + rest_time(p + v * mid, v, p1, v_max, a_max) <= horizon:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 1e-10:
+            break
+    return lo
+
+
+def rise_hold_fall(
+    b: Builder, z_top: float, z_end: float, t_end: float, v_up: float, v_down: float, a_max: float
+) -> bool:
+    """Appends rise to z_top, hold, fall to rest at z_end by t_end; lowers the top when time is short.
+
+    Returns False (and appends the fastest direct motion to z_end, arriving late) when even the lowest top
+    cannot arrive by t_end.
+    """
+    z0, v0 = b.p, b.v
+    horizon = t_end - b.t
+    z_stop = z0 + (v0 * v0 / (2.0 * a_max) if v0 > 0.0 else 0.0)
+    z_lo = max(z_stop, z_end, z0)
+    z_top = max(z_top, z_lo)
+
+    def total(h: float) -> float:
+        return rest_time(z0, v0, h, v_up, a_max) + rest_time(h, 0.0, z_end, v_down, a_max)
+
+    t_hi = total(z_top)
+    if t_hi > horizon:
+        t_lo = total(z_lo)
+        if t_lo > horizon + 1e-9:
+            v_lim = v_down if z_end < z0 else v_up
+            to_rest(b, z_end, v_lim, a_max)
+            return False
+        # Illinois regula falsi on total(h) = horizon; total grows with h.
+        lo, hi, f_lo, f_hi = z_lo, z_top, t_lo - horizon, t_hi - horizon
+        side = 0
+        h = lo
+        for _ in range(30):
+            h = (lo * f_hi - hi * f_lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+            f = total(h) - horizon
+            if abs(f) < 1e-9:
+                break
+            if f > 0.0:
+                hi, f_hi = h, f
+                if side == 1:
+                    f_lo *= 0.5
+                side = 1
+            else:
+                lo, f_lo = h, f
+                if side == -1:
+                    f_hi *= 0.5
+                side = -1
+        z_top = lo if total(h) > horizon else h
+    b.segments(rest_segments(z0, v0, z_top, v_up, a_max))
+    b.p, b.v = z_top, 0.0
+    t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)
+    b.accel(t_end - t_fall - b.t, 0.0)
+    to_rest(b, z_end, v_down, a_max)
+    return True

@@ -1,0 +1,111 @@
+"""SwingParams: limits, margins and the vertical gentleness family of the swing planner — a tuning guide.
+
+Limits on the horizontal motion hold per axis of the heading frame (the body's yaw at planning time), as the seed
+plans x and y separately; limits on the vertical motion hold on z. Every length is a foot *contact point* (the
+bottom of the foot sphere), in meters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True, slots=True)
+class VerticalLevel:
+    """One vertical policy of the gentleness family: fractions of the z limits and a swing height.
+
+    height_m: top of the swing above the higher of the lift-off and touchdown heights, m.
+    accel_frac, velocity_frac: fractions of a_max_z_mps2 and of the up/down velocity limits.
+    """
+
+    height_m: float
+    accel_frac: float
+    velocity_frac: float
+
+
+def _default_family() -> tuple[VerticalLevel, ...]:
+    #            height   accel   velocity     (gentlest first; the most aggressive policy comes last, implicitly)
+    return (
+        VerticalLevel(0.06, 0.35, 0.50),
+        VerticalLevel(0.08, 0.50, 0.60),
+        VerticalLevel(0.11, 0.65, 0.75),
+        VerticalLevel(0.15, 0.80, 0.85),
+        VerticalLevel(0.20, 1.00, 1.00),
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class SwingParams:
+    """Swing planner parameters (units in the names: m, s, m/s, m/s²)."""
+
+    # Limits
+    v_max_xy_mps: float = 3.0  # per heading axis
+    a_max_xy_mps2: float = 40.0  # per heading axis
+    v_max_up_mps: float = 2.0
+    v_max_down_mps: float = 1.5
+    a_max_z_mps2: float = 40.0
+    max_swing_height_m: float = 0.30  # the most aggressive policy's top, above max(lift-off, touchdown) height
+    hip_clearance_m: float = 0.02  # the foot stays this far below (hip z − min leg length)
+
+    # Vertical family, gentlest first; the most aggressive policy (full limits, max_swing_height_m) is appended.
+    vertical_family: tuple[VerticalLevel, ...] = field(default_factory=_default_family)
+
+    # Terrain
+    clearance_margin_m: float = 0.02  # vertical margin the foot keeps over terrain away from its end points
+    penetration_tol_m: float = 0.002  # deeper than this below the terrain is a collision
+    end_zone_radius_m: float = 0.025  # around lift-off and touchdown the support surface is not an obstacle
+    cliff_margin_m: float = 0.03  # horizontal margin to terrain above the foot; less is Cliff Scraping
+    cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.03)  # radii probed for the horizontal margin
+    samples: int = 20  # time samples of a candidate trajectory in the detailed analysis
+    knee_samples: int = 4  # interior samples at which knees are computed through the leg IK (when needed)
+    knee_radius_m: float = 0.04  # knee-to-terrain margin
+    knee_check_radius_m: float = 0.20  # knees are checked against a leg only when the foot comes this close
+
+    # Other legs
+    keepout_radius_m: float = 0.07  # lower legs closer than this collide (foot center to segment foot→knee)
+    knee_keepout_m: float = 0.06  # knee to another lower leg
+    swing_around_margin_m: float = 0.03  # waypoints sit this far beyond a keep-out area's corners
+    xy_reach_tol_m: float = 0.002  # closer than this at touchdown counts as reaching the target
+
+    # Selection
+    preferred_policy: str = "Cubic"  # taken at once when it reaches Success
+    preferred_bonus: float = 0.15  # subtracted from the preferred policy's undesirability
+    miss_hysteresis_m: float = 0.01  # XY can't reach: keep last tick's policy unless another misses this much less
+    severity_bucket_m: float = 0.005  # collision severities closer than this count as equal ("if close")
+    time_split_frac: float = 0.1  # combinations by time switch policy after this fraction of the swing
+
+    # Loop
+    replan_period_s: float = 0.003
+    min_replan_horizon_s: float = 0.015  # closer to touchdown than this, keep the last plan instead of replanning
+
+    # Special policies
+    late_descent_mps: float = 0.3  # late touchdown: descend at this speed until contact
+    trip_lift_m: float = 0.12  # normal trip: raise the foot this much above where it tripped
+    trip_response_s: float = 0.15  # a trip's immediate response lasts this long
+    recent_trip_s: float = 0.6  # after that, a trip this recent still elevates the foot
+    knee_trip_speed_frac: float = 0.3  # knee trip: fraction of the xy limits used to move on slowly
+    disentangle_margin_m: float = 0.05  # self-collision: lateral clearance sought from the other leg
+
+    # Joint command
+    foot_effective_mass_kg: float = 0.9  # lower-leg mass seen at the foot, for the feed-forward force
+
+    def __post_init__(self) -> None:
+        for name in (
+            "v_max_xy_mps",
+            "a_max_xy_mps2",
+            "v_max_up_mps",
+            "v_max_down_mps",
+            "a_max_z_mps2",
+            "max_swing_height_m",
+            "late_descent_mps",
+            "replan_period_s",
+        ):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"SwingParams.{name}: must be > 0 (got {getattr(self, name)!r})")
+        if self.samples < 4:
+            raise ValueError(f"SwingParams.samples: needs at least 4 samples (got {self.samples})")
+        for i, lv in enumerate(self.vertical_family):
+            if not (0.0 < lv.accel_frac <= 1.0 and 0.0 < lv.velocity_frac <= 1.0 and lv.height_m >= 0.0):
+                raise ValueError(
+                    f"SwingParams.vertical_family[{i}]: fractions must lie in (0, 1] and the height be ≥ 0 ({lv})"
+                )

@@ -1,0 +1,351 @@
+"""2D terrain maps from column data: ground height, body obstacles, step obstacles and their signed distance fields.
+
+From a ``Columns`` summary (voxels.py, or ``columns_from_scene`` for ground truth):
+
+- ground height: the column's ground (the floor under a table, not its top); unknown cells are filled from their
+  neighbors, pessimistically (the lowest neighbor first, so an unseen hole stays a hole), then by nearest value;
+- body obstacles (where the body may not go): obstacle voxels in the body's height band above the cell's ground or
+  above the highest ground nearby (a railing beside a stair), and ground much higher than the ground nearby (the top
+  of a tall box); then spurious specks removed, gaps closed, dense step obstacles promoted;
+- step obstacles (where a foot may not touch down): edges and steep cells, cells too high above the ground nearby,
+  obstacles at leg height, cells where a knee would hit something tall nearby, cells near body obstacles; specks
+  removed, small gaps closed;
+- signed distance fields (m) of both: positive in free cells (distance to the nearest obstacle cell's edge),
+  negative inside (distance to the nearest free cell's edge), with their gradients;
+- clearance: free height above the ground under an overhang (a table top), +inf where nothing hangs.
+
+Arrays are [ix, iy] with cell (ix, iy) centered at origin_xy + (ix, iy) * resolution_m (world frame, m).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from planning.terrain.scenes import TerrainScene
+from planning.terrain.voxels import Columns
+
+
+@dataclass(frozen=True)
+class MapParams:
+    """Map building (heights above the cell's ground, m; radii, m).
+
+    body_band_m: obstacles within this height band make a body obstacle (robot body bottom crouched .. body top
+    standing; a table underside above the top is passable crouched); body_ref_radius_m: radius for the highest
+    ground nearby that the band is also measured from; body_step_m: ground higher than the lowest ground within
+    low_radius_m by more than this is a body obstacle; max_step_height_m: the same for step obstacles; edge_radius_m,
+    edge_height_m: a height spread above edge_height_m within edge_radius_m is an edge; leg_band_m: obstacles at
+    these heights are step obstacles; knee_radius_m, knee_height_m: a cell with ground higher by knee_height_m within
+    knee_radius_m is a step obstacle (the knee would hit); near_body_m: step obstacles around body obstacles;
+    dense_radius_m, dense_fraction: where step obstacles cover more than this share of the disk, the area becomes a
+    body obstacle; speck_cells: obstacle components smaller than this are removed; close_cells: body-map closing
+    radius (cells); fill_min_cells: unknown cells within this many cells of known ones take the lowest neighbor;
+    ceiling_above_m: overhangs at least this high count for clearance.
+    """
+
+    body_band_m: tuple[float, float] = (0.30, 0.56)
+    body_ref_radius_m: float = 0.3
+    body_step_m: float = 0.4
+    low_radius_m: float = 0.3
+    max_step_height_m: float = 0.32
+    edge_radius_m: float = 0.045
+    edge_height_m: float = 0.06
+    leg_band_m: tuple[float, float] = (0.05, 0.30)
+    knee_radius_m: float = 0.12
+    knee_height_m: float = 0.25
+    near_body_m: float = 0.08
+    dense_radius_m: float = 0.3
+    dense_fraction: float = 0.85
+    speck_cells: int = 3
+    close_cells: int = 2
+    fill_min_cells: int = 12
+    ceiling_above_m: float = 0.30
+
+
+@dataclass(frozen=True, eq=False)
+class TerrainMaps:
+    """The maps of one moment (all arrays (nx, ny), world frame, meters); see the module docstring."""
+
+    origin_xy: tuple[float, float]
+    resolution_m: float
+    ground_height: NDArray[np.float64]
+    observed: NDArray[np.bool_]
+    body_obstacle: NDArray[np.bool_]
+    step_obstacle: NDArray[np.bool_]
+    sdf_body_m: NDArray[np.float64]
+    sdf_step_m: NDArray[np.float64]
+    grad_sdf_body: NDArray[np.float64]  # (nx, ny, 2)
+    grad_sdf_step: NDArray[np.float64]  # (nx, ny, 2)
+    clearance_m: NDArray[np.float64]
+    t_s: float = 0.0
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (int(self.ground_height.shape[0]), int(self.ground_height.shape[1]))
+
+    def cell_centers(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Gives world x (nx,) and y (ny,) of the cell centers (m)."""
+        nx, ny = self.shape
+        return (
+            self.origin_xy[0] + np.arange(nx) * self.resolution_m,
+            self.origin_xy[1] + np.arange(ny) * self.resolution_m,
+        )
+
+    def in_map(self, x: ArrayLike, y: ArrayLike) -> Any:
+        """Gives whether world (x, y) lies on the map."""
+        fx, fy = self._frac(x, y)
+        nx, ny = self.shape
+        return (fx >= -0.5) & (fx <= nx - 0.5) & (fy >= -0.5) & (fy <= ny - 0.5)
+
+    def _frac(self, x: ArrayLike, y: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return (
+            (np.asarray(x, dtype=np.float64) - self.origin_xy[0]) / self.resolution_m,
+            (np.asarray(y, dtype=np.float64) - self.origin_xy[1]) / self.resolution_m,
+        )
+
+    def _nearest(self, grid: NDArray[Any], x: ArrayLike, y: ArrayLike, outside: Any) -> Any:
+        fx, fy = self._frac(x, y)
+        nx, ny = self.shape
+        ix = np.rint(fx).astype(np.intp)
+        iy = np.rint(fy).astype(np.intp)
+        inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+        v = np.where(inside, grid[np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)], outside)
+        return v.item() if v.ndim == 0 else v
+
+    def _bilinear(self, grid: NDArray[np.float64], x: ArrayLike, y: ArrayLike) -> Any:
+        fx, fy = self._frac(x, y)
+        nx, ny = self.shape
+        fx = np.clip(fx, 0.0, nx - 1.000001)
+        fy = np.clip(fy, 0.0, ny - 1.000001)
+        ix = np.floor(fx).astype(np.intp)
+        iy = np.floor(fy).astype(np.intp)
+        ax = (fx - ix)[..., None] if grid.ndim == 3 else fx - ix
+        ay = (fy - iy)[..., None] if grid.ndim == 3 else fy - iy
+        v = (grid[ix, iy] * (1 - ax) + grid[ix + 1, iy] * ax) * (1 - ay) + (
+            grid[ix, iy + 1] * (1 - ax) + grid[ix + 1, iy + 1] * ax
+        ) * ay
+        if v.ndim == 0:
+            return float(v)
+        return v
+
+    def height_at(self, x: ArrayLike, y: ArrayLike) -> Any:
+        """Gives the ground height (m) at world (x, y), bilinear; the nearest border value off the map."""
+        return self._bilinear(self.ground_height, x, y)
+
+    def no_step(self, x: ArrayLike, y: ArrayLike) -> Any:
+        """Gives whether a foot may not touch down at world (x, y) (False off the map)."""
+        return self._nearest(self.step_obstacle, x, y, False)
+
+    def no_body(self, x: ArrayLike, y: ArrayLike) -> Any:
+        """Gives whether the body may not be over world (x, y) (False off the map)."""
+        return self._nearest(self.body_obstacle, x, y, False)
+
+    def sdf_step(self, x: ArrayLike, y: ArrayLike) -> Any:
+        """Gives the signed distance (m) to the step obstacles at world (x, y), bilinear (border value off the map)."""
+        return self._bilinear(self.sdf_step_m, x, y)
+
+    def sdf_body(self, x: ArrayLike, y: ArrayLike) -> Any:
+        """Gives the signed distance (m) to the body obstacles at world (x, y), bilinear (border value off the map)."""
+        return self._bilinear(self.sdf_body_m, x, y)
+
+    def sdf_step_grad(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """Gives the gradient (.., 2) of the step SDF at world (x, y) (points away from step obstacles)."""
+        return np.asarray(self._bilinear(self.grad_sdf_step, x, y))
+
+    def sdf_body_grad(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """Gives the gradient (.., 2) of the body SDF at world (x, y) (points away from body obstacles)."""
+        return np.asarray(self._bilinear(self.grad_sdf_body, x, y))
+
+    def clearance_at(self, x: ArrayLike, y: ArrayLike) -> Any:
+        """Gives the free height (m) above the ground under an overhang at world (x, y); +inf where none."""
+        return self._nearest(self.clearance_m, x, y, np.inf)
+
+
+# -------------------------------------------------------------------------------------------------------------------
+
+
+def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.float64]:
+    """Gives the signed distance field (m) of an obstacle mask: + outside, - inside, 0 on cell edges between them.
+
+    Distances are center-to-center Euclidean distances to the nearest cell of the other kind, minus half a cell, so
+    the zero level lies on the boundary between an obstacle cell and a free one. With no obstacle at all, every value
+    is +inf; with no free cell, -inf.
+    """
+    if not mask.any():
+        return np.full(mask.shape, np.inf)
+    if mask.all():
+        return np.full(mask.shape, -np.inf)
+    d_out = ndimage.distance_transform_edt(~mask)
+    d_in = ndimage.distance_transform_edt(mask)
+    half = 0.5
+    return np.where(mask, -(d_in - half), d_out - half) * resolution_m
+
+
+def _disk(radius_cells: float) -> NDArray[np.bool_]:
+    r = int(np.floor(radius_cells))
+    i = np.arange(-r, r + 1)
+    return (i[:, None] ** 2 + i[None, :] ** 2) <= radius_cells**2 + 1e-9
+
+
+def _remove_specks(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]:
+    if min_cells <= 1 or not mask.any():
+        return mask
+    labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    keep = sizes >= min_cells
+    keep[0] = False
+    return keep[labels]
+
+
+def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: float) -> NDArray[np.float64]:
+    h = ground_z.copy()
+    known = np.isfinite(h)
+    if not known.any():
+        return np.full(h.shape, default_z)
+    for _ in range(fill_min_cells):
+        if known.all():
+            break
+        m = ndimage.minimum_filter(np.where(known, h, np.inf), size=3, mode="nearest")
+        new = ~known & np.isfinite(m)
+        if not new.any():
+            break
+        h[new] = m[new]
+        known |= new
+    if not known.all():
+        _, (ix, iy) = ndimage.distance_transform_edt(~known, return_indices=True)
+        h = h[ix, iy]
+    return h
+
+
+def _count_between(
+    cum: NDArray[np.int32], z0: float, dz: float, z_lo: NDArray[np.float64], z_hi: NDArray[np.float64]
+) -> NDArray[np.int32]:
+    """Gives per column the number of obstacle layers whose centers lie in [z_lo, z_hi] (cum: inclusive cumsum)."""
+    nz = cum.shape[2]
+    k_lo = np.clip(np.ceil((z_lo - z0) / dz - 1e-9).astype(np.intp), 0, nz)
+    k_hi = np.clip(np.floor((z_hi - z0) / dz + 1e-9).astype(np.intp), -1, nz - 1)
+    upper = np.take_along_axis(cum, np.clip(k_hi, 0, nz - 1)[:, :, None], 2)[:, :, 0]
+    upper = np.where(k_hi >= 0, upper, 0)
+    lower = np.take_along_axis(cum, np.clip(k_lo - 1, 0, nz - 1)[:, :, None], 2)[:, :, 0]
+    lower = np.where(k_lo - 1 >= 0, lower, 0)
+    return np.where(k_hi >= k_lo, upper - lower, 0)
+
+
+def build_maps(
+    columns: Columns, params: MapParams | None = None, default_ground_z: float = 0.0, t_s: float = 0.0
+) -> TerrainMaps:
+    """Gives the 2D maps (ground height, body and step obstacles, SDFs, clearance) of a column summary."""
+    p = params or MapParams()
+    res = columns.resolution_m
+    observed = np.isfinite(columns.ground_z)
+    h = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z)
+    cum = np.cumsum(columns.obstacle, axis=2, dtype=np.int32)
+    z0, dz = columns.z0_m, columns.dz_m
+
+    def size(radius_m: float) -> int:
+        return 2 * int(round(radius_m / res)) + 1
+
+    h_low = ndimage.minimum_filter(h, size=size(p.low_radius_m), mode="nearest")
+    h_ref = ndimage.maximum_filter(h, size=size(p.body_ref_radius_m), mode="nearest")
+    lo, hi = p.body_band_m
+    body = (_count_between(cum, z0, dz, h + lo, h + hi) > 0) | (_count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0)
+    body |= h - h_low > p.body_step_m
+    body = _remove_specks(body, p.speck_cells)
+    if p.close_cells > 0 and body.any():
+        st = _disk(p.close_cells)
+        padded = np.pad(body, p.close_cells, mode="edge")
+        body = ndimage.binary_closing(padded, structure=st)[p.close_cells : -p.close_cells, p.close_cells : -p.close_cells]
+
+    fp = _disk(p.edge_radius_m / res)
+    spread = ndimage.maximum_filter(h, footprint=fp, mode="nearest") - ndimage.minimum_filter(h, footprint=fp, mode="nearest")
+    step = spread > p.edge_height_m
+    step |= h - h_low > p.max_step_height_m
+    step |= _count_between(cum, z0, dz, h + p.leg_band_m[0], h + p.leg_band_m[1]) > 0
+    knee = ndimage.maximum_filter(h, footprint=_disk(p.knee_radius_m / res), mode="nearest") - h
+    step |= knee > p.knee_height_m
+    step = _remove_specks(step, p.speck_cells)
+    # Dense step obstacles become body obstacles.
+    if step.any():
+        disk = _disk(p.dense_radius_m / res).astype(np.float64)
+        share = ndimage.convolve(step.astype(np.float64), disk / disk.sum(), mode="nearest")
+        body |= share > p.dense_fraction
+    if body.any():
+        step |= ndimage.binary_dilation(body, structure=_disk(p.near_body_m / res))
+    step = ndimage.binary_closing(np.pad(step, 1, mode="edge"), structure=np.ones((3, 3), bool))[1:-1, 1:-1]
+
+    # Clearance under overhangs: the lowest obstacle layer at least ceiling_above_m above the ground.
+    nz = columns.obstacle.shape[2]
+    k_c = np.clip(np.ceil((h + p.ceiling_above_m - z0) / dz).astype(np.intp), 0, nz)
+    layer = np.arange(nz)[None, None, :]
+    over = columns.obstacle & (layer >= k_c[:, :, None])
+    has = over.any(axis=2)
+    z_c = z0 + np.argmax(over, axis=2) * dz - dz / 2
+    clearance = np.where(has, z_c - h, np.inf)
+
+    sdf_body = signed_distance(body, res)
+    sdf_step = signed_distance(step, res)
+    return TerrainMaps(
+        origin_xy=columns.origin_xy,
+        resolution_m=res,
+        ground_height=h,
+        observed=observed,
+        body_obstacle=body,
+        step_obstacle=step,
+        sdf_body_m=sdf_body,
+        sdf_step_m=sdf_step,
+        grad_sdf_body=_gradient(sdf_body, res),
+        grad_sdf_step=_gradient(sdf_step, res),
+        clearance_m=clearance,
+        t_s=t_s,
+    )
+
+
+def _gradient(sdf: NDArray[np.float64], res: float) -> NDArray[np.float64]:
+    if not np.isfinite(sdf).all() or min(sdf.shape) < 2:
+        return np.zeros((*sdf.shape, 2))
+    gx, gy = np.gradient(sdf, res)
+    return np.stack([gx, gy], axis=-1)
+
+
+def columns_from_scene(
+    scene: TerrainScene,
+    center_xy: tuple[float, float] = (0.0, 0.0),
+    half_extent_m: float = 2.0,
+    resolution_m: float = 0.03,
+    z_range_m: tuple[float, float] = (-1.0, 1.6),
+) -> Columns:
+    """Gives ground-truth columns of a scene (its true ground and its obstacle boxes), for tests and planning
+    without perception; the grid is aligned like a VoxelMap's (cell centers on multiples of resolution_m)."""
+    n = int(round(2 * half_extent_m / resolution_m)) | 1
+    half = n // 2
+    ix0 = int(round(center_xy[0] / resolution_m)) - half
+    iy0 = int(round(center_xy[1] / resolution_m)) - half
+    iz0 = int(round(z_range_m[0] / resolution_m))
+    nz = int(round((z_range_m[1] - z_range_m[0]) / resolution_m))
+    xs = (ix0 + np.arange(n)) * resolution_m
+    ys = (iy0 + np.arange(n)) * resolution_m
+    zs = (iz0 + np.arange(nz)) * resolution_m
+    ground = np.asarray(scene.ground_height(xs[:, None], ys[None, :]), dtype=np.float64)
+    obstacle = np.zeros((n, n, nz), dtype=bool)
+    hr = resolution_m / 2
+    for x0, x1, y0, y1, z0, z1 in scene.obstacle_boxes:
+        ix = (xs + hr > x0) & (xs - hr < x1)
+        iy = (ys + hr > y0) & (ys - hr < y1)
+        iz = (zs + hr > z0) & (zs - hr < z1)
+        obstacle |= ix[:, None, None] & iy[None, :, None] & iz[None, None, :]
+    return Columns((xs[0], ys[0]), resolution_m, ground, obstacle, float(zs[0]), resolution_m)
+
+
+def maps_from_scene(
+    scene: TerrainScene,
+    center_xy: tuple[float, float] = (0.0, 0.0),
+    half_extent_m: float = 2.0,
+    resolution_m: float = 0.03,
+    params: MapParams | None = None,
+) -> TerrainMaps:
+    """Gives the maps of a scene's ground truth (perfect perception) around center_xy."""
+    return build_maps(columns_from_scene(scene, center_xy, half_extent_m, resolution_m), params)

@@ -1,0 +1,227 @@
+"""A rolling voxel map (3 cm) around the robot, with per-voxel statistics, classified ground / obstacle / other.
+
+Statistics per voxel, decayed each scan so the map forgets what is no longer seen: ``hits`` (points that fell in the
+voxel), ``misses`` (rays that passed through it: observed free space) and ``sum_z`` (for the mean height of the
+points, finer than the voxel). A voxel is *occupied* when it has enough hits and more hits than a share of its misses;
+*free* when rays passed through it and it is not occupied; otherwise unknown.
+
+Classification, column by column from the bottom up: an occupied voxel is *supported* when nothing observed free lies
+between it and the supported voxel (or the unseen depth) below it; a table top, seen with free space under it, is not.
+The lowest supported voxel of a column is *ground*; other occupied voxels are *obstacle* within ``obstacle_top_m``
+above the column's ground, *other* above that (well over the robot). Columns reduce to a ``Columns`` summary (ground
+height and a 3D obstacle occupancy) that maps.py turns into 2D maps.
+
+Index convention: arrays are [ix, iy, iz]; cell (ix, iy) has its center at origin_xy + (ix, iy) * resolution; layer iz
+has its center at z0 + iz * resolution, with z0 chosen so that z = 0 is a layer center.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.terrain.sensor import PointCloud
+
+GROUND: int = 1
+OBSTACLE: int = 2
+OTHER: int = 3
+
+
+@dataclass(frozen=True)
+class VoxelParams:
+    """Voxel map. resolution_m: voxel side (m); half_extent_m: half side of the square map around the robot (m);
+    z_below_m, z_above_m: vertical extent below and above the robot's ground (m); recenter_m: robot offset from the
+    map center that triggers a shift (m); decay: factor applied to the statistics each scan; min_hits: decayed hits
+    for occupancy; hit_miss_ratio: occupancy also needs hits >= ratio * misses; min_misses: decayed misses for free;
+    carve_every: carve free space along one ray in this many; carve_margin_m: stop carving this short of a hit (m);
+    obstacle_top_m: occupied voxels higher than this above their column's ground are 'other' (m)."""
+
+    resolution_m: float = 0.03
+    half_extent_m: float = 2.0
+    z_below_m: float = 1.0
+    z_above_m: float = 1.4
+    recenter_m: float = 0.3
+    decay: float = 0.85
+    min_hits: float = 1.5
+    hit_miss_ratio: float = 0.3
+    min_misses: float = 0.9
+    carve_every: int = 2
+    carve_margin_m: float = 0.05
+    obstacle_top_m: float = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class Columns:
+    """What the 2D maps need from 3D data.
+
+    origin_xy: world (x, y) of cell (0, 0)'s center (m); resolution_m: cell side (m); ground_z: (nx, ny) ground
+    height (m, world), NaN where unknown; obstacle: (nx, ny, nz) obstacle occupancy; z0_m: center height of layer 0
+    (m); dz_m: layer height (m).
+    """
+
+    origin_xy: tuple[float, float]
+    resolution_m: float
+    ground_z: NDArray[np.float64]
+    obstacle: NDArray[np.bool_]
+    z0_m: float
+    dz_m: float
+
+
+class VoxelMap:
+    """The rolling voxel map; `integrate` a cloud per scan, then `columns()` for the maps."""
+
+    def __init__(self, params: VoxelParams | None = None, center_xy: tuple[float, float] = (0.0, 0.0),
+                 ground_z_m: float = 0.0) -> None:  # fmt: skip
+        self.params = p = params or VoxelParams()
+        self.res = p.resolution_m
+        self.n_xy = int(round(2 * p.half_extent_m / self.res)) | 1  # odd, so the robot sits on a center cell
+        self.n_z = int(round((p.z_below_m + p.z_above_m) / self.res))
+        shape = (self.n_xy, self.n_xy, self.n_z)
+        self.hits = np.zeros(shape, np.float32)
+        self.misses = np.zeros(shape, np.float32)
+        self.sum_z = np.zeros(shape, np.float32)
+        self.labels = np.zeros(shape, np.uint8)
+        self._ix0 = 0  # integer cell index of cell 0 in the world lattice x = ix * res
+        self._iy0 = 0
+        self._iz0 = 0
+        self._place(center_xy, ground_z_m)
+        self.n_points = 0
+
+    # -- geometry -----------------------------------------------------------------------------------------------
+
+    @property
+    def origin_xy(self) -> tuple[float, float]:
+        return (self._ix0 * self.res, self._iy0 * self.res)
+
+    @property
+    def z0(self) -> float:
+        return self._iz0 * self.res
+
+    def _lattice(self, center_xy: tuple[float, float], ground_z: float) -> tuple[int, int, int]:
+        half = self.n_xy // 2
+        ix0 = int(round(center_xy[0] / self.res)) - half
+        iy0 = int(round(center_xy[1] / self.res)) - half
+        iz0 = int(round((ground_z - self.params.z_below_m) / self.res))
+        return ix0, iy0, iz0
+
+    def _place(self, center_xy: tuple[float, float], ground_z: float) -> None:
+        self._ix0, self._iy0, self._iz0 = self._lattice(center_xy, ground_z)
+
+    def recenter(self, center_xy: tuple[float, float], ground_z: float) -> bool:
+        """Shifts the map (whole cells) when the robot has moved recenter_m from its center; True if it shifted."""
+        half = self.n_xy // 2
+        cx = (self._ix0 + half) * self.res
+        cy = (self._iy0 + half) * self.res
+        cz = self.z0 + self.params.z_below_m
+        r = self.params.recenter_m
+        if abs(center_xy[0] - cx) < r and abs(center_xy[1] - cy) < r and abs(ground_z - cz) < r:
+            return False
+        ix0, iy0, iz0 = self._lattice(center_xy, ground_z)
+        shift = (self._ix0 - ix0, self._iy0 - iy0, self._iz0 - iz0)
+        for a in (self.hits, self.misses, self.sum_z):
+            _shift_clear(a, shift)
+        self._ix0, self._iy0, self._iz0 = ix0, iy0, iz0
+        return True
+
+    def _flat_index(self, p: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+        ijk = np.rint(p / self.res).astype(np.intp)
+        ijk[:, 0] -= self._ix0
+        ijk[:, 1] -= self._iy0
+        ijk[:, 2] -= self._iz0
+        ok = (
+            (ijk[:, 0] >= 0) & (ijk[:, 0] < self.n_xy) & (ijk[:, 1] >= 0) & (ijk[:, 1] < self.n_xy)
+            & (ijk[:, 2] >= 0) & (ijk[:, 2] < self.n_z)
+        )  # fmt: skip
+        ijk = ijk[ok]
+        flat = (ijk[:, 0] * self.n_xy + ijk[:, 1]) * self.n_z + ijk[:, 2]
+        return flat, ok
+
+    # -- integration --------------------------------------------------------------------------------------------
+
+    def integrate(self, cloud: PointCloud, center_xy: tuple[float, float], ground_z: float) -> None:
+        """Adds one scan: decays the statistics, adds hits and carves free space along (a share of) the rays."""
+        p = self.params
+        self.recenter(center_xy, ground_z)
+        self.hits *= p.decay
+        self.misses *= p.decay
+        self.sum_z *= p.decay
+        n_vox = self.hits.size
+        pts = cloud.p_world_points
+        self.n_points = pts.shape[0]
+        flat, ok = self._flat_index(pts)
+        self.hits.reshape(-1)[:] += np.bincount(flat, minlength=n_vox).astype(np.float32)
+        self.sum_z.reshape(-1)[:] += np.bincount(flat, weights=pts[ok, 2], minlength=n_vox).astype(np.float32)
+        # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
+        o = cloud.p_world_origins[:: p.carve_every]
+        d = pts[:: p.carve_every] - o
+        length = np.linalg.norm(d, axis=1)
+        u = d / np.maximum(length, 1e-9)[:, None]
+        stop = length - p.carve_margin_m
+        n_s = int(np.ceil(max(float(stop.max(initial=0.0)), 0.0) / self.res))
+        if n_s > 0:
+            t = (np.arange(n_s) + 0.5) * self.res
+            keep = t[None, :] < stop[:, None]
+            ray_idx, s_idx = np.nonzero(keep)
+            samples = o[ray_idx] + u[ray_idx] * t[s_idx, None]
+            flat_f, _ = self._flat_index(samples)
+            self.misses.reshape(-1)[:] += np.bincount(flat_f, minlength=n_vox).astype(np.float32)
+
+    # -- classification -----------------------------------------------------------------------------------------
+
+    def classify(self) -> Columns:
+        """Labels every voxel (self.labels: 0 unknown/free, GROUND, OBSTACLE, OTHER) and gives the column summary."""
+        p = self.params
+        occ = (self.hits >= p.min_hits) & (self.hits >= p.hit_miss_ratio * self.misses)
+        free = ~occ & (self.misses >= p.min_misses)
+        nx, ny, nz = occ.shape
+        supported = np.zeros_like(occ)
+        s = np.ones((nx, ny), dtype=bool)
+        for k in range(nz):
+            o_k = occ[:, :, k]
+            sup_k = o_k & s
+            supported[:, :, k] = sup_k
+            s = np.where(o_k, sup_k, s & ~free[:, :, k])
+        has_ground = supported.any(axis=2)
+        k_ground = np.argmax(supported, axis=2)
+        # Ground height: mean z of the points in the ground voxel and, for a thin surface, the one above it.
+        kk = k_ground[:, :, None]
+        h0 = np.take_along_axis(self.hits, kk, 2)[:, :, 0]
+        z0s = np.take_along_axis(self.sum_z, kk, 2)[:, :, 0]
+        k1 = np.minimum(kk + 1, nz - 1)
+        k2 = np.minimum(kk + 2, nz - 1)
+        thin = np.take_along_axis(supported, k1, 2)[:, :, 0] & ~np.take_along_axis(supported, k2, 2)[:, :, 0]
+        h1 = np.where(thin, np.take_along_axis(self.hits, k1, 2)[:, :, 0], 0.0)
+        z1s = np.where(thin, np.take_along_axis(self.sum_z, k1, 2)[:, :, 0], 0.0)
+        ground_z = np.where(has_ground, (z0s + z1s) / np.maximum(h0 + h1, 1e-6), np.nan)
+        # Labels.
+        layer = np.arange(nz)[None, None, :]
+        is_ground = (layer == kk) & has_ground[:, :, None]
+        if_thin = thin & has_ground
+        is_ground |= (layer == kk + 1) & if_thin[:, :, None]
+        above = (layer - kk) * self.res
+        ref_known = has_ground[:, :, None]
+        obstacle = occ & ~is_ground & (~ref_known | (above <= p.obstacle_top_m))
+        other = occ & ~is_ground & ~obstacle
+        labels = self.labels
+        labels.fill(0)
+        labels[is_ground] = GROUND
+        labels[obstacle] = OBSTACLE
+        labels[other] = OTHER
+        return Columns(self.origin_xy, self.res, ground_z.astype(np.float64), obstacle, self.z0, self.res)
+
+
+def _shift_clear(a: NDArray[np.float32], shift: tuple[int, int, int]) -> None:
+    """Moves the content of `a` by `shift` cells (new[i] = old[i - shift]); cells that come in are zeroed."""
+    for axis, s in enumerate(shift):
+        if s == 0:
+            continue
+        n = a.shape[axis]
+        if abs(s) >= n:
+            a.fill(0)
+            return
+        a[:] = np.roll(a, s, axis=axis)
+        idx: list[slice] = [slice(None)] * 3
+        idx[axis] = slice(0, s) if s > 0 else slice(n + s, n)
+        a[tuple(idx)] = 0

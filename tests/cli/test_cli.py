@@ -1,0 +1,66 @@
+"""The command line: exit codes and one-line errors for bad input."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from server.cli import main
+
+
+def test_terrains_lists_names(capsys) -> None:
+    assert main(["terrains"]) == 0
+    out = capsys.readouterr().out
+    for name in ("flat", "stairs", "stones", "clutter", "under-table", "slope", "rough"):
+        assert name in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["run", "no-such-maneuver"], "no maneuver named 'no-such-maneuver'"),
+        (["run", "stand", "--push", "1.0:0,150"], "--push '1.0:0,150': force needs three components"),
+        (["run", "stand", "--push", "x:0,1,0"], "time 'x' is not a number"),
+        (["run", "stand", "--terrain", "moon"], "--terrain 'moon': unknown terrain"),
+        (["run", "stand", "--robot", "atlas"], "robot 'atlas': no such robot description"),
+        (["validate", "missing/dir/x.yaml"], "no such file: missing/dir/x.yaml"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(argv, needle, capsys) -> None:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert needle in err
+    assert len(err.splitlines()) == 1
+    assert "Traceback" not in err
+
+
+def test_robot_description_naming_a_missing_joint(tmp_path, capsys) -> None:
+    from planning.robot import load_robot
+
+    spot = load_robot("spot")
+    (tmp_path / "spot.xml").write_text(spot.mjcf_xml)
+    text = (spot.mjcf_path.parent / "spot.yaml").read_text().replace("RR_kn", "RR_knee_joint")
+    (tmp_path / "bad.yaml").write_text(text)
+    assert main(["run", "stand", "--robot", str(tmp_path / "bad.yaml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "legs.RR.joints: joint 'RR_knee_joint' is not in spot.xml" in err
+    assert len(err.splitlines()) == 1
+
+
+def test_validate_shipped_maneuver(capsys) -> None:
+    assert main(["validate", "bow"]) == 0
+    assert "bow: valid" in capsys.readouterr().out
+
+
+@pytest.mark.sim
+def test_run_writes_report_and_exit_codes(tmp_path, capsys) -> None:
+    out = tmp_path / "out.json"
+    assert main(["run", "stand", "--duration", "2", "--push", "1.0:0,150,0:0.1", "--report", str(out)]) == 0
+    rep = json.loads(out.read_text())
+    for key in ("maneuver", "mode", "terrain", "duration_s", "success", "fell", "fall_time_s", "failure_reason",
+                "final_pose_error", "touchdowns", "foot_placement_error_m", "no_step_touchdowns",
+                "body_collisions", "velocity_tracking_rms", "solver", "timing"):
+        assert key in rep, key
+    assert rep["success"] is True
+    assert main(["run", "stand", "--duration", "2", "--push", "0.5:0,3000,0:0.1"]) == 1
