@@ -80,7 +80,9 @@ def _optional(module: str, fn: str) -> Callable[..., Any] | None:
         return None
 
 
-def run_benchmarks(quick: bool = False, only: list[str] | None = None, progress: Progress | None = None) -> dict[str, Any]:
+def run_benchmarks(
+    quick: bool = False, only: list[str] | None = None, progress: Progress | None = None
+) -> dict[str, Any]:
     """Returns {"stages": {...}, "closed_loop": {...}, "robustness": {...}} as in CONTRACT.md."""
     say = progress or (lambda _m: None)
     stages: dict[str, Any] = {}
@@ -144,7 +146,9 @@ def format_table(result: dict[str, Any]) -> str:
 def _row(name: str, r: dict[str, Any]) -> str:
     bare = r.get("bare_solver_p50_ms")
     notes = ", ".join(
-        f"{k}={v}" for k, v in r.items() if k not in ("p50_ms", "p99_ms", "bare_solver_p50_ms") and not isinstance(v, (dict, list))
+        f"{k}={v}"
+        for k, v in r.items()
+        if k not in ("p50_ms", "p99_ms", "bare_solver_p50_ms") and not isinstance(v, (dict, list))
     )
     bare_s = f"{bare:19.4f}" if isinstance(bare, (int, float)) else f"{'':19s}"
     return f"{name:24s} {r['p50_ms']:9.4f} {r['p99_ms']:9.4f} {bare_s}  {notes}"

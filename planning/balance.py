@@ -88,7 +88,12 @@ class BalanceController:
         np.subtract(contact_pts, s.p_world_com, out=self.r_com_foot)
         self.r_com_foot[:, 2] -= self.robot.foot_radius_m
         f, self.status = self.distributor.solve(
-            w[:3], w[3:], self.r_com_foot, stance, mu=self.params.mu, fz_min_n=self.params.fz_min_n,
+            w[:3],
+            w[3:],
+            self.r_com_foot,
+            stance,
+            mu=self.params.mu,
+            fz_min_n=self.params.fz_min_n,
             fz_max_n=self.fz_max_n,
         )
         self.forces[:] = f

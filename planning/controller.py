@@ -31,7 +31,9 @@ class Controller:
     Stages declare their rates; the loop calls them in simulated time. ``actuate`` runs every physics step.
     """
 
-    def __init__(self, robot: RobotModel, body_reference: BodyReferenceFn, params: ControllerParams | None = None):
+    def __init__(
+        self, robot: RobotModel, body_reference: BodyReferenceFn, params: ControllerParams | None = None
+    ):
         self.robot = robot
         self.params = params or ControllerParams()
         self.body_reference = body_reference

@@ -123,7 +123,9 @@ def cmd_run(a: argparse.Namespace) -> int:
             f"maneuver {maneuver.name} has failures:\n" + "\n".join(f"  {p}" for p in result.failures)
         )
     progress = _Progress(maneuver.name)
-    opts = RunOptions(terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot)
+    opts = RunOptions(
+        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+    )
     report = run_maneuver(maneuver, opts, progress=progress)
     progress.done()
     _write_report(report, a.report)
@@ -191,7 +193,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="simulate a maneuver in MuJoCo (headless unless --realtime)")
     r.add_argument("maneuver", metavar="MANEUVER", help="a library name (footfall run stand) or a .yaml path")
-    r.add_argument("--terrain", default="flat", metavar="NAME", help="terrain scene (footfall terrains lists them)")
+    r.add_argument(
+        "--terrain", default="flat", metavar="NAME", help="terrain scene (footfall terrains lists them)"
+    )
     r.add_argument(
         "--push",
         action="append",
@@ -202,7 +206,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--duration", type=float, metavar="S", help="simulated seconds (default: the maneuver's)")
     r.add_argument("--report", metavar="FILE", help="write the JSON run report here")
     r.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
-    r.add_argument("--robot", default="spot", help="robot description: spot (default) or go1, or a .yaml path")
+    r.add_argument(
+        "--robot", default="spot", help="robot description: spot (default) or go1, or a .yaml path"
+    )
     r.set_defaults(fn=cmd_run)
 
     v = sub.add_parser("validate", help="check a maneuver without simulating (warnings and failures)")

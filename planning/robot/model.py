@@ -212,7 +212,6 @@ class RobotModel:
         q0, q1, q2 = q
         lu, ll = self.l_upper, self.l_lower
         s1, c1, s12, c12 = np.sin(q1), np.cos(q1), np.sin(q1 + q2), np.cos(q1 + q2)
-        x = -lu * s1 - ll * s12
         z = -lu * c1 - ll * c12
         dx1, dz1 = -lu * c1 - ll * c12, lu * s1 + ll * s12
         dx2, dz2 = -ll * c12, ll * s12

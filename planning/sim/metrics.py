@@ -66,7 +66,11 @@ class Recorder:
             R = s.R_world_body
             self.rpy_body.append(
                 np.array(
-                    [np.arctan2(R[2, 1], R[2, 2]), np.arcsin(np.clip(-R[2, 0], -1, 1)), np.arctan2(R[1, 0], R[0, 0])]
+                    [
+                        np.arctan2(R[2, 1], R[2, 2]),
+                        np.arcsin(np.clip(-R[2, 0], -1, 1)),
+                        np.arctan2(R[1, 0], R[0, 0]),
+                    ]
                 )
             )
             # body-frame horizontal velocity (heading frame) and yaw rate
@@ -92,7 +96,11 @@ def match_touchdowns(
             d = abs(a.t - t)
             if d < best_dt:
                 best, best_dt = k, d
-        row: dict[str, Any] = {"leg": LEGS[leg], "planned_t": round(t, 4), "planned_at": np.round(p, 4).tolist()}
+        row: dict[str, Any] = {
+            "leg": LEGS[leg],
+            "planned_t": round(t, 4),
+            "planned_at": np.round(p, 4).tolist(),
+        }
         if best is None or best_dt > max(0.3, 2 * win + 0.15):
             row.update(actual_t=None, actual_at=None, error_m=None, within_window=False)
         else:

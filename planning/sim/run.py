@@ -52,7 +52,9 @@ class ManeuverSession:
         self._offset = np.array([0.0, 0.0, z0])
         self.controller = Controller(self.robot, self._target, options.controller)
         self.recorder = Recorder(self.robot.foot_radius_m)
-        self.loop = Loop(self.world, self.controller.stages, self.controller.actuate, monitors=[self.recorder])
+        self.loop = Loop(
+            self.world, self.controller.stages, self.controller.actuate, monitors=[self.recorder]
+        )
         self._tgt = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
 
     def _target(self, t: float) -> BodyTarget:
@@ -67,7 +69,7 @@ class ManeuverSession:
         """Runs to the end (or a fall) and returns the run report."""
         duration = self.options.duration_s if self.options.duration_s is not None else self.maneuver.duration
         t0 = time.perf_counter()
-        res = self.loop.run(duration, realtime=self.options.realtime, progress=progress)
+        self.loop.run(duration, realtime=self.options.realtime, progress=progress)
         wall = time.perf_counter() - t0
         return self.report(wall)
 
@@ -94,7 +96,13 @@ class ManeuverSession:
         pos_err = float(np.linalg.norm(s.p_world_body - p_goal))
         dyaw = float((s.yaw - rpy_goal[2] + np.pi) % (2 * np.pi) - np.pi)
         planned = [
-            (sw.leg, sw.t_touchdown, sw.p_touchdown + self._offset, sw.adjust.time_s, sw.adjust.radius_m or 0.0)
+            (
+                sw.leg,
+                sw.t_touchdown,
+                sw.p_touchdown + self._offset,
+                sw.adjust.time_s,
+                sw.adjust.radius_m or 0.0,
+            )
             for sw in self.schedule.all_swings()
             if sw.t_touchdown <= t_end
         ]
@@ -138,7 +146,12 @@ class ManeuverSession:
             "max_horizontal_drift_m": round(drift, 4),
             "max_foot_slip_m": round(rec.max_foot_slip_m, 4),
             "pushes": [
-                {"t": p.t_s, "force_n": list(p.force_n), "duration_s": p.duration_s, "impulse_ns": p.impulse_ns}
+                {
+                    "t": p.t_s,
+                    "force_n": list(p.force_n),
+                    "duration_s": p.duration_s,
+                    "impulse_ns": p.impulse_ns,
+                }
                 for p in self.world.pushes
             ],
             "solver": {

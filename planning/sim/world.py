@@ -14,10 +14,14 @@ from planning.robot import LEGS, RobotModel
 class Scene(Protocol):
     """What the world needs of a terrain scene (planning.terrain.scenes.TerrainScene provides it)."""
 
-    name: str
-    worldbody_xml: str
-    asset_xml: str
-    hfield_data: dict[str, np.ndarray]
+    @property
+    def name(self) -> str: ...
+    @property
+    def worldbody_xml(self) -> str: ...
+    @property
+    def asset_xml(self) -> str: ...
+    @property
+    def hfield_data(self) -> dict[str, np.ndarray]: ...
 
     def ground_height(self, x: float, y: float) -> float: ...
 
@@ -96,8 +100,6 @@ class RobotState:
         return float(np.arctan2(R[1, 0], R[0, 0]))
 
 
-
-
 class World:
     """One robot on one terrain in MuJoCo. Names are resolved to ids at construction."""
 
@@ -116,19 +118,27 @@ class World:
         m = self.model
         self.dt = float(m.opt.timestep)
         self.body_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "trunk")
-        name = lambda kind, i: mujoco.mj_id2name(m, kind, i)  # noqa: E731
         # Re-resolve the robot's names in the composed model (ids shift when the scene adds bodies first).
-        self.foot_geom = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_foot") for leg in LEGS])
+        self.foot_geom = np.array(
+            [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_foot") for leg in LEGS]
+        )
         self.foot_site = np.array(
             [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{leg}_foot_site") for leg in LEGS]
         )
         rm = robot.model
-        jn = [[mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_JOINT, j) for j in lg.joint_ids] for lg in robot.legs]
+        jn = [
+            [mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_JOINT, j) for j in lg.joint_ids] for lg in robot.legs
+        ]
         jid = np.array([[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in row] for row in jn])
         self.qpos_idx = m.jnt_qposadr[jid]
         self.dof_idx = m.jnt_dofadr[jid]
-        an = [[mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in lg.actuator_ids] for lg in robot.legs]
-        self.act_idx = np.array([[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in row] for row in an])
+        an = [
+            [mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in lg.actuator_ids]
+            for lg in robot.legs
+        ]
+        self.act_idx = np.array(
+            [[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in row] for row in an]
+        )
         self.free_qpos = int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "root")])
         self.free_dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "root")])
         robot_bodies = {b for b in range(m.nbody) if m.body_rootid[b] == self.body_id}
@@ -141,7 +151,9 @@ class World:
             g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, kn)
             if g >= 0:
                 self.leg_of_knee_geom[g] = i
-        self.geom_names = [name(mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)]
+        self.geom_names = [
+            mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)
+        ]
         self.is_obstacle_geom = np.array([n.startswith("terrain_obstacle_") for n in self.geom_names])
         self.pushes: list[Push] = []
         self._jac = np.zeros((3, m.nv))

@@ -58,9 +58,24 @@ def test_run_writes_report_and_exit_codes(tmp_path, capsys) -> None:
     out = tmp_path / "out.json"
     assert main(["run", "stand", "--duration", "2", "--push", "1.0:0,150,0:0.1", "--report", str(out)]) == 0
     rep = json.loads(out.read_text())
-    for key in ("maneuver", "mode", "terrain", "duration_s", "success", "fell", "fall_time_s", "failure_reason",
-                "final_pose_error", "touchdowns", "foot_placement_error_m", "no_step_touchdowns",
-                "body_collisions", "velocity_tracking_rms", "solver", "timing"):
+    for key in (
+        "maneuver",
+        "mode",
+        "terrain",
+        "duration_s",
+        "success",
+        "fell",
+        "fall_time_s",
+        "failure_reason",
+        "final_pose_error",
+        "touchdowns",
+        "foot_placement_error_m",
+        "no_step_touchdowns",
+        "body_collisions",
+        "velocity_tracking_rms",
+        "solver",
+        "timing",
+    ):
         assert key in rep, key
     assert rep["success"] is True
     assert main(["run", "stand", "--duration", "2", "--push", "0.5:0,3000,0:0.1"]) == 1

@@ -92,7 +92,9 @@ def test_broken_description_names_the_missing_joint(tmp_path) -> None:
     src = (SPOT.mjcf_path.parent / "spot.yaml").read_text().replace("FL_hy", "FL_hip_pitch", 1)
     (tmp_path / "spot.xml").write_text(SPOT.mjcf_xml)
     (tmp_path / "broken.yaml").write_text(src)
-    with pytest.raises(RobotDescriptionError, match=r"legs\.FL\.joints: joint 'FL_hip_pitch' is not in spot\.xml"):
+    with pytest.raises(
+        RobotDescriptionError, match=r"legs\.FL\.joints: joint 'FL_hip_pitch' is not in spot\.xml"
+    ):
         load_robot(tmp_path / "broken.yaml")
 
 

@@ -1,0 +1,139 @@
+"""The contact schedule of a problem on its grid: per interval and leg, is the foot down, optional, or in the air.
+
+Timing adjustment is a convex relaxation on the grid. Each interval/leg has a contact variable c in [0, 1] with
+c·fz_min <= f_n <= c·fz_max. Outside any timing window c is fixed (0 swing, 1 stance). Inside a touchdown window
+(earliest .. latest touchdown, knots on both edges and at the nominal time) c is free but non-decreasing; inside a
+liftoff window free but non-increasing. The foot's place during a window is known (the touchdown's place, itself a
+decision variable), so loading it early or late is physically meaningful. A linear cost on c charges each interval
+of early contact (or missing contact after the nominal time) 2·w·|t_mid − t_nominal|·dt, which sums to w·Δt² for a
+shift Δt: a quadratic penalty on the timing shift, exact on the grid.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from planning.centroidal.problem import LEG_NAMES, N_LEGS, CentroidalProblem, ContactPhase, polygon_halfplanes
+
+
+@dataclass
+class Slot:
+    """One contact phase inside the horizon, with its foothold decision variable."""
+
+    phase: ContactPhase
+    planted: bool  # down already at t_0: its place and touchdown time are fixed
+    box: float  # |dx|, |dy| <= box (m); 0 when the place is fixed
+    poly_a: np.ndarray  # (M,2) half-planes on the shift d: poly_a d <= poly_b
+    poly_b: np.ndarray  # (M,)
+    td_window: tuple[int, int]  # interval range [k0, k1) of the touchdown window (empty when none)
+    lo_window: tuple[int, int]
+
+
+@dataclass
+class ContactSchedule:
+    """Per interval (N) and leg: contact bounds, costs and the foothold slot; per knot (K) the slot of the foot."""
+
+    c_lo: np.ndarray  # (N,4)
+    c_hi: np.ndarray  # (N,4)
+    q_c: np.ndarray  # (N,4) linear cost on c (already × touchdown_time weight)
+    slot: np.ndarray  # (N,4) int, -1: no foot
+    mono: np.ndarray  # (N-1,4) int: +1 c non-decreasing k→k+1, -1 non-increasing, 0 free
+    knot_slot: np.ndarray  # (K,4) int: the foot constraining leg i at knot k (-1: none)
+    stance_knot: np.ndarray  # (K,4) bool: surely in stance at knot k (hip-over-foot cost)
+    slots: list[list[Slot]]  # per leg
+
+
+def _octagon(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    ang = np.arange(8) * (np.pi / 4.0) + np.pi / 8.0
+    a = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    return a, np.full(8, radius * math.cos(np.pi / 8.0))
+
+
+def build_schedule(
+    problem: CentroidalProblem, max_slots: int, max_edges: int, timing: bool = True
+) -> ContactSchedule | str:
+    """Returns the schedule of the problem's phases on its grid, or a message when it does not fit the solver."""
+    t = problem.t_knots
+    N = t.size - 1
+    t0, tN = t[0], t[-1]
+    tm = 0.5 * (t[:-1] + t[1:])
+    dt = np.diff(t)
+    w_t = problem.weights.touchdown_time
+    c_lo = np.zeros((N, N_LEGS))
+    c_hi = np.zeros((N, N_LEGS))
+    q_c = np.zeros((N, N_LEGS))
+    slot = np.full((N, N_LEGS), -1, dtype=np.int64)
+    mono = np.zeros((max(N - 1, 0), N_LEGS), dtype=np.int64)
+    slots: list[list[Slot]] = [[] for _ in range(N_LEGS)]
+    phases = sorted(problem.phases, key=lambda p: (p.leg, p.t_touchdown))
+    for ph in phases:
+        e1, l1 = ph.touchdown_window_s if timing else (0.0, 0.0)
+        e2, l2 = ph.liftoff_window_s if timing else (0.0, 0.0)
+        planted = ph.t_touchdown <= t0 + 1e-9
+        if planted:
+            e1 = l1 = 0.0
+        start = ph.t_touchdown - e1
+        end = ph.t_liftoff + l2
+        if end <= t0 + 1e-9 or start >= tN - 1e-9:
+            continue
+        leg = ph.leg
+        s = len(slots[leg])
+        if s >= max_slots:
+            return (
+                f"phases: leg {LEG_NAMES[leg]} has more than {max_slots} contact phases in the horizon "
+                f"(raise CentroidalParams.max_phases_per_leg or shorten the horizon)"
+            )
+        td_lo, td_hi = ph.t_touchdown - e1, ph.t_touchdown + l1
+        lo_lo, lo_hi = ph.t_liftoff - e2, ph.t_liftoff + l2
+        in_td = (tm >= td_lo) & (tm < td_hi) & (l1 + e1 > 0.0)
+        in_lo = (tm >= lo_lo) & (tm < lo_hi) & (l2 + e2 > 0.0)
+        sure = (tm >= td_hi) & (tm < lo_lo) if (l1 + e1 > 0.0) else (tm >= ph.t_touchdown) & (tm < lo_lo)
+        if not (l2 + e2 > 0.0):
+            sure = sure & (tm < ph.t_liftoff)
+        any_c = in_td | in_lo | sure
+        if (slot[any_c, leg] >= 0).any():
+            return f"phases: leg {LEG_NAMES[leg]} has overlapping contact phases at {ph.t_touchdown:.3f} s"
+        slot[any_c, leg] = s
+        c_lo[sure, leg] = 1.0
+        c_hi[any_c, leg] = 1.0
+        # Timing costs: touchdown early (c = 1 before nominal) or late (c = 0 after nominal); liftoff likewise.
+        dev = 2.0 * w_t * np.abs(tm - ph.t_touchdown) * dt
+        q_c[in_td & (tm < ph.t_touchdown), leg] += dev[in_td & (tm < ph.t_touchdown)]
+        q_c[in_td & (tm >= ph.t_touchdown), leg] -= dev[in_td & (tm >= ph.t_touchdown)]
+        dev = 2.0 * w_t * np.abs(tm - ph.t_liftoff) * dt
+        q_c[in_lo & (tm < ph.t_liftoff), leg] -= dev[in_lo & (tm < ph.t_liftoff)]
+        q_c[in_lo & (tm >= ph.t_liftoff), leg] += dev[in_lo & (tm >= ph.t_liftoff)]
+        if N > 1:
+            mono[in_td[:-1] & in_td[1:], leg] = 1
+            mono[in_lo[:-1] & in_lo[1:], leg] = -1
+        # Foothold shift set.
+        if planted or not ph.adjustable_place:
+            box, pa, pb = 0.0, np.zeros((0, 2)), np.zeros(0)
+        elif ph.region_xy is not None:
+            pa, pb = polygon_halfplanes(ph.region_xy)
+            pb = pb - pa @ ph.p_world_foot[:2]
+            box = ph.adjust_radius_m if ph.adjust_radius_m > 0.0 else 1.0
+        else:
+            pa, pb = _octagon(ph.adjust_radius_m)
+            box = ph.adjust_radius_m
+        if pa.shape[0] > max_edges:
+            return (
+                f"phases ({LEG_NAMES[leg]} at {ph.t_touchdown:.3f} s).region_xy: {pa.shape[0]} edges, "
+                f"the solver takes at most {max_edges}"
+            )
+        idx = np.nonzero(in_td)[0]
+        td_w = (int(idx[0]), int(idx[-1]) + 1) if idx.size else (0, 0)
+        idx = np.nonzero(in_lo)[0]
+        lo_w = (int(idx[0]), int(idx[-1]) + 1) if idx.size else (0, 0)
+        slots[leg].append(Slot(ph, planted, box, pa, pb, td_w, lo_w))
+    K = N + 1
+    knot_slot = np.full((K, N_LEGS), -1, dtype=np.int64)
+    knot_slot[1:] = slot  # the foot of the interval that ends at the knot ...
+    knot_slot[:-1] = np.where(slot >= 0, slot, knot_slot[:-1])  # ... unless one starts there
+    stance_knot = np.zeros((K, N_LEGS), dtype=bool)
+    stance_knot[:-1] |= c_lo > 0.5
+    stance_knot[1:] |= c_lo > 0.5
+    return ContactSchedule(c_lo, c_hi, q_c, slot, mono, knot_slot, stance_knot, slots)

@@ -1,0 +1,67 @@
+"""The perception stage: depth scan → voxel map → 2D maps, at its own (slower) rate.
+
+``Perception.update(data)`` scans when a new scan is due (every 1/rate_hz of sim time) and returns the maps of the
+moment (the previous ones when no scan was due), so the step planner can call it every tick.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from planning.terrain.maps import MapParams, TerrainMaps, build_maps
+from planning.terrain.sensor import DepthSensor, PointCloud, SensorParams
+from planning.terrain.voxels import VoxelMap, VoxelParams
+
+
+@dataclass(frozen=True)
+class PerceptionParams:
+    """Perception. body_height_m: height of the sensor body above its ground, to place the map vertically (m)."""
+
+    sensor: SensorParams = field(default_factory=SensorParams)
+    voxels: VoxelParams = field(default_factory=VoxelParams)
+    maps: MapParams = field(default_factory=MapParams)
+    body_height_m: float = 0.52
+
+
+class Perception:
+    """Holds the sensor, the voxel map and the last maps; `update` every tick, it scans at sensor.rate_hz."""
+
+    def __init__(self, model: mujoco.MjModel, body: str | int, params: PerceptionParams | None = None) -> None:
+        self.params = params or PerceptionParams()
+        self.sensor = DepthSensor(model, body, self.params.sensor)
+        self.voxels = VoxelMap(self.params.voxels)
+        self.maps: TerrainMaps | None = None
+        self.last_cloud: PointCloud | None = None
+        self._t_next = -np.inf
+        self.timings_ms: list[float] = []
+
+    def ground_under_body(self, data: mujoco.MjData) -> float:
+        """Gives the ground height (m) under the body: from the last maps, else from the body height."""
+        p_body = data.xpos[self.sensor.body_id]
+        if self.maps is not None and bool(self.maps.in_map(p_body[0], p_body[1])):
+            return float(self.maps.height_at(p_body[0], p_body[1]))
+        return float(p_body[2] - self.params.body_height_m)
+
+    def scan_now(self, data: mujoco.MjData) -> TerrainMaps:
+        """Scans, integrates and rebuilds the maps now; gives them."""
+        t0 = time.perf_counter()
+        cloud = self.sensor.scan(data)
+        p_body = data.xpos[self.sensor.body_id]
+        ground_z = float(p_body[2] - self.params.body_height_m)
+        self.voxels.integrate(cloud, (float(p_body[0]), float(p_body[1])), ground_z)
+        columns = self.voxels.classify()
+        self.maps = build_maps(columns, self.params.maps, default_ground_z=ground_z, t_s=float(data.time))
+        self.last_cloud = cloud
+        self.timings_ms.append((time.perf_counter() - t0) * 1e3)
+        return self.maps
+
+    def update(self, data: mujoco.MjData) -> TerrainMaps:
+        """Gives the maps of the moment, scanning first when a scan is due."""
+        if self.maps is None or data.time >= self._t_next:
+            self._t_next = float(data.time) + 1.0 / self.params.sensor.rate_hz
+            return self.scan_now(data)
+        return self.maps
