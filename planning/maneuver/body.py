@@ -28,9 +28,8 @@ def _slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     h0, h1, d0, d1 = h[:-1], h[1:], d[:-1], d[1:]
     w0, w1 = 2.0 * h1 + h0, h1 + 2.0 * h0
     same = d0 * d1 > 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        hm = (w0 + w1) / (w0 / d0 + w1 / d1)
-    m[1:-1] = np.where(same, hm, 0.0)
+    den = w0 * d1 + w1 * d0  # same sign as the secants where they agree, so never 0 there
+    m[1:-1] = np.where(same, (w0 + w1) * d0 * d1 / np.where(same, den, 1.0), 0.0)
     return m
 
 

@@ -313,10 +313,13 @@ def potential_step_paths(
     """Returns up to n potential step paths (reference first), infeasible ones dropped (see the module docstring).
 
     If no candidate is feasible, all n are returned with ``violation`` > 0 so that selection can rank them.
+    A reference without touchdowns (standing) is returned alone.
     """
     if n < 2:
         raise ValueError(f"n: need at least 2 potential step paths, got {n}")
     p = params or PotentialParams()
+    if reference.n_touchdowns == 0:
+        return [reference]  # standing: nothing to vary
     oct_ = Octagon.of(robot, p.constraints)
     omega = state_omega(state, robot.standing_height_m)
     fam = _generate(reference, state, robot, oct_, n, p, omega)

@@ -252,16 +252,22 @@ def build_maps(
     h_low = ndimage.minimum_filter(h, size=size(p.low_radius_m), mode="nearest")
     h_ref = ndimage.maximum_filter(h, size=size(p.body_ref_radius_m), mode="nearest")
     lo, hi = p.body_band_m
-    body = (_count_between(cum, z0, dz, h + lo, h + hi) > 0) | (_count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0)
+    body = (_count_between(cum, z0, dz, h + lo, h + hi) > 0) | (
+        _count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0
+    )
     body |= h - h_low > p.body_step_m
     body = _remove_specks(body, p.speck_cells)
     if p.close_cells > 0 and body.any():
         st = _disk(p.close_cells)
         padded = np.pad(body, p.close_cells, mode="edge")
-        body = ndimage.binary_closing(padded, structure=st)[p.close_cells : -p.close_cells, p.close_cells : -p.close_cells]
+        body = ndimage.binary_closing(padded, structure=st)[
+            p.close_cells : -p.close_cells, p.close_cells : -p.close_cells
+        ]
 
     fp = _disk(p.edge_radius_m / res)
-    spread = ndimage.maximum_filter(h, footprint=fp, mode="nearest") - ndimage.minimum_filter(h, footprint=fp, mode="nearest")
+    spread = ndimage.maximum_filter(h, footprint=fp, mode="nearest") - ndimage.minimum_filter(
+        h, footprint=fp, mode="nearest"
+    )
     step = spread > p.edge_height_m
     step |= h - h_low > p.max_step_height_m
     step |= _count_between(cum, z0, dz, h + p.leg_band_m[0], h + p.leg_band_m[1]) > 0

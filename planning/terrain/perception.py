@@ -30,7 +30,9 @@ class PerceptionParams:
 class Perception:
     """Holds the sensor, the voxel map and the last maps; `update` every tick, it scans at sensor.rate_hz."""
 
-    def __init__(self, model: mujoco.MjModel, body: str | int, params: PerceptionParams | None = None) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, body: str | int, params: PerceptionParams | None = None
+    ) -> None:
         self.params = params or PerceptionParams()
         self.sensor = DepthSensor(model, body, self.params.sensor)
         self.voxels = VoxelMap(self.params.voxels)

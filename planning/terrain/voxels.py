@@ -11,7 +11,7 @@ The lowest supported voxel of a column is *ground*; other occupied voxels are *o
 above the column's ground, *other* above that (well over the robot). Columns reduce to a ``Columns`` summary (ground
 height and a 3D obstacle occupancy) that maps.py turns into 2D maps.
 
-Index convention: arrays are [ix, iy, iz]; cell (ix, iy) has its center at origin_xy + (ix, iy) * resolution; layer iz
+Index convention: the maps' arrays are [ix, iy] / [ix, iy, iz]; cell (ix, iy) has its center at origin_xy + (ix, iy) * resolution; layer iz
 has its center at z0 + iz * resolution, with z0 chosen so that z = 0 is a layer center.
 """
 
@@ -70,7 +70,11 @@ class Columns:
 
 
 class VoxelMap:
-    """The rolling voxel map; `integrate` a cloud per scan, then `columns()` for the maps."""
+    """The rolling voxel map; `integrate` a cloud per scan, then `classify()` for the maps.
+
+    Statistics are stored as [iz, ix, iy] (z-major, so a layer is contiguous) and scaled by a running weight instead
+    of being decayed in place: scan n adds weight decay**-n, and thresholds are scaled by the same weight.
+    """
 
     def __init__(self, params: VoxelParams | None = None, center_xy: tuple[float, float] = (0.0, 0.0),
                  ground_z_m: float = 0.0) -> None:  # fmt: skip
@@ -78,15 +82,12 @@ class VoxelMap:
         self.res = p.resolution_m
         self.n_xy = int(round(2 * p.half_extent_m / self.res)) | 1  # odd, so the robot sits on a center cell
         self.n_z = int(round((p.z_below_m + p.z_above_m) / self.res))
-        shape = (self.n_xy, self.n_xy, self.n_z)
+        shape = (self.n_z, self.n_xy, self.n_xy)
         self.hits = np.zeros(shape, np.float32)
         self.misses = np.zeros(shape, np.float32)
         self.sum_z = np.zeros(shape, np.float32)
-        self.labels = np.zeros(shape, np.uint8)
-        self._ix0 = 0  # integer cell index of cell 0 in the world lattice x = ix * res
-        self._iy0 = 0
-        self._iz0 = 0
-        self._place(center_xy, ground_z_m)
+        self._weight = 1.0  # weight of the latest scan (decay**-n)
+        self._ix0, self._iy0, self._iz0 = self._lattice(center_xy, ground_z_m)
         self.n_points = 0
 
     # -- geometry -----------------------------------------------------------------------------------------------
@@ -106,9 +107,6 @@ class VoxelMap:
         iz0 = int(round((ground_z - self.params.z_below_m) / self.res))
         return ix0, iy0, iz0
 
-    def _place(self, center_xy: tuple[float, float], ground_z: float) -> None:
-        self._ix0, self._iy0, self._iz0 = self._lattice(center_xy, ground_z)
-
     def recenter(self, center_xy: tuple[float, float], ground_z: float) -> bool:
         """Shifts the map (whole cells) when the robot has moved recenter_m from its center; True if it shifted."""
         half = self.n_xy // 2
@@ -119,97 +117,115 @@ class VoxelMap:
         if abs(center_xy[0] - cx) < r and abs(center_xy[1] - cy) < r and abs(ground_z - cz) < r:
             return False
         ix0, iy0, iz0 = self._lattice(center_xy, ground_z)
-        shift = (self._ix0 - ix0, self._iy0 - iy0, self._iz0 - iz0)
+        shift = (self._iz0 - iz0, self._ix0 - ix0, self._iy0 - iy0)
         for a in (self.hits, self.misses, self.sum_z):
             _shift_clear(a, shift)
         self._ix0, self._iy0, self._iz0 = ix0, iy0, iz0
         return True
 
     def _flat_index(self, p: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-        ijk = np.rint(p / self.res).astype(np.intp)
-        ijk[:, 0] -= self._ix0
-        ijk[:, 1] -= self._iy0
-        ijk[:, 2] -= self._iz0
-        ok = (
-            (ijk[:, 0] >= 0) & (ijk[:, 0] < self.n_xy) & (ijk[:, 1] >= 0) & (ijk[:, 1] < self.n_xy)
-            & (ijk[:, 2] >= 0) & (ijk[:, 2] < self.n_z)
-        )  # fmt: skip
-        ijk = ijk[ok]
-        flat = (ijk[:, 0] * self.n_xy + ijk[:, 1]) * self.n_z + ijk[:, 2]
+        ijk = np.rint(p * (1.0 / self.res)).astype(np.intp)
+        ix = ijk[:, 0] - self._ix0
+        iy = ijk[:, 1] - self._iy0
+        iz = ijk[:, 2] - self._iz0
+        n, nz = self.n_xy, self.n_z
+        ok = (ix >= 0) & (ix < n) & (iy >= 0) & (iy < n) & (iz >= 0) & (iz < nz)
+        flat = (iz[ok] * n + ix[ok]) * n + iy[ok]
         return flat, ok
 
     # -- integration --------------------------------------------------------------------------------------------
 
     def integrate(self, cloud: PointCloud, center_xy: tuple[float, float], ground_z: float) -> None:
-        """Adds one scan: decays the statistics, adds hits and carves free space along (a share of) the rays."""
+        """Adds one scan: hits at the points, misses along (a share of) the rays up to carve_margin of the hits."""
         p = self.params
         self.recenter(center_xy, ground_z)
-        self.hits *= p.decay
-        self.misses *= p.decay
-        self.sum_z *= p.decay
-        n_vox = self.hits.size
+        self._weight /= p.decay
+        if self._weight > 1e6:  # renormalize before float32 loses the small counts
+            for a in (self.hits, self.misses, self.sum_z):
+                a /= self._weight
+            self._weight = 1.0
+        w = np.float32(self._weight)
         pts = cloud.p_world_points
         self.n_points = pts.shape[0]
         flat, ok = self._flat_index(pts)
-        self.hits.reshape(-1)[:] += np.bincount(flat, minlength=n_vox).astype(np.float32)
-        self.sum_z.reshape(-1)[:] += np.bincount(flat, weights=pts[ok, 2], minlength=n_vox).astype(np.float32)
+        np.add.at(self.hits.reshape(-1), flat, w)
+        np.add.at(self.sum_z.reshape(-1), flat, (w * pts[ok, 2]).astype(np.float32))
         # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
         o = cloud.p_world_origins[:: p.carve_every]
         d = pts[:: p.carve_every] - o
         length = np.linalg.norm(d, axis=1)
         u = d / np.maximum(length, 1e-9)[:, None]
-        stop = length - p.carve_margin_m
-        n_s = int(np.ceil(max(float(stop.max(initial=0.0)), 0.0) / self.res))
-        if n_s > 0:
-            t = (np.arange(n_s) + 0.5) * self.res
-            keep = t[None, :] < stop[:, None]
-            ray_idx, s_idx = np.nonzero(keep)
-            samples = o[ray_idx] + u[ray_idx] * t[s_idx, None]
+        n_k = np.maximum(np.floor((length - p.carve_margin_m) / self.res - 0.5).astype(np.intp) + 1, 0)
+        total = int(n_k.sum())
+        if total > 0:
+            ray = np.repeat(np.arange(n_k.shape[0]), n_k)
+            first = np.repeat(np.cumsum(n_k) - n_k, n_k)
+            t = (np.arange(total) - first + 0.5) * self.res
+            samples = o[ray] + u[ray] * t[:, None]
             flat_f, _ = self._flat_index(samples)
-            self.misses.reshape(-1)[:] += np.bincount(flat_f, minlength=n_vox).astype(np.float32)
+            np.add.at(self.misses.reshape(-1), flat_f, w)
 
     # -- classification -----------------------------------------------------------------------------------------
 
-    def classify(self) -> Columns:
-        """Labels every voxel (self.labels: 0 unknown/free, GROUND, OBSTACLE, OTHER) and gives the column summary."""
+    def _occupancy(self) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         p = self.params
-        occ = (self.hits >= p.min_hits) & (self.hits >= p.hit_miss_ratio * self.misses)
-        free = ~occ & (self.misses >= p.min_misses)
-        nx, ny, nz = occ.shape
+        w = np.float32(self._weight)
+        occ = (self.hits >= p.min_hits * w) & (self.hits >= p.hit_miss_ratio * self.misses)
+        free = ~occ & (self.misses >= p.min_misses * w)
+        return occ, free
+
+    def classify(self) -> Columns:
+        """Gives the column summary: ground heights and obstacle occupancy (every occupied non-ground voxel)."""
+        occ, free = self._occupancy()
+        ground_z, k_ground, has_ground, thin = self._ground(occ, free)
+        obstacle = occ.copy()
+        ii, jj = np.nonzero(has_ground)
+        kg = k_ground[ii, jj]
+        obstacle[kg, ii, jj] = False
+        th = thin[ii, jj]
+        obstacle[kg[th] + 1, ii[th], jj[th]] = False
+        return Columns(self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res)
+
+    def _ground(
+        self, occ: NDArray[np.bool_], free: NDArray[np.bool_]
+    ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_], NDArray[np.bool_]]:
+        nz = occ.shape[0]
         supported = np.zeros_like(occ)
-        s = np.ones((nx, ny), dtype=bool)
+        s = np.ones(occ.shape[1:], dtype=bool)
         for k in range(nz):
-            o_k = occ[:, :, k]
+            o_k = occ[k]
             sup_k = o_k & s
-            supported[:, :, k] = sup_k
-            s = np.where(o_k, sup_k, s & ~free[:, :, k])
-        has_ground = supported.any(axis=2)
-        k_ground = np.argmax(supported, axis=2)
+            supported[k] = sup_k
+            s = np.where(o_k, sup_k, s & ~free[k])
+        has_ground = supported.any(axis=0)
+        k_ground = np.argmax(supported, axis=0)
         # Ground height: mean z of the points in the ground voxel and, for a thin surface, the one above it.
-        kk = k_ground[:, :, None]
-        h0 = np.take_along_axis(self.hits, kk, 2)[:, :, 0]
-        z0s = np.take_along_axis(self.sum_z, kk, 2)[:, :, 0]
+        kk = k_ground[None]
         k1 = np.minimum(kk + 1, nz - 1)
         k2 = np.minimum(kk + 2, nz - 1)
-        thin = np.take_along_axis(supported, k1, 2)[:, :, 0] & ~np.take_along_axis(supported, k2, 2)[:, :, 0]
-        h1 = np.where(thin, np.take_along_axis(self.hits, k1, 2)[:, :, 0], 0.0)
-        z1s = np.where(thin, np.take_along_axis(self.sum_z, k1, 2)[:, :, 0], 0.0)
-        ground_z = np.where(has_ground, (z0s + z1s) / np.maximum(h0 + h1, 1e-6), np.nan)
-        # Labels.
-        layer = np.arange(nz)[None, None, :]
-        is_ground = (layer == kk) & has_ground[:, :, None]
-        if_thin = thin & has_ground
-        is_ground |= (layer == kk + 1) & if_thin[:, :, None]
-        above = (layer - kk) * self.res
-        ref_known = has_ground[:, :, None]
-        obstacle = occ & ~is_ground & (~ref_known | (above <= p.obstacle_top_m))
-        other = occ & ~is_ground & ~obstacle
-        labels = self.labels
-        labels.fill(0)
+        thin = (np.take_along_axis(supported, k1, 0) & ~np.take_along_axis(supported, k2, 0))[0] & has_ground
+        thin &= k_ground + 1 < nz
+        h0 = np.take_along_axis(self.hits, kk, 0)[0]
+        z0s = np.take_along_axis(self.sum_z, kk, 0)[0]
+        h1 = np.where(thin, np.take_along_axis(self.hits, k1, 0)[0], 0.0)
+        z1s = np.where(thin, np.take_along_axis(self.sum_z, k1, 0)[0], 0.0)
+        ground_z = np.where(has_ground, (z0s + z1s) / np.maximum(h0 + h1, 1e-12), np.nan).astype(np.float64)
+        return ground_z, k_ground, has_ground, thin
+
+    def labels(self) -> NDArray[np.uint8]:
+        """Gives every voxel's class, (nx, ny, nz): 0 free or unknown, GROUND, OBSTACLE, OTHER (for views, tests)."""
+        p = self.params
+        occ, free = self._occupancy()
+        _, k_ground, has_ground, thin = self._ground(occ, free)
+        layer = np.arange(occ.shape[0])[:, None, None]
+        kk = k_ground[None]
+        is_ground = ((layer == kk) | ((layer == kk + 1) & thin[None])) & has_ground[None]
+        high = ((layer - kk) * self.res > p.obstacle_top_m) & has_ground[None]
+        labels = np.zeros(occ.shape, np.uint8)
+        labels[occ] = OBSTACLE
+        labels[occ & high] = OTHER
         labels[is_ground] = GROUND
-        labels[obstacle] = OBSTACLE
-        labels[other] = OTHER
-        return Columns(self.origin_xy, self.res, ground_z.astype(np.float64), obstacle, self.z0, self.res)
+        return np.moveaxis(labels, 0, -1)
 
 
 def _shift_clear(a: NDArray[np.float32], shift: tuple[int, int, int]) -> None:

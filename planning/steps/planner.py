@@ -1,0 +1,109 @@
+"""StepPlanner: the one stateful object of step planning (steering filter, gait clock, weights), ticked ≥ 100 Hz."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from planning.steps.gait import Gait, GaitClock, get_gait
+from planning.steps.lip import capture_point, project_to_support, state_omega
+from planning.steps.potential import PotentialParams, potential_step_paths
+from planning.steps.reference import ReferenceParams, reference_step_path
+from planning.steps.select import Selection, SelectionParams, WeightPresets, Weights, select_step_path
+from planning.steps.state import SteeringCommand, StepMaps, StepRobot, WalkState
+from planning.steps.steering import SteeringFilter, SteeringParams
+
+
+@dataclass(frozen=True)
+class StepPlannerParams:
+    """Composed stage parameters. n_candidates: potential paths per replan. walk_gait: gait used to start
+    walking from a stand. start_speed_mps: command magnitude (m/s, rad/s) above which a stand starts walking.
+    push_margin_m: a standing robot whose capture point leaves its support polygon by more than this (m) starts
+    stepping."""
+
+    steering: SteeringParams = field(default_factory=SteeringParams)
+    reference: ReferenceParams = field(default_factory=ReferenceParams)
+    potential: PotentialParams = field(default_factory=PotentialParams)
+    selection: SelectionParams = field(default_factory=SelectionParams)
+    n_candidates: int = 25
+    walk_gait: str = "trot"
+    start_speed_mps: float = 0.05
+    push_margin_m: float = 0.03
+
+
+class StepPlanner:
+    """Turns a steering command and the measured state into a selected step path, every tick.
+
+    State it holds: the filtered command, the gait clock, the current weights, the last selection.
+    """
+
+    def __init__(self, robot: StepRobot, params: StepPlannerParams | None = None, t0: float = 0.0,
+                 gait: Gait | str = "stand", weights: Weights | str = "default") -> None:
+        self.robot = robot
+        self.params = params or StepPlannerParams()
+        self.steering = SteeringFilter(self.params.steering)
+        self.clock = GaitClock(gait, t0=t0)
+        self.weights = weights if isinstance(weights, Weights) else WeightPresets.get(weights)
+        self.walk_gait: Gait = get_gait(self.params.walk_gait)
+        self.last: Selection | None = None
+        self._t_last = t0
+        self._stopped = False
+
+    def set_gait(self, gait: Gait | str) -> None:
+        """Switches gait (at the clock's next safe boundary); "stand" stops."""
+        g = get_gait(gait)
+        if g.is_stand:
+            self.stop()
+            return
+        self.walk_gait = g
+        self._stopped = False
+        self.clock.request(g)
+
+    def stop(self) -> None:
+        """Comes to a stable stand: feet in the air finish their swing, no new liftoffs; commands are ignored
+        until set_gait is called (a push that moves the capture point out of the support still makes it step)."""
+        self._stopped = True
+        self.clock.request("stand")
+
+    def set_weights(self, weights: Weights | str) -> None:
+        """Sets Qp, Qr (a Weights or a preset name); takes effect at the next tick."""
+        self.weights = weights if isinstance(weights, Weights) else WeightPresets.get(weights)
+
+    def pushed_out_of_support(self, state: WalkState) -> bool:
+        """Returns True when the capture point lies outside the stance feet's support polygon by the margin."""
+        if not state.contact.any():
+            return False
+        z = float(state.p_world_com[2]) - state.ground_z()
+        xi = capture_point(state.p_world_com, state.v_world_com, z if z > 0.05 else self.robot.standing_height_m)
+        q = project_to_support(xi[None], state.p_world_feet[None, :, :2], state.contact[None])[0]
+        return bool(np.linalg.norm(xi - q) > self.params.push_margin_m)
+
+    def tick(self, cmd: SteeringCommand, state: WalkState, maps: StepMaps | None = None) -> Selection:
+        """Returns the selected step path for this tick (its next touchdowns are the contact schedule)."""
+        dt = max(state.t - self._t_last, 0.0)
+        self._t_last = state.t
+        if self.clock.gait.is_stand and self.clock.pending is None:
+            wants_walk = not self._stopped and max(abs(cmd.vx), abs(cmd.vy), abs(cmd.yaw_rate)) > (
+                self.params.start_speed_mps
+            )
+            if wants_walk or self.pushed_out_of_support(state):
+                self.clock.request(self.walk_gait)
+        self.clock.advance(state.t)
+        target_gait = self.clock.pending or self.clock.gait
+        filtered = self.steering.update(cmd if not self._stopped else SteeringCommand(), dt, target_gait)
+        reference = reference_step_path(
+            filtered,
+            state,
+            self.robot,
+            self.clock.gait,
+            self.clock,
+            state.t,
+            ground_height=None if maps is None else maps.ground_height,
+            params=self.params.reference,
+        )
+        candidates = potential_step_paths(reference, state, self.robot, maps, self.params.n_candidates,
+                                          self.params.potential)
+        omega = state_omega(state, self.robot.standing_height_m)
+        self.last = select_step_path(reference, candidates, state, self.weights, omega, self.params.selection)
+        return self.last

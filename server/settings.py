@@ -1,0 +1,155 @@
+"""One settings object for the service and the studio, read from the environment (and the command line).
+
+Environment variables (all optional):
+
+| variable | default | meaning |
+| --- | --- | --- |
+| ``FOOTFALL_HOST`` | ``127.0.0.1`` | address the REST API binds to |
+| ``FOOTFALL_PORT`` | ``8000`` | REST API port |
+| ``FOOTFALL_VIEWER_PORT`` | ``8080`` | studio (viser) port |
+| ``FOOTFALL_DATA_DIR`` | ``$XDG_DATA_HOME/footfall`` or ``~/.local/share/footfall`` | user maneuvers live in ``<dir>/maneuvers`` |
+| ``FOOTFALL_API_TOKEN`` | unset | token required in ``X-Footfall-Token`` (or ``Authorization: Bearer``) for writes |
+| ``FOOTFALL_ALLOW_OPEN`` | ``0`` | ``1``: accept writes without a token even when bound beyond loopback |
+| ``FOOTFALL_MAX_SESSIONS`` | ``4`` | live simulated robots at once (each needs a share of a core) |
+| ``FOOTFALL_SESSION_IDLE_S`` | ``600`` | a session nobody touched for this long is ended, s |
+| ``FOOTFALL_SIM_WORKERS`` | ``1`` | worker processes for queued headless simulations |
+| ``FOOTFALL_MAX_QUEUED`` | ``16`` | simulations waiting at once; more are refused with 429 |
+| ``FOOTFALL_MAX_BODY_BYTES`` | ``262144`` | largest request body, bytes |
+| ``FOOTFALL_ROBOT`` | ``spot`` | robot description the sessions and validation use |
+| ``FOOTFALL_STUDIO`` | ``1`` | ``0``: REST API only, no viser studio |
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import ipaddress
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+LOOPBACK_NAMES = frozenset({"localhost", "ip6-localhost"})
+
+
+class SettingsError(ValueError):
+    """A setting from the environment or the command line that cannot be used; the message names it."""
+
+
+def default_data_dir(env: Mapping[str, str] | None = None) -> Path:
+    """Returns where user data lives: $XDG_DATA_HOME/footfall, else ~/.local/share/footfall."""
+    env = os.environ if env is None else env
+    xdg = env.get("XDG_DATA_HOME")
+    base = Path(xdg) if xdg else Path.home() / ".local" / "share"
+    return base / "footfall"
+
+
+def is_loopback(host: str) -> bool:
+    """Returns True when `host` only accepts connections from this machine."""
+    if host in LOOPBACK_NAMES:
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Everything the service and the studio can be told; defaults are safe for a laptop."""
+
+    host: str = "127.0.0.1"
+    port: int = 8000
+    viewer_port: int = 8080
+    data_dir: Path = field(default_factory=default_data_dir)
+    library_dir: Path | None = None  # None: the repository's shipped maneuvers/ directory
+    api_token: str | None = None
+    allow_open: bool = False
+    robot: str = "spot"
+    studio: bool = True
+    # limits
+    max_body_bytes: int = 256 * 1024
+    max_events: int = 2000  # explicit events plus events expanded from gaits
+    max_keyframes: int = 500
+    max_pushes: int = 50
+    max_sessions: int = 4
+    session_idle_s: float = 600.0
+    reaper_period_s: float = 5.0
+    sim_workers: int = 1
+    max_queued_simulations: int = 16
+    max_kept_simulations: int = 200  # finished simulations remembered for GET /simulations/{id}
+    max_sim_duration_s: float = 120.0
+
+    @property
+    def user_dir(self) -> Path:
+        """Returns the directory of the user's maneuvers (created on first write)."""
+        return self.data_dir / "maneuvers"
+
+    @property
+    def token_required(self) -> bool:
+        """True when writes and driving need the API token: bound beyond loopback and not explicitly open."""
+        if self.api_token:
+            return True
+        return not is_loopback(self.host) and not self.allow_open
+
+    def check(self) -> Settings:
+        """Returns self when every value is usable; raises SettingsError naming the first bad one."""
+        for name in ("port", "viewer_port"):
+            v = getattr(self, name)
+            if not 0 <= v <= 65535:
+                raise SettingsError(f"{name}: {v} is not a TCP port (0..65535)")
+        positive = (
+            "max_body_bytes", "max_events", "max_keyframes", "max_sessions", "session_idle_s", "sim_workers",
+            "max_queued_simulations", "max_sim_duration_s", "reaper_period_s",
+        )  # fmt: skip
+        for name in positive:
+            if getattr(self, name) <= 0:
+                raise SettingsError(f"{name}: must be positive, got {getattr(self, name)}")
+        if self.api_token is not None and len(self.api_token) < 8:
+            raise SettingsError("FOOTFALL_API_TOKEN: must be at least 8 characters")
+        return self
+
+    def replace(self, **changes: Any) -> Settings:
+        """Returns a copy with some fields changed (None values are ignored, so CLI defaults do not override)."""
+        return dataclasses.replace(self, **{k: v for k, v in changes.items() if v is not None})
+
+    @classmethod
+    def from_env(cls, env: Mapping[str, str] | None = None, **overrides: Any) -> Settings:
+        """Returns settings from FOOTFALL_* variables, then `overrides` (e.g. from the command line) on top."""
+        env = os.environ if env is None else env
+        values: dict[str, Any] = {"data_dir": default_data_dir(env)}
+
+        def read(var: str, key: str, conv: Any) -> None:
+            raw = env.get(var)
+            if raw is None or raw == "":
+                return
+            try:
+                values[key] = conv(raw)
+            except ValueError:
+                raise SettingsError(f"{var}={raw!r}: expected {conv.__name__}") from None
+
+        def flag(raw: str) -> bool:
+            low = raw.strip().lower()
+            if low in ("1", "true", "yes", "on"):
+                return True
+            if low in ("0", "false", "no", "off"):
+                return False
+            raise ValueError(raw)
+
+        flag.__name__ = "a flag (1/0)"
+        read("FOOTFALL_HOST", "host", str)
+        read("FOOTFALL_PORT", "port", int)
+        read("FOOTFALL_VIEWER_PORT", "viewer_port", int)
+        read("FOOTFALL_DATA_DIR", "data_dir", lambda s: Path(s).expanduser())
+        read("FOOTFALL_LIBRARY_DIR", "library_dir", lambda s: Path(s).expanduser())
+        read("FOOTFALL_API_TOKEN", "api_token", str)
+        read("FOOTFALL_ALLOW_OPEN", "allow_open", flag)
+        read("FOOTFALL_ROBOT", "robot", str)
+        read("FOOTFALL_STUDIO", "studio", flag)
+        read("FOOTFALL_MAX_SESSIONS", "max_sessions", int)
+        read("FOOTFALL_SESSION_IDLE_S", "session_idle_s", float)
+        read("FOOTFALL_SIM_WORKERS", "sim_workers", int)
+        read("FOOTFALL_MAX_QUEUED", "max_queued_simulations", int)
+        read("FOOTFALL_MAX_BODY_BYTES", "max_body_bytes", int)
+        values.update({k: v for k, v in overrides.items() if v is not None})
+        return cls(**values).check()
