@@ -6,7 +6,7 @@ again at the joints. Each tick one QP picks the forces f closest to the planned 
     minimize   ½ (f - f_des)ᵀ P (f - f_des)
     subject to |τ_bias - Jᵀ f| ≤ τ_max          (per stance joint)
                f in the friction pyramid, fz_min ≤ n·f ≤ fz_max   (per stance leg)
-               f = 0                             (per swing leg)
+               f = 0                             (per swing leg: its cost block is decoupled, no rows needed)
 
 and the stance torques are τ = -Jᵀ f + τ_bias (f is the force the ground applies to the foot, so the leg pushes
 with -f). P weights normal and tangential deviations per leg and, when the foot positions are given, the change of
@@ -14,10 +14,10 @@ the net wrench about the CoM, so a leg that hits its limits hands the missing fo
 
 Guarantees, whatever the inputs: stance torques within their limits, applied forces within the pyramid (n·f ≥ 0),
 swing legs zero, no exception on values. When the QP is infeasible (the limits cannot carry fz_min) it is solved
-again with fz_min = 0 and without the torque rows of legs whose τ_bias alone exceeds their limits. Whatever the
-QP returns (or, when OSQP fails, the planned forces) is then clamped into the pyramid and scaled down per leg
-until the torques fit exactly; only when no scale fits (τ_bias beyond the limits) are the torques clipped.
-`last_status` reports which of these happened.
+again with fz_min = 0 (legs whose τ_bias alone exceeds a limit never get torque rows). The QP's answer
+(its last iterate when it did not converge; the planned forces after an infeasibility verdict) is then clamped
+into the pyramid and scaled down per leg until the torques fit exactly; only when no scale fits (τ_bias beyond
+the limits) are the torques clipped. `last_status` reports which of these happened.
 """
 
 from __future__ import annotations
@@ -40,8 +40,10 @@ from planning.forces import (
     contact_frames,
     dense_upper_csc,
     fill_wrench_matrix,
+    iterate_usable,
     pyramid_mu,
     pyramid_rows,
+    solve_with_retry,
 )
 
 _USABLE = ("solved", "solved inaccurate")
@@ -67,7 +69,8 @@ class StanceHandlerParams:
     inscribed_pyramid: bool = True  # faces at μ/√2 so the pyramid lies inside the Coulomb cone
     eps_abs: float = 1e-7  # OSQP tolerances, scaled units
     eps_rel: float = 1e-7
-    max_iter: int = 4000
+    max_iter: int = 1000  # per attempt; bounds the time of absurd inputs (~3 ms); realistic ones take 25–500
+    retry_rho: float = 1.0  # ADMM ρ of the second attempt when the first stops short
     polish: bool = False  # OSQP 1.1's polish prints to fd 1 whatever `verbose` says
 
     def __post_init__(self) -> None:
@@ -193,7 +196,7 @@ class StanceHandler:
         J = checked("J_world_leg", J_world_leg, (N_LEGS, 3, 3))
         stance = checked_mask("contact", contact)
         T = checked("tau_max_leg", tau_max_leg, (N_LEGS, 3))
-        b = self._scratch_bias(tau_bias_leg, sanitized)
+        b = self._bias(tau_bias_leg, sanitized)
         if not np.isfinite(f_des).all():
             f_des = np.nan_to_num(f_des, nan=0.0, posinf=0.0, neginf=0.0)
             sanitized.append("f_world_des")
@@ -248,28 +251,22 @@ class StanceHandler:
         self._set_bounds(b, T, stance)
 
         self._solver.update(q=self._q, l=self._l, u=self._u, Px=self._Px, Ax=self._B.ravel())
-        res = self._solver.solve(raise_error=False)
-        status, iterations = str(res.info.status), int(res.info.iter)
+        res, status, iterations = solve_with_retry(self._solver, p.retry_rho)
         relaxed_qp = False
         if status.startswith("primal infeasible"):
-            # The limits cannot carry fz_min on some leg: retry letting the normal force go to zero. Then f = 0
-            # is feasible on every leg whose bias alone fits its limits; a leg whose bias does not fit loses its
-            # torque rows here and is scaled or clipped by _fit_torques, so it cannot spoil the other legs.
+            # The limits cannot carry fz_min on some leg: retry letting the normal force go to zero. f = 0 is
+            # then feasible on every leg (legs whose bias alone breaks a limit have no torque rows).
             relaxed_qp = True
             self._l[7::_ROWS] = 0.0
-            hopeless = stance & (np.abs(b) > T).any(axis=1)
-            if hopeless.any():
-                self._l.reshape(N_LEGS, _ROWS)[hopeless, 0:3] = -OSQP_INF
-                self._u.reshape(N_LEGS, _ROWS)[hopeless, 0:3] = OSQP_INF
-            self._solver.update(l=self._l, u=self._u)
-            res = self._solver.solve(raise_error=False)
-            status, iterations = str(res.info.status), iterations + int(res.info.iter)
+            self._solver.update(l=self._l)
+            res, status, more = solve_with_retry(self._solver, p.retry_rho)
+            iterations += more
         x = res.x
-        fallback = status not in _USABLE or x is None or not np.isfinite(x).all()
-        if fallback:
-            np.copyto(self._f, f_des)
-        else:
+        fallback = status not in _USABLE
+        if iterate_usable(status, x):
             np.multiply(x.reshape(N_LEGS, 3), fs, out=self._f)
+        else:
+            np.copyto(self._f, f_des)
         if relaxed_qp:
             self._fn_lo[:] = 0.0
         clamp_to_pyramid(self._f, self._R, mu_face, self._fn_lo, self._fn_hi, self._f, self._scratch)
@@ -292,7 +289,7 @@ class StanceHandler:
 
     # ----------------------------------------------------------------------------------------------------------
 
-    def _scratch_bias(self, tau_bias_leg: np.ndarray | None, sanitized: list[str]) -> np.ndarray:
+    def _bias(self, tau_bias_leg: np.ndarray | None, sanitized: list[str]) -> np.ndarray:
         if tau_bias_leg is None:
             return self._zero_bias
         b = checked("tau_bias_leg", tau_bias_leg, (N_LEGS, 3))
@@ -311,6 +308,11 @@ class StanceHandler:
         hi = (T - b) / self._tau_scale
         l_leg[:, 0:3] = np.maximum(lo, -OSQP_INF)
         u_leg[:, 0:3] = np.minimum(hi, OSQP_INF)
+        # A leg whose bias alone breaks a limit would make the whole QP infeasible; it gets no torque rows and
+        # _fit_torques scales (or, failing that, clips) it, so it cannot spoil the other legs.
+        hopeless = (np.abs(b) > T).any(axis=1)
+        l_leg[hopeless, 0:3] = -OSQP_INF
+        u_leg[hopeless, 0:3] = OSQP_INF
         l_leg[:, 3:7] = -OSQP_INF
         u_leg[:, 3:7] = 0.0
         np.copyto(self._fn_lo, np.where(stance, p.fz_min_n, 0.0))

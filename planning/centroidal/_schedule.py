@@ -21,10 +21,11 @@ from planning.centroidal.problem import LEG_NAMES, N_LEGS, CentroidalProblem, Co
 
 @dataclass
 class Slot:
-    """One contact phase inside the horizon, with its foothold decision variable."""
+    """One contact phase inside the horizon; ``var`` is its foothold variable (-1: the place is fixed)."""
 
     phase: ContactPhase
     planted: bool  # down already at t_0: its place and touchdown time are fixed
+    var: int
     box: float  # |dx|, |dy| <= box (m); 0 when the place is fixed
     poly_a: np.ndarray  # (M,2) half-planes on the shift d: poly_a d <= poly_b
     poly_b: np.ndarray  # (M,)
@@ -43,7 +44,13 @@ class ContactSchedule:
     mono: np.ndarray  # (N-1,4) int: +1 c non-decreasing k→k+1, -1 non-increasing, 0 free
     knot_slot: np.ndarray  # (K,4) int: the foot constraining leg i at knot k (-1: none)
     stance_knot: np.ndarray  # (K,4) bool: surely in stance at knot k (hip-over-foot cost)
-    slots: list[list[Slot]]  # per leg
+    slots: list[list[Slot]]  # per leg, in time order
+    nom: np.ndarray  # (4,P,3) nominal contact point of each slot
+    nrm: np.ndarray  # (4,P,3) contact normal of each slot
+    var: np.ndarray  # (4,P) foothold variable of each slot, -1 when fixed
+    n_fixed_for_capacity: (
+        int  # adjustable touchdowns held at their nominal place (more than the solver has room for)
+    )
 
 
 def _octagon(radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -53,9 +60,12 @@ def _octagon(radius: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def build_schedule(
-    problem: CentroidalProblem, max_slots: int, max_edges: int, timing: bool = True
+    problem: CentroidalProblem, max_adjustable: int, max_edges: int, timing: bool = True
 ) -> ContactSchedule | str:
-    """Returns the schedule of the problem's phases on its grid, or a message when it does not fit the solver."""
+    """Returns the schedule of the problem's phases on its grid, or a message when it does not fit the solver.
+
+    max_adjustable: foothold variables per leg; later adjustable touchdowns beyond it keep their nominal place.
+    """
     t = problem.t_knots
     N = t.size - 1
     t0, tN = t[0], t[-1]
@@ -68,6 +78,7 @@ def build_schedule(
     slot = np.full((N, N_LEGS), -1, dtype=np.int64)
     mono = np.zeros((max(N - 1, 0), N_LEGS), dtype=np.int64)
     slots: list[list[Slot]] = [[] for _ in range(N_LEGS)]
+    n_capacity = 0
     phases = sorted(problem.phases, key=lambda p: (p.leg, p.t_touchdown))
     for ph in phases:
         e1, l1 = ph.touchdown_window_s if timing else (0.0, 0.0)
@@ -81,11 +92,6 @@ def build_schedule(
             continue
         leg = ph.leg
         s = len(slots[leg])
-        if s >= max_slots:
-            return (
-                f"phases: leg {LEG_NAMES[leg]} has more than {max_slots} contact phases in the horizon "
-                f"(raise CentroidalParams.max_phases_per_leg or shorten the horizon)"
-            )
         td_lo, td_hi = ph.t_touchdown - e1, ph.t_touchdown + l1
         lo_lo, lo_hi = ph.t_liftoff - e2, ph.t_liftoff + l2
         in_td = (tm >= td_lo) & (tm < td_hi) & (l1 + e1 > 0.0)
@@ -110,7 +116,11 @@ def build_schedule(
             mono[in_td[:-1] & in_td[1:], leg] = 1
             mono[in_lo[:-1] & in_lo[1:], leg] = -1
         # Foothold shift set.
-        if planted or not ph.adjustable_place:
+        n_var = sum(1 for x in slots[leg] if x.var >= 0)
+        var = n_var if (not planted and ph.adjustable_place and n_var < max_adjustable) else -1
+        if not planted and ph.adjustable_place and var < 0:
+            n_capacity += 1
+        if var < 0:
             box, pa, pb = 0.0, np.zeros((0, 2)), np.zeros(0)
         elif ph.region_xy is not None:
             pa, pb = polygon_halfplanes(ph.region_xy)
@@ -128,7 +138,7 @@ def build_schedule(
         td_w = (int(idx[0]), int(idx[-1]) + 1) if idx.size else (0, 0)
         idx = np.nonzero(in_lo)[0]
         lo_w = (int(idx[0]), int(idx[-1]) + 1) if idx.size else (0, 0)
-        slots[leg].append(Slot(ph, planted, box, pa, pb, td_w, lo_w))
+        slots[leg].append(Slot(ph, planted, var, box, pa, pb, td_w, lo_w))
     K = N + 1
     knot_slot = np.full((K, N_LEGS), -1, dtype=np.int64)
     knot_slot[1:] = slot  # the foot of the interval that ends at the knot ...
@@ -136,4 +146,16 @@ def build_schedule(
     stance_knot = np.zeros((K, N_LEGS), dtype=bool)
     stance_knot[:-1] |= c_lo > 0.5
     stance_knot[1:] |= c_lo > 0.5
-    return ContactSchedule(c_lo, c_hi, q_c, slot, mono, knot_slot, stance_knot, slots)
+    P = max(1, max(len(x) for x in slots))
+    nom = np.zeros((N_LEGS, P, 3))
+    nrm = np.zeros((N_LEGS, P, 3))
+    nrm[..., 2] = 1.0
+    var_idx = np.full((N_LEGS, P), -1, dtype=np.int64)
+    for i in range(N_LEGS):
+        for j, sl in enumerate(slots[i]):
+            nom[i, j] = sl.phase.p_world_foot
+            nrm[i, j] = sl.phase.normal
+            var_idx[i, j] = sl.var
+    return ContactSchedule(
+        c_lo, c_hi, q_c, slot, mono, knot_slot, stance_knot, slots, nom, nrm, var_idx, n_capacity
+    )

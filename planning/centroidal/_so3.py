@@ -48,7 +48,9 @@ def log(R: np.ndarray) -> np.ndarray:
     R = np.asarray(R, dtype=float)
     tr = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) * 0.5, -1.0, 1.0)
     theta = np.arccos(tr)
-    v = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    v = np.stack(
+        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1
+    )
     s = np.sin(theta)
     small = theta < 1e-5
     near_pi = theta > np.pi - 1e-4
@@ -84,7 +86,9 @@ def left_jacobian_inv(w: np.ndarray) -> np.ndarray:
     t2 = theta * theta
     small = theta < 1e-4
     ts = np.where(small, 1.0, theta)
-    d = np.where(small, 1.0 / 12.0 + t2 / 720.0, 1.0 / (ts * ts) - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(ts)))
+    d = np.where(
+        small, 1.0 / 12.0 + t2 / 720.0, 1.0 / (ts * ts) - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(ts))
+    )
     W = hat(w)
     return np.eye(3) - 0.5 * W + d[..., None, None] * (W @ W)
 

@@ -49,7 +49,8 @@ class BodyModel:
     mass_kg: total mass. inertia_body: (3,3) kg·m², about the CoM, body frame. p_body_hip: (4,3) m, hip
     (abduction joint) positions in the body frame. leg_length_min_m / leg_length_max_m: limits on the distance
     from the hip to the foot center (the circle of FIG. 2E). foot_radius_m: the foot center sits this far from
-    the contact point along the contact normal. hip_x_range_m: the hip constraint, a pair of lines in the body's
+    the contact point along the contact normal. foot_offset_body_xy: (4,2) m, the nominal horizontal offset of
+    each foot from its hip in the body frame (the "hip over foot" cost pulls toward it). hip_x_range_m: the hip constraint, a pair of lines in the body's
     X–Z plane: the foot center's body-x offset from its hip, after tilting the body X–Z plane by hip_line_tilt_rad
     about body y, stays within this range (m); keeps the upper leg from over-rotating into the body.
     """
@@ -62,10 +63,14 @@ class BodyModel:
     foot_radius_m: float = 0.0
     hip_x_range_m: tuple[float, float] = (-0.45, 0.45)
     hip_line_tilt_rad: float = 0.0
+    foot_offset_body_xy: np.ndarray = field(default_factory=lambda: np.zeros((4, 2)))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "inertia_body", _arr(self.inertia_body, (3, 3), "model.inertia_body"))
         object.__setattr__(self, "p_body_hip", _arr(self.p_body_hip, (4, 3), "model.p_body_hip"))
+        object.__setattr__(
+            self, "foot_offset_body_xy", _arr(self.foot_offset_body_xy, (4, 2), "model.foot_offset_body_xy")
+        )
 
     @classmethod
     def from_robot(
@@ -87,6 +92,8 @@ class BodyModel:
             leg_length_min_m=lmin,
             leg_length_max_m=lmax,
             foot_radius_m=float(robot.foot_radius_m),
+            foot_offset_body_xy=np.asarray(robot.nominal_foot_body, dtype=float)[:, :2]
+            - np.asarray(robot.p_body_hip, dtype=float)[:, :2],
         )
 
 
@@ -323,14 +330,14 @@ class CentroidalProblem:
             if not np.all(np.isfinite(getattr(s, name))):
                 out.append(f"initial.{name}: must be finite")
         R = s.R_world_body
-        if np.all(np.isfinite(R)) and (
-            np.linalg.norm(R.T @ R - np.eye(3)) > 1e-3 or np.linalg.det(R) < 0.0
-        ):
+        if np.all(np.isfinite(R)) and (np.linalg.norm(R.T @ R - np.eye(3)) > 1e-3 or np.linalg.det(R) < 0.0):
             out.append("initial.R_world_body: not a rotation matrix")
         m = self.model
         if not (m.mass_kg > 0.0 and math.isfinite(m.mass_kg)):
             out.append(f"model.mass_kg: must be positive, got {m.mass_kg}")
-        if not np.all(np.isfinite(m.inertia_body)) or np.any(np.linalg.eigvalsh(0.5 * (m.inertia_body + m.inertia_body.T)) <= 0):
+        if not np.all(np.isfinite(m.inertia_body)) or np.any(
+            np.linalg.eigvalsh(0.5 * (m.inertia_body + m.inertia_body.T)) <= 0
+        ):
             out.append("model.inertia_body: must be symmetric positive definite")
         if not (0.0 <= m.leg_length_min_m < m.leg_length_max_m):
             out.append(
@@ -392,7 +399,9 @@ class CentroidalProblem:
             if not (math.isfinite(ph.t_touchdown) and not math.isnan(ph.t_liftoff)):
                 out.append(f"{name}: touchdown time must be finite")
             elif not ph.t_touchdown < ph.t_liftoff:
-                out.append(f"{name}: liftoff at {ph.t_liftoff:.3f} s is not after touchdown at {ph.t_touchdown:.3f} s")
+                out.append(
+                    f"{name}: liftoff at {ph.t_liftoff:.3f} s is not after touchdown at {ph.t_touchdown:.3f} s"
+                )
             if not np.all(np.isfinite(ph.p_world_foot)):
                 out.append(f"{name}.p_world_foot: must be finite")
             for wname in ("touchdown_window_s", "liftoff_window_s"):
@@ -406,9 +415,9 @@ class CentroidalProblem:
                 if msg:
                     out.append(f"{name}.region_xy: {msg}")
                 elif not _inside_polygon(ph.region_xy, ph.p_world_foot[:2], ph.adjust_radius_m):
-                    out.append(f"{name}.region_xy: no point of it is within the adjust radius of the nominal touchdown")
-            if ph.t_touchdown <= self.initial.t and ph.touchdown_window_s[1] > 0.0:
-                pass  # a planted foot's window is moot; the solver ignores it
+                    out.append(
+                        f"{name}.region_xy: no point of it is within the adjust radius of the nominal touchdown"
+                    )
             by_leg.setdefault(ph.leg, []).append((j, ph))
         for leg, lst in by_leg.items():
             lst.sort(key=lambda x: x[1].t_touchdown)
@@ -531,7 +540,5 @@ def reconcile_contacts(
                     lst[cur] = replace(p, t_touchdown=t_td, touchdown_window_s=(0.0, late_left), key=p.key)
             else:
                 lst[cur] = replace(p, t_liftoff=t_now, liftoff_window_s=(0.0, 0.0), key=p.key)
-                if p.t_touchdown >= t_now:
-                    lst.pop(cur)
         out.extend(lst)
     return tuple(out)

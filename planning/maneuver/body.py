@@ -9,13 +9,18 @@ roll/pitch/yaw (R = Rz(yaw) Ry(pitch) Rx(roll)); yaw is not wrapped, so a keyfra
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from planning.maneuver.expand import Schedule, build_schedule, start_feet, support_frame
 from planning.maneuver.problems import ManeuverError, Problem
 from planning.maneuver.spec import Maneuver
+
+if TYPE_CHECKING:
+    from planning.robot import RobotModel
+
+MIN_KNOT_GAP_S = 1e-6  # closer knots would make the slopes blow up, s
 
 
 def _slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -68,8 +73,10 @@ class BodyReference:
         """t_knot (K,) strictly increasing s; pose_knot (K,6) [x, y, z, roll, pitch, yaw] m and rad; weight (K,)."""
         t = np.asarray(t_knot, dtype=float).reshape(-1)
         pose = np.asarray(pose_knot, dtype=float).reshape(len(t), 6)
-        if len(t) == 0 or np.any(np.diff(t) <= 0.0):
-            raise ValueError("body reference knots must be a non-empty, strictly increasing time sequence")
+        if len(t) == 0 or np.any(np.diff(t) < MIN_KNOT_GAP_S):
+            raise ValueError(
+                f"body reference knots must be increasing in time, at least {MIN_KNOT_GAP_S} s apart"
+            )
         self.t_knot = t
         self.pose_knot = pose
         self.weight_knot = np.asarray(weight_knot, dtype=float).reshape(len(t))
@@ -77,7 +84,9 @@ class BodyReference:
         self.from_keyframes = from_keyframes
 
     @classmethod
-    def from_maneuver(cls, maneuver: Maneuver, robot: Any, schedule: Schedule | None = None) -> BodyReference:
+    def from_maneuver(
+        cls, maneuver: Maneuver, robot: RobotModel, schedule: Schedule | None = None
+    ) -> BodyReference:
         """Returns the reference of a maneuver: its keyframes after the start pose, or the support of its feet.
 
         The start pose is [0, 0, standing height] level at t = 0 (replaced by a keyframe at t = 0). Without
@@ -91,15 +100,16 @@ class BodyReference:
             ts, poses, ws = [0.0], [start], [w0]
             for i, k in enumerate(maneuver.body):
                 pose = np.array([*k.position, *np.radians(k.rpy)])
-                if k.t == 0.0 and len(ts) == 1:
+                if k.t < MIN_KNOT_GAP_S and len(ts) == 1:
                     ts[0], poses[0], ws[0] = 0.0, pose, k.weight
                     continue
-                if k.t <= ts[-1]:
+                if k.t < ts[-1] + MIN_KNOT_GAP_S:
                     raise ManeuverError(
                         [
                             Problem(
                                 f"body[{i}].t",
-                                f"keyframe at {k.t:g} s does not come after the previous one at {ts[-1]:g} s",
+                                f"keyframe at {k.t:g} s does not come after the previous one at {ts[-1]:g} s "
+                                f"(by at least {MIN_KNOT_GAP_S:g} s)",
                             )
                         ]
                     )
@@ -113,7 +123,7 @@ class BodyReference:
         last_td = max((s.t_touchdown for sw in sched.swings for s in sw), default=0.0)
         ts, poses = [0.0], [start]
         for t in [*times, last_td]:
-            if t <= ts[-1] + 1e-9:
+            if t < ts[-1] + MIN_KNOT_GAP_S:
                 continue
             targets = np.array([sched.foot_target(i, t) for i in range(4)])
             x, y, yaw = support_frame(targets, nominal_xy)

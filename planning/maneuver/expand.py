@@ -9,12 +9,15 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from planning.maneuver.problems import ManeuverError, Problem
 from planning.maneuver.spec import Adjust, Gait, Liftoff, Maneuver, Touchdown
+
+if TYPE_CHECKING:
+    from planning.robot import RobotModel
 
 LEGS: tuple[str, str, str, str] = ("FL", "FR", "RL", "RR")
 LEG_INDEX: dict[str, int] = {name: i for i, name in enumerate(LEGS)}
@@ -243,7 +246,7 @@ def expand_gait(gait: Gait, p_foot: np.ndarray, nominal_xy: np.ndarray) -> GaitP
 
 
 # ---- schedule --------------------------------------------------------------------------------------------------
-def start_feet(robot: Any) -> np.ndarray:
+def start_feet(robot: RobotModel) -> np.ndarray:
     """Returns the nominal stance contact points (4,3) in the maneuver frame (z = 0 on flat ground)."""
     p = np.array(robot.nominal_foot_body, dtype=float).reshape(4, 3).copy()
     p[:, 2] += float(robot.standing_height_m)
@@ -257,10 +260,46 @@ def count_events(maneuver: Maneuver) -> int:
 
 @dataclass
 class _Open:
+    """A swing in progress while the schedule is built."""
+
     t: float
     p: np.ndarray
     adjust_s: float
     path: str
+
+
+@dataclass(frozen=True, eq=False)
+class _Lift:
+    leg: int
+    path: str
+    adjust_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class _Land:
+    leg: int
+    path: str
+    adjust: AdjustWindow
+    event: Touchdown | None = (
+        None  # explicit: lands at `at`, at `offset` from the liftoff, or where it lifted off
+    )
+    p_xy: np.ndarray | None = None  # from a gait: lands here (z: that of its liftoff)
+    height_m: float | None = None
+
+
+def _target(land: _Land, p_liftoff: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Returns (touchdown point (3,), unit normal (3,)) of a landing that lifted off at p_liftoff."""
+    ev = land.event
+    if ev is None:
+        assert land.p_xy is not None
+        return np.array([land.p_xy[0], land.p_xy[1], p_liftoff[2]]), np.array([0.0, 0.0, 1.0])
+    if ev.at is not None:
+        p = np.array(ev.at, dtype=float)
+    elif ev.offset is not None:
+        p = p_liftoff + np.array(ev.offset, dtype=float)
+    else:
+        p = p_liftoff.copy()
+    return p, _unit(ev.normal)
 
 
 def _unit(v: tuple[float, float, float]) -> np.ndarray:
@@ -269,7 +308,7 @@ def _unit(v: tuple[float, float, float]) -> np.ndarray:
     return n / norm if norm > 1e-12 and math.isfinite(norm) else np.array([0.0, 0.0, 1.0])
 
 
-def build_schedule(maneuver: Maneuver, robot: Any) -> Schedule:
+def build_schedule(maneuver: Maneuver, robot: RobotModel) -> Schedule:
     """Returns the contact schedule of a maneuver: explicit events and expanded gaits, paired per leg.
 
     Events are taken in time order (stable for equal times). Raises ManeuverError when a leg lifts off twice,
@@ -286,61 +325,49 @@ def build_schedule(maneuver: Maneuver, robot: Any) -> Schedule:
     swings: list[list[Swing]] = [[], [], [], []]
     problems: list[Problem] = []
 
-    # heap items: (t, priority, seq, payload); explicit events first at equal times, then gait starts, then the
+    # heap items: (t, priority, seq, item); explicit events first at equal times, then gait starts, then the
     # events a gait generates (pushed when the gait starts, from the feet as they are then)
-    heap: list[tuple[float, int, int, tuple[Any, ...]]] = []
+    heap: list[tuple[float, int, int, _Lift | _Land | tuple[str, Gait]]] = []
     for i, ev in enumerate(maneuver.events):
-        heap.append((ev.t, 0, i, ("event", ev, f"events[{i}]")))
+        path = f"events[{i}]"
+        leg = LEG_INDEX[ev.leg]
+        event: _Lift | _Land = (
+            _Lift(leg, path, ev.adjust.time if ev.adjust else 0.0)
+            if isinstance(ev, Liftoff)
+            else _Land(leg, path, AdjustWindow.of(ev.adjust), event=ev)
+        )
+        heap.append((ev.t, 0, i, event))
     for j, g in enumerate(maneuver.gaits):
-        heap.append((g.from_, 1, j, ("gait", g, f"gaits[{j}]")))
+        heap.append((g.from_, 1, j, (f"gaits[{j}]", g)))
     heapq.heapify(heap)
     seq = len(heap)
     while heap:
-        t, _, _, payload = heapq.heappop(heap)
-        kind = payload[0]
-        if kind == "gait":
-            g, path = payload[1], payload[2]
-            plan = expand_gait(g, p_foot, nominal_xy)
+        t, _, _, item = heapq.heappop(heap)
+        if isinstance(item, tuple):
+            path, g = item
             adj = AdjustWindow.of(g.adjust)
-            for leg, t_lo, t_td, p_xy in plan.swings:
-                seq += 1
-                heapq.heappush(heap, (t_lo, 2, seq, ("lift", leg, path)))
-                seq += 1
-                heapq.heappush(heap, (t_td, 2, seq, ("land", leg, path, p_xy, adj, g.height)))
+            for leg, t_lo, t_td, p_xy in expand_gait(g, p_foot, nominal_xy).swings:
+                heapq.heappush(heap, (t_lo, 2, seq, _Lift(leg, path)))
+                heapq.heappush(heap, (t_td, 2, seq + 1, _Land(leg, path, adj, p_xy=p_xy, height_m=g.height)))
+                seq += 2
             continue
-        if kind == "event":
-            ev, path = payload[1], payload[2]
-            leg = LEG_INDEX[ev.leg]
-            if isinstance(ev, Liftoff):
-                payload = ("lift", leg, path, ev.adjust.time if ev.adjust else 0.0)
-            else:
-                payload = ("land", leg, path, ev, AdjustWindow.of(ev.adjust), None)
-        leg, path = payload[1], payload[2]
-        if payload[0] == "lift":
-            if open_[leg] is not None:
-                problems.append(
-                    Problem(path, f"liftoff of {LEGS[leg]} at {t:g} s while it is already in the air")
-                )
-                continue
-            open_[leg] = _Open(t, p_foot[leg].copy(), payload[3] if len(payload) > 3 else 0.0, path)
-            continue
+        leg, name = item.leg, LEGS[item.leg]
         o = open_[leg]
-        if o is None:
-            problems.append(Problem(path, f"touchdown of {LEGS[leg]} at {t:g} s while it is on the ground"))
-            continue
-        target, adj, height = payload[3], payload[4], payload[5]
-        normal = np.array([0.0, 0.0, 1.0])
-        if isinstance(target, Touchdown):
-            normal = _unit(target.normal)
-            if target.at is not None:
-                p_td = np.array(target.at, dtype=float)
-            elif target.offset is not None:
-                p_td = o.p + np.array(target.offset, dtype=float)
+        if isinstance(item, _Lift):
+            if o is not None:
+                problems.append(
+                    Problem(item.path, f"liftoff of {name} at {t:g} s while it is already in the air")
+                )
             else:
-                p_td = o.p.copy()
-        else:
-            p_td = np.array([target[0], target[1], o.p[2]])
-        swings[leg].append(Swing(leg, o.t, t, o.p, p_td, normal, adj, o.adjust_s, height, o.path, path))
+                open_[leg] = _Open(t, p_foot[leg].copy(), item.adjust_s, item.path)
+            continue
+        if o is None:
+            problems.append(Problem(item.path, f"touchdown of {name} at {t:g} s while it is on the ground"))
+            continue
+        p_td, normal = _target(item, o.p)
+        swings[leg].append(
+            Swing(leg, o.t, t, o.p, p_td, normal, item.adjust, o.adjust_s, item.height_m, o.path, item.path)
+        )
         p_foot[leg] = p_td
         open_[leg] = None
     for leg, o in enumerate(open_):

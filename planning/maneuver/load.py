@@ -22,7 +22,18 @@ MAX_TEXT_BYTES = 1_000_000  # a maneuver file is a few kB; refuse megabytes befo
 
 # ---- YAML ----------------------------------------------------------------------------------------------------
 class _Loader(yaml.SafeLoader):
-    """SafeLoader that refuses duplicate keys and reads `1e-4` as a number (YAML 1.2 style)."""
+    """SafeLoader that refuses duplicate keys and aliases, and reads `1e-4` as a number (YAML 1.2 style).
+
+    Aliases are refused because a few nested ones expand into billions of items for the validator to walk.
+    """
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
+        if self.check_event(yaml.AliasEvent):
+            mark = self.peek_event().start_mark
+            raise yaml.composer.ComposerError(
+                None, None, "aliases (*name) are not allowed in a maneuver file; write the value out", mark
+            )
+        return super().compose_node(parent, index)  # type: ignore[no-untyped-call]
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: dict[Any, yaml.Node] = {}
@@ -256,14 +267,10 @@ def parse_maneuver(data: Any, *, lines: dict[str, int] | None = None, source: st
 
 
 def _looks_like_path(s: str) -> bool:
-    if "\n" in s or len(s) > 4096:
-        return False
-    if s.endswith((".yaml", ".yml")):
-        return True
-    try:
-        return Path(s).is_file()
-    except OSError:
-        return False
+    """Whether a string names a file rather than holding YAML text: one line ending in .yaml/.yml, no mapping."""
+    return (
+        "\n" not in s and s.endswith((".yaml", ".yml")) and ": " not in s and "{" not in s and len(s) < 4096
+    )
 
 
 def read_source(source: str | Path) -> tuple[Any, dict[str, int], str | None]:
@@ -292,7 +299,7 @@ def load_maneuver(source: str | Path | dict[str, Any] | Maneuver) -> Maneuver:
 
     Only the shape is checked here; `validate_maneuver` checks the rules that relate fields to each other.
     """
-    if isinstance(source, (dict, Maneuver)):
+    if not isinstance(source, (str, Path)):
         return parse_maneuver(source)
     data, lines, name = read_source(source)
     return parse_maneuver(data, lines=lines, source=name)

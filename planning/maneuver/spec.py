@@ -246,6 +246,6 @@ def maneuver_json_schema() -> dict[str, Any]:
     schema = Maneuver.model_json_schema(by_alias=True, mode="validation")
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "$id": "https://footfall.dev/schemas/maneuver@1.json",
+        "$id": "urn:footfall:maneuver@1",
         **schema,
     }

@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -30,6 +30,9 @@ from planning.maneuver.load import parse_maneuver, read_source
 from planning.maneuver.problems import ManeuverError, Problem, with_lines
 from planning.maneuver.spec import Liftoff, Maneuver, MaximizeHeight, Touchdown
 
+if TYPE_CHECKING:
+    from planning.robot import RobotModel
+
 
 @dataclass(frozen=True)
 class Params:
@@ -43,6 +46,7 @@ class Params:
     max_body_rate_rps: float = 3.0  # same for the angular rate, rad/s
     start_pose_tol_m: float = 0.01  # a keyframe at t = 0 farther than this from the start pose jumps, m
     start_pose_tol_rad: float = math.radians(1.0)
+    min_keyframe_gap_s: float = 0.01  # closer keyframes ask for a jump, s
 
 
 @dataclass(frozen=True)
@@ -76,7 +80,7 @@ class Context:
     """What the rules look at; the derived pieces are computed once, on first use."""
 
     maneuver: Maneuver
-    robot: Any
+    robot: RobotModel
     params: Params = field(default_factory=Params)
 
     @cached_property
@@ -134,17 +138,25 @@ def _s(t: float) -> str:
 
 # ---- events ----------------------------------------------------------------------------------------------------
 def check_events_in_order(ctx: Context) -> Iterator[Problem]:
+    """Failure: an event listed before an earlier one (events are listed in time order)."""
     ev = ctx.maneuver.events
-    for i in range(1, len(ev)):
-        if ev[i].t < ev[i - 1].t:
+    t_lifted: dict[str, float] = {}  # legs in the air (listing order) → liftoff time
+    for i, e in enumerate(ev):
+        before_own_liftoff = e.type == "touchdown" and e.t < t_lifted.get(e.leg, -math.inf)
+        if i > 0 and e.t < ev[i - 1].t and not before_own_liftoff:  # that case has its own, plainer message
             yield _fail(
                 f"events[{i}].t",
-                f"{ev[i].type} of {ev[i].leg} at {_s(ev[i].t)} comes before events[{i - 1}] "
+                f"{e.type} of {e.leg} at {_s(e.t)} comes before events[{i - 1}] "
                 f"at {_s(ev[i - 1].t)}; list events in time order",
             )
+        if isinstance(e, Liftoff):
+            t_lifted.setdefault(e.leg, e.t)
+        else:
+            t_lifted.pop(e.leg, None)
 
 
 def check_events_within_duration(ctx: Context) -> Iterator[Problem]:
+    """Failure: an event after the end of the maneuver."""
     d = ctx.maneuver.duration
     for i, ev in enumerate(ctx.maneuver.events):
         if ev.t > d:
@@ -155,6 +167,7 @@ def check_events_within_duration(ctx: Context) -> Iterator[Problem]:
 
 
 def check_liftoff_touchdown_pairs(ctx: Context) -> Iterator[Problem]:
+    """Failure: per leg, liftoff and touchdown must alternate, each touchdown after its liftoff."""
     open_: dict[str, tuple[int, float]] = {}
     for i, ev in enumerate(ctx.maneuver.events):
         if isinstance(ev, Liftoff):
@@ -193,6 +206,7 @@ def check_liftoff_touchdown_pairs(ctx: Context) -> Iterator[Problem]:
 
 
 def check_touchdown_normals(ctx: Context) -> Iterator[Problem]:
+    """Failure: a zero contact normal; warning: one pointing down."""
     for i, ev in enumerate(ctx.maneuver.events):
         if not isinstance(ev, Touchdown):
             continue
@@ -244,6 +258,7 @@ def point_in_polygon(p: np.ndarray, poly: np.ndarray) -> bool:
 
 
 def check_adjust_regions(ctx: Context) -> Iterator[Problem]:
+    """Failure: a region polygon that crosses itself or has no area; warning: a target outside it."""
     for path, adjust in [
         (f"events[{i}]", getattr(e, "adjust", None)) for i, e in enumerate(ctx.maneuver.events)
     ] + [(f"gaits[{j}]", g.adjust) for j, g in enumerate(ctx.maneuver.gaits)]:
@@ -274,6 +289,7 @@ def check_adjust_regions(ctx: Context) -> Iterator[Problem]:
 
 
 def check_adjust_windows_overlap(ctx: Context) -> Iterator[Problem]:
+    """Failure: consecutive events of one leg whose adjust windows overlap."""
     s = ctx.schedule
     if s is None:
         return
@@ -296,6 +312,7 @@ def check_adjust_windows_overlap(ctx: Context) -> Iterator[Problem]:
 
 # ---- gaits -----------------------------------------------------------------------------------------------------
 def check_gait_spans(ctx: Context) -> Iterator[Problem]:
+    """Failure: a gait that ends before it starts, after the maneuver, or holds no whole cycle."""
     d = ctx.maneuver.duration
     for j, g in enumerate(ctx.maneuver.gaits):
         if g.from_ >= g.to:
@@ -321,6 +338,7 @@ def check_gait_spans(ctx: Context) -> Iterator[Problem]:
 
 
 def check_gaits_overlap(ctx: Context) -> Iterator[Problem]:
+    """Failure: two gait segments at the same time."""
     order = sorted(range(len(ctx.maneuver.gaits)), key=lambda j: ctx.maneuver.gaits[j].from_)
     for a, b in zip(order, order[1:], strict=False):
         ga, gb = ctx.maneuver.gaits[a], ctx.maneuver.gaits[b]
@@ -333,6 +351,7 @@ def check_gaits_overlap(ctx: Context) -> Iterator[Problem]:
 
 
 def check_gait_event_clash(ctx: Context) -> Iterator[Problem]:
+    """Failure: an explicit event (or swing) inside a gait segment, which drives every leg."""
     events = ctx.maneuver.events
     for j, g in enumerate(ctx.maneuver.gaits):
         if g.from_ >= g.to:
@@ -351,6 +370,7 @@ def check_gait_event_clash(ctx: Context) -> Iterator[Problem]:
 
 
 def check_event_count(ctx: Context) -> Iterator[Problem]:
+    """Failure: more than MAX_EVENTS events after gait expansion."""
     n = count_events(ctx.maneuver)
     if n > MAX_EVENTS:
         listed = len(ctx.maneuver.events)
@@ -364,8 +384,17 @@ def check_event_count(ctx: Context) -> Iterator[Problem]:
 
 # ---- body keyframes --------------------------------------------------------------------------------------------
 def check_keyframe_times(ctx: Context) -> Iterator[Problem]:
+    """Failure: keyframes out of order, too close together, or after the end."""
     body, d = ctx.maneuver.body, ctx.maneuver.duration
     for i, k in enumerate(body):
+        t_prev = body[i - 1].t if i > 0 else 0.0
+        if (i > 0 or k.t > 0.0) and t_prev < k.t < t_prev + ctx.params.min_keyframe_gap_s:
+            yield _fail(
+                f"body[{i}].t",
+                f"keyframe at {_s(k.t)} comes only {_s(k.t - t_prev)} after the "
+                f"{'previous keyframe' if i > 0 else 'start'}; keep keyframes at least "
+                f"{_s(ctx.params.min_keyframe_gap_s)} apart",
+            )
         if i > 0 and k.t <= body[i - 1].t:
             yield _fail(
                 f"body[{i}].t",
@@ -379,6 +408,7 @@ def check_keyframe_times(ctx: Context) -> Iterator[Problem]:
 
 
 def check_keyframe_weights(ctx: Context) -> Iterator[Problem]:
+    """Warning: a keyframe with weight 0."""
     for i, k in enumerate(ctx.maneuver.body):
         if k.weight == 0.0:
             yield _warn(f"body[{i}].weight", f"is 0: the keyframe at {_s(k.t)} will be ignored")
@@ -400,6 +430,7 @@ def _unreachable(ctx: Context, s: Schedule, t: float, p_world_body: np.ndarray, 
 
 
 def check_keyframe_reach(ctx: Context) -> Iterator[Problem]:
+    """Failure: a keyframe pose from which a stance foot is out of the leg's reach."""
     s = ctx.schedule
     if s is None:
         return
@@ -410,6 +441,7 @@ def check_keyframe_reach(ctx: Context) -> Iterator[Problem]:
 
 
 def check_body_path_reach(ctx: Context) -> Iterator[Problem]:
+    """Warning: the body path between keyframes takes a stance foot out of reach."""
     s, body = ctx.schedule, ctx.body
     if s is None or body is None or not body.from_keyframes:
         return
@@ -431,13 +463,14 @@ def check_body_path_reach(ctx: Context) -> Iterator[Problem]:
 
 
 def check_body_speed(ctx: Context) -> Iterator[Problem]:
+    """Warning: keyframes so close in time that the body must move or turn very fast."""
     body, P = ctx.body, ctx.params
     if body is None or not body.from_keyframes:
         return
     keys = ctx.maneuver.body
     for i in range(len(keys)):
         t0 = keys[i - 1].t if i > 0 else 0.0
-        if keys[i].t <= t0:
+        if keys[i].t < t0 + P.min_keyframe_gap_s:  # reported by check_keyframe_times
             continue
         ts = np.linspace(t0, keys[i].t, 12)[1:-1]
         v = max(float(np.linalg.norm(body.sample(float(t))[1])) for t in ts)
@@ -457,6 +490,7 @@ def check_body_speed(ctx: Context) -> Iterator[Problem]:
 
 
 def check_start_keyframe(ctx: Context) -> Iterator[Problem]:
+    """Warning: a keyframe at t = 0 away from the standing start pose."""
     body, P = ctx.maneuver.body, ctx.params
     if not body or body[0].t > 0.0:
         return
@@ -473,6 +507,7 @@ def check_start_keyframe(ctx: Context) -> Iterator[Problem]:
 
 # ---- feet ------------------------------------------------------------------------------------------------------
 def check_touchdown_reach(ctx: Context) -> Iterator[Problem]:
+    """Failure: a touchdown out of reach of its hip (body at the reference); warning: near it."""
     s, body = ctx.schedule, ctx.body
     if s is None or body is None:
         return
@@ -498,6 +533,7 @@ def check_touchdown_reach(ctx: Context) -> Iterator[Problem]:
 
 
 def check_swing_durations(ctx: Context) -> Iterator[Problem]:
+    """Warning: swings shorter than Params.min_swing_s."""
     s = ctx.schedule
     if s is None:
         return
@@ -521,11 +557,17 @@ def _dynamic_windows(m: Maneuver) -> list[tuple[float, float]]:
 
 
 def check_support_feet(ctx: Context) -> Iterator[Problem]:
+    """Warning: fewer than three feet down outside a gait or a jump."""
     s = ctx.schedule
     if s is None:
         return
     windows = _dynamic_windows(ctx.maneuver)
-    times = sorted({0.0, *(e.t for e in s.events())})
+    events = s.events()
+    first_liftoff: dict[float, str] = {}
+    for e in events:
+        if e.type == "liftoff":
+            first_liftoff.setdefault(e.t, e.path)
+    times = sorted({0.0, *(e.t for e in events)})
     low_from: float | None = None
     low_legs: set[str] = set()
     low_path = ""
@@ -538,10 +580,7 @@ def check_support_feet(ctx: Context) -> Iterator[Problem]:
         covered = any(w0 <= a and b <= w1 for w0, w1 in windows)
         if int(mask.sum()) < ctx.params.min_support_feet and not covered:
             if low_from is None:
-                low_from, low_path = (
-                    a,
-                    next((e.path for e in s.events() if e.t == a and e.type == "liftoff"), ""),
-                )
+                low_from, low_path = a, first_liftoff.get(a, "")
             low_legs |= {LEGS[i] for i in range(4) if not mask[i]}
             continue
         if low_from is not None:
@@ -561,6 +600,7 @@ def check_support_feet(ctx: Context) -> Iterator[Problem]:
 
 # ---- the rest --------------------------------------------------------------------------------------------------
 def check_tracks(ctx: Context) -> Iterator[Problem]:
+    """Warning: events without the legs track, keyframes without the body track."""
     m = ctx.maneuver
     if "legs" not in m.tracks and (m.events or m.gaits):
         yield _warn(
@@ -573,6 +613,7 @@ def check_tracks(ctx: Context) -> Iterator[Problem]:
 
 
 def check_objectives(ctx: Context) -> Iterator[Problem]:
+    """Failure: an empty or late objective window, a zero lean direction."""
     d = ctx.maneuver.duration
     for i, o in enumerate(ctx.maneuver.objectives):
         if o.t is not None:
@@ -614,14 +655,16 @@ RULES: list[Rule] = [
 
 
 @lru_cache(maxsize=4)
-def _default_robot(name: str = "spot") -> Any:
+def _default_robot(name: str = "spot") -> RobotModel:
     from planning.robot import load_robot
 
     return load_robot(name)
 
 
 def validate_maneuver(
-    source: Maneuver | dict[str, Any] | str | Path, robot: Any = None, params: Params | None = None
+    source: Maneuver | dict[str, Any] | str | Path,
+    robot: RobotModel | None = None,
+    params: Params | None = None,
 ) -> ValidationResult:
     """Returns the warnings and failures of a maneuver (object, dict, YAML text or file path) for a robot.
 
@@ -630,11 +673,11 @@ def validate_maneuver(
     """
     lines: dict[str, int] | None = None
     try:
-        if isinstance(source, (Maneuver, dict)):
-            maneuver = parse_maneuver(source)
-        else:
+        if isinstance(source, (str, Path)):
             data, lines, name = read_source(source)
             maneuver = parse_maneuver(data, lines=lines, source=name)
+        else:
+            maneuver = parse_maneuver(source)
     except ManeuverError as e:
         return ValidationResult(False, [], [p for p in e.problems if p.severity == "failure"])
     ctx = Context(maneuver, robot if robot is not None else _default_robot(), params or Params())

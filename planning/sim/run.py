@@ -50,7 +50,7 @@ class ManeuverSession:
         self.body_ref = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
         z0 = float(self.scene.ground_height(0.0, 0.0))
         self._offset = np.array([0.0, 0.0, z0])
-        self.controller = Controller(self.robot, self._target, options.controller)
+        self.controller = Controller(self.robot, self._target, options.controller, contact_plan=self.schedule)
         self.recorder = Recorder(self.robot.foot_radius_m)
         self.loop = Loop(
             self.world, self.controller.stages, self.controller.actuate, monitors=[self.recorder]

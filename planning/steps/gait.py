@@ -101,9 +101,12 @@ class GaitClock:
     The clock is the plan of contacts (not a contact sensor); it holds per-leg holds created at a switch.
     """
 
-    def __init__(self, gait: Gait | str = "stand", t0: float = 0.0, max_start_progress: float = 0.2) -> None:
+    def __init__(self, gait: Gait | str = "stand", t0: float = 0.0, max_start_progress: float = 0.2,
+                 min_stance_fraction: float = 0.5) -> None:
         """gait: initial gait. t0: s. max_start_progress: fraction of a swing already elapsed under which a foot
-        in stance may lift off immediately when a new gait says it should be swinging."""
+        in stance may lift off immediately when a new gait says it should be swinging. min_stance_fraction: a
+        foot landing after a switch stays down at least this fraction of the new gait's stance time."""
+        self.min_stance_fraction = float(min_stance_fraction)
         self.gait: Gait = get_gait(gait)
         self._t_ref = float(t0)  # s, time at which the global phase was 0
         self._holds: list[list[tuple[float, bool]]] = [[] for _ in range(N_LEGS)]
@@ -232,17 +235,15 @@ class GaitClock:
         if self.gait.is_stand or g.is_stand:
             self._switch(g, t, anchor=None)
             return True
-        anchor: tuple[int, float] | None = None
-        for leg in range(N_LEGS):
-            for te, c in self._leg_events(leg, t_prev, t):
-                if c and (anchor is None or te > anchor[1]):
-                    anchor = (leg, te)
-        if anchor is None:
+        anchors = [(leg, te) for leg in range(N_LEGS) for te, c in self._leg_events(leg, t_prev, t) if c]
+        if not anchors:
             return False
-        self._switch(g, t, anchor=anchor)
+        # Of the legs that just landed, anchor the new gait on the one that needs the fewest per-leg holds.
+        best = min(anchors, key=lambda a: (sum(map(len, self._holds_for(g, t, a))), -a[1], a[0]))
+        self._switch(g, t, anchor=best)
         return True
 
-    def _switch(self, g: Gait, t: float, anchor: tuple[int, float] | None) -> None:
+    def _t_ref_for(self, g: Gait, t: float, anchor: tuple[int, float] | None) -> float:
         if g.is_stand:
             t_ref1 = t
         elif anchor is None:
@@ -262,20 +263,46 @@ class GaitClock:
         else:
             leg_a, t_a = anchor
             t_ref1 = t_a - g.offset[leg_a] * g.cycle_s
+        return t_ref1
+
+    def _last_touchdown(self, leg: int, t: float) -> float:
+        """Returns when the leg, in stance at t, last landed (searching back up to two old-gait cycles)."""
+        span = 2.0 * (self.gait.cycle_s if not self.gait.is_stand else 1.0)
+        downs = [te for te, c in self._leg_events(leg, t - span, t) if c]
+        return downs[-1] if downs else -math.inf
+
+    def _holds_for(self, g: Gait, t: float, anchor: tuple[int, float] | None) -> list[list[tuple[float, bool]]]:
+        t_ref1 = self._t_ref_for(g, t, anchor)
+        min_stance = self.min_stance_fraction * g.stance_s
         holds: list[list[tuple[float, bool]]] = [[] for _ in range(N_LEGS)]
         for leg in range(N_LEGS):
             c0 = self.leg_contact(leg, t + _EPS_S)
             c1 = self._gait_contact(g, t_ref1, leg, t + _EPS_S)
-            if c0 and not c1:
-                if self._swing_progress(g, t_ref1, leg, t + _EPS_S) > self.max_start_progress:
+            if c0 and c1 and not g.is_stand:
+                t_lo1 = self._next_gait_event(g, t_ref1, leg, t, touchdown=False)
+                if t_lo1 - self._last_touchdown(leg, t) < min_stance:
+                    holds[leg].append((self._next_gait_event(g, t_ref1, leg, t_lo1, touchdown=False), True))
+            elif c0 and not c1:
+                late = self._swing_progress(g, t_ref1, leg, t + _EPS_S) > self.max_start_progress
+                if late or t - self._last_touchdown(leg, t) < min_stance:
                     holds[leg].append((self._next_gait_event(g, t_ref1, leg, t, touchdown=False), True))
             elif not c0:
                 # Finish the swing in flight at its planned time, then follow the new gait (holding stance
                 # through a new-gait swing that would already be under way).
                 t_td0 = next((te for te, c in self._leg_events(leg, t, t + 10.0 * self.gait.cycle_s) if c), t)
                 holds[leg].append((t_td0, False))
-                if not self._gait_contact(g, t_ref1, leg, t_td0 + _EPS_S):
-                    holds[leg].append((self._next_gait_event(g, t_ref1, leg, t_td0, touchdown=False), True))
+                t_lo1 = self._next_gait_event(g, t_ref1, leg, t_td0, touchdown=False)
+                short = t_lo1 - t_td0 < min_stance
+                if short or not self._gait_contact(g, t_ref1, leg, t_td0 + _EPS_S):
+                    # Stay down through a new-gait swing already under way, or through a stance too short.
+                    if short and self._gait_contact(g, t_ref1, leg, t_td0 + _EPS_S):
+                        t_lo1 = self._next_gait_event(g, t_ref1, leg, t_lo1, touchdown=False)
+                    holds[leg].append((t_lo1, True))
+        return holds
+
+    def _switch(self, g: Gait, t: float, anchor: tuple[int, float] | None) -> None:
+        t_ref1 = self._t_ref_for(g, t, anchor)
+        holds = self._holds_for(g, t, anchor)
         self.gait = g
         self._t_ref = t_ref1
         self._holds = holds

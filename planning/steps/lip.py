@@ -8,9 +8,13 @@ time is a cumulative sum — which is what makes scoring dozens of step paths ch
 
 Two CoP estimates over a path (the seed's FIG. 8 discussion):
 - ``"cof"``: the CoP is the center of footprint (mean of the stance feet) of each support segment.
-- ``"tracking"``: the CoP starts each support segment at the center of footprint and moves linearly, through
-  the stance, a fraction β of the way toward the planned capture point at the segment's end (first pass, CoF),
-  clamped to the support polygon — what a balance controller stepping after the capture point does.
+- ``"tracking"``: the robot is expected to follow the planned capture-point trajectory ξ_p(t) = p_b(t) + v_b/ω of
+  the path's body motion. In each support segment the CoP starts at the center of footprint and moves linearly,
+  through the stance, a fraction β of the way to the CoP a capture-point tracking controller would command,
+  u = ξ - v_b/ω + k (ξ - ξ_p) (ξ taken at the segment start), clamped to the support polygon. The segments are
+  chained in order (vectorized over paths). With the CoP held at the CoF the prediction drifts off within a
+  cycle; this one stays near the plan as long as the footholds make the plan feasible — which is what scoring
+  needs to tell footholds apart.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ from typing import Literal
 
 import numpy as np
 
-from planning.steps.state import N_LEGS, F64, I64, StepPath, WalkState
+from planning.steps.state import N_LEGS, F64, I64, BodyMotion, StepPath, WalkState
 
 GRAVITY_MPS2 = 9.81  # m/s²
 
@@ -94,37 +98,76 @@ _PAIRS = np.array([(i, j) for i in range(N_LEGS) for j in range(i, N_LEGS)], dty
 _TRIS = np.array([(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)], dtype=np.int64)
 
 
+@dataclass(frozen=True)
+class Support:
+    """Support polygons prepared for repeated projection: edges (pairs of stance feet, a foot paired with itself
+    for a single foot) and triangles of stance feet, for rows of shape ``shape`` (e.g. (M,) or (N,E))."""
+
+    a: F64  # (...,10,2) edge start
+    ab: F64  # (...,10,2) edge vector
+    inv_len2: F64  # (...,10)
+    edge_ok: np.ndarray  # (...,10)
+    p0: F64  # (...,4,2) triangle corners
+    e01: F64
+    e12: F64
+    p1: F64
+    p2: F64
+    e20: F64
+    tri_ok: np.ndarray  # (...,4)
+    any_stance: np.ndarray  # (...)
+
+    @staticmethod
+    def of(feet: F64, stance: np.ndarray) -> Support:
+        """feet: (...,4,2) foot xy, m; stance: (...,4) bool."""
+        a = feet[..., _PAIRS[:, 0], :]
+        ab = feet[..., _PAIRS[:, 1], :] - a
+        len2 = np.einsum("...i,...i->...", ab, ab)
+        p0, p1, p2 = feet[..., _TRIS[:, 0], :], feet[..., _TRIS[:, 1], :], feet[..., _TRIS[:, 2], :]
+        e01, e12, e20 = p1 - p0, p2 - p1, p0 - p2
+        area = e01[..., 0] * (p2 - p0)[..., 1] - e01[..., 1] * (p2 - p0)[..., 0]
+        tri_ok = stance[..., _TRIS[:, 0]] & stance[..., _TRIS[:, 1]] & stance[..., _TRIS[:, 2]]
+        return Support(
+            a=a,
+            ab=ab,
+            inv_len2=np.where(len2 > 1e-12, 1.0 / np.maximum(len2, 1e-12), 0.0),
+            edge_ok=stance[..., _PAIRS[:, 0]] & stance[..., _PAIRS[:, 1]],
+            p0=p0,
+            e01=e01,
+            e12=e12,
+            p1=p1,
+            p2=p2,
+            e20=e20,
+            tri_ok=tri_ok & (np.abs(area) > 1e-12),
+            any_stance=stance.any(axis=-1),
+        )
+
+    def project(self, q: F64, j: int | None = None) -> F64:
+        """Returns the points of the polygons nearest to q (...,2) (rows of column j when given)."""
+        s_ = (slice(None), j) if j is not None else (Ellipsis,)
+        a, ab = self.a[s_], self.ab[s_]
+        qq = q[..., None, :]
+        s = np.clip(np.einsum("...pi,...pi->...p", qq - a, ab) * self.inv_len2[s_], 0.0, 1.0)
+        c = a + s[..., None] * ab
+        d = c - qq
+        d2 = np.where(self.edge_ok[s_], np.einsum("...pi,...pi->...p", d, d), np.inf)
+        edge = np.take_along_axis(c, np.argmin(d2, axis=-1)[..., None, None], axis=-2)[..., 0, :]
+
+        def side(p: F64, e: F64) -> F64:
+            return e[..., 0] * (qq[..., 1] - p[..., 1]) - e[..., 1] * (qq[..., 0] - p[..., 0])
+
+        c0, c1, c2 = side(self.p0[s_], self.e01[s_]), side(self.p1[s_], self.e12[s_]), side(self.p2[s_], self.e20[s_])
+        inside = self.tri_ok[s_] & (((c0 >= 0) & (c1 >= 0) & (c2 >= 0)) | ((c0 <= 0) & (c1 <= 0) & (c2 <= 0)))
+        keep = inside.any(axis=-1) | ~self.any_stance[s_]
+        return np.where(keep[..., None], q, edge)
+
+
 def project_to_support(q: F64, feet: F64, stance: np.ndarray) -> F64:
     """Returns the points (M,2) of the support polygons nearest to q (M,2).
 
     feet: (M,4,2) foot xy, m; stance: (M,4) bool. The polygon is the convex hull of the stance feet (a segment
     for two, a point for one); rows without a stance foot return q unchanged.
     """
-    a = feet[:, _PAIRS[:, 0]]  # (M,10,2)
-    b = feet[:, _PAIRS[:, 1]]
-    ok = stance[:, _PAIRS[:, 0]] & stance[:, _PAIRS[:, 1]]  # (M,10)
-    ab = b - a
-    denom = np.einsum("mpi,mpi->mp", ab, ab)
-    s = np.einsum("mpi,mpi->mp", q[:, None, :] - a, ab) / np.where(denom > 1e-12, denom, 1.0)
-    s = np.clip(s, 0.0, 1.0)
-    c = a + s[..., None] * ab
-    d2 = np.einsum("mpi,mpi->mp", c - q[:, None, :], c - q[:, None, :])
-    d2 = np.where(ok, d2, np.inf)
-    best = np.argmin(d2, axis=1)
-    edge = np.take_along_axis(c, best[:, None, None], axis=1)[:, 0]
-    # Inside test: inside some triangle of three stance feet (covers the hull of 3 or 4 points).
-    p0, p1, p2 = feet[:, _TRIS[:, 0]], feet[:, _TRIS[:, 1]], feet[:, _TRIS[:, 2]]  # (M,4,2)
-    tri_ok = stance[:, _TRIS[:, 0]] & stance[:, _TRIS[:, 1]] & stance[:, _TRIS[:, 2]]
-
-    def cross(o: F64, u: F64, v: F64) -> F64:
-        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
-
-    qq = q[:, None, :]
-    c0, c1, c2 = cross(p0, p1, qq), cross(p1, p2, qq), cross(p2, p0, qq)
-    inside = tri_ok & (((c0 >= 0) & (c1 >= 0) & (c2 >= 0)) | ((c0 <= 0) & (c1 <= 0) & (c2 <= 0)))
-    inside &= np.abs(cross(p0, p1, p2)) > 1e-12
-    keep = inside.any(axis=1) | ~stance.any(axis=1)
-    return np.where(keep[:, None], q, edge)
+    return Support.of(feet, stance).project(q)
 
 
 # ---- batched prediction along step paths ------------------------------------------------------------------------
@@ -138,6 +181,7 @@ class PathBatch:
     t_lo: F64
     t_lo_now: F64
     p_td: F64
+    body: BodyMotion
 
     @staticmethod
     def of(paths: list[StepPath]) -> PathBatch:
@@ -151,6 +195,7 @@ class PathBatch:
             t_lo=np.stack([p.t_liftoff for p in paths]),
             t_lo_now=np.stack([p.t_liftoff_now for p in paths]),
             p_td=np.stack([p.p_world_touchdown for p in paths]),
+            body=paths[0].body,
         )
 
     @property
@@ -244,9 +289,10 @@ def predict_batch(
     state: WalkState,
     omega: float,
     estimate: CopEstimate = "tracking",
-    tracking_fraction: float = 0.5,
+    tracking_fraction: float = 1.0,
     events: Events | None = None,
     with_states: bool = False,
+    feedback_gain: float = 2.0,
 ) -> Prediction:
     """Returns the LIP prediction (capture points at touchdowns) of every path in the batch, closed form."""
     ev = events if events is not None else sort_events(batch, state)
@@ -272,11 +318,25 @@ def predict_batch(
     xi_end = grow[..., None] * (xi0 - np.cumsum(da * cof, axis=1))  # (N,E,2)
     u0, u1 = cof, cof
     if estimate == "tracking" and e:
-        target = project_to_support(xi_end.reshape(-1, 2), feet.reshape(-1, N_LEGS, 2), w.reshape(-1, N_LEGS))
-        u1 = cof + tracking_fraction * (target.reshape(n, e, 2) - cof)
+        # Sequential over segments (vectorized over paths): the CoP ramps from the CoF toward what a
+        # capture-point tracking controller would command at the segment start, clamped to the support.
         tau = np.diff(ev.bounds, axis=1)
-        ramp = (a[:, 1:] * _g_plus(omega * tau))[..., None]
-        xi_end = xi_end - grow[..., None] * np.cumsum(ramp * (u1 - u0), axis=1)
+        ep = np.exp(omega * tau)
+        gp = _g_plus(omega * tau)
+        body = batch.body
+        v_plan = body.velocity_world(ev.bounds)  # (N,E+1,2)
+        xi_plan = body.position(ev.bounds) + v_plan / omega
+        support = Support.of(feet, w)
+        u1 = cof.copy()
+        xi_end = np.empty_like(cof)
+        xi = np.broadcast_to(xi0, (n, 2))
+        active = (tau > 0.0).any(axis=0)
+        for j in range(e):
+            if active[j]:
+                d = xi - v_plan[:, j] / omega + feedback_gain * (xi - xi_plan[:, j])
+                u1[:, j] += tracking_fraction * (support.project(d, j) - cof[:, j])
+                xi = cof[:, j] + (xi - cof[:, j]) * ep[:, j, None] - gp[:, j, None] * (u1[:, j] - cof[:, j])
+            xi_end[:, j] = xi
     elif estimate not in ("cof", "tracking"):
         raise ValueError(f"estimate: must be 'cof' or 'tracking', got {estimate!r}")
     xi_td = np.take_along_axis(xi_end, ev.pos_td[..., None], axis=1) if k else np.zeros((n, 0, 2))
@@ -309,12 +369,18 @@ class TouchdownStates:
 
 
 def predict_touchdown_states(
-    path: StepPath, state: WalkState, omega: float, estimate: CopEstimate = "tracking", tracking_fraction: float = 0.5
+    path: StepPath,
+    state: WalkState,
+    omega: float,
+    estimate: CopEstimate = "tracking",
+    tracking_fraction: float = 1.0,
+    feedback_gain: float = 2.0,
 ) -> TouchdownStates:
     """Returns the LIP state and capture points at each touchdown of ``path`` from ``state``."""
     batch = PathBatch.of([path])
     ev = sort_events(batch, state)
-    pr = predict_batch(batch, state, omega, estimate, tracking_fraction, events=ev, with_states=True)
+    pr = predict_batch(batch, state, omega, estimate, tracking_fraction, events=ev, with_states=True,
+                       feedback_gain=feedback_gain)
     assert pr.x_td is not None and pr.v_td is not None
     feet_td = gather_xy(ev.p_all, ev.slot_td)  # (1,K,4,2)
     return TouchdownStates(

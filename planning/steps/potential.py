@@ -3,8 +3,11 @@
 Families, in the order they are tried (the order matters for lazy, first-below-threshold selection):
 - ``reference``: the reference itself (wins with score 0 whenever it is feasible);
 - ``clamped``: the reference's touchdowns moved into the reach octagon and off the body's midline;
-- ``push``: touchdowns stepped further after the measured velocity error, g·(v - v_cmd)/ω for a few gains g
-  (full and lateral-only), attenuated for each later touchdown of a leg — counteracts the motion after a push;
+- ``avoid``, ``avoid_long``, ``avoid_short`` (with maps): the clamped touchdowns that land on no-step cells moved
+  to the nearest allowed point around them (any direction, only forward, only backward);
+- ``push``: the template steps (below) moved after the measured velocity error by g·(v - v_cmd)/ω for gains g
+  other than the reference's (full and lateral-only), halved for each later touchdown of a leg — steps that
+  counteract the motion after a push more or less strongly than the reference;
 - ``timing``: all future events earlier or later (footholds follow the body), for n ≥ 50 also a faster and a
   slower cadence;
 - ``template``: the gait's template steps (neutral points at mid-stance, no feedback), stepping in place, and a
@@ -61,13 +64,14 @@ class Constraints:
 
 @dataclass(frozen=True)
 class PotentialParams:
-    """offset_step_m: spacing of the offset rings, m. timing_shift_s: s. push_gains: -. width_delta_m: m, wider /
+    """offset_step_m: spacing of the offset rings, m. timing_shift_s: s. push_gains: -, capture-point feedback
+    gains of the push family (the reference uses ReferenceParams.capture_gain). width_delta_m: m, wider /
     narrower template."""
 
     constraints: Constraints = field(default_factory=Constraints)
     offset_step_m: float = 0.035
     timing_shift_s: float = 0.03
-    push_gains: tuple[float, ...] = (0.5, 1.0, 1.5)
+    push_gains: tuple[float, ...] = (0.6, 1.4, 1.8)
     width_delta_m: float = 0.04
 
 
@@ -128,8 +132,8 @@ def _heading_to_world(yaw: F64, d: F64) -> F64:
     return np.einsum("...ij,...j->...i", rot2(yaw), d)
 
 
-def _generate(reference: StepPath, state: WalkState, robot: StepRobot, oct_: Octagon, n: int,
-              p: PotentialParams, omega: float) -> _Family:
+def _generate(reference: StepPath, state: WalkState, oct_: Octagon, n: int, p: PotentialParams, omega: float,
+              maps: StepMaps | None) -> _Family:
     fam = _Family()
     ref_xy = reference.p_world_touchdown[:, :2]
     leg = reference.leg
@@ -147,21 +151,35 @@ def _generate(reference: StepPath, state: WalkState, robot: StepRobot, oct_: Oct
 
     fam.add(ref_xy, "reference")
     # Clamped reference: alternate projections onto the touchdown and liftoff octagons, then off the midline.
-    xy = ref_xy.copy()
-    for _ in range(2):
-        for nb, yw in ((neutral_td, yaw_td), (neutral_lo, yaw_lo)):
-            d = _heading_to_world(-yw, xy - nb)
-            xy = nb + _heading_to_world(yw, oct_.clamp(d))
-    fam.add(xy, "clamped")
+    side = np.sign(oct_.neutral[leg, 1])
+    body_td = body.position(reference.t_touchdown)
+    margin = p.constraints.midline_margin_m + 0.005
+
+    def clamp(xy: F64) -> F64:
+        for _ in range(2):
+            for nb, yw in ((neutral_td, yaw_td), (neutral_lo, yaw_lo)):
+                d = _heading_to_world(-yw, xy - nb)
+                xy = nb + _heading_to_world(yw, oct_.clamp(d))
+        d = _heading_to_world(-yaw_td, xy - body_td)
+        d[:, 1] = side * np.maximum(side * d[:, 1], margin)
+        return body_td + _heading_to_world(yaw_td, d)
+
+    clamped = clamp(ref_xy)
+    fam.add(clamped, "clamped")
+    if maps is not None:
+        # Off the no-step cells: each touchdown on one moves to the nearest allowed point of its footprint
+        # (any direction, or only forward / backward along the heading: a longer or a shorter step).
+        for name, keep in (("avoid", None), ("avoid_long", 1.0), ("avoid_short", -1.0)):
+            fam.add(_avoid(clamped, yaw_td, maps, p, keep), name)
     # Push counteraction.
     v_err = state.v_world_com[:2] - body.velocity_world(t0)
     decay = 0.5 ** rank
     lat = _heading_to_world(np.asarray(body.yaw0), np.array([0.0, 1.0]))
     v_lat = lat * float(v_err @ lat)
     for g in p.push_gains:
-        fam.add(ref_xy + g * decay[:, None] * v_err / omega, "push")
+        fam.add(neutral_mid + g * decay[:, None] * v_err / omega, "push")
     for g in p.push_gains[:2]:
-        fam.add(ref_xy + g * decay[:, None] * v_lat / omega, "push_lateral")
+        fam.add(neutral_mid + g * decay[:, None] * v_lat / omega, "push_lateral")
     # Timing variants.
     shifts = [-p.timing_shift_s, p.timing_shift_s] + ([-2 * p.timing_shift_s, 2 * p.timing_shift_s] if n >= 50 else [])
     for s in shifts:
@@ -174,9 +192,9 @@ def _generate(reference: StepPath, state: WalkState, robot: StepRobot, oct_: Oct
     fam.add(neutral_mid, "template")
     in_place = body.position(t0) + _heading_to_world(np.asarray(body.yaw0), oct_.neutral[leg])
     fam.add(in_place if k else ref_xy, "in_place")
-    side = np.sign(oct_.neutral[leg, 1])[:, None] * np.array([0.0, 1.0])
+    out = side[:, None] * np.array([0.0, 1.0])
     for dw, name in ((p.width_delta_m, "wide"), (-p.width_delta_m, "narrow")):
-        fam.add(neutral_mid + _heading_to_world(yaw_td, dw * side), name)
+        fam.add(neutral_mid + _heading_to_world(yaw_td, dw * out), name)
     # Offsets of each leg's next touchdown, then footprint samples, to fill up to n.
     rest = max(n - len(fam.kind), 0)
     n_off = (rest * 3 + 4) // 5
@@ -200,6 +218,28 @@ def _generate(reference: StepPath, state: WalkState, robot: StepRobot, oct_: Oct
         for name in ("xy", "shift", "scale", "kind"):
             setattr(fam, name, getattr(fam, name)[:n])
     return fam
+
+
+_AVOID_RINGS_M = np.array([0.03, 0.06, 0.09, 0.12, 0.16, 0.20])
+_AVOID_DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.arange(16) * math.pi / 8])
+_AVOID_OFFSETS = (_AVOID_RINGS_M[:, None, None] * _AVOID_DIRS[None]).reshape(-1, 2)  # (S,2), nearest first
+
+
+def _avoid(xy: F64, yaw: F64, maps: StepMaps, p: PotentialParams, forward: float | None) -> F64:
+    """Returns touchdowns (K,2) moved off no-step cells to the nearest allowed sample (heading-frame offsets,
+    only those with sign(dx) == forward when given); touchdowns with no allowed sample stay."""
+    bad = eval_height(maps.no_step, xy[:, 0], xy[:, 1]) > 0.5
+    if not bad.any():
+        return xy
+    offs = _AVOID_OFFSETS if forward is None else _AVOID_OFFSETS[forward * _AVOID_OFFSETS[:, 0] > 0.0]
+    cand = xy[bad][:, None, :] + _heading_to_world(yaw[bad][:, None], np.broadcast_to(offs, (int(bad.sum()), *offs.shape)))
+    ok = ~(eval_height(maps.no_step, cand[..., 0], cand[..., 1]) > 0.5)
+    first = np.argmax(ok, axis=1)
+    out = xy.copy()
+    found = ok.any(axis=1)
+    idx = np.flatnonzero(bad)
+    out[idx[found]] = cand[found, first[found]]
+    return out
 
 
 def _liftoff_or_nominal(path: StepPath) -> F64:
@@ -322,10 +362,10 @@ def potential_step_paths(
         return [reference]  # standing: nothing to vary
     oct_ = Octagon.of(robot, p.constraints)
     omega = state_omega(state, robot.standing_height_m)
-    fam = _generate(reference, state, robot, oct_, n, p, omega)
+    fam = _generate(reference, state, oct_, n, p, omega, maps)
     batch = build_batch(reference, fam, maps)
     scr = screen_paths(batch, reference, state, robot, maps, p.constraints)
-    total = scr.total
+    total = np.where(np.isnan(scr.total), np.inf, scr.total)
     keep = np.flatnonzero(total <= 0.0)
     if keep.size == 0:
         keep = np.arange(batch.n)
@@ -369,4 +409,5 @@ def build_batch(reference: StepPath, fam: _Family, maps: StepMaps | None) -> Pat
         t_lo=retime(reference.t_liftoff),
         t_lo_now=np.broadcast_to(t_lo_now, (m, N_LEGS)).copy(),
         p_td=np.concatenate([xy, z[..., None]], axis=-1),
+        body=reference.body,
     )

@@ -100,12 +100,15 @@ def reference_step_path(
         z = eval_height(ground_height, xy[:, 0], xy[:, 1])
     else:
         z = np.full(leg.shape[0], state.ground_z())
+    # The measured contact wins over the plan: a foot still down that the plan has in the air lifts off now; a
+    # foot in the air has no liftoff to come before its next touchdown.
+    t_lo_now = np.where(state.contact, np.where(np.isnan(sched.t_liftoff_now), t_now, sched.t_liftoff_now), np.nan)
     return StepPath(
         leg=leg,
         t_touchdown=sched.t_touchdown,
         t_liftoff=sched.t_liftoff,
         p_world_touchdown=np.column_stack([xy, z]) if leg.shape[0] else np.zeros((0, 3)),
-        t_liftoff_now=sched.t_liftoff_now,
+        t_liftoff_now=t_lo_now,
         body=body,
         kind="reference",
         gait=clock.gait.name,

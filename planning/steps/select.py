@@ -54,12 +54,17 @@ class WeightPresets:
 @dataclass(frozen=True)
 class SelectionParams:
     """estimate: CoP estimate for the LIP prediction ("tracking" or "cof"). tracking_fraction: -, how far the
-    CoP moves toward the planned capture point over a support segment. infeasible_penalty: score per unit of
+    CoP moves toward its tracking target over a support segment. feedback_gain: -, capture-point feedback gain
+    of the tracking estimate. growth_discount: -, each touchdown's capture-point error is scaled by
+    exp(-growth_discount·ω·(t - t_now)) — the LIP amplifies any difference by exp(ω t), so without it (0) the
+    last touchdowns drown out the first ones; 1 compares errors as their equivalent now. infeasible_penalty: score per unit of
     constraint violation (m), added only when no candidate is feasible. lazy_threshold: when set, candidates are
     scored in chunks of lazy_chunk in order and the first with a score below it is taken."""
 
     estimate: CopEstimate = "tracking"
-    tracking_fraction: float = 0.5
+    tracking_fraction: float = 1.0
+    feedback_gain: float = 2.0
+    growth_discount: float = 1.0
     infeasible_penalty: float = 1e3
     lazy_threshold: float | None = None
     lazy_chunk: int = 8
@@ -93,11 +98,12 @@ def score_components(
     w = omega if omega is not None else state_omega(state, 0.5)
     batch = PathBatch.of([reference, *candidates])
     ev = sort_events(batch, state)
-    pred = predict_batch(batch, state, w, p.estimate, p.tracking_fraction, events=ev)
+    pred = predict_batch(batch, state, w, p.estimate, p.tracking_fraction, events=ev, feedback_gain=p.feedback_gain)
     feet = gather_xy(ev.p_all, ev.slot_td)  # (N+1,K,4,2)
     rel = pred.xi_td[:, :, None, :] - feet  # Eq. 2
     d_rel = rel[1:] - rel[:1]
-    capture = np.einsum("nkli,nkli->n", d_rel, d_rel)
+    scale = np.exp(-2.0 * p.growth_discount * w * (batch.t_td[1:] - state.t))  # on squared errors
+    capture = np.einsum("nk,nkli,nkli->n", scale, d_rel, d_rel)
     d_p = batch.p_td[1:, :, :2] - batch.p_td[:1, :, :2]
     placement = np.einsum("nki,nki->n", d_p, d_p)
     return placement, capture, pred.xi_td[1:], pred.xi_td[0]

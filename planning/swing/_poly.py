@@ -28,7 +28,11 @@ class Poly1D:
     __slots__ = ("breaks", "coeffs", "peak_v", "peak_a", "_tb_np", "_c_np")
 
     def __init__(
-        self, breaks: list[float], coeffs: list[tuple[float, float, float, float]], peak_v: float, peak_a: float
+        self,
+        breaks: list[float],
+        coeffs: list[tuple[float, float, float, float]],
+        peak_v: float,
+        peak_a: float,
     ) -> None:
         self.breaks = breaks
         self.coeffs = coeffs
@@ -196,32 +200,16 @@ class Builder:
         self.peak_v = max(self.peak_v, vmax)
         self.p, self.v, self.t = p1, v1, self.t + dt
 
-    def append_pieces(self, poly: Poly1D, t_from: float) -> None:
-        """Appends poly's pieces from t_from on (the builder must be at poly's state at t_from)."""
-        k = max(bisect.bisect_right(poly.breaks, t_from) - 1, 0)
-        n = len(poly.breaks)
-        for i in range(k, n - 1):
-            t_a = max(poly.breaks[i], t_from)
-            t_b = poly.breaks[i + 1]
-            if t_b - t_a <= _EPS_T:
-                continue
-            c0, c1, c2, c3 = poly.coeffs[i]
-            off = t_a - poly.breaks[i]
-            # Re-expand the piece about its new start.
-            self.breaks.append(self.t)
-            self.coeffs.append(
-                (
-                    c0 + off * (c1 + off * (c2 + off * c3)),
-                    c1 + off * (2.0 * c2 + 3.0 * off * c3),
-                    c2 + 3.0 * c3 * off,
-                    c3,
-                )
-            )
-            self.t = t_b
-        p, v, _ = poly.state(max(poly.t_end, t_from))
-        self.p, self.v = p, v
-        self.peak_v = max(self.peak_v, poly.peak_v)
-        self.peak_a = max(self.peak_a, poly.peak_a)
+    @classmethod
+    def extend(cls, poly: Poly1D) -> Builder:
+        """Returns a builder holding poly's pieces, positioned at the start of poly's tail."""
+        p, v, _, _ = poly.coeffs[-1]
+        b = cls(poly.t_end, p, v)
+        b.breaks = poly.breaks[:-1]
+        b.coeffs = poly.coeffs[:-1]
+        b.peak_v = poly.peak_v
+        b.peak_a = poly.peak_a
+        return b
 
     def finish(self, p: float | None = None, v: float | None = None) -> Poly1D:
         """Closes the trajectory with a constant-velocity tail from the current (or the given exact) state."""
@@ -280,8 +268,10 @@ def rest_time(p: float, v: float, p1: float, v_max: float, a_max: float) -> floa
 
 def to_rest(b: Builder, p1: float, v_max: float, a_max: float) -> float:
     """Appends the time-optimal motion to rest at p1; returns the arrival time (s)."""
+    n = len(b.breaks)
     b.segments(rest_segments(b.p, b.v, p1, v_max, a_max))
-    b.p, b.v = p1, 0.0  # remove rounding so the tail sits exactly on the target
+    if len(b.breaks) > n:
+        b.p, b.v = p1, 0.0  # remove rounding so the tail sits exactly on the target
     return b.t
 
 
@@ -305,7 +295,12 @@ def coast_time(p: float, v: float, p1: float, horizon: float, v_max: float, a_ma
             u = V + math.sqrt(disc)
             cands.append(horizon - (2.0 * u - V) / a_max)
         if V < v_max:
-            rhs = horizon - (2.0 * v_max - V) / a_max - D / v_max + (2.0 * v_max**2 - V * V) / (2.0 * a_max * v_max)
+            rhs = (
+                horizon
+                - (2.0 * v_max - V) / a_max
+                - D / v_max
+                + (2.0 * v_max**2 - V * V) / (2.0 * a_max * v_max)
+            )
             cands.append(rhs / (1.0 - V / v_max))
         for w in cands:
             if 0.0 <= w <= horizon:
@@ -328,15 +323,16 @@ def coast_time(p: float, v: float, p1: float, horizon: float, v_max: float, a_ma
 def rise_hold_fall(
     b: Builder, z_top: float, z_end: float, t_end: float, v_up: float, v_down: float, a_max: float
 ) -> bool:
-    """Appends rise to z_top, hold, fall to rest at z_end by t_end; lowers the top when time is short.
+    """Appends rise to z_top, hold, fall to rest at z_end by t_end; returns whether it arrives on time.
 
-    Returns False (and appends the fastest direct motion to z_end, arriving late) when even the lowest top
-    cannot arrive by t_end.
+    When time is short the top is lowered (down to where braking now would stop the foot); shorter still, the
+    foot coasts at its current velocity and then bangs to rest on z_end exactly at t_end (a foot already on its
+    way down just keeps descending — which makes replanning from the plan's own state reproduce the plan).
+    When even the time-optimal motion arrives late, that motion is appended and False returned.
     """
     z0, v0 = b.p, b.v
     horizon = t_end - b.t
-    z_stop = z0 + (v0 * v0 / (2.0 * a_max) if v0 > 0.0 else 0.0)
-    z_lo = max(z_stop, z_end, z0)
+    z_lo = max(z0 + v0 * abs(v0) / (2.0 * a_max), z_end)
     z_top = max(z_top, z_lo)
 
     def total(h: float) -> float:
@@ -347,8 +343,11 @@ def rise_hold_fall(
         t_lo = total(z_lo)
         if t_lo > horizon + 1e-9:
             v_lim = v_down if z_end < z0 else v_up
+            w = coast_time(z0, v0, z_end, horizon, v_lim, a_max)
+            if w > 0.0:
+                b.accel(w, 0.0)
             to_rest(b, z_end, v_lim, a_max)
-            return False
+            return w >= 0.0
         # Illinois regula falsi on total(h) = horizon; total grows with h.
         lo, hi, f_lo, f_hi = z_lo, z_top, t_lo - horizon, t_hi - horizon
         side = 0
@@ -369,8 +368,10 @@ def rise_hold_fall(
                     f_hi *= 0.5
                 side = -1
         z_top = lo if total(h) > horizon else h
+    n = len(b.breaks)
     b.segments(rest_segments(z0, v0, z_top, v_up, a_max))
-    b.p, b.v = z_top, 0.0
+    if len(b.breaks) > n:
+        b.p, b.v = z_top, 0.0
     t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)
     b.accel(t_end - t_fall - b.t, 0.0)
     to_rest(b, z_end, v_down, a_max)

@@ -44,7 +44,9 @@ class SwingParams:
     v_max_up_mps: float = 2.0
     v_max_down_mps: float = 1.5
     a_max_z_mps2: float = 40.0
-    max_swing_height_m: float = 0.30  # the most aggressive policy's top, above max(lift-off, touchdown) height
+    max_swing_height_m: float = (
+        0.30  # the most aggressive policy's top, above max(lift-off, touchdown) height
+    )
     hip_clearance_m: float = 0.02  # the foot stays this far below (hip z − min leg length)
 
     # Vertical family, gentlest first; the most aggressive policy (full limits, max_swing_height_m) is appended.
@@ -53,7 +55,9 @@ class SwingParams:
     # Terrain
     clearance_margin_m: float = 0.02  # vertical margin the foot keeps over terrain away from its end points
     penetration_tol_m: float = 0.002  # deeper than this below the terrain is a collision
-    end_zone_radius_m: float = 0.025  # around lift-off and touchdown the support surface is not an obstacle
+    obstacle_step_m: float = (
+        0.01  # terrain this far above the lift-off→touchdown reference line is an obstacle
+    )
     cliff_margin_m: float = 0.03  # horizontal margin to terrain above the foot; less is Cliff Scraping
     cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.03)  # radii probed for the horizontal margin
     samples: int = 20  # time samples of a candidate trajectory in the detailed analysis
@@ -70,13 +74,16 @@ class SwingParams:
     # Selection
     preferred_policy: str = "Cubic"  # taken at once when it reaches Success
     preferred_bonus: float = 0.15  # subtracted from the preferred policy's undesirability
-    miss_hysteresis_m: float = 0.01  # XY can't reach: keep last tick's policy unless another misses this much less
+    miss_hysteresis_m: float = (
+        0.01  # XY can't reach: keep last tick's policy unless another misses this much less
+    )
     severity_bucket_m: float = 0.005  # collision severities closer than this count as equal ("if close")
     time_split_frac: float = 0.1  # combinations by time switch policy after this fraction of the swing
 
     # Loop
     replan_period_s: float = 0.003
-    min_replan_horizon_s: float = 0.015  # closer to touchdown than this, keep the last plan instead of replanning
+    new_swing_gap_s: float = 0.05  # a leg not planned for this long starts a new swing (new lift-off height)
+    min_replan_horizon_s: float = 0.015  # closer to touchdown than this, keep the last plan
 
     # Special policies
     late_descent_mps: float = 0.3  # late touchdown: descend at this speed until contact

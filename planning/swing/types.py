@@ -85,7 +85,9 @@ class SwingRequest:
         for name in ("p_world_foot", "v_world_foot", "p_touchdown"):
             a = np.asarray(getattr(self, name), dtype=float)
             if a.shape != (3,) or not np.all(np.isfinite(a)):
-                raise ValueError(f"SwingRequest.{name}: must be 3 finite numbers, got {getattr(self, name)!r}")
+                raise ValueError(
+                    f"SwingRequest.{name}: must be 3 finite numbers, got {getattr(self, name)!r}"
+                )
             object.__setattr__(self, name, a)
         if not math.isfinite(self.t_touchdown):
             raise ValueError(f"SwingRequest.t_touchdown: must be a finite time, got {self.t_touchdown!r}")

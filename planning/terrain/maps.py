@@ -5,8 +5,8 @@ From a ``Columns`` summary (voxels.py, or ``columns_from_scene`` for ground trut
 - ground height: the column's ground (the floor under a table, not its top); unknown cells are filled from their
   neighbors, pessimistically (the lowest neighbor first, so an unseen hole stays a hole), then by nearest value;
 - body obstacles (where the body may not go): obstacle voxels in the body's height band above the cell's ground or
-  above the highest ground nearby (a railing beside a stair), and ground much higher than the ground nearby (the top
-  of a tall box); then spurious specks removed, gaps closed, dense step obstacles promoted;
+  above the highest ground nearby (a railing beside a stair), and the foot of a wall too high to pass over (the
+  sides of a tall box); then spurious specks removed, gaps closed, dense step obstacles promoted;
 - step obstacles (where a foot may not touch down): edges and steep cells, cells too high above the ground nearby,
   obstacles at leg height, cells where a knee would hit something tall nearby, cells near body obstacles; specks
   removed, small gaps closed;
@@ -37,7 +37,9 @@ class MapParams:
     body_band_m: obstacles within this height band make a body obstacle (robot body bottom crouched .. body top
     standing; a table underside above the top is passable crouched); body_ref_radius_m: radius for the highest
     ground nearby that the band is also measured from; body_step_m: ground higher than the lowest ground within
-    low_radius_m by more than this is a body obstacle; max_step_height_m: the same for step obstacles; edge_radius_m,
+    wall_radius_m higher by more than this makes a cell a body obstacle (the foot of a wall); low_radius_m,
+    max_step_height_m: ground higher than the lowest ground within low_radius_m by more than this is a step
+    obstacle; edge_radius_m,
     edge_height_m: a height spread above edge_height_m within edge_radius_m is an edge; leg_band_m: obstacles at
     these heights are step obstacles; knee_radius_m, knee_height_m: a cell with ground higher by knee_height_m within
     knee_radius_m is a step obstacle (the knee would hit); near_body_m: step obstacles around body obstacles;
@@ -50,6 +52,7 @@ class MapParams:
     body_band_m: tuple[float, float] = (0.30, 0.56)
     body_ref_radius_m: float = 0.3
     body_step_m: float = 0.4
+    wall_radius_m: float = 0.06
     low_radius_m: float = 0.3
     max_step_height_m: float = 0.32
     edge_radius_m: float = 0.045
@@ -173,12 +176,13 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
 
     Distances are center-to-center Euclidean distances to the nearest cell of the other kind, minus half a cell, so
     the zero level lies on the boundary between an obstacle cell and a free one. With no obstacle at all, every value
-    is +inf; with no free cell, -inf.
+    is the map's diagonal (no obstacle within the map); with no free cell, minus the diagonal.
     """
+    far = float(np.hypot(*mask.shape)) * resolution_m
     if not mask.any():
-        return np.full(mask.shape, np.inf)
+        return np.full(mask.shape, far)
     if mask.all():
-        return np.full(mask.shape, -np.inf)
+        return np.full(mask.shape, -far)
     d_out = ndimage.distance_transform_edt(~mask)
     d_in = ndimage.distance_transform_edt(mask)
     half = 0.5
@@ -255,7 +259,9 @@ def build_maps(
     body = (_count_between(cum, z0, dz, h + lo, h + hi) > 0) | (
         _count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0
     )
-    body |= h - h_low > p.body_step_m
+    # A wall rising right beside a cell (higher than the body can pass over) blocks the body there.
+    h_wall = ndimage.maximum_filter(h, footprint=_disk(p.wall_radius_m / res), mode="nearest")
+    body |= h_wall - h > p.body_step_m
     body = _remove_specks(body, p.speck_cells)
     if p.close_cells > 0 and body.any():
         st = _disk(p.close_cells)

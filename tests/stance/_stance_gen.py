@@ -105,7 +105,7 @@ def reference_distribution(
     w_force: float = 1.0,
     w_torque: float = 10.0,
     length_m: float = 1.0,
-    alpha: float = 1e-3,
+    alpha: float = 1e-2,
     f_ref: np.ndarray | None = None,
 ) -> np.ndarray:
     """Return the force-distribution optimum (4,3) [N] from clarabel, written from the math in N units."""
@@ -117,8 +117,9 @@ def reference_distribution(
         A[3:6, 3 * leg : 3 * leg + 3] = [[0, -rz, ry], [rz, 0, -rx], [-ry, rx, 0]]
     S = np.diag([w_force / mg**2] * 3 + [w_torque / (mg * length_m) ** 2] * 3)
     w = np.concatenate([force, torque])
-    if f_ref is None:  # the distributor's default prior: equal shares of the desired force
-        f_ref = np.where(contact[:, None], force / max(int(contact.sum()), 1), 0.0)
+    if f_ref is None:  # the distributor's default prior: least-norm forces producing the wrench (weighted)
+        Aw = np.sqrt(S) @ A * np.repeat(contact, 3)[None, :]
+        f_ref = np.linalg.pinv(Aw, rcond=1e-10) @ (np.sqrt(S) @ w)
     ref = f_ref.reshape(-1)
     P = 2.0 * (A.T @ S @ A + alpha / mg**2 * np.eye(12))
     q = -2.0 * (A.T @ S @ w + alpha / mg**2 * ref)

@@ -71,7 +71,7 @@ def test_regularizes_toward_the_reference_forces() -> None:
     assert f[0, 2] > f_plain[0, 2] + 5.0
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=seeds, contact=masks, tilted=st.booleans())
 def test_matches_clarabel_on_random_feasible_problems(seed: int, contact: np.ndarray, tilted: bool) -> None:
     rng = np.random.default_rng(seed)
@@ -89,7 +89,7 @@ def test_matches_clarabel_on_random_feasible_problems(seed: int, contact: np.nda
     assert np.abs(f - f_ref).max() < 0.5
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=200, deadline=None)
 @given(
     seed=seeds,
     contact=masks,

@@ -54,7 +54,7 @@ def assert_invariants(
         np.testing.assert_allclose(tau[contact], tau_expected[contact], atol=1e-6 * (1.0 + limit.max()))
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=300, deadline=None)
 @given(
     seed=seeds,
     contact=masks,
@@ -109,7 +109,7 @@ def test_limits_and_friction_hold_for_any_input(
         assert "f_world_des" in _SHARED.last_status.sanitized
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(seed=seeds, contact=masks, tilted=st.booleans(), wrench_term=st.booleans())
 def test_a_feasible_plan_is_returned_unchanged(
     seed: int, contact: np.ndarray, tilted: bool, wrench_term: bool
@@ -139,7 +139,7 @@ def test_a_feasible_plan_is_returned_unchanged(
     assert_invariants(_SHARED, tau, J, contact, tau_max, tau_bias, mu, normals)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(seed=seeds, contact=masks)
 def test_an_infeasible_plan_becomes_the_closest_feasible_one(seed: int, contact: np.ndarray) -> None:
     rng = np.random.default_rng(seed)

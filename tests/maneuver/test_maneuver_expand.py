@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from conftest import maneuver
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -104,13 +103,15 @@ def test_leg_pairs_move_together_and_pairs_alternate(name: str, together: list[t
         assert np.allclose(np.array(b) - np.array(a), 0.25)  # half a 0.5 s cycle apart
 
 
-def test_walk_is_a_four_beat_crawl_rl_fl_rr_fr() -> None:
+def test_walk_is_a_four_beat_crawl_rl_fl_rr_fr(mk) -> None:
     plan = expand_gait(gait(gait="walk", cycle=1.0, duty=0.75, to=3.0), P_START, NOMINAL_XY)
     first_cycle = sorted((lo, lg) for lg, lo, _, _ in plan.swings if lo < 1.0)
     assert [lg for _, lg in first_cycle] == [2, 0, 3, 1]  # RL, FL, RR, FR
     assert [lo for lo, _ in first_cycle] == pytest.approx([0.0, 0.25, 0.5, 0.75])
-    sched = build_schedule(parse_maneuver(maneuver(gaits=[{"gait": "walk", "from": 0, "to": 3, "cycle": 1.0,
-                                                           "duty": 0.75}])), ROBOT)
+    sched = build_schedule(
+        parse_maneuver(mk(gaits=[{"gait": "walk", "from": 0, "to": 3, "cycle": 1.0, "duty": 0.75}])),
+        ROBOT,
+    )
     for t in np.arange(0.01, 3.0, 0.05):
         assert sched.stance_mask(float(t)).sum() >= 3  # one foot up at a time
 
@@ -126,7 +127,9 @@ def test_touchdowns_advance_by_the_step_each_cycle() -> None:
 
 @settings(max_examples=60, deadline=None)
 @given(dx=st.floats(-0.2, 0.2), dy=st.floats(-0.1, 0.1), dyaw=st.floats(-25, 25), n=st.integers(1, 8))
-def test_yaw_accumulates_and_the_feet_end_around_the_last_pose(dx: float, dy: float, dyaw: float, n: int) -> None:
+def test_yaw_accumulates_and_the_feet_end_around_the_last_pose(
+    dx: float, dy: float, dyaw: float, n: int
+) -> None:
     g = gait(to=0.5 * n, step=[dx, dy, dyaw])
     plan = expand_gait(g, P_START, NOMINAL_XY)
     assert plan.pose_cycle[-1, 2] == pytest.approx(math.radians(dyaw) * n)
@@ -149,15 +152,19 @@ def test_support_frame_of_the_nominal_stance_is_the_origin() -> None:
     assert support_frame(moved, NOMINAL_XY) == pytest.approx((1.0, -0.5, yaw))
 
 
-def test_schedule_resolves_offsets_from_where_the_foot_lifted_off() -> None:
-    m = parse_maneuver(maneuver(events=[
-        {"t": 0.5, "leg": "RL", "type": "liftoff"},
-        {"t": 1.0, "leg": "RL", "type": "touchdown", "offset": [-0.1, 0.02]},
-        {"t": 1.5, "leg": "RL", "type": "liftoff"},
-        {"t": 2.0, "leg": "RL", "type": "touchdown", "offset": [0.0, 0.0, 0.15]},
-        {"t": 2.5, "leg": "FR", "type": "liftoff"},
-        {"t": 3.0, "leg": "FR", "type": "touchdown", "at": [0.5, -0.2, 0.1], "normal": [0, -2, 0]},
-    ]))
+def test_schedule_resolves_offsets_from_where_the_foot_lifted_off(mk) -> None:
+    m = parse_maneuver(
+        mk(
+            events=[
+                {"t": 0.5, "leg": "RL", "type": "liftoff"},
+                {"t": 1.0, "leg": "RL", "type": "touchdown", "offset": [-0.1, 0.02]},
+                {"t": 1.5, "leg": "RL", "type": "liftoff"},
+                {"t": 2.0, "leg": "RL", "type": "touchdown", "offset": [0.0, 0.0, 0.15]},
+                {"t": 2.5, "leg": "FR", "type": "liftoff"},
+                {"t": 3.0, "leg": "FR", "type": "touchdown", "at": [0.5, -0.2, 0.1], "normal": [0, -2, 0]},
+            ]
+        )
+    )
     s = build_schedule(m, ROBOT)
     rl, fr = s.swings[2], s.swings[1]
     np.testing.assert_allclose(rl[0].p_touchdown, P_START[2] + [-0.1, 0.02, 0.0])
@@ -168,15 +175,20 @@ def test_schedule_resolves_offsets_from_where_the_foot_lifted_off() -> None:
     assert s.n_events == 6 and [e.path for e in s.events()][:2] == ["events[0]", "events[1]"]
 
 
-def test_schedule_queries() -> None:
-    m = parse_maneuver(maneuver(events=[
-        {"t": 1.0, "leg": "FL", "type": "liftoff"},
-        {"t": 1.5, "leg": "FL", "type": "touchdown", "at": [0.45, 0.165, 0.0]},
-    ]))
+def test_schedule_queries(mk) -> None:
+    m = parse_maneuver(
+        mk(
+            events=[
+                {"t": 1.0, "leg": "FL", "type": "liftoff"},
+                {"t": 1.5, "leg": "FL", "type": "touchdown", "at": [0.45, 0.165, 0.0]},
+            ]
+        )
+    )
     s = build_schedule(m, ROBOT)
     assert s.in_stance("FL", 0.99) and not s.in_stance("FL", 1.0) and not s.in_stance(0, 1.49)
     assert s.in_stance("FL", 1.5) and all(s.in_stance(leg, 1.2) for leg in ("FR", "RL", "RR"))
-    assert s.next_touchdown("FL", 0.0).t_touchdown == 1.5
+    nxt = s.next_touchdown("FL", 0.0)
+    assert nxt is not None and nxt.t_touchdown == 1.5
     assert s.next_touchdown("FL", 1.5) is None and s.next_touchdown("RR", 0.0) is None
     np.testing.assert_allclose(s.foot_target("FL", 0.5), P_START[0])
     np.testing.assert_allclose(s.foot_target("FL", 1.2), [0.45, 0.165, 0.0])  # where it will land
@@ -185,13 +197,17 @@ def test_schedule_queries() -> None:
     assert s.stance_mask(1.2).tolist() == [False, True, True, True]
 
 
-def test_gait_after_an_explicit_step_starts_from_where_the_feet_are() -> None:
-    m = parse_maneuver(maneuver(
-        duration=4.0,
-        events=[{"t": 0.2, "leg": "FL", "type": "liftoff"},
-                {"t": 0.6, "leg": "FL", "type": "touchdown", "offset": [0.1, 0.0]}],
-        gaits=[{"gait": "trot", "from": 1.0, "to": 3.0, "cycle": 0.5, "duty": 0.6, "step": [0.1, 0, 0]}],
-    ))
+def test_gait_after_an_explicit_step_starts_from_where_the_feet_are(mk) -> None:
+    m = parse_maneuver(
+        mk(
+            duration=4.0,
+            events=[
+                {"t": 0.2, "leg": "FL", "type": "liftoff"},
+                {"t": 0.6, "leg": "FL", "type": "touchdown", "offset": [0.1, 0.0]},
+            ],
+            gaits=[{"gait": "trot", "from": 1.0, "to": 3.0, "cycle": 0.5, "duty": 0.6, "step": [0.1, 0, 0]}],
+        )
+    )
     s = build_schedule(m, ROBOT)
     fl = s.swings[0]
     assert len(fl) == 5 and fl[0].touchdown_path == "events[1]" and fl[1].liftoff_path == "gaits[0]"
@@ -201,8 +217,9 @@ def test_gait_after_an_explicit_step_starts_from_where_the_feet_are() -> None:
     assert x == pytest.approx(0.025 + 0.4, abs=0.01)  # the explicit step moved the support 2.5 cm first
 
 
-def test_too_many_events_are_refused_before_they_are_built() -> None:
-    m = parse_maneuver(maneuver(duration=60.0, gaits=[{"gait": "pronk", "from": 0, "to": 60, "cycle": 0.05,
-                                                       "duty": 0.5}]))
+def test_too_many_events_are_refused_before_they_are_built(mk) -> None:
+    m = parse_maneuver(
+        mk(duration=60.0, gaits=[{"gait": "pronk", "from": 0, "to": 60, "cycle": 0.05, "duty": 0.5}])
+    )
     with pytest.raises(ManeuverError, match=f"at most {MAX_EVENTS}"):
         build_schedule(m, ROBOT)

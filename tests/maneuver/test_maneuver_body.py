@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pytest
-from conftest import maneuver
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -18,7 +17,8 @@ H = ROBOT.standing_height_m
 
 
 def _ref(body: list[dict], duration: float = 6.0) -> BodyReference:
-    return BodyReference.from_maneuver(parse_maneuver(maneuver(duration=duration, body=body)), ROBOT)
+    m = {"format": "footfall/maneuver@1", "name": "keys", "duration": duration, "body": body}
+    return BodyReference.from_maneuver(parse_maneuver(m), ROBOT)
 
 
 keyframe_lists = st.lists(
@@ -33,7 +33,12 @@ keyframe_lists = st.lists(
     max_size=6,
 ).map(
     lambda rows: [
-        {"t": round(sum(r[0] for r in rows[: i + 1]), 6), "position": [*r[1], r[2]], "rpy": r[3], "weight": r[4]}
+        {
+            "t": round(sum(r[0] for r in rows[: i + 1]), 6),
+            "position": [*r[1], r[2]],
+            "rpy": r[3],
+            "weight": r[4],
+        }
         for i, r in enumerate(rows)
     ]
 )
@@ -77,8 +82,6 @@ def test_reference_is_c1_and_its_velocity_is_its_derivative(body: list[dict]) ->
 @given(keyframe_lists)
 def test_reference_never_overshoots_its_knots(body: list[dict]) -> None:
     ref = _ref(body, duration=60.0)
-    for a, b in zip(ref.pose_knot, ref.pose_knot[1:], strict=False):
-        pass
     for k in range(len(ref.t_knot) - 1):
         lo = np.minimum(ref.pose_knot[k], ref.pose_knot[k + 1]) - 1e-9
         hi = np.maximum(ref.pose_knot[k], ref.pose_knot[k + 1]) + 1e-9
@@ -95,13 +98,19 @@ def test_crouch_does_not_dip_below_its_lowest_keyframe() -> None:
 
 
 def test_omega_matches_the_rotation_derivative() -> None:
-    ref = _ref([{"t": 1.0, "position": [0, 0, 0.5], "rpy": [10, 15, 30]},
-                {"t": 2.0, "position": [0, 0, 0.5], "rpy": [-10, 5, -20]}])
+    ref = _ref(
+        [
+            {"t": 1.0, "position": [0, 0, 0.5], "rpy": [10, 15, 30]},
+            {"t": 2.0, "position": [0, 0, 0.5], "rpy": [-10, 5, -20]},
+        ]
+    )
     eps = 1e-6
     for t in (0.3, 0.7, 1.4, 1.8):
         _, _, rpy, omega = ref.sample(t)
         R = rotation_from_rpy(rpy)
-        dR = (rotation_from_rpy(ref.sample(t + eps)[2]) - rotation_from_rpy(ref.sample(t - eps)[2])) / (2 * eps)
+        dR = (rotation_from_rpy(ref.sample(t + eps)[2]) - rotation_from_rpy(ref.sample(t - eps)[2])) / (
+            2 * eps
+        )
         W = dR @ R.T  # skew(omega_world)
         np.testing.assert_allclose([W[2, 1], W[0, 2], W[1, 0]], omega, atol=1e-5)
 
@@ -117,9 +126,15 @@ def test_keyframe_at_zero_replaces_the_start_pose() -> None:
     assert ref.sample(0.0)[0][2] == pytest.approx(0.45)
 
 
-def test_without_keyframes_the_body_follows_the_feet_of_a_trot() -> None:
-    m = parse_maneuver(maneuver(duration=4.0, gaits=[{"gait": "trot", "from": 0.5, "to": 3.5, "cycle": 0.5,
-                                                       "duty": 0.6, "step": [0.1, 0.0, 10.0]}]))
+def test_without_keyframes_the_body_follows_the_feet_of_a_trot(mk) -> None:
+    m = parse_maneuver(
+        mk(
+            duration=4.0,
+            gaits=[
+                {"gait": "trot", "from": 0.5, "to": 3.5, "cycle": 0.5, "duty": 0.6, "step": [0.1, 0.0, 10.0]}
+            ],
+        )
+    )
     ref = BodyReference.from_maneuver(m, ROBOT)
     assert not ref.from_keyframes
     xs = [ref.sample(float(t))[0][0] for t in np.linspace(0, 4, 81)]
@@ -127,13 +142,14 @@ def test_without_keyframes_the_body_follows_the_feet_of_a_trot() -> None:
     p, v, rpy, _ = ref.sample(4.0)
     assert rpy[2] == pytest.approx(math.radians(60.0), abs=1e-6)  # 6 cycles × 10°
     assert p[2] == pytest.approx(H)
-    assert np.linalg.norm(p[:2]) == pytest.approx(0.6, abs=0.02)  # six 0.1 m steps along a gentle arc
+    chord = 0.1 * math.sin(math.radians(30)) / math.sin(math.radians(5))  # six 0.1 m steps turning 10° each
+    assert np.linalg.norm(p[:2]) == pytest.approx(chord, abs=1e-6)
     assert np.all(v == 0)
     assert ref.weight(2.0) == 1.0
 
 
-def test_without_anything_the_body_stands() -> None:
-    ref = BodyReference.from_maneuver(parse_maneuver(maneuver()), ROBOT)
+def test_without_anything_the_body_stands(mk) -> None:
+    ref = BodyReference.from_maneuver(parse_maneuver(mk()), ROBOT)
     p, v, rpy, w = ref.sample(2.0)
     np.testing.assert_allclose(p, [0, 0, H])
     assert not np.any(v) and not np.any(rpy) and not np.any(w)

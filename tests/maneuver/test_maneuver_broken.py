@@ -30,4 +30,6 @@ def test_broken_file_fails_with_its_path_and_reason(path, robot) -> None:
     shown = [f"{p.path!r}: {p.message}" for p in result.failures]
     assert any(p.path == field and text in p.message for p in result.failures), shown
     assert all(p.line is not None for p in result.failures), "problems of a file carry their line"
-    assert not any("Traceback" in p.message or "could not run the check" in p.message for p in result.failures)
+    assert not any(
+        "Traceback" in p.message or "could not run the check" in p.message for p in result.failures
+    )

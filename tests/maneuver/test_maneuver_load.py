@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import maneuver
 
 from planning.maneuver import Liftoff, ManeuverError, Touchdown, load_maneuver, parse_maneuver
 
@@ -43,21 +42,22 @@ objectives:
     m = load_maneuver(text)
     assert isinstance(m.events[0], Liftoff) and isinstance(m.events[1], Touchdown)
     assert m.events[1].adjust is not None and m.events[1].adjust.radius == 0.06
-    assert m.events[3].offset == (0.15, 0.0, 0.0)  # a 2-vector offset gets dz = 0
+    td = m.events[3]
+    assert isinstance(td, Touchdown) and td.offset == (0.15, 0.0, 0.0)  # a 2-vector offset gets dz = 0
     assert m.gaits[0].from_ == 1.0 and m.gaits[0].step == (0.1, 0.0, 0.0)
     assert m.weights.force == pytest.approx(1e-4)  # `1e-4` is a number, not YAML 1.1's string
     assert m.objectives[0].t == (1.0, 1.2)
 
 
-def test_defaults() -> None:
-    m = parse_maneuver(maneuver())
+def test_defaults(mk) -> None:
+    m = parse_maneuver(mk())
     assert m.start == "stand" and m.tracks == ("legs", "body") and m.friction == 0.6
     assert (m.weights.force, m.weights.pose, m.weights.touchdown_time) == (1e-4, 1.0, 1.0)
     assert (m.weights.touchdown_position, m.weights.hip_over_foot) == (10.0, 0.1)
 
 
-def test_every_problem_at_once_with_field_paths() -> None:
-    bad = maneuver(
+def test_every_problem_at_once_with_field_paths(mk) -> None:
+    bad = mk(
         name="Bad",
         duration=-1,
         tracks=["legs", "arms"],
@@ -98,8 +98,8 @@ def test_every_problem_at_once_with_field_paths() -> None:
     assert got["body[0].rpy[1]"] == "must be a number, got true"  # booleans are not numbers
 
 
-def test_plain_messages_have_no_pydantic_jargon() -> None:
-    got = _problems(maneuver(duration=90, friction="high", events=[{"t": -1, "leg": "FL", "type": "liftoff"}]))
+def test_plain_messages_have_no_pydantic_jargon(mk) -> None:
+    got = _problems(mk(duration=90, friction="high", events=[{"t": -1, "leg": "FL", "type": "liftoff"}]))
     assert got == {
         "duration": "must be at most 60 s, got 90",
         "friction": 'must be a number, got "high"',
@@ -137,8 +137,10 @@ def test_a_document_that_is_not_a_mapping(text: str) -> None:
 
 
 def test_problems_carry_yaml_lines() -> None:
-    text = "format: footfall/maneuver@1\nname: x\nduration: 3\nevents:\n  - {t: 1, leg: FL, type: liftoff}\n" \
-           "  - {t: 2, leg: FL, type: touchdown, offset: [1]}\n"
+    text = (
+        "format: footfall/maneuver@1\nname: x\nduration: 3\nevents:\n  - {t: 1, leg: FL, type: liftoff}\n"
+        "  - {t: 2, leg: FL, type: touchdown, offset: [1]}\n"
+    )
     with pytest.raises(ManeuverError) as e:
         load_maneuver(text)
     (p,) = e.value.problems
@@ -150,8 +152,11 @@ def test_load_from_path_text_and_dict_agree(tmp_path: Path) -> None:
     text = "format: footfall/maneuver@1\nname: hold\nduration: 2\n"
     f = tmp_path / "hold.yaml"
     f.write_text(text)
-    assert load_maneuver(f) == load_maneuver(str(f)) == load_maneuver(text) == load_maneuver(
-        {"format": "footfall/maneuver@1", "name": "hold", "duration": 2}
+    assert (
+        load_maneuver(f)
+        == load_maneuver(str(f))
+        == load_maneuver(text)
+        == load_maneuver({"format": "footfall/maneuver@1", "name": "hold", "duration": 2})
     )
     with pytest.raises(ManeuverError, match="no such file"):
         load_maneuver(tmp_path / "missing.yaml")
@@ -166,7 +171,21 @@ def test_error_text_names_the_file_and_counts(tmp_path: Path) -> None:
     assert "line" in str(e.value) and "duration: is required" in str(e.value)
 
 
-def test_maneuvers_are_immutable() -> None:
-    m = parse_maneuver(maneuver())
+def test_maneuvers_are_immutable(mk) -> None:
+    m = parse_maneuver(mk())
     with pytest.raises(Exception):  # noqa: B017 (pydantic's frozen-instance error)
         m.duration = 3.0  # type: ignore[misc]
+
+
+def test_yaml_aliases_are_refused() -> None:
+    # nested aliases expand into exponentially many items for the validator to walk: a denial of service
+    text = "format: footfall/maneuver@1\nname: x\nduration: 1\nbody: &a []\nevents: *a\n"
+    with pytest.raises(ManeuverError, match="line 5, column 9: aliases"):
+        load_maneuver(text)
+
+
+def test_only_yaml_file_names_are_read_as_files() -> None:
+    with pytest.raises(ManeuverError, match="got a str"):
+        load_maneuver("/etc/passwd")  # a one-line string that is not a .yaml name is YAML text
+    with pytest.raises(ManeuverError, match="no such file: nowhere.yaml"):
+        load_maneuver("nowhere.yaml")

@@ -1,0 +1,897 @@
+"""The centroidal solver: one linearized QP a tick (real-time iteration), iterative cuts, integrated-solution check.
+
+Each tick the nonlinear problem (single rigid body, contact force × moment arm products, rotations) is linearized
+about the previous tick's solution resampled onto the new grid, which is also the QP's warm start. The QP was set
+up once for ``CentroidalParams.max_knots`` with a fixed sparsity pattern (``_layout.Layout``); a tick only writes
+values and bounds. Within a tick, nonlinear constraints the QP only approximates — the leg-length circle (FIG. 2E)
+and the friction cone beyond its pyramid — are checked on the solution, their tangent planes written into reserved
+rows, and the QP re-solved without re-linearizing. The solution's forces are then run through the nonlinear
+discrete dynamics; the distance between that integrated trajectory and the QP's is ``linearization_error``.
+
+Orientation: R_k = exp(θ_k) R̄_k with R̄_k the linearization point's orientation (at knot 0 the measured one), θ a
+world-frame rotation vector; the QP's θ is small by construction and the next tick re-centres on the new solution.
+Forces are scaled by m g / 4 inside the QP (so a standing leg carries about 1), positions stay in meters.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import osqp
+
+from planning.centroidal import _so3
+from planning.centroidal._layout import Layout
+from planning.centroidal._schedule import ContactSchedule, build_schedule
+from planning.centroidal.dynamics import linearize
+from planning.centroidal.integrate import compare, integrate_plan
+from planning.centroidal.problem import N_LEGS, BodyModel, CentroidalProblem
+
+INF = 1e30
+_E_XY = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+_EYE3 = np.eye(3)
+# OSQP status values (osqp.constant): 1 solved, 2 solved inaccurate, 3/4 primal infeasible, 5/6 dual infeasible,
+# 7 max iterations, 8 time limit.
+_STATUS_NAMES = {
+    3: "infeasible",
+    4: "infeasible",
+    5: "unbounded",
+    6: "unbounded",
+    7: "max_iter",
+    8: "max_iter",
+}
+
+
+@dataclass(frozen=True)
+class CentroidalParams:
+    """Solver settings.
+
+    max_knots: the QP's size (knot times, so max_knots − 1 intervals); bigger problems fail, smaller are padded.
+    max_adjustable_per_leg: foothold variables per leg (later adjustable touchdowns keep their nominal place).
+    max_polygon_edges: rows reserved per foothold region. max_cut_rounds: re-solves per tick after adding
+    tangent-plane cuts. leg_length_tol_m / cone_tol: violations below these (m; fraction of μ f_n) need no cut.
+    cut_margin_m: leg-length rows start active when the linearization point is this close to a limit.
+    linearization_error_threshold_m: the integrated solution must stay this close (position m + orientation rad ×
+    error_length_m) for ``ok``. time_budget_ms: a tick over it is not ``ok`` and adds no more cuts.
+    timing_adjustment: let touchdown/liftoff times move within their windows.
+    eps_abs / eps_rel / max_iter / rho / polish: OSQP settings. Polishing is off by default: with the
+    degenerate active sets of this problem (pyramid faces, cone cuts, fixed contact variables) it mostly fails and
+    costs a second factorization; tolerances of 1e-6 instead keep forces well under a newton of the optimum.
+    """
+
+    max_knots: int = 24
+    max_adjustable_per_leg: int = 2
+    max_polygon_edges: int = 8
+    max_cut_rounds: int = 3
+    leg_length_tol_m: float = 0.003
+    cone_tol: float = 0.01
+    cut_margin_m: float = 0.01
+    linearization_error_threshold_m: float = 0.02
+    error_length_m: float = 0.35
+    time_budget_ms: float = 10.0
+    timing_adjustment: bool = True
+    eps_abs: float = 1e-6
+    eps_rel: float = 1e-6
+    max_iter: int = 4000
+    rho: float = 0.1
+    polish: bool = False
+
+
+@dataclass(frozen=True)
+class AdjustedTouchdown:
+    """A touchdown as planned: nominal and solved time (s) and contact point (world, m)."""
+
+    leg: int
+    key: str
+    t_nominal: float
+    t: float
+    p_world_nominal: np.ndarray
+    p_world: np.ndarray
+    planted: bool
+
+
+@dataclass(frozen=True)
+class AdjustedLiftoff:
+    """A liftoff as planned: nominal and solved time (s)."""
+
+    leg: int
+    key: str
+    t_nominal: float
+    t: float
+
+
+@dataclass(frozen=True)
+class CentroidalSolution:
+    """One tick's answer. Knot arrays have K rows, interval arrays N = K − 1.
+
+    status: "solved", or why not ("invalid_problem", "infeasible", "unbounded", "max_iter", "inaccurate",
+    "cuts_unsatisfied", "linearization_error", "over_budget", "solver_error"). ok: the solution may drive the
+    robot (solved, every cut satisfied, linearization error under threshold, within the time budget); when not,
+    the arrays are still filled whenever the QP produced an answer (empty for failures before that).
+    f_world: (N,4,3) N, constant over each interval. contact: (N,4) the relaxed contact variable c in [0,1].
+    in_contact: (N,4) bool, the contact the plan uses (c >= 0.5 or a normal force above fz_min / 2).
+    p_world_foot: (N,4,3) contact points (zeros for feet in the air). linearization_error: max over knots of
+    |Δp| + error_length·|Δθ| (m) between the QP trajectory and the nonlinear rollout of its forces.
+    cost: the QP's objective including its constant part (comparable between problems).
+    """
+
+    status: str
+    ok: bool
+    message: str
+    t_knots: np.ndarray
+    p_world: np.ndarray
+    v_world: np.ndarray
+    R_world_body: np.ndarray
+    omega_world: np.ndarray
+    f_world: np.ndarray
+    contact: np.ndarray
+    in_contact: np.ndarray
+    p_world_foot: np.ndarray
+    touchdowns: tuple[AdjustedTouchdown, ...]
+    liftoffs: tuple[AdjustedLiftoff, ...]
+    linearization_error: float
+    orientation_error_rad: float
+    cost: float
+    qp_ms: float
+    tick_ms: float
+    qp_iterations: int
+    cut_iterations: int
+    n_cuts: int
+    max_leg_length_violation_m: float
+    max_cone_violation: float
+    integrated: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def rpy(self) -> np.ndarray:
+        """Returns roll, pitch, yaw (K,3) rad of the planned orientations."""
+        return _so3.R_to_rpy(self.R_world_body)
+
+    def force_at(self, t: float) -> np.ndarray:
+        """Returns the planned contact forces (4,3) N at time t (s): the interval containing t, clamped."""
+        if self.f_world.shape[0] == 0:
+            return np.zeros((N_LEGS, 3))
+        k = int(np.clip(np.searchsorted(self.t_knots, t, side="right") - 1, 0, self.f_world.shape[0] - 1))
+        return self.f_world[k]
+
+
+def _failure(status: str, message: str, t0: float, qp_ms: float = 0.0) -> CentroidalSolution:
+    z = np.zeros((0, 3))
+    return CentroidalSolution(
+        status=status,
+        ok=False,
+        message=message,
+        t_knots=np.zeros(0),
+        p_world=z,
+        v_world=z,
+        R_world_body=np.zeros((0, 3, 3)),
+        omega_world=z,
+        f_world=np.zeros((0, N_LEGS, 3)),
+        contact=np.zeros((0, N_LEGS)),
+        in_contact=np.zeros((0, N_LEGS), dtype=bool),
+        p_world_foot=np.zeros((0, N_LEGS, 3)),
+        touchdowns=(),
+        liftoffs=(),
+        linearization_error=math.inf,
+        orientation_error_rad=math.inf,
+        cost=math.inf,
+        qp_ms=qp_ms,
+        tick_ms=(time.perf_counter() - t0) * 1e3,
+        qp_iterations=0,
+        cut_iterations=0,
+        n_cuts=0,
+        max_leg_length_violation_m=math.inf,
+        max_cone_violation=math.inf,
+    )
+
+
+@dataclass
+class _Previous:
+    """The last solution, kept as the next tick's linearization point and warm start."""
+
+    t: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    R: np.ndarray
+    w: np.ndarray
+    f: np.ndarray
+    c: np.ndarray
+    d_by_key: dict[str, np.ndarray]
+
+
+@dataclass
+class _Tick:
+    """Per-tick arrays, padded to the layout's size (K_max knots, N_max intervals)."""
+
+    pr: CentroidalProblem
+    sch: ContactSchedule
+    K: int
+    N: int
+    Fs: float
+    dt: np.ndarray  # (Nmax,)
+    p: np.ndarray  # (Kmax,3) linearization point ...
+    v: np.ndarray
+    R: np.ndarray  # (Kmax,3,3)
+    w: np.ndarray
+    f: np.ndarray  # (Nmax,4,3) N
+    c: np.ndarray  # (Nmax,4)
+    d: np.ndarray  # (4,S,2)
+    slot: np.ndarray  # (Nmax,4) slot of the foot, -1 none
+    var: np.ndarray  # (Nmax,4) foothold variable of the foot, -1 fixed or none
+    feet: np.ndarray  # (4,P,3) contact points of the slots at the linearization point
+    knot_slot: np.ndarray  # (Kmax-1,4) slot constraining knots 1..K-1
+    t1: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (Nmax,4,3) contact frames
+    t2: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    n: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    hbar: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (Kmax-1,4,3) R̄ p_body_hip
+    foot_c: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (Kmax-1,4,3) nominal foot centers
+    cost_const: float = 0.0
+
+
+class CentroidalSolver:
+    """Builds the QP once; ``solve(problem)`` runs one real-time iteration and returns a CentroidalSolution.
+
+    robot: optional RobotModel; when given, ``default_model`` holds its BodyModel for building problems.
+    """
+
+    def __init__(self, params: CentroidalParams | None = None, robot: object | None = None) -> None:
+        self.params = params or CentroidalParams()
+        p = self.params
+        if p.max_knots < 3:
+            raise ValueError(f"CentroidalParams.max_knots must be >= 3, got {p.max_knots}")
+        self.default_model = BodyModel.from_robot(robot) if robot is not None else None  # type: ignore[arg-type]
+        self.L = Layout(p.max_knots, p.max_adjustable_per_leg, p.max_polygon_edges)
+        L = self.L
+        self._Ax = np.zeros(L.A_nnz)
+        self._Px = np.zeros(L.P_nnz)
+        self._q = np.zeros(L.n)
+        self._l = np.full(L.m, -INF)
+        self._u = np.full(L.m, INF)
+        self._fr = np.zeros((L.N, N_LEGS, 7, 3))
+        self._kin = (np.zeros((L.K - 1, N_LEGS, 2, 3)), np.zeros((L.K - 1, N_LEGS, 2, 3)))
+        self._kd = np.zeros((L.K - 1, N_LEGS, 2, L.S, 2))
+        self._cone_dir = np.zeros((L.N, N_LEGS, 2))
+        self._len_dir = np.zeros((L.K - 1, N_LEGS, 3))
+        self._len_on = np.zeros((L.K - 1, N_LEGS), dtype=bool)
+        self._prev: _Previous | None = None
+        self.last_snapshot: dict[str, object] | None = None
+        self.last_info: list[object] = []
+        self._qp = osqp.OSQP()
+        self._qp.setup(
+            L.P,
+            np.zeros(L.n),
+            L.A,
+            self._l,
+            self._u,
+            verbose=False,
+            eps_abs=p.eps_abs,
+            eps_rel=p.eps_rel,
+            max_iter=p.max_iter,
+            polishing=p.polish,
+            warm_starting=True,
+            rho=p.rho,
+            check_termination=5,
+        )
+
+    # ----------------------------------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Forgets the previous solution: the next tick linearizes about a cold-start guess."""
+        self._prev = None
+
+    def solve(self, problem: CentroidalProblem) -> CentroidalSolution:
+        """Returns the solution of one linearized QP (plus cuts) for the problem; never raises on bad problems."""
+        t0 = time.perf_counter()
+        try:
+            msgs = problem.validate()
+        except Exception as e:  # noqa: BLE001 - a malformed problem must come back as a failure, not a traceback
+            return _failure("invalid_problem", f"problem: {e}", t0)
+        if msgs:
+            return _failure("invalid_problem", "; ".join(msgs), t0)
+        if problem.n_knots > self.params.max_knots:
+            return _failure(
+                "invalid_problem",
+                f"t_knots: {problem.n_knots} knots, the solver was built for at most {self.params.max_knots}",
+                t0,
+            )
+        p = self.params
+        sch = build_schedule(problem, p.max_adjustable_per_leg, p.max_polygon_edges, p.timing_adjustment)
+        if isinstance(sch, str):
+            return _failure("invalid_problem", sch, t0)
+        try:
+            return self._solve(problem, sch, t0)
+        except (FloatingPointError, np.linalg.LinAlgError, ValueError) as e:
+            self._prev = None
+            return _failure("solver_error", f"{type(e).__name__}: {e}", t0)
+
+    # ----------------------------------------------------------------------------------------------------------
+    def _tick_arrays(self, pr: CentroidalProblem, sch: ContactSchedule) -> _Tick:
+        """Returns the linearization point (previous solution resampled, or a cold-start guess) and tick data."""
+        L = self.L
+        K = pr.n_knots
+        N = K - 1
+        t = pr.t_knots
+        m = pr.model.mass_kg
+        g = float(np.linalg.norm(pr.gravity))
+        P = self._prev
+        if P is None:
+            p = pr.targets.p_world.copy()
+            v = pr.targets.v_world.copy()
+            R = pr.targets.R_world_body.copy()
+            w = pr.targets.omega_world.copy()
+            f = np.zeros((N, N_LEGS, 3))
+            c = sch.c_lo.copy()
+            d_prev: dict[str, np.ndarray] = {}
+        else:
+            j = np.clip(np.searchsorted(P.t, t, side="right") - 1, 0, P.t.size - 2)
+            a = np.clip((t - P.t[j]) / np.maximum(P.t[j + 1] - P.t[j], 1e-12), 0.0, 1.0)
+            ac = a[:, None]
+            p = (1 - ac) * P.p[j] + ac * P.p[j + 1]
+            v = (1 - ac) * P.v[j] + ac * P.v[j + 1]
+            w = (1 - ac) * P.w[j] + ac * P.w[j + 1]
+            R = _so3.interpolate(P.R[j], P.R[j + 1], a)
+            tm = 0.5 * (t[:-1] + t[1:])
+            jk = np.clip(np.searchsorted(P.t, tm, side="right") - 1, 0, P.f.shape[0] - 1)
+            f = P.f[jk].copy()
+            c = P.c[jk].copy()
+            d_prev = P.d_by_key
+        s0 = pr.initial
+        p[0], v[0], R[0], w[0] = s0.p_world, s0.v_world, s0.R_world_body, s0.omega_world
+        # No force where there is no foot; a leg newly in stance starts with its share of the weight.
+        f[sch.c_hi == 0.0] = 0.0
+        c = np.clip(c, sch.c_lo, sch.c_hi)
+        n_st = np.maximum((sch.c_lo > 0.5).sum(axis=1, keepdims=True), 1)
+        fresh = (sch.c_lo > 0.5) & (np.abs(f[..., 2]) < 1e-9)
+        f[..., 2] = np.where(fresh, m * g / n_st, f[..., 2])
+        d = np.zeros((N_LEGS, L.S, 2))
+        for i in range(N_LEGS):
+            for sl in sch.slots[i]:
+                if sl.var >= 0 and sl.phase.key in d_prev:
+                    d[i, sl.var] = np.clip(d_prev[sl.phase.key], -sl.box, sl.box)
+        # Pad to the layout's size: repeated last knot, zero-length intervals with no feet.
+        Kmax, Nmax = L.K, L.N
+        pad = Kmax - K
+
+        def padk(x: np.ndarray) -> np.ndarray:
+            return np.concatenate([x, np.repeat(x[-1:], pad, axis=0)]) if pad else x
+
+        dt = np.zeros(Nmax)
+        dt[:N] = np.diff(t)
+        fb = np.zeros((Nmax, N_LEGS, 3))
+        fb[:N] = f
+        cb = np.zeros((Nmax, N_LEGS))
+        cb[:N] = c
+        slot = np.full((Nmax, N_LEGS), -1, dtype=np.int64)
+        slot[:N] = sch.slot
+        legs = np.arange(N_LEGS)[None, :]
+        var = np.where(slot >= 0, sch.var[legs, np.maximum(slot, 0)], -1)
+        feet = sch.nom.copy()
+        vi, vs = np.nonzero(sch.var >= 0)
+        feet[vi, vs] += d[vi, sch.var[vi, vs]] @ _E_XY.T
+        knot_slot = np.full((Kmax - 1, N_LEGS), -1, dtype=np.int64)
+        knot_slot[: K - 1] = sch.knot_slot[1:]
+        return _Tick(pr, sch, K, N, self._force_scale(pr), dt, padk(p), padk(v), padk(R), padk(w), fb, cb, d,
+                     slot, var, feet, knot_slot)  # fmt: skip
+
+    @staticmethod
+    def _force_scale(pr: CentroidalProblem) -> float:
+        return pr.model.mass_kg * max(float(np.linalg.norm(pr.gravity)), 1.0) / 4.0
+
+    # ----------------------------------------------------------------------------------------------------------
+    def _put(self, name: str, val: np.ndarray | float) -> None:
+        sl, shape = self.L.A_blocks[name]
+        self._Ax[sl] = np.broadcast_to(val, shape).ravel()
+
+    def _fill_dynamics(self, tk: _Tick) -> None:
+        """Writes the linearized discrete map (rows ``dyn``) and the initial state (rows ``init``)."""
+        L, put = self.L, self._put
+        pr, dt, Fs = tk.pr, tk.dt, tk.Fs
+        m, g = pr.model.mass_kg, pr.gravity
+        legs = np.arange(N_LEGS)[None, :]
+        has = tk.slot >= 0
+        p_feet = np.where(has[..., None], tk.feet[legs, np.maximum(tk.slot, 0)], 0.0)
+        d_int = np.zeros((L.N, N_LEGS, 2))
+        hv = tk.var >= 0
+        d_int[hv] = tk.d[np.nonzero(hv)[1], tk.var[hv]]
+        lz = linearize(tk.p, tk.v, tk.R, tk.w, tk.f, p_feet, d_int, dt, pr.model.inertia_body, g)
+        put("init", 1.0)
+        put("pp1", 1.0)
+        put("pp0", -1.0)
+        put("pv0", -dt[:, None])
+        put("pf", (-0.5 * dt * dt * Fs / m)[:, None, None])
+        put("vv1", 1.0)
+        put("vv0", -1.0)
+        put("vf", (-dt * Fs / m)[:, None, None])
+        put("tt1", 1.0)
+        put("tt0", -lz.Jth)
+        put("tw0", -0.5 * lz.Jw)
+        put("tw1", -0.5 * lz.Jw)
+        put("ww1", 1.0)
+        dtc = dt[:, None, None]
+        put("ww0", -(_EYE3 + dtc * lz.G_w))
+        put("wt0", -dtc * lz.G_th)
+        put("wp0", -dtc * (lz.I_inv @ lz.T_p))
+        put("wv0", -dtc * (lz.I_inv @ lz.T_v))
+        wf = np.einsum("nij,nljk->nilk", lz.I_inv, lz.T_f) * (-dtc[:, :, None] * Fs)  # (N,3,4,3)
+        put("wf", wf)
+        wd = np.zeros((L.N, 3, N_LEGS, L.S, 2))
+        kk, ii = np.nonzero(hv)
+        if kk.size:
+            wd_leg = -dt[kk, None, None] * np.einsum("nij,njk->nik", lz.I_inv[kk], lz.T_d[kk, ii])  # (M,3,2)
+            wd[kk, :, ii, tk.var[kk, ii], :] = wd_leg
+        put("wd", wd)
+        s0 = pr.initial
+        x0 = np.concatenate([s0.p_world, s0.v_world, np.zeros(3), s0.omega_world])
+        self._l[L.r_init] = x0
+        self._u[L.r_init] = x0
+        rhs = np.empty((L.N, 12))
+        rhs[:, 0:3] = 0.5 * (dt * dt)[:, None] * g
+        rhs[:, 3:6] = dt[:, None] * g
+        rhs[:, 6:9] = lz.rot_rhs
+        rhs[:, 9:12] = lz.ang_rhs
+        self._l[L.r_dyn] = rhs
+        self._u[L.r_dyn] = rhs
+
+    def _fill_friction(self, tk: _Tick) -> None:
+        """Writes the pyramid, the normal-force rows with the contact variable, the cone cut, c bounds, c order."""
+        L = self.L
+        sch, pr = tk.sch, tk.pr
+        legs = np.arange(N_LEGS)[None, :]
+        has = tk.slot >= 0
+        n = np.where(has[..., None], sch.nrm[legs, np.maximum(tk.slot, 0)], np.array([0.0, 0.0, 1.0]))
+        t1 = np.cross(n, np.array([0.0, 1.0, 0.0]))
+        bad = np.linalg.norm(t1, axis=-1) < 1e-6
+        t1[bad] = np.cross(n[bad], np.array([1.0, 0.0, 0.0]))
+        t1 /= np.linalg.norm(t1, axis=-1, keepdims=True)
+        t2 = np.cross(n, t1)
+        tk.t1, tk.t2, tk.n = t1, t2, n
+        mu = pr.mu
+        fr = self._fr
+        fr[:, :, 0] = t1 - mu * n
+        fr[:, :, 1] = -t1 - mu * n
+        fr[:, :, 2] = t2 - mu * n
+        fr[:, :, 3] = -t2 - mu * n
+        fr[:, :, 4] = n
+        fr[:, :, 5] = n
+        # The cone cut starts along the linearization point's tangential force: a valid tangent plane anyway.
+        ft = np.stack([np.sum(tk.f * t1, -1), np.sum(tk.f * t2, -1)], -1)
+        nt = np.linalg.norm(ft, axis=-1, keepdims=True)
+        self._cone_dir[:] = np.where(nt > 1e-6 * tk.Fs, ft / np.maximum(nt, 1e-300), np.array([1.0, 0.0]))
+        self._write_cone_cuts(tk)
+        frc = np.empty((L.N, N_LEGS, 2))
+        frc[..., 0] = -pr.fz_max_N / tk.Fs
+        frc[..., 1] = -pr.fz_min_N / tk.Fs
+        self._put("frc", frc)
+        self._put("cb", 1.0)
+        self._put("mo1", 1.0)
+        self._put("mo0", -1.0)
+        l, u = self._l, self._u
+        rf = L.r_fric
+        c_lo = np.zeros((L.N, N_LEGS))
+        c_hi = np.zeros((L.N, N_LEGS))
+        c_lo[: tk.N], c_hi[: tk.N] = sch.c_lo, sch.c_hi
+        l[rf[:, :, 0:5]] = -INF
+        u[rf[:, :, 0:5]] = 0.0
+        l[rf[:, :, 5]] = 0.0
+        u[rf[:, :, 5]] = INF
+        l[rf[:, :, 6]] = -INF
+        u[rf[:, :, 6]] = np.where(c_hi > 0.0, 0.0, INF)
+        l[L.r_cb] = c_lo
+        u[L.r_cb] = c_hi
+        mono = np.zeros((L.N - 1, N_LEGS), dtype=np.int64)
+        mono[: max(tk.N - 1, 0)] = sch.mono
+        l[L.r_mono] = np.where(mono > 0, 0.0, -INF)
+        u[L.r_mono] = np.where(mono < 0, 0.0, INF)
+
+    def _write_cone_cuts(self, tk: _Tick) -> None:
+        d = self._cone_dir
+        self._fr[:, :, 6] = d[..., :1] * tk.t1 + d[..., 1:] * tk.t2 - tk.pr.mu * tk.n
+        self._put("fr", self._fr)
+
+    def _fill_kinematics(self, tk: _Tick) -> None:
+        """Writes the hip line rows and the leg-length cut rows of knots 1..K-1."""
+        L, prm = self.L, self.params
+        model = tk.pr.model
+        sch = tk.sch
+        legs = np.arange(N_LEGS)[None, :]
+        ks = tk.knot_slot
+        khas = ks >= 0
+        ksi = np.maximum(ks, 0)
+        Rk = tk.R[1:]
+        tk.hbar = np.einsum("kij,lj->kli", Rk, model.p_body_hip)
+        foot_c = tk.feet[legs, ksi] + model.foot_radius_m * sch.nrm[legs, ksi]
+        nom_c = sch.nom[legs, ksi] + model.foot_radius_m * sch.nrm[legs, ksi]
+        tk.foot_c = nom_c
+        vec = tk.p[1:, None, :] + tk.hbar - foot_c
+        dist = np.linalg.norm(vec, axis=-1)
+        lo, hi = model.leg_length_min_m, model.leg_length_max_m
+        self._len_on[:] = khas & ((dist > hi - prm.cut_margin_m) | (dist < lo + prm.cut_margin_m))
+        self._len_dir[:] = vec / np.maximum(dist, 1e-9)[..., None]
+        # Hip line: a_b · (Rᵀ (foot − p) − p_body_hip) in range, with Rᵀ x ≈ R̄ᵀ (x + [x̄]× θ).
+        a_b = np.array([math.cos(model.hip_line_tilt_rad), 0.0, -math.sin(model.hip_line_tilt_rad)])
+        a_w = Rk @ a_b
+        xbar = foot_c - tk.p[1:, None, :]
+        kp, kt = self._kin
+        kp[:, :, 1] = -a_w[:, None, :]
+        kt[:, :, 1] = np.einsum("kj,kljm->klm", a_w, _so3.hat(xbar))
+        kd = self._kd
+        kd[:, :, 1] = 0.0
+        kv = np.where(khas, sch.var[legs, ksi], -1)
+        self._kin_var = kv
+        kk, ii = np.nonzero(kv >= 0)
+        kd[kk, ii, 1, kv[kk, ii], :] = a_w[kk] @ _E_XY
+        base = (a_b @ model.p_body_hip.T)[None, :] - np.einsum("kj,klj->kl", a_w, nom_c)
+        r_h = L.r_kin[:, :, 1]
+        self._l[r_h] = np.where(khas, model.hip_x_range_m[0] + base, -INF)
+        self._u[r_h] = np.where(khas, model.hip_x_range_m[1] + base, INF)
+        self._khas = khas
+        self._write_length_cuts(tk)
+
+    def _write_length_cuts(self, tk: _Tick) -> None:
+        """Writes leg-length rows: u · (hip(p, θ) − foot(d)) in [min, max] along each row's direction u."""
+        L = self.L
+        model = tk.pr.model
+        kp, kt = self._kin
+        kd = self._kd
+        u_dir = self._len_dir
+        kp[:, :, 0] = u_dir
+        kt[:, :, 0] = -np.einsum("klj,kljm->klm", u_dir, _so3.hat(tk.hbar))
+        kd[:, :, 0] = 0.0
+        kv = self._kin_var
+        kk, ii = np.nonzero(kv >= 0)
+        kd[kk, ii, 0, kv[kk, ii], :] = -(u_dir[kk, ii] @ _E_XY)
+        self._put("kp", kp)
+        self._put("kt", kt)
+        self._put("kd", kd)
+        const = np.einsum("klj,klj->kl", u_dir, tk.hbar - tk.foot_c)
+        r = L.r_kin[:, :, 0]
+        on = self._len_on & self._khas
+        self._l[r] = np.where(on, model.leg_length_min_m - const, -INF)
+        self._u[r] = np.where(on, model.leg_length_max_m - const, INF)
+
+    def _fill_footholds(self, tk: _Tick) -> None:
+        """Writes the box and polygon rows of each foothold variable (unused ones are held at zero)."""
+        L = self.L
+        r_f = L.r_foot
+        l, u = self._l, self._u
+        l[r_f] = -INF
+        u[r_f] = INF
+        l[r_f[:, :, :2]] = 0.0
+        u[r_f[:, :, :2]] = 0.0
+        dp = np.zeros((N_LEGS, L.S, L.E, 2))
+        for i in range(N_LEGS):
+            for sl in tk.sch.slots[i]:
+                if sl.var < 0:
+                    continue
+                l[r_f[i, sl.var, :2]] = -sl.box
+                u[r_f[i, sl.var, :2]] = sl.box
+                ne = sl.poly_a.shape[0]
+                dp[i, sl.var, :ne] = sl.poly_a
+                u[r_f[i, sl.var, 2 : 2 + ne]] = sl.poly_b
+        self._put("db", 1.0)
+        self._put("dp", dp)
+
+    def _fill_cost(self, tk: _Tick) -> None:
+        """Writes P and q: pose and velocity tracking, hip over foot, objectives, forces, timing, foothold shifts."""
+        L = self.L
+        pr, sch, K, N, dt, Fs = tk.pr, tk.sch, tk.K, tk.N, tk.dt, tk.Fs
+        Kmax = L.K
+        w = pr.weights
+        tg = pr.targets
+        q = self._q
+        H = np.zeros((Kmax, 6, 6))  # the [p; θ] block of each knot
+        h = np.zeros(Kmax)  # time each knot stands for, s
+        h[: K - 1] += 0.5 * dt[:N]
+        h[1:K] += 0.5 * dt[:N]
+        # Pose targets (knot 0 is fixed: no cost).
+        wp = np.zeros((Kmax, 3))
+        wr = np.zeros((Kmax, 3))
+        wp[1:K] = tg.w_position[1:]
+        wr[1:K] = tg.w_orientation[1:]
+        pt = np.zeros((Kmax, 3))
+        pt[:K] = tg.p_world
+        et = np.zeros((Kmax, 3))
+        et[:K] = _so3.log(tg.R_world_body @ np.swapaxes(tk.R[:K], -1, -2))
+        i3 = np.arange(3)
+        H[:, i3, i3] += 2.0 * wp
+        H[:, 3 + i3, 3 + i3] += 2.0 * wr
+        q_p = -2.0 * wp * pt
+        q_t = -2.0 * wr * et
+        # Velocity tracking (running).
+        wv = np.zeros((Kmax, 1))
+        wv[1:K, 0] = w.velocity * h[1:K]
+        ww = np.zeros((Kmax, 1))
+        ww[1:K, 0] = w.angular_velocity * h[1:K]
+        vt = np.zeros((Kmax, 3))
+        vt[:K] = tg.v_world
+        wt = np.zeros((Kmax, 3))
+        wt[:K] = tg.omega_world
+        q[L.i_v] = -2.0 * wv * vt
+        q[L.i_w] = -2.0 * ww * wt
+        # Hip over foot on sure-stance knots: hip_xy ≈ p_xy + (R̄ p_bh)_xy − ([R̄ p_bh]× θ)_xy.
+        model = pr.model
+        hip_const = 0.0
+        if w.hip_over_foot > 0.0:
+            st = np.zeros((Kmax, N_LEGS), dtype=bool)
+            st[1:K] = sch.stance_knot[1:]
+            ks = np.zeros((Kmax, N_LEGS), dtype=np.int64)
+            ks[1:K] = np.maximum(sch.knot_slot[1:], 0)
+            kk, ii = np.nonzero(st)
+            if kk.size:
+                hb = np.einsum("nij,nj->ni", tk.R[kk], model.p_body_hip[ii])
+                off = np.einsum("nij,nj->ni", tk.R[kk][:, :2, :2], model.foot_offset_body_xy[ii])
+                foot = tk.feet[ii, ks[kk, ii]]
+                J = np.zeros((kk.size, 2, 6))
+                J[:, 0, 0] = 1.0
+                J[:, 1, 1] = 1.0
+                J[:, :, 3:] = -_so3.hat(hb)[:, :2, :]
+                r0 = hb[:, :2] - foot[:, :2] + off
+                wk = w.hip_over_foot * h[kk]
+                np.add.at(H, kk, 2.0 * wk[:, None, None] * np.swapaxes(J, 1, 2) @ J)
+                g_ = 2.0 * wk[:, None] * np.einsum("nji,nj->ni", J, r0)
+                np.add.at(q_p, kk, g_[:, :3])
+                np.add.at(q_t, kk, g_[:, 3:])
+                hip_const = float(np.sum(wk * np.sum(r0 * r0, axis=1)))
+        # Custom objectives: linear rewards on the CoM over their windows.
+        tkn = np.full(Kmax, np.inf)
+        tkn[:K] = pr.t_knots
+        for ob in pr.objectives:
+            inw = (tkn >= ob.t_start) & (tkn <= ob.t_end)
+            inw[0] = False
+            if ob.kind == "maximize_height":
+                q_p[inw, 2] -= ob.weight * h[inw]
+            else:
+                dvec = np.asarray(ob.direction_xy, dtype=float)
+                q_p[inw, :2] -= ob.weight * h[inw, None] * (dvec / np.linalg.norm(dvec))
+        q[L.i_p] = q_p
+        q[L.i_th] = q_t
+        q[L.i_f] = 0.0
+        q[L.i_c] = 0.0
+        q[L.i_c[:N]] = sch.q_c
+        q[L.i_d] = 0.0
+        # The constant part of the cost, so ``cost`` compares across problems (e.g. timing adjustment on/off).
+        tk.cost_const = (
+            float(np.sum(wp * pt * pt) + np.sum(wr * et * et) + np.sum(wv * vt * vt) + np.sum(ww * wt * wt))
+            + hip_const
+            - float(np.sum(np.minimum(sch.q_c, 0.0)))
+        )
+        ia, ib = L.pt_pairs
+        B = L.P_blocks
+        Px = self._Px
+
+        def putp(name: str, val: np.ndarray | float) -> None:
+            sl, shape = B[name]
+            Px[sl] = np.broadcast_to(val, shape).ravel()
+
+        putp("pt", H[:, ia, ib])
+        putp("vv", 2.0 * wv + 1e-6)
+        putp("ww", 2.0 * ww + 1e-6)
+        putp("ff", (2.0 * w.force * Fs * Fs * dt + 1e-6)[:, None, None])
+        putp("cc", 2.0 * w.contact_regularization + 1e-6)
+        putp("dd", 2.0 * w.touchdown_position + 1e-6)
+
+    # ----------------------------------------------------------------------------------------------------------
+    def _solve(self, pr: CentroidalProblem, sch: ContactSchedule, t0: float) -> CentroidalSolution:
+        prm, L = self.params, self.L
+        tk = self._tick_arrays(pr, sch)
+        self._fill_dynamics(tk)
+        self._fill_friction(tk)
+        self._fill_kinematics(tk)
+        self._fill_footholds(tk)
+        self._fill_cost(tk)
+        x_ws = np.zeros(L.n)
+        x_ws[L.i_p] = tk.p
+        x_ws[L.i_v] = tk.v
+        x_ws[L.i_w] = tk.w
+        x_ws[L.i_f] = tk.f / tk.Fs
+        x_ws[L.i_c] = tk.c
+        x_ws[L.i_d] = tk.d
+
+        tq = time.perf_counter()
+        self._qp.update(q=self._q, l=self._l, u=self._u, Px=self._Px[L.P_order], Ax=self._Ax[L.A_order])
+        self._qp.warm_start(x=x_ws)
+        res = self._qp.solve(raise_error=False)
+        t_qp = (time.perf_counter() - tq) * 1e3
+        self.last_info = [res.info]
+        rounds = n_cuts = 0
+        len_viol = cone_viol = 0.0
+        while int(res.info.status_val) in (1, 2):
+            sol = self._unpack(res.x, tk)
+            len_viol, cone_viol, new_len, new_cone = self._violations(sol, tk)
+            if not (new_len.any() or new_cone.any()):
+                break
+            if rounds >= prm.max_cut_rounds or (time.perf_counter() - t0) * 1e3 > prm.time_budget_ms:
+                break
+            rounds += 1
+            n_cuts += int(new_len.sum() + new_cone.sum())
+            self._write_length_cuts(tk)
+            self._write_cone_cuts(tk)
+            tq = time.perf_counter()
+            self._qp.update(l=self._l, u=self._u, Ax=self._Ax[L.A_order])
+            self._qp.warm_start(x=res.x)
+            res = self._qp.solve(raise_error=False)
+            t_qp += (time.perf_counter() - tq) * 1e3
+            self.last_info.append(res.info)
+        self.last_snapshot = {
+            "l": self._l.copy(),
+            "u": self._u.copy(),
+            "q": self._q.copy(),
+            "Ax": self._Ax.copy(),
+            "Px": self._Px.copy(),
+            "K": tk.K,
+            "N": tk.N,
+            "Fs": tk.Fs,
+            "x": None if res.x is None else np.array(res.x),
+        }
+        qp_iter = sum(int(i.iter) for i in self.last_info)
+        status_val = int(res.info.status_val)
+        if status_val not in (1, 2):
+            self._prev = None
+            name = _STATUS_NAMES.get(status_val, "solver_error")
+            return _failure(name, f"OSQP: {res.info.status}", t0, t_qp)
+        return self._finish(tk, res, t0, t_qp, qp_iter, rounds, n_cuts, len_viol, cone_viol)
+
+    # ----------------------------------------------------------------------------------------------------------
+    def _unpack(self, x: np.ndarray, tk: _Tick) -> dict[str, np.ndarray]:
+        L, K, N, sch = self.L, tk.K, tk.N, tk.sch
+        th = x[L.i_th[:K]]
+        d = x[L.i_d]
+        feet = sch.nom.copy()
+        vi, vs = np.nonzero(sch.var >= 0)
+        feet[vi, vs] += d[vi, sch.var[vi, vs]] @ _E_XY.T
+        slot = sch.slot
+        has = slot >= 0
+        legs = np.arange(N_LEGS)[None, :]
+        return {
+            "p": x[L.i_p[:K]],
+            "v": x[L.i_v[:K]],
+            "th": th,
+            "R": _so3.exp(th) @ tk.R[:K],
+            "w": x[L.i_w[:K]],
+            "f": x[L.i_f[:N]] * tk.Fs,
+            "c": x[L.i_c[:N]],
+            "d": d,
+            "feet": feet,
+            "p_feet": np.where(has[..., None], feet[legs, np.maximum(slot, 0)], 0.0),
+        }
+
+    def _violations(
+        self, sol: dict[str, np.ndarray], tk: _Tick
+    ) -> tuple[float, float, np.ndarray, np.ndarray]:
+        """Checks the nonlinear constraints on a solution; points the cut rows of violated ones at the violation.
+
+        Returns (worst leg-length violation m, worst cone violation as a fraction of μ f_n, new length cuts
+        (K_max-1,4), new cone cuts (N_max,4)).
+        """
+        prm, pr, sch, K, N = self.params, tk.pr, tk.sch, tk.K, tk.N
+        model = pr.model
+        legs = np.arange(N_LEGS)[None, :]
+        # Leg length with the true (nonlinear) hip position.
+        hip = sol["p"][1:, None, :] + np.einsum("kij,lj->kli", sol["R"][1:], model.p_body_hip)
+        ksi = np.maximum(tk.knot_slot[: K - 1], 0)
+        foot_c = sol["feet"][legs, ksi] + model.foot_radius_m * sch.nrm[legs, ksi]
+        vec = hip - foot_c
+        dist = np.linalg.norm(vec, axis=-1)
+        act = self._khas[: K - 1]
+        over = np.where(act, np.maximum(dist - model.leg_length_max_m, model.leg_length_min_m - dist), 0.0)
+        new_len = np.zeros_like(self._len_on)
+        new_len[: K - 1] = over > prm.leg_length_tol_m
+        if new_len.any():
+            self._len_on |= new_len
+            self._len_dir[new_len] = (vec / np.maximum(dist, 1e-9)[..., None])[new_len[: K - 1]]
+        # Friction cone.
+        f = sol["f"]
+        t1, t2, n = tk.t1[:N], tk.t2[:N], tk.n[:N]
+        fn = np.sum(f * n, -1)
+        ft = np.stack([np.sum(f * t1, -1), np.sum(f * t2, -1)], -1)
+        ftn = np.linalg.norm(ft, axis=-1)
+        # Relative to the cone's radius, never finer than a fraction of fz_min (noise on unloaded feet).
+        cone_rel = (ftn - pr.mu * fn) / np.maximum(pr.mu * np.maximum(fn, pr.fz_min_N), 1e-9)
+        new_cone = np.zeros(self._cone_dir.shape[:2], dtype=bool)
+        new_cone[:N] = (cone_rel > prm.cone_tol) & (ftn > 1e-9)
+        if new_cone.any():
+            self._cone_dir[new_cone] = (ft / np.maximum(ftn, 1e-12)[..., None])[new_cone[:N]]
+        return (
+            float(max(over.max(initial=0.0), 0.0)),
+            float(max(cone_rel.max(initial=0.0), 0.0)),
+            new_len,
+            new_cone,
+        )
+
+    # ----------------------------------------------------------------------------------------------------------
+    def _finish(
+        self,
+        tk: _Tick,
+        res: object,
+        t0: float,
+        t_qp: float,
+        qp_iter: int,
+        rounds: int,
+        n_cuts: int,
+        len_viol: float,
+        cone_viol: float,
+    ) -> CentroidalSolution:
+        prm, pr, sch, N = self.params, tk.pr, tk.sch, tk.N
+        model = pr.model
+        sol = self._unpack(res.x, tk)  # type: ignore[attr-defined]
+        t = pr.t_knots
+        # Integrated solution: the QP's forces through the nonlinear discrete dynamics.
+        P_i, V_i, R_i, W_i = integrate_plan(pr.initial, sol["f"], sol["p_feet"], t, model, pr.gravity)
+        err = compare(sol["p"], sol["R"], sol["w"], P_i, R_i, W_i, prm.error_length_m)
+        # Timing and places the solution chose.
+        c = sol["c"]
+        fn = np.sum(sol["f"] * tk.n[:N], -1)
+        in_contact = ((c >= 0.5) | (fn >= 0.5 * pr.fz_min_N)) & (sch.c_hi > 0.0)
+        tds: list[AdjustedTouchdown] = []
+        los: list[AdjustedLiftoff] = []
+        for i in range(N_LEGS):
+            for s, sl in enumerate(sch.slots[i]):
+                ph = sl.phase
+                t_td = ph.t_touchdown
+                k0, k1 = sl.td_window
+                if k1 > k0:
+                    hit = np.nonzero(in_contact[k0:k1, i])[0]
+                    t_td = float(t[k0 + hit[0]]) if hit.size else float(t[k1])
+                p_td = sol["feet"][i, s].copy()
+                tds.append(
+                    AdjustedTouchdown(
+                        i, ph.key, ph.t_touchdown, t_td, ph.p_world_foot.copy(), p_td, sl.planted
+                    )
+                )
+                if math.isfinite(ph.t_liftoff):
+                    t_lo = ph.t_liftoff
+                    k0, k1 = sl.lo_window
+                    if k1 > k0:
+                        hit = np.nonzero(in_contact[k0:k1, i])[0]
+                        t_lo = float(t[k0 + hit[-1] + 1]) if hit.size else float(t[k0])
+                    los.append(AdjustedLiftoff(i, ph.key, ph.t_liftoff, t_lo))
+        d_by_key = {
+            sl.phase.key: sol["d"][i, sl.var].copy()
+            for i in range(N_LEGS)
+            for sl in sch.slots[i]
+            if sl.var >= 0
+        }
+        self._prev = _Previous(t.copy(), sol["p"].copy(), sol["v"].copy(), sol["R"].copy(), sol["w"].copy(),
+                               sol["f"].copy(), c.copy(), d_by_key)  # fmt: skip
+        tick_ms = (time.perf_counter() - t0) * 1e3
+        if int(res.info.status_val) != 1:  # type: ignore[attr-defined]
+            status = "inaccurate"
+        elif len_viol > 2 * prm.leg_length_tol_m or cone_viol > 2 * prm.cone_tol:
+            status = "cuts_unsatisfied"
+        elif err.metric > prm.linearization_error_threshold_m:
+            status = "linearization_error"
+        elif tick_ms > prm.time_budget_ms:
+            status = "over_budget"
+        else:
+            status = "solved"
+        msg = (
+            f"{status}: {rounds} cut round(s), {n_cuts} cut(s), linearization error {err.metric * 1e3:.2f} mm, "
+            f"qp {t_qp:.2f} ms, tick {tick_ms:.2f} ms"
+        )
+        return CentroidalSolution(
+            status=status,
+            ok=status == "solved",
+            message=msg,
+            t_knots=t.copy(),
+            p_world=sol["p"],
+            v_world=sol["v"],
+            R_world_body=sol["R"],
+            omega_world=sol["w"],
+            f_world=sol["f"],
+            contact=c,
+            in_contact=in_contact,
+            p_world_foot=sol["p_feet"],
+            touchdowns=tuple(tds),
+            liftoffs=tuple(los),
+            linearization_error=err.metric,
+            orientation_error_rad=float(np.max(err.orientation_rad)),
+            cost=float(res.info.obj_val) + tk.cost_const,  # type: ignore[attr-defined]
+            qp_ms=t_qp,
+            tick_ms=tick_ms,
+            qp_iterations=qp_iter,
+            cut_iterations=rounds,
+            n_cuts=n_cuts,
+            max_leg_length_violation_m=len_viol,
+            max_cone_violation=cone_viol,
+            integrated={"p_world": P_i, "v_world": V_i, "R_world_body": R_i, "omega_world": W_i},
+        )

@@ -1,0 +1,191 @@
+"""The handler (dynamic-planning-controller seed): carries out a contact plan with the measured state winning.
+
+Per leg a small phase machine decides stance or swing from the plan *and* the contacts the simulator measures: a
+foot planned down that has not landed is a late touchdown (it keeps descending and carries no force), a swing foot
+that lands early is in stance at once. Stance legs get the planned contact forces through the stance handler (torque
+and friction limits enforced again at the joints); swing legs are position-controlled along the swing planner's
+trajectories (joint PD plus feed-forward through the leg Jacobian).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import Protocol
+
+import numpy as np
+
+from planning.robot import RobotModel
+from planning.sim.world import RobotState
+from planning.stance import StanceHandler
+from planning.swing import BodyMotion, SwingPlan, SwingPlanner, SwingRequest, swing_joint_command
+
+
+class Phase(IntEnum):
+    STANCE = 0
+    SWING = 1
+    LATE = 2  # past the planned touchdown, not yet in contact: descending until contact
+
+
+class PlannedSwing(Protocol):
+    """One planned swing of a contact plan (planning.maneuver.Swing provides it)."""
+
+    @property
+    def leg(self) -> int: ...
+    @property
+    def t_liftoff(self) -> float: ...
+    @property
+    def t_touchdown(self) -> float: ...
+    @property
+    def p_touchdown(self) -> np.ndarray: ...
+
+
+class ContactPlan(Protocol):
+    """What the handler needs of a plan: which swing a leg is in at time t (None: stance)."""
+
+    def swing_at(self, leg: int, t: float) -> PlannedSwing | None: ...
+
+
+@dataclass(frozen=True)
+class HandlerParams:
+    """Joint gains of swing legs and the contact rules."""
+
+    kp_swing: tuple[float, float, float] = (120.0, 120.0, 120.0)  # N·m/rad
+    kd_swing: tuple[float, float, float] = (3.0, 3.0, 3.0)  # N·m·s/rad
+    stance_damping: float = 0.5  # N·m·s/rad on stance legs
+    early_touchdown_fraction: float = 0.5  # a contact after this fraction of the swing counts as a touchdown
+    late_descent_mps: float = 0.3  # late touchdown: descend at this speed until contact
+    mu: float = 0.6
+
+
+class Handler:
+    """Leg phases, swing planning and the torques of one robot."""
+
+    def __init__(
+        self, robot: RobotModel, swing_planner: SwingPlanner | None = None, params: HandlerParams | None = None
+    ) -> None:
+        self.robot = robot
+        self.params = params or HandlerParams()
+        p = self.params
+        self.swing_planner = swing_planner or SwingPlanner(robot)
+        self.stance_handler = StanceHandler()
+        self.phase = np.zeros(4, dtype=np.int64)  # Phase per leg
+        self.stance = np.ones(4, dtype=bool)
+        self.t_liftoff = np.zeros(4)
+        self.t_touchdown = np.zeros(4)
+        self.p_touchdown = np.zeros((4, 3))
+        self.p_contact = np.zeros((4, 3))  # where each stance foot stands (contact point)
+        self.plans: dict[int, SwingPlan] = {}
+        self.kp = np.array(p.kp_swing)
+        self.kd = np.array(p.kd_swing)
+        self.tau = np.zeros((4, 3))
+        self.touchdown_overrides: dict[int, np.ndarray] = {}  # solver-adjusted touchdown places by leg
+        self.ground = None
+        self._initialized = False
+
+    # ---- phases (500 Hz) -------------------------------------------------------------------------------------
+    def update_phases(self, s: RobotState, plan: ContactPlan) -> None:
+        """Advances each leg's phase from the plan at s.t and the measured contacts."""
+        t = s.t
+        r = self.robot.foot_radius_m
+        if not self._initialized:
+            self.p_contact[:] = s.p_world_foot
+            self.p_contact[:, 2] -= r
+            self._initialized = True
+        for leg in range(4):
+            ph = self.phase[leg]
+            sw = plan.swing_at(leg, t)
+            if ph == Phase.STANCE:
+                if sw is not None and t < sw.t_touchdown:
+                    self._lift(leg, sw, s)
+            elif ph == Phase.SWING:
+                frac = (t - self.t_liftoff[leg]) / max(self.t_touchdown[leg] - self.t_liftoff[leg], 1e-3)
+                if s.contact[leg] and frac >= self.params.early_touchdown_fraction:
+                    self._land(leg, s)
+                elif t >= self.t_touchdown[leg]:
+                    if s.contact[leg]:
+                        self._land(leg, s)
+                    else:
+                        self.phase[leg] = Phase.LATE
+            elif s.contact[leg]:  # LATE
+                self._land(leg, s)
+        np.equal(self.phase, Phase.STANCE, out=self.stance)
+
+    def _lift(self, leg: int, sw: PlannedSwing, s: RobotState) -> None:
+        self.phase[leg] = Phase.SWING
+        self.t_liftoff[leg] = s.t
+        self.t_touchdown[leg] = sw.t_touchdown
+        self.p_touchdown[leg] = self.touchdown_overrides.get(leg, sw.p_touchdown)
+        self.plans.pop(leg, None)
+
+    def _land(self, leg: int, s: RobotState) -> None:
+        self.phase[leg] = Phase.STANCE
+        self.p_contact[leg] = s.p_world_foot[leg]
+        self.p_contact[leg, 2] -= self.robot.foot_radius_m
+        self.plans.pop(leg, None)
+        self.touchdown_overrides.pop(leg, None)
+
+    def set_touchdown(self, leg: int, p_world: np.ndarray, t: float | None = None) -> None:
+        """Moves a swing leg's touchdown target (and time), e.g. to where the centroidal solver put it."""
+        self.touchdown_overrides[leg] = np.asarray(p_world, dtype=float)
+        if self.phase[leg] != Phase.STANCE:
+            self.p_touchdown[leg] = p_world
+            if t is not None:
+                self.t_touchdown[leg] = t
+
+    # ---- swing planning (333 Hz) ------------------------------------------------------------------------------
+    def plan_swings(self, s: RobotState, v_body_des: np.ndarray | None = None) -> None:
+        """Replans every swing leg from its measured position and velocity."""
+        legs = [i for i in range(4) if self.phase[i] != Phase.STANCE]
+        if not legs:
+            self.plans.clear()
+            return
+        reqs = []
+        r = self.robot.foot_radius_m
+        for i in legs:
+            p = s.p_world_foot[i].copy()
+            p[2] -= r
+            t_td = self.t_touchdown[i]
+            p_td = self.p_touchdown[i]
+            if self.phase[i] == Phase.LATE:
+                # descend at a fixed speed until contact: aim below the planned place, a little later
+                t_td = s.t + 0.1
+                p_td = p_td.copy()
+                p_td[2] = p[2] - self.params.late_descent_mps * 0.1
+            reqs.append(SwingRequest(i, p, s.v_world_foot[i], p_td, max(t_td, s.t + 0.02)))
+        stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == Phase.STANCE}
+        v = s.v_world_body if v_body_des is None else v_body_des
+        body = BodyMotion(s.t, s.p_world_body.copy(), s.R_world_body.copy(), v.copy(), float(s.omega_world[2]))
+        kwargs = {} if self.ground is None else {"ground": self.ground}
+        self.plans.update(self.swing_planner.plan(s.t, reqs, stance_feet_world=stance, body=body, **kwargs))
+
+    # ---- torques (every physics step) ---------------------------------------------------------------------------
+    def torques(self, s: RobotState, f_des: np.ndarray, p_com_foot: np.ndarray | None = None) -> np.ndarray:
+        """Returns joint torques (4,3): stance legs realize f_des, swing legs track their trajectories."""
+        p = self.params
+        tau = self.stance_handler.solve(
+            f_des,
+            s.J_world_foot,
+            self.stance,
+            self.robot.tau_max,
+            tau_bias_leg=s.tau_bias,
+            mu=p.mu,
+            p_com_foot_world=p_com_foot,
+        )
+        self.tau[:] = tau
+        self.tau[self.stance] -= p.stance_damping * s.qd[self.stance]
+        for leg in range(4):
+            if self.stance[leg]:
+                continue
+            plan = self.plans.get(leg)
+            if plan is None:
+                # not planned yet this tick: hold the joints where they are, compensating gravity
+                self.tau[leg] = s.tau_bias[leg] - self.kd * s.qd[leg]
+                continue
+            q_des, qd_des, tau_ff = swing_joint_command(
+                self.robot, leg, s.q[leg], s.qd[leg], plan, s.t, s.R_world_body, s.p_world_body, s.v_world_body,
+                s.omega_world,
+            )
+            self.tau[leg] = self.kp * (q_des - s.q[leg]) + self.kd * (qd_des - s.qd[leg]) + tau_ff + s.tau_bias[leg]
+        np.clip(self.tau, -self.robot.tau_max, self.robot.tau_max, out=self.tau)
+        return self.tau

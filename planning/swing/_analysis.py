@@ -1,0 +1,312 @@
+"""The detailed analysis: puts a candidate swing (horizontal path + vertical trajectory) in a tier of FIG. 3.
+
+Terrain is an obstacle where it stands above the *reference surface*, the straight line between the lift-off and
+touchdown heights along the swing's progress: flat ground and the surfaces the foot leaves from and lands on are
+never obstacles, a box between them is. Other legs are segments from their foot center to their knee; the swing
+foot keeps ``keepout_radius_m`` from them, its knee ``knee_keepout_m``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from planning.robot import ReachError, RobotModel
+from planning.swing._poly import Poly1D
+from planning.swing.params import SwingParams
+from planning.swing.policies import HPath, LegCtx
+from planning.swing.types import BodyMotion, GroundHeightFn, Tier
+
+_DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
+
+
+@dataclass(slots=True)
+class OtherLeg:
+    """Another leg as an obstacle: its foot centers at the swing's sample times and its shank vector."""
+
+    leg: int
+    foot_center: np.ndarray  # (K,3) or (1,3) world, m
+    shank: np.ndarray  # (3,) knee − foot center, world, m
+
+
+@dataclass(slots=True)
+class LegProblem:
+    """Everything about one swing leg that does not depend on the candidate policy (built once per tick)."""
+
+    leg: int
+    ctx: LegCtx
+    cos_yaw: float
+    sin_yaw: float
+    ts: np.ndarray  # (K,) sample times, s
+    p_start: np.ndarray  # (3,) world contact point
+    p_target: np.ndarray  # (3,)
+    z_aggressive: Poly1D
+    z_ok: bool  # the most aggressive vertical policy arrives on time
+    zs_aggressive: np.ndarray  # (K,)
+    others: list[OtherLeg]
+    hips: np.ndarray  # (K,3) world hip positions at ts
+    ground: GroundHeightFn
+    flat_height: float | None  # set when the ground is FlatGround
+    body: BodyMotion
+    previous_policy: str | None
+    u_z_aggressive: float  # vertical undesirability of the most aggressive policy, added to every candidate
+    z_ref: float  # lift-off height of this swing, m: vertical tops are measured from max(z_ref, touchdown z)
+
+
+@dataclass(slots=True)
+class Verdict:
+    """The tier of one candidate, its tie-breaking key (lower wins) and what the vertical selection reuses."""
+
+    tier: Tier
+    key: tuple[float, ...]
+    undesirability: float
+    miss_m: float
+    blame: int | None = None  # the other leg in the worst self-collision
+    xw: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (K,) world x of the samples
+    yw: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    g: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (K,) ground height under the samples
+    obstacle: np.ndarray = field(
+        default_factory=lambda: np.zeros(0, dtype=bool)
+    )  # (K,) ground is an obstacle
+    ring_g: np.ndarray | None = None  # (K,R) highest obstacle ground on each probe ring (−inf: none)
+    foot_self_sev: float = 0.0
+
+
+def undesirability_h(hp: HPath, params: SwingParams) -> float:
+    """Horizontal undesirability: peak acceleration and velocity over their limits; the preferred policy is cheaper."""
+    u = hp.peak_a / params.a_max_xy_mps2 + 0.5 * hp.peak_v / params.v_max_xy_mps
+    if hp.name == params.preferred_policy:
+        u -= params.preferred_bonus
+    return u
+
+
+def undesirability_z(z: Poly1D, height_m: float, params: SwingParams) -> float:
+    """Vertical undesirability: peak acceleration, peak velocity and swing height over their limits."""
+    return (
+        z.peak_a / params.a_max_z_mps2
+        + 0.5 * z.peak_v / params.v_max_up_mps
+        + 0.5 * height_m / params.max_swing_height_m
+    )
+
+
+def limits_ok(hp: HPath, c: LegCtx) -> bool:
+    """True when the path keeps the per-axis limits (a start already beyond them is allowed to slow down)."""
+    v_allow = max(c.v_max, abs(c.v0[0]), abs(c.v0[1])) * (1.0 + 1e-6) + 1e-9
+    return hp.peak_v <= v_allow and hp.peak_a <= c.a_max * (1.0 + 1e-6) + 1e-9
+
+
+def miss_distance(hp: HPath, c: LegCtx) -> float:
+    """Horizontal distance (m) between where the path is at touchdown time and the target."""
+    return math.hypot(hp.x.position(c.t_end) - c.p1[0], hp.y.position(c.t_end) - c.p1[1])
+
+
+def reaches(hp: HPath, c: LegCtx, params: SwingParams) -> bool:
+    """True when the path rests on the target by touchdown time."""
+    return hp.t_arrive <= c.t_end + 1e-6 and miss_distance(hp, c) <= params.xy_reach_tol_m
+
+
+def _point_segment(p: np.ndarray, a: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distances (K,) from points p (K,3) to segments a→a+s (a: (K,3) or (1,3)); and the heights along s."""
+    ss = float(s @ s)
+    u = np.clip(((p - a) @ s) / ss, 0.0, 1.0) if ss > 1e-12 else np.zeros(len(p))
+    closest = a + u[:, None] * s
+    return np.linalg.norm(p - closest, axis=1), u
+
+
+class Analyzer:
+    """Puts candidates of one leg in tiers; holds the robot and parameters, no per-tick state."""
+
+    def __init__(self, robot: RobotModel, params: SwingParams) -> None:
+        self.robot = robot
+        self.params = params
+        self.r_foot = float(robot.foot_radius_m)
+        # Largest hip-to-knee distance: bounds how low a knee can be.
+        self.knee_reach = float(np.sqrt(robot.l_upper**2 + np.max(np.abs(robot.abd_offset)) ** 2))
+        self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
+        self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
+
+    # ---- geometry of one candidate ------------------------------------------------------------------------
+    def world_xy(self, prob: LegProblem, hp: HPath) -> tuple[np.ndarray, np.ndarray]:
+        hx = hp.x.sample_many(prob.ts)
+        hy = hp.y.sample_many(prob.ts)
+        c, s = prob.cos_yaw, prob.sin_yaw
+        if s == 0.0 and c == 1.0:
+            return hx, hy
+        return c * hx - s * hy, s * hx + c * hy
+
+    def _terrain(self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ground under the samples and which samples are over an obstacle (above the reference surface)."""
+        if prob.flat_height is not None:
+            g = np.full(len(xw), prob.flat_height)
+        else:
+            g = np.asarray(prob.ground(xw, yw), dtype=float)
+        p0, p1 = prob.p_start, prob.p_target
+        d = p1[:2] - p0[:2]
+        dd = float(d @ d)
+        if dd > 1e-12:
+            prog = np.clip(((xw - p0[0]) * d[0] + (yw - p0[1]) * d[1]) / dd, 0.0, 1.0)
+        else:
+            prog = np.linspace(0.0, 1.0, len(xw))
+        h_ref = p0[2] + prog * (p1[2] - p0[2])
+        return g, h_ref
+
+    def _ring_ground(
+        self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray, h_ref: np.ndarray
+    ) -> np.ndarray | None:
+        """Highest obstacle ground (K,R) on each probe ring around the samples, or None on flat ground."""
+        if prob.flat_height is not None:
+            return None
+        K, R = len(xw), len(self._ring_radii)
+        px = (xw[:, None] + self._ring_offsets[None, :, 0]).ravel()
+        py = (yw[:, None] + self._ring_offsets[None, :, 1]).ravel()
+        gr = np.asarray(prob.ground(px, py), dtype=float).reshape(K, R, 8)
+        gr = np.where(gr > (h_ref + self.params.obstacle_step_m)[:, None, None], gr, -np.inf)
+        return gr.max(axis=2)
+
+    # ---- the tiers ----------------------------------------------------------------------------------------
+    def analyze(self, prob: LegProblem, hp: HPath, u_total: float) -> Verdict:
+        """Returns the tier of hp flown with the most aggressive vertical policy."""
+        pr = self.params
+        c = prob.ctx
+        miss = miss_distance(hp, c)
+        if not limits_ok(hp, c):
+            return Verdict(Tier.VIOLATES_CONSTRAINTS, (0.0,), u_total, miss)
+        xw, yw = self.world_xy(prob, hp)
+        g, h_ref = self._terrain(prob, xw, yw)
+        obstacle = g > h_ref + pr.obstacle_step_m
+        ring_g = self._ring_ground(prob, xw, yw, h_ref)
+        v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g)
+        zs = prob.zs_aggressive
+        pen, scrape, h_margin = self.terrain_scores(v, zs)
+        foot_sev, blame, near = self._foot_self(prob, xw, yw, zs)
+        v.foot_self_sev = foot_sev
+        knee_terrain, knee_self, knee_blame = self._knees(prob, xw, yw, zs, g, near)
+
+        bucket = pr.severity_bucket_m
+        reach = reaches(hp, c, pr)
+        if foot_sev > 0.0:
+            v.tier, v.key, v.blame = Tier.SELF_COLLISION, (math.floor(foot_sev / bucket), miss), blame
+        elif not reach:
+            hyst = pr.miss_hysteresis_m if hp.name == prob.previous_policy else 0.0
+            v.tier, v.key = Tier.XY_CANT_REACH, (miss - hyst,)
+        elif pen > pr.penetration_tol_m:
+            v.tier, v.key = Tier.TERRAIN_COLLISION, (pen / bucket + u_total,)
+        elif knee_self > 0.0:
+            v.tier, v.key, v.blame = (
+                Tier.KNEE_SELF_COLLISION,
+                (math.floor(knee_self / bucket), miss),
+                knee_blame,
+            )
+        elif knee_terrain > 0.0:
+            v.tier, v.key = Tier.KNEE_TERRAIN_COLLISION, (math.floor(knee_terrain / bucket), u_total)
+        elif scrape or h_margin < pr.cliff_margin_m:
+            v.tier, v.key = Tier.CLIFF_SCRAPING, (-h_margin, u_total)
+        elif not prob.z_ok:
+            v.tier, v.key = Tier.XY_SUCCESS_Z_IMPOSSIBLE, (u_total,)
+        return v
+
+    def terrain_scores(self, v: Verdict, zs: np.ndarray) -> tuple[float, bool, float]:
+        """Returns (penetration depth m, vertical margin short over an obstacle, horizontal margin m)."""
+        pr = self.params
+        clear = zs - v.g
+        pen = float(-clear.min()) if len(clear) else 0.0
+        scrape = bool(np.any(v.obstacle & (clear < pr.clearance_margin_m)))
+        h_margin = math.inf
+        if v.ring_g is not None:
+            hit = v.ring_g > (zs - pr.clearance_margin_m)[:, None]  # (K,R)
+            rings = hit.any(axis=0)
+            if rings.any():
+                h_margin = float(self._ring_radii[int(np.argmax(rings))])
+        if scrape:
+            h_margin = 0.0
+        return pen, scrape, h_margin
+
+    def _foot_self(
+        self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray, zs: np.ndarray
+    ) -> tuple[float, int | None, np.ndarray]:
+        """Worst foot-to-other-leg intrusion (m), the leg intruded on, and samples near any other leg."""
+        near = np.zeros(len(xw), dtype=bool)
+        if not prob.others:
+            return 0.0, None, near
+        p = np.column_stack((xw, yw, zs + self.r_foot))
+        worst, blame = 0.0, None
+        for o in prob.others:
+            d, _ = _point_segment(p, o.foot_center, o.shank)
+            sev = float(self.params.keepout_radius_m - d.min())
+            if sev > worst:
+                worst, blame = sev, o.leg
+            near |= d < self.params.knee_check_radius_m
+        return worst, blame, near
+
+    def _knees(
+        self,
+        prob: LegProblem,
+        xw: np.ndarray,
+        yw: np.ndarray,
+        zs: np.ndarray,
+        g: np.ndarray,
+        near: np.ndarray,
+    ) -> tuple[float, float, int | None]:
+        """Knee-terrain and knee-to-other-leg intrusions (m) at a few samples, through the leg IK.
+
+        Skipped when a bound shows no knee can reach the terrain and the foot comes near no other leg.
+        """
+        pr = self.params
+        hips_z_min = float(prob.hips[:, 2].min())
+        if prob.flat_height is not None:
+            g_max = prob.flat_height
+        else:
+            g_hips = np.asarray(prob.ground(prob.hips[:, 0], prob.hips[:, 1]), dtype=float)
+            g_max = float(max(g.max(), g_hips.max()))
+        terrain_needed = hips_z_min - self.knee_reach - g_max < pr.knee_radius_m
+        if not terrain_needed and not near.any():
+            return 0.0, 0.0, None
+        K = len(xw)
+        idx = np.unique(np.linspace(1, K - 2, pr.knee_samples).round().astype(int))
+        if not terrain_needed:
+            idx = idx[near[idx]]
+            if len(idx) == 0:
+                return 0.0, 0.0, None
+        knees, kept = [], []
+        for k in idx:
+            p_w, R = prob.body.pose_at(float(prob.ts[k]))
+            foot_c = np.array([xw[k], yw[k], zs[k] + self.r_foot])
+            try:
+                q = self.robot.ik_leg(prob.leg, R.T @ (foot_c - p_w))
+            except ReachError:
+                continue
+            knees.append(p_w + R @ self.robot.knee_body(prob.leg, q))
+            kept.append(k)
+        if not knees:
+            return 0.0, 0.0, None
+        kn = np.array(knees)
+        kt = 0.0
+        if terrain_needed:
+            gk = (
+                np.full(len(kn), prob.flat_height)
+                if prob.flat_height is not None
+                else np.asarray(prob.ground(kn[:, 0], kn[:, 1]), dtype=float)
+            )
+            kt = max(0.0, float(pr.knee_radius_m - (kn[:, 2] - gk).min()))
+        ks, blame = 0.0, None
+        for o in prob.others:
+            fc = o.foot_center if len(o.foot_center) == 1 else o.foot_center[kept]
+            d, _ = _point_segment(kn, fc, o.shank)
+            sev = float(pr.knee_keepout_m - d.min())
+            if sev > ks:
+                ks, blame = sev, o.leg
+        return kt, ks, blame
+
+    # ---- vertical policy check ----------------------------------------------------------------------------
+    def vertical_ok(self, prob: LegProblem, v: Verdict, zs: np.ndarray) -> bool:
+        """True when a vertical trajectory sampled at zs keeps the required margins along the chosen path."""
+        pen, scrape, h_margin = self.terrain_scores(v, zs)
+        if pen > self.params.penetration_tol_m or scrape or h_margin < self.params.cliff_margin_m:
+            return False
+        if prob.others:
+            sev, _, _ = self._foot_self(prob, v.xw, v.yw, zs)
+            if sev > v.foot_self_sev + 1e-9:
+                return False
+        return True

@@ -1,0 +1,570 @@
+"""SwingPlanner: selects a horizontal and a vertical policy per swing leg, in touchdown order, every 3 ms.
+
+Per leg (seed FIGS. 2, 3, 6): every horizontal policy is tried with the most aggressive vertical policy, likeliest
+first, each one given the cheap *simple analysis* (limits, reach, undesirability) and — unless that shows it cannot
+beat the best so far — the *detailed analysis* that puts it in a tier. A preferred policy in Success is taken at
+once. Then the gentlest vertical policy that arrives on time with the margins is chosen. Each policy is evaluated
+at most once, so a leg costs at most M + N evaluations.
+
+Several legs (FIGS. 9, 10): legs are planned least time left first; each new leg sees the legs already planned
+(their swing paths and lower legs) and the stance legs as obstacles, and their keep-out areas for Swing Around.
+When a later leg cannot avoid an earlier one, the earlier one is replanned around it, then the later one again.
+
+Trips (FIG. 16) switch to special policies for ``trip_response_s``; a recent normal trip keeps the foot elevated.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from planning.robot import ReachError, RobotModel
+from planning.swing._analysis import (
+    Analyzer,
+    LegProblem,
+    OtherLeg,
+    Verdict,
+    limits_ok,
+    miss_distance,
+    reaches,
+    undesirability_h,
+    undesirability_z,
+)
+from planning.swing._poly import Poly1D
+from planning.swing.params import SwingParams
+from planning.swing.policies import (
+    AABB,
+    DEFAULT_POLICY,
+    HORIZONTAL_NAMES,
+    HORIZONTAL_POLICIES,
+    HPath,
+    LegCtx,
+    VerticalSpec,
+    bbw_axis,
+    blocked_keepouts,
+    disentangle,
+    elevate,
+    knee_trip,
+    late_touchdown,
+    policy_order,
+    side_step,
+    stop_forward,
+    vertical,
+    vertical_family,
+)
+from planning.swing.types import (
+    BodyMotion,
+    FlatGround,
+    GroundHeightFn,
+    SwingRequest,
+    Tier,
+    TripEvent,
+    TripKind,
+    flat_ground,
+)
+
+
+@dataclass(frozen=True, slots=True)
+class SwingPlan:
+    """A planned swing: analytic world trajectory of the foot contact point from t_start on.
+
+    The horizontal part lives in the heading frame (yaw at planning time) and is turned into the world on
+    sampling; after touchdown time the foot holds the target (or, for a late touchdown, keeps descending).
+    """
+
+    leg: int
+    t_start: float
+    t_touchdown: float
+    p_touchdown: np.ndarray  # (3,) world, m
+    tier: Tier
+    horizontal_policy: str
+    vertical_policy: str
+    evaluations: int  # policy evaluations spent selecting this plan (≤ M + N)
+    x_heading: Poly1D
+    y_heading: Poly1D
+    z: Poly1D
+    cos_yaw: float
+    sin_yaw: float
+    trip: TripKind | None = None
+    colliding_leg: int | None = None  # the other leg this plan still collides with (self-collision tiers)
+
+    @property
+    def policy_names(self) -> tuple[str, str]:
+        """(horizontal policy, vertical policy)."""
+        return self.horizontal_policy, self.vertical_policy
+
+    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Returns world position (3,) m, velocity (3,) m/s and acceleration (3,) m/s² of the foot at t (s)."""
+        xp, xv, xa = self.x_heading.state(t)
+        yp, yv, ya = self.y_heading.state(t)
+        zp, zv, za = self.z.state(t)
+        c, s = self.cos_yaw, self.sin_yaw
+        return (
+            np.array([c * xp - s * yp, s * xp + c * yp, zp]),
+            np.array([c * xv - s * yv, s * xv + c * yv, zv]),
+            np.array([c * xa - s * ya, s * xa + c * ya, za]),
+        )
+
+    def positions(self, ts: np.ndarray) -> np.ndarray:
+        """Returns world positions (K,3) at times ts (K,)."""
+        hx, hy = self.x_heading.sample_many(ts), self.y_heading.sample_many(ts)
+        c, s = self.cos_yaw, self.sin_yaw
+        return np.column_stack((c * hx - s * hy, s * hx + c * hy, self.z.sample_many(ts)))
+
+    def derivatives(self, ts: np.ndarray, order: int) -> np.ndarray:
+        """Returns world velocities (order 1) or accelerations (order 2), (K,3), at times ts (K,)."""
+        hx, hy = self.x_heading.sample_many(ts, order), self.y_heading.sample_many(ts, order)
+        c, s = self.cos_yaw, self.sin_yaw
+        return np.column_stack((c * hx - s * hy, s * hx + c * hy, self.z.sample_many(ts, order)))
+
+    def points(self, n: int = 24) -> np.ndarray:
+        """Returns n (≥ 2) world points (n,3) from t_start to touchdown, for the studio."""
+        t_end = max(self.t_touchdown, self.t_start + 1e-3)
+        return self.positions(np.linspace(self.t_start, t_end, max(n, 2)))
+
+
+@dataclass(slots=True)
+class _Choice:
+    hp: HPath
+    verdict: Verdict
+    evaluations: int
+
+
+def _heading(v: np.ndarray, c: float, s: float) -> tuple[float, float]:
+    return float(c * v[0] + s * v[1]), float(-s * v[0] + c * v[1])
+
+
+class SwingPlanner:
+    """Plans every swing leg each tick; keeps only per-leg memory (last policy, last plan, last trip)."""
+
+    def __init__(self, robot: RobotModel, params: SwingParams | None = None) -> None:
+        self.robot = robot
+        self.params = params or SwingParams()
+        self.analyzer = Analyzer(robot, self.params)
+        self.family: tuple[VerticalSpec, ...] = vertical_family(self.params)
+        self.n_horizontal = len(HORIZONTAL_POLICIES)
+        self.n_vertical = len(self.family)
+        self._previous: list[str | None] = [None] * 4
+        self._last_plan: list[SwingPlan | None] = [None] * 4
+        self._trip: list[TripEvent | None] = [None] * 4
+        self._shank_cache: list[tuple[np.ndarray, np.ndarray] | None] = [None] * 4
+        self._z_liftoff: list[float | None] = [None] * 4  # lift-off height of the current swing, m
+        self._last_t: list[float] = [-np.inf] * 4  # when each leg was last planned, s
+        self._side = np.sign(robot.p_body_hip[:, 1])
+
+    @property
+    def max_evaluations(self) -> int:
+        """M + N: the most policy evaluations one leg's selection may take."""
+        return self.n_horizontal + self.n_vertical
+
+    def reset(self) -> None:
+        """Forgets the per-leg memory (after a teleport or a new maneuver)."""
+        self._previous = [None] * 4
+        self._last_plan = [None] * 4
+        self._trip = [None] * 4
+        self._shank_cache = [None] * 4
+        self._z_liftoff = [None] * 4
+        self._last_t = [-np.inf] * 4
+
+    def _forget(self, leg: int) -> None:
+        self._previous[leg] = None
+        self._last_plan[leg] = None
+        self._trip[leg] = None
+        self._z_liftoff[leg] = None
+
+    # ---- the tick -----------------------------------------------------------------------------------------
+    def plan(
+        self,
+        t_now: float,
+        legs: Sequence[SwingRequest],
+        ground: GroundHeightFn = flat_ground,
+        stance_feet_world: Mapping[int, np.ndarray] | None = None,
+        body: BodyMotion | None = None,
+    ) -> dict[int, SwingPlan]:
+        """Returns a plan per swing leg, planned in touchdown order around each other and the stance legs.
+
+        stance_feet_world: contact points (3,) of the legs in stance, by leg index. body: the body's predicted
+        motion (defaults to standing still at the nominal height over the origin).
+        """
+        stance = {int(k): np.asarray(v, dtype=float) for k, v in (stance_feet_world or {}).items()}
+        seen = set()
+        for r in legs:
+            if r.leg in seen:
+                raise ValueError(f"plan: legs: leg {r.leg} is requested twice")
+            if r.leg in stance:
+                raise ValueError(f"plan: leg {r.leg} is both swinging and in stance_feet_world")
+            seen.add(r.leg)
+        if body is None:
+            body = BodyMotion(t_now, np.array([0.0, 0.0, self.robot.standing_height_m]), np.eye(3))
+        # A leg missing from this tick is in stance, and one not planned for a while starts a new swing.
+        for leg in range(4):
+            if leg not in seen or t_now - self._last_t[leg] > self.params.new_swing_gap_s:
+                self._forget(leg)
+        for r in legs:
+            self._last_t[r.leg] = t_now
+            if self._z_liftoff[r.leg] is None:
+                self._z_liftoff[r.leg] = float(r.p_world_foot[2])
+            if r.trip is not None:
+                self._trip[r.leg] = r.trip
+        order = sorted(legs, key=lambda r: r.t_touchdown)
+        by_leg = {r.leg: r for r in order}
+        planned: dict[int, SwingPlan] = {}
+        for req in order:
+            plan = self._plan_leg(t_now, req, ground, stance, body, planned)
+            blame = plan.colliding_leg
+            if plan.tier in (Tier.SELF_COLLISION, Tier.KNEE_SELF_COLLISION) and blame in planned:
+                earlier = planned.pop(blame)
+                redo = self._plan_leg(t_now, by_leg[blame], ground, stance, body, {**planned, req.leg: plan})
+                if redo.tier <= earlier.tier:
+                    planned[blame] = redo
+                    plan = self._plan_leg(t_now, req, ground, stance, body, planned)
+                else:
+                    planned[blame] = earlier
+            planned[req.leg] = plan
+        for leg, p in planned.items():
+            self._last_plan[leg] = p
+            self._previous[leg] = p.horizontal_policy
+        return planned
+
+    def plan_one(
+        self,
+        t_now: float,
+        req: SwingRequest,
+        ground: GroundHeightFn = flat_ground,
+        stance_feet_world: Mapping[int, np.ndarray] | None = None,
+        body: BodyMotion | None = None,
+    ) -> SwingPlan:
+        """Returns the plan of one swing leg (the others in stance_feet_world are obstacles)."""
+        return self.plan(t_now, [req], ground, stance_feet_world, body)[req.leg]
+
+    # ---- one leg ------------------------------------------------------------------------------------------
+    def _plan_leg(
+        self,
+        t_now: float,
+        req: SwingRequest,
+        ground: GroundHeightFn,
+        stance: dict[int, np.ndarray],
+        body: BodyMotion,
+        planned: dict[int, SwingPlan],
+    ) -> SwingPlan:
+        pr = self.params
+        leg = req.leg
+        last = self._last_plan[leg]
+        horizon = req.t_touchdown - t_now
+        if (
+            last is not None
+            and 0.0 < horizon < pr.min_replan_horizon_s
+            and last.t_touchdown == req.t_touchdown
+            and np.allclose(last.p_touchdown, req.p_touchdown)
+        ):
+            return last  # too close to touchdown for a replan from noisy measurements to help
+        yaw = body.yaw
+        c, s = math.cos(yaw), math.sin(yaw)
+        if horizon <= 0.0:
+            return self._late(t_now, req, c, s)
+        prob = self._problem(t_now, req, ground, stance, body, planned, c, s)
+        trip = self._trip[leg]
+        if trip is not None and t_now - trip.t_s > max(pr.trip_response_s, pr.recent_trip_s):
+            trip = self._trip[leg] = None
+        if trip is not None and t_now - trip.t_s <= pr.trip_response_s:
+            return self._trip_plan(prob, req, trip, stance, planned)
+        choice = self._select_horizontal(prob)
+        elevated = trip is not None and trip.kind is TripKind.NORMAL
+        return self._finish(prob, req, choice, force_aggressive=elevated)
+
+    def _problem(
+        self,
+        t_now: float,
+        req: SwingRequest,
+        ground: GroundHeightFn,
+        stance: dict[int, np.ndarray],
+        body: BodyMotion,
+        planned: dict[int, SwingPlan],
+        c: float,
+        s: float,
+    ) -> LegProblem:
+        pr = self.params
+        leg = req.leg
+        ts = np.linspace(t_now, req.t_touchdown, pr.samples)
+        hips = body.hip_world_many(ts, self.robot.p_body_hip[leg])
+        others: list[OtherLeg] = []
+        keepouts: list[AABB] = []
+        r = pr.keepout_radius_m
+        rf = self.robot.foot_radius_m
+        for j, p_foot in stance.items():
+            shank = self._shank(j, p_foot, body, t_now)
+            fc = (p_foot + (0.0, 0.0, rf))[None, :]
+            others.append(OtherLeg(j, fc, shank))
+            keepouts.append(self._keepout(fc[0], shank, c, s, r))
+        for j, p in planned.items():
+            shank = self._shank(j, p.p_touchdown, body, p.t_touchdown)
+            fc = p.positions(ts)
+            fc[:, 2] += rf
+            others.append(OtherLeg(j, fc, shank))
+            keepouts.append(self._keepout(p.p_touchdown + (0.0, 0.0, rf), shank, c, s, r))
+        p0 = _heading(req.p_world_foot, c, s)
+        p1 = _heading(req.p_touchdown, c, s)
+        ctx = LegCtx(
+            t0=t_now,
+            t_end=req.t_touchdown,
+            p0=p0,
+            v0=_heading(req.v_world_foot, c, s),
+            p1=p1,
+            v_max=pr.v_max_xy_mps,
+            a_max=pr.a_max_xy_mps2,
+            keepouts=keepouts,
+            margin=pr.swing_around_margin_m,
+            time_split_frac=pr.time_split_frac,
+            blocked=blocked_keepouts(p0, p1, keepouts),
+        )
+        z_ceiling = float(hips[:, 2].min()) - self.robot.min_leg_length_m - pr.hip_clearance_m
+        agg = self.family[-1]
+        z0, vz0, z1 = float(req.p_world_foot[2]), float(req.v_world_foot[2]), float(req.p_touchdown[2])
+        z_ref = self._z_liftoff[leg]
+        z_ref = z0 if z_ref is None else z_ref
+        z_agg, z_ok = vertical(agg, t_now, z0, vz0, z1, req.t_touchdown, z_ceiling, z_ref)
+        return LegProblem(
+            leg=leg,
+            ctx=ctx,
+            cos_yaw=c,
+            sin_yaw=s,
+            ts=ts,
+            p_start=req.p_world_foot,
+            p_target=req.p_touchdown,
+            z_aggressive=z_agg,
+            z_ok=z_ok,
+            zs_aggressive=z_agg.sample_many(ts),
+            others=others,
+            hips=hips,
+            ground=ground,
+            flat_height=ground.height_m if isinstance(ground, FlatGround) else None,
+            body=body,
+            previous_policy=self._previous[leg],
+            u_z_aggressive=undesirability_z(z_agg, agg.height_m, pr),
+            z_ref=z_ref,
+        )
+
+    def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
+        """Knee minus foot center (3,) world, through the leg IK; cached while the foot moves < 5 mm in the body."""
+        p_b, R = body.pose_at(t)
+        p_body_foot = R.T @ (p_foot_world + (0.0, 0.0, self.robot.foot_radius_m) - p_b)
+        cached = self._shank_cache[leg]
+        if cached is not None and float(np.abs(cached[0] - p_body_foot).max()) < 0.005:
+            return R @ cached[1]
+        try:
+            q = self.robot.ik_leg(leg, p_body_foot)
+            shank_body = self.robot.knee_body(leg, q) - p_body_foot
+        except ReachError:
+            # Out of reach: a vertical shank up to the hip height is a safe stand-in.
+            shank_body = np.array(
+                [0.0, 0.0, min(-p_body_foot[2], self.robot.l_upper + self.robot.l_lower) * 0.5]
+            )
+        self._shank_cache[leg] = (p_body_foot, shank_body)
+        return R @ shank_body
+
+    @staticmethod
+    def _keepout(fc: np.ndarray, shank: np.ndarray, c: float, s: float, r: float) -> AABB:
+        """The keep-out area (heading-frame box) of a lower leg from its foot center fc along shank."""
+        a = _heading(fc, c, s)
+        b = _heading(fc + shank, c, s)
+        return (min(a[0], b[0]) - r, max(a[0], b[0]) + r, min(a[1], b[1]) - r, max(a[1], b[1]) + r)
+
+    # ---- horizontal selection -----------------------------------------------------------------------------
+    def _select_horizontal(self, prob: LegProblem) -> _Choice:
+        pr = self.params
+        c = prob.ctx
+        best: tuple[int, tuple[float, ...]] | None = None
+        best_hp: HPath | None = None
+        best_v: Verdict | None = None
+        default: tuple[HPath, Verdict] | None = None
+        evaluations = 0
+        for i in policy_order(bool(c.blocked), prob.previous_policy):
+            name, fn = HORIZONTAL_POLICIES[i]
+            hp = fn(c)
+            if hp is None:
+                continue
+            evaluations += 1
+            # Simple analysis: the best tier and key this policy could reach.
+            u = undesirability_h(hp, pr) + prob.u_z_aggressive
+            if not limits_ok(hp, c):
+                opt: tuple[int, tuple[float, ...]] = (Tier.VIOLATES_CONSTRAINTS, (0.0,))
+            elif not reaches(hp, c, pr):
+                hyst = pr.miss_hysteresis_m if name == prob.previous_policy else 0.0
+                opt = (Tier.XY_CANT_REACH, (miss_distance(hp, c) - hyst,))
+            else:
+                opt = (Tier.SUCCESS if prob.z_ok else Tier.XY_SUCCESS_Z_IMPOSSIBLE, (u,))
+            if name != DEFAULT_POLICY and opt[0] == Tier.VIOLATES_CONSTRAINTS:
+                continue
+            if best is not None and name != DEFAULT_POLICY and not _could_beat(opt, best):
+                continue
+            v = self.analyzer.analyze(prob, hp, u)
+            if name == DEFAULT_POLICY:
+                default = (hp, v)
+            if v.tier == Tier.VIOLATES_CONSTRAINTS:
+                continue
+            cand = (int(v.tier), v.key)
+            if best is None or cand < best:
+                best, best_hp, best_v = cand, hp, v
+            if name == pr.preferred_policy and v.tier == Tier.SUCCESS:
+                break
+        if best_hp is None or best_v is None:
+            if default is None:
+                hp = HORIZONTAL_POLICIES[HORIZONTAL_NAMES.index(DEFAULT_POLICY)][1](c)
+                assert hp is not None
+                evaluations += 1
+                default = (hp, self.analyzer.analyze(prob, hp, undesirability_h(hp, pr)))
+            best_hp, best_v = default
+            best_v.tier = Tier.DEFAULT
+        return _Choice(best_hp, best_v, evaluations)
+
+    # ---- vertical selection and the plan ------------------------------------------------------------------
+    def _finish(
+        self,
+        prob: LegProblem,
+        req: SwingRequest,
+        choice: _Choice,
+        force_aggressive: bool = False,
+        trip: TripKind | None = None,
+    ) -> SwingPlan:
+        c = prob.ctx
+        evaluations = choice.evaluations
+        z_poly, z_name = prob.z_aggressive, self.family[-1].name
+        if choice.verdict.tier == Tier.SUCCESS and not force_aggressive:
+            z0, vz0 = float(req.p_world_foot[2]), float(req.v_world_foot[2])
+            z1 = float(req.p_touchdown[2])
+            z_ceiling = (
+                float(prob.hips[:, 2].min()) - self.robot.min_leg_length_m - self.params.hip_clearance_m
+            )
+            for spec in self.family:
+                evaluations += 1
+                if spec is self.family[-1]:
+                    break
+                zp, ok = vertical(spec, c.t0, z0, vz0, z1, c.t_end, z_ceiling, prob.z_ref)
+                if ok and self.analyzer.vertical_ok(prob, choice.verdict, zp.sample_many(prob.ts)):
+                    z_poly, z_name = zp, spec.name
+                    break
+        else:
+            evaluations += 1
+        return SwingPlan(
+            leg=req.leg,
+            t_start=c.t0,
+            t_touchdown=req.t_touchdown,
+            p_touchdown=req.p_touchdown,
+            tier=choice.verdict.tier,
+            horizontal_policy=choice.hp.name,
+            vertical_policy=z_name,
+            evaluations=evaluations,
+            x_heading=choice.hp.x,
+            y_heading=choice.hp.y,
+            z=z_poly,
+            cos_yaw=prob.cos_yaw,
+            sin_yaw=prob.sin_yaw,
+            trip=trip,
+            colliding_leg=choice.verdict.blame,
+        )
+
+    def _late(self, t_now: float, req: SwingRequest, c: float, s: float) -> SwingPlan:
+        """Late touchdown: hold the target in xy and descend at a fixed speed until contact."""
+        pr = self.params
+        p0, v0, p1 = (
+            _heading(req.p_world_foot, c, s),
+            _heading(req.v_world_foot, c, s),
+            _heading(req.p_touchdown, c, s),
+        )
+        x, _ = bbw_axis(t_now, p0[0], v0[0], p1[0], pr.v_max_xy_mps, pr.a_max_xy_mps2)
+        y, _ = bbw_axis(t_now, p0[1], v0[1], p1[1], pr.v_max_xy_mps, pr.a_max_xy_mps2)
+        z = late_touchdown(
+            t_now,
+            float(req.p_world_foot[2]),
+            float(req.v_world_foot[2]),
+            pr.late_descent_mps,
+            pr.a_max_z_mps2,
+        )
+        miss = math.hypot(p0[0] - p1[0], p0[1] - p1[1])
+        return SwingPlan(
+            leg=req.leg,
+            t_start=t_now,
+            t_touchdown=req.t_touchdown,
+            p_touchdown=req.p_touchdown,
+            tier=Tier.SUCCESS if miss <= pr.xy_reach_tol_m else Tier.XY_CANT_REACH,
+            horizontal_policy="BangBangWait",
+            vertical_policy="LateTouchdown",
+            evaluations=2,
+            x_heading=x,
+            y_heading=y,
+            z=z,
+            cos_yaw=c,
+            sin_yaw=s,
+        )
+
+    # ---- trips --------------------------------------------------------------------------------------------
+    def _trip_plan(
+        self,
+        prob: LegProblem,
+        req: SwingRequest,
+        trip: TripEvent,
+        stance: dict[int, np.ndarray],
+        planned: dict[int, SwingPlan],
+    ) -> SwingPlan:
+        """Seed FIG. 16: normal trip → stop forward motion and elevate; knee and self-collisions → special XY."""
+        pr = self.params
+        c = prob.ctx
+        leg = req.leg
+        if trip.kind is TripKind.NORMAL:
+            hp = stop_forward(c)
+            v = self.analyzer.analyze(prob, hp, undesirability_h(hp, pr))
+            z0, vz0 = float(req.p_world_foot[2]), float(req.v_world_foot[2])
+            z_ceiling = float(prob.hips[:, 2].min()) - self.robot.min_leg_length_m - pr.hip_clearance_m
+            z_top = min(z0 + pr.trip_lift_m, max(z_ceiling, z0))
+            z = elevate(c.t0, z0, vz0, z_top, pr.v_max_up_mps, pr.a_max_z_mps2)
+            return SwingPlan(
+                leg=leg,
+                t_start=c.t0,
+                t_touchdown=req.t_touchdown,
+                p_touchdown=req.p_touchdown,
+                tier=v.tier,
+                horizontal_policy=hp.name,
+                vertical_policy="Elevate",
+                evaluations=2,
+                x_heading=hp.x,
+                y_heading=hp.y,
+                z=z,
+                cos_yaw=prob.cos_yaw,
+                sin_yaw=prob.sin_yaw,
+                trip=trip.kind,
+            )
+        if trip.kind is TripKind.KNEE:
+            hp = knee_trip(c, pr.knee_trip_speed_frac)
+        else:
+            other = trip.other_leg
+            p_other = None
+            if other is not None and other in stance:
+                p_other = stance[other]
+            elif other is not None and other in planned:
+                p_other = planned[other].p_touchdown
+            side = float(self._side[leg])
+            if p_other is None:
+                y_other = c.p0[1] - side * pr.keepout_radius_m
+            else:
+                y_other = _heading(p_other, prob.cos_yaw, prob.sin_yaw)[1]
+            if trip.kind is TripKind.SELF_CROSSED:
+                hp = disentangle(c, y_other + side * (pr.keepout_radius_m + pr.disentangle_margin_m))
+            else:
+                away = 1.0 if c.p0[1] >= y_other else -1.0
+                hp = side_step(c, c.p0[1] + away * pr.disentangle_margin_m)
+        v = self.analyzer.analyze(prob, hp, undesirability_h(hp, pr))
+        if v.tier == Tier.VIOLATES_CONSTRAINTS:
+            v.tier = Tier.DEFAULT
+        return self._finish(prob, req, _Choice(hp, v, 1), trip=trip.kind)
+
+
+def _could_beat(opt: tuple[int, tuple[float, ...]], best: tuple[int, tuple[float, ...]]) -> bool:
+    """Simple analysis pruning: can a candidate whose best case is ``opt`` still beat ``best``?"""
+    if opt[0] != best[0]:
+        return opt[0] < best[0]
+    if opt[0] in (Tier.SUCCESS, Tier.XY_SUCCESS_Z_IMPOSSIBLE, Tier.XY_CANT_REACH):
+        return opt[1] < best[1]  # these keys are exact after the simple analysis
+    return True

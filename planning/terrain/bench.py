@@ -1,0 +1,112 @@
+"""Timings of the terrain stages, for `footfall bench`.
+
+bench_perception(): one depth scan + voxel integration + map building per call, on a scene with a box standing in
+for the robot, walked forward between scans.
+bench_step_qp(): replans of the step QP (8 footholds) at 300 Hz while a trot walks the body path across a terrain's
+ground-truth maps: the feet land where the last plan put them, so replans see what a controller would give them.
+"""
+
+from __future__ import annotations
+
+import time
+
+import mujoco
+import numpy as np
+
+from planning.terrain.bodypath import plan_body_path
+from planning.terrain.cadence import CADENCES, CadenceParams, make_request
+from planning.terrain.maps import maps_from_scene
+from planning.terrain.perception import Perception, PerceptionParams
+from planning.terrain.scenes import build_terrain
+from planning.terrain.stepqp import StepQP, StepQPParams
+
+_STAND_IN = (
+    '<body name="robot" pos="0 0 0.52"><freejoint/>'
+    '<geom name="robot_body" type="box" size="0.45 0.13 0.08" mass="32" group="3"/></body>'
+)
+
+
+def _percentiles(ms: list[float]) -> tuple[float, float]:
+    a = np.asarray(ms)
+    return float(np.percentile(a, 50)), float(np.percentile(a, 99))
+
+
+def bench_perception(n: int = 60, terrain: str = "stairs", params: PerceptionParams | None = None) -> dict:
+    """Gives {"p50_ms", "p99_ms", "points", "voxels", "terrain"} of n perception updates (scan → voxels → maps)."""
+    scene = build_terrain(terrain)
+    model = mujoco.MjModel.from_xml_string(scene.mjcf(_STAND_IN))
+    data = mujoco.MjData(model)
+    perception = Perception(model, "robot", params)
+    points: list[int] = []
+    times: list[float] = []
+    for i in range(n + 3):
+        x = 0.02 * i
+        data.qpos[0] = x
+        data.qpos[2] = 0.52 + float(scene.ground_height(x, 0.0))
+        mujoco.mj_kinematics(model, data)
+        t0 = time.perf_counter()
+        perception.scan_now(data)
+        if i >= 3:  # the first scans warm caches up
+            times.append((time.perf_counter() - t0) * 1e3)
+            assert perception.last_cloud is not None
+            points.append(perception.last_cloud.size)
+    p50, p99 = _percentiles(times)
+    return {"p50_ms": p50, "p99_ms": p99, "points": int(np.median(points)), "voxels": int(perception.voxels.hits.size),
+            "terrain": terrain}  # fmt: skip
+
+
+def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium",
+                  params: StepQPParams | None = None, start_s_m: float = 0.7) -> dict:  # fmt: skip
+    """Gives {"p50_ms", "p99_ms", "bare_solver_p50_ms", "bare_solver_p99_ms", "footholds", "rounds_mean",
+    "hard_softened", "hard_softened_by_family", "in_no_step", "terrain"} of n replans (300 Hz) of the step QP along a
+    walk that starts start_s_m along the body path (so the horizon reaches the terrain at once)."""
+    scene = build_terrain(terrain)
+    maps = maps_from_scene(scene, center_xy=(2.0, 0.0), half_extent_m=2.5)
+    path = plan_body_path(maps, (0.0, 0.0), 0.0, scene.goal_xy)
+    cp = CadenceParams()
+    cad = next(c for c in CADENCES if c.name == cadence)
+    qp = StepQP(params)
+    K = qp.K
+    dt = 1.0 / 300.0
+    xy0, _ = path.pose_at(start_s_m)
+    stance_xy = np.asarray(cp.feet_body_xy, dtype=np.float64) + xy0  # where each foot last landed
+    target_xy = stance_xy.copy()  # where each foot is headed (the last plan's next foothold of its leg)
+    n_groups = len(cad.groups)
+    total: list[float] = []
+    bare: list[float] = []
+    rounds = 0
+    softened: dict[str, int] = {}
+    in_no_step = 0
+    for i in range(n):
+        t = i * dt
+        g_now = int(t // cad.step_period_s)
+        phase = t - g_now * cad.step_period_s
+        # Feet now: a leg whose group lands next is in swing (after its liftoff), moving straight to its target.
+        feet = stance_xy.copy()
+        v_feet = np.zeros((4, 2))
+        t_to_td = cad.step_period_s - phase
+        if t_to_td < cad.swing_s:
+            s = 1.0 - t_to_td / cad.swing_s
+            for leg in cad.groups[g_now % n_groups]:
+                feet[leg] = stance_xy[leg] + s * (target_xy[leg] - stance_xy[leg])
+                v_feet[leg] = (target_xy[leg] - stance_xy[leg]) / cad.swing_s
+        req = make_request(cad, path, cp, K, feet, v_feet, s_now_m=start_s_m + cad.speed_mps * t, phase_s=phase,
+                           first_group=g_now % n_groups)  # fmt: skip
+        plan = qp.solve(req, maps)
+        total.append(plan.solve_ms)
+        bare.append(plan.bare_solver_ms / max(plan.rounds, 1))
+        rounds += plan.rounds
+        for fam in plan.hard_softened:
+            softened[fam] = softened.get(fam, 0) + 1
+        in_no_step += int(plan.in_no_step.sum())
+        for k in range(len(cad.groups[g_now % n_groups])):
+            target_xy[plan.legs[k]] = plan.footholds[k, :2]
+        if t + dt >= (g_now + 1) * cad.step_period_s:  # the group lands before the next replan
+            for leg in cad.groups[g_now % n_groups]:
+                stance_xy[leg] = target_xy[leg]
+    p50, p99 = _percentiles(total)
+    b50, b99 = _percentiles(bare)
+    return {
+        "p50_ms": p50, "p99_ms": p99, "bare_solver_p50_ms": b50, "bare_solver_p99_ms": b99, "footholds": K,
+        "rounds_mean": rounds / n, "hard_softened": sum(softened.values()), "hard_softened_by_family": softened, "in_no_step": in_no_step, "terrain": terrain,
+    }  # fmt: skip

@@ -1,0 +1,667 @@
+"""The constrained step QP: footholds of the next steps near the nominal footholds of the chosen cadence.
+
+Decision variables (fixed layout, K = n_steps slots, a slot is one touchdown of one leg):
+  p_k (2): foothold xy (world, m) · dc_k (2): body offset (m) during the support phase that follows touchdown k ·
+  one slack (m, >= 0) per constraint family and slot.
+
+Cost: w_nominal |p_k - p_nom_k|² + w_body_shift |dc_k|² + Σ weight_family · slack (an exact L1 penalty: a family with
+a large weight is hard whenever the problem allows it, and the slacks report which family gave way when it does not).
+
+Constraint families (each row is linear; directions that depend on the answer are taken from the nominal or from the
+last iterate, so the pattern never changes and the OSQP problem is built once and updated in place):
+
+  reach_rect   the reachable rectangle: the first step of a swinging leg lies within p0 + v0 T ± a_max T²/2 of
+               its current position; later steps lie within a stride box around the leg's previous foothold
+  reach_oct    the reach octagon around the hip at touchdown (leg length)
+  step_keep    step keep-out: half-planes approximating no-step regions, added iteratively (solve, find footholds
+               in no-step cells, add the nearest boundary's half-plane, re-solve)
+  margin       keep-out margin: the same half-planes pushed out by margin_m (soft)
+  body_keep    body keep-out: feet away from body obstacles, and the refined body away from them
+  self_coll    self-collision: each foot stays out of a trapezoid around its lateral and longitudinal neighbors
+  cop          CoP-offset range: with two feet down, each carries at least cop_fraction of the weight; with three or
+               four, the body point stays inside the support polygon
+  balance      the body point stays near the support line (two feet) or deep in the polygon (soft, harder than margin)
+
+Replanning at ~300 Hz on the maps of the moment: `solve` takes a StepRequest and the TerrainMaps and gives a StepPlan.
+Legs are FL, FR, RL, RR = 0..3. Times are seconds from now.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import osqp
+from numpy.typing import NDArray
+from scipy import sparse
+
+from planning.terrain.maps import TerrainMaps
+
+FAMILIES: tuple[str, ...] = (
+    "reach_rect", "reach_oct", "step_keep", "margin", "body_keep", "self_coll", "cop", "balance",
+)  # fmt: skip
+HARD: frozenset[str] = frozenset({"reach_rect", "reach_oct", "step_keep", "body_keep", "self_coll", "cop"})
+_F = {name: i for i, name in enumerate(FAMILIES)}
+
+LEG_IS_FRONT = np.array([True, True, False, False])
+LEG_IS_LEFT = np.array([True, False, True, False])
+LATERAL_NEIGHBOR = np.array([1, 0, 3, 2])
+LONGITUDINAL_NEIGHBOR = np.array([2, 3, 0, 1])
+
+
+@dataclass(frozen=True)
+class StepQPParams:
+    """Step QP tuning (lengths m, times s, weights per m of slack unless noted).
+
+    n_steps: footholds planned (K); w_nominal: pull toward the nominal footholds (1/m²); w_body_shift: cost of
+    shifting the body (1/m²); max_body_shift_m: bound on that shift; weights: per family, in FAMILIES order
+    (balance harder than margin); margin_m: keep-out margin; foot_body_clearance_m: feet from body obstacles;
+    body_radius_m: refined body point from body obstacles; max_foot_accel: swing foot acceleration (m/s²);
+    stride_box_m: (forward, lateral) half sizes of the box around a leg's previous foothold; leg_length_m: hip to
+    foot at full reach; hip_height_m: hip above the ground; self_lateral_m, self_longitudinal_m: minimum spacing
+    to the lateral and longitudinal neighbors (body frame); self_taper: trapezoid slant (lateral spacing grows by
+    this much per m of longitudinal offset, negative narrows); cop_fraction: least share of the weight per foot
+    (two feet down); cop_margin_m: body point inside the support polygon by this much (three or four feet);
+    balance_lateral_m: body point off the support line by at most this (two feet); balance_margin_m: the polygon
+    margin wanted (three or four feet); keep_planes: half-planes per foothold; keep_clearance_m: the hard plane lies this far out of the no-step region;
+    reuse_radius_m: a slot whose nominal foothold moved less than this since the last replan (same maps) keeps its
+    planes; max_rounds: solve-add rounds;
+    softened_tol_m: a slack above this counts as softened.
+    """
+
+    n_steps: int = 8
+    w_nominal: float = 10.0
+    w_body_shift: float = 40.0
+    max_body_shift_m: float = 0.10
+    weights: tuple[float, ...] = (1e4, 1e4, 3e3, 30.0, 3e3, 1e3, 1e3, 100.0)
+    margin_m: float = 0.04
+    foot_body_clearance_m: float = 0.05
+    body_radius_m: float = 0.15
+    max_foot_accel: float = 40.0
+    stride_box_m: tuple[float, float] = (0.45, 0.25)
+    leg_length_m: float = 0.68
+    hip_height_m: float = 0.52
+    self_lateral_m: float = 0.10
+    self_longitudinal_m: float = 0.25
+    self_taper: float = 0.0
+    cop_fraction: float = 0.1
+    cop_margin_m: float = 0.0
+    balance_lateral_m: float = 0.04
+    balance_margin_m: float = 0.05
+    keep_planes: int = 3
+    keep_clearance_m: float = 0.01
+    reuse_radius_m: float = 0.05
+    max_rounds: int = 5
+    softened_tol_m: float = 2e-3
+    w_slack_quadratic: float = 100.0
+    rho: float = 0.1
+    eps_abs: float = 1e-4
+    eps_rel: float = 1e-4
+    max_iter: int = 4000
+
+
+@dataclass(frozen=True, eq=False)
+class StepRequest:
+    """What one replan needs (world frame, times from now).
+
+    legs: (K,) leg of each slot, in touchdown order, every leg once per 4 slots; t_liftoff, t_touchdown: (K,) (s;
+    a liftoff <= 0 means the leg is swinging now); p_nominal: (K, 2) nominal footholds (m); p_hip: (K, 2) hip xy at
+    touchdown (m); hip_height: (K,) hip above the nominal ground at touchdown (m); c_body: (K, 2) body xy in the
+    middle of the support phase after touchdown k (m); yaw_body: (K,) body yaw then (rad); p_feet: (4, 2) feet now
+    (m); v_feet: (4, 2) feet velocities now (m/s).
+    """
+
+    legs: NDArray[np.intp]
+    t_liftoff: NDArray[np.float64]
+    t_touchdown: NDArray[np.float64]
+    p_nominal: NDArray[np.float64]
+    p_hip: NDArray[np.float64]
+    hip_height: NDArray[np.float64]
+    c_body: NDArray[np.float64]
+    yaw_body: NDArray[np.float64]
+    p_feet: NDArray[np.float64]
+    v_feet: NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class StepPlan:
+    """The answer. footholds: (K, 3) world (m; z from the ground height map); legs, t_touchdown as requested;
+    body_shift: (K, 2) body offsets (m); slack: {family: max slack (m)}; softened: families whose slack exceeds
+    the tolerance; hard_softened: those among the hard ones; in_no_step: (K,) footholds on no-step cells;
+    rounds: solves done; status: OSQP's last status; solve_ms: the whole replan; bare_solver_ms: OSQP solves only."""
+
+    footholds: NDArray[np.float64]
+    legs: NDArray[np.intp]
+    t_touchdown: NDArray[np.float64]
+    body_shift: NDArray[np.float64]
+    slack: dict[str, float]
+    softened: tuple[str, ...]
+    hard_softened: tuple[str, ...]
+    in_no_step: NDArray[np.bool_]
+    rounds: int
+    status: str
+    solve_ms: float
+    bare_solver_ms: float
+
+
+_OCT_N = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)
+
+
+class StepQP:
+    """The step QP, built once with a fixed sparsity pattern; `solve` updates it in place and warm-starts."""
+
+    ROWS_PER_SLOT = {"reach_rect": 4, "reach_oct": 8, "keep": 0, "self_coll": 2, "cop": 4, "balance": 4}
+
+    def __init__(self, params: StepQPParams | None = None) -> None:
+        self.params = p = params or StepQPParams()
+        if len(p.weights) != len(FAMILIES):
+            raise ValueError(f"StepQPParams.weights: need {len(FAMILIES)} values ({', '.join(FAMILIES)})")
+        K = self.K = p.n_steps
+        if K < 4:
+            raise ValueError("StepQPParams.n_steps: need at least 4 slots (one per leg)")
+        nf = len(FAMILIES)
+        self.n_var = 4 * K + nf * K
+        self._ip = lambda k: 2 * k  # noqa: E731
+        self._idc = lambda k: 2 * K + 2 * k  # noqa: E731
+        self._is = lambda k, fam: 4 * K + nf * k + _F[fam]  # noqa: E731
+
+        rows: list[int] = []
+        cols: list[int] = []
+        self._n_rows = 0
+
+        def add_row(var_idx: list[int]) -> tuple[int, list[int]]:
+            r = self._n_rows
+            self._n_rows += 1
+            ent = []
+            for c in var_idx:
+                ent.append(len(rows))
+                rows.append(r)
+                cols.append(c)
+            return r, ent
+
+        def p_of(k: int) -> list[int]:
+            return [self._ip(k), self._ip(k) + 1]
+
+        def dc_of(k: int) -> list[int]:
+            return [self._idc(k), self._idc(k) + 1]
+
+        def recent(k: int, span: int) -> list[int]:
+            """Variables of slots k-span+1 .. k that exist (a superset pattern for any 4-leg order)."""
+            out: list[int] = []
+            for j in range(k - span + 1, k + 1):
+                if j >= 0:
+                    out += p_of(j)
+            return out
+
+        # Per family: row index (K, R) and entry index arrays (K, R, C) with -1 for absent entries.
+        def block(
+            n_rows: int, vars_of: list[list[int]]
+        ) -> tuple[NDArray[np.intp], NDArray[np.intp], list[list[int]]]:
+            width = max(len(v) for v in vars_of)
+            r_idx = np.zeros((K, n_rows), np.intp)
+            e_idx = -np.ones((K, n_rows, width), np.intp)
+            for k in range(K):
+                for i in range(n_rows):
+                    r, ent = add_row(vars_of[k])
+                    r_idx[k, i] = r
+                    e_idx[k, i, : len(ent)] = ent
+            return r_idx, e_idx, vars_of
+
+        # reach_rect: p_k, p_{k-4}, slack
+        self.b_rect = block(
+            4, [p_of(k) + (p_of(k - 4) if k >= 4 else []) + [self._is(k, "reach_rect")] for k in range(K)]
+        )
+        self.b_oct = block(8, [p_of(k) + dc_of(k) + [self._is(k, "reach_oct")] for k in range(K)])
+        self.b_keep = block(p.keep_planes, [p_of(k) + [self._is(k, "step_keep")] for k in range(K)])
+        self.b_margin = block(p.keep_planes, [p_of(k) + [self._is(k, "margin")] for k in range(K)])
+        self.b_fbody = block(1, [p_of(k) + [self._is(k, "body_keep")] for k in range(K)])
+        self.b_cbody = block(1, [dc_of(k) + [self._is(k, "body_keep")] for k in range(K)])
+        self.b_self = block(2, [recent(k, 4) + [self._is(k, "self_coll")] for k in range(K)])
+        self.b_cop = block(4, [recent(k, 4) + dc_of(k) + [self._is(k, "cop")] for k in range(K)])
+        self.b_bal = block(4, [recent(k, 4) + dc_of(k) + [self._is(k, "balance")] for k in range(K)])
+        # Bounds: slacks >= 0, |dc| <= max shift.
+        self.r_bounds = []
+        for v in range(2 * K, self.n_var):
+            r, _ = add_row([v])
+            self.r_bounds.append(r)
+        self.n_rows = self._n_rows
+        nnz = len(rows)
+        coo = sparse.coo_matrix(
+            (np.arange(1, nnz + 1, dtype=np.float64), (rows, cols)), shape=(self.n_rows, self.n_var)
+        )
+        csc = coo.tocsc()
+        csc.sort_indices()
+        order = csc.data.astype(np.intp) - 1  # entry index at each CSC slot
+        self._perm = order
+        self._vals = np.zeros(nnz + 1)  # last element is a sink for entry index -1
+        self._vals[-1] = 0.0
+        self.A = csc.copy()
+        self.l = np.full(self.n_rows, -np.inf)
+        self.u = np.full(self.n_rows, np.inf)
+        # Bound rows.
+        for v, r in zip(range(2 * K, self.n_var), self.r_bounds, strict=True):
+            ent = np.flatnonzero(np.asarray(rows) == r)
+            self._vals[ent] = 1.0
+            if v < 4 * K:
+                self.l[r], self.u[r] = -p.max_body_shift_m, p.max_body_shift_m
+            else:
+                self.l[r], self.u[r] = 0.0, np.inf
+        # Cost.
+        diag = np.full(self.n_var, 2 * p.w_slack_quadratic)
+        diag[: 2 * K] = 2 * p.w_nominal
+        diag[2 * K : 4 * K] = 2 * p.w_body_shift
+        self.P = sparse.diags(diag).tocsc()
+        self.q = np.zeros(self.n_var)
+        for k in range(K):
+            for fam in FAMILIES:
+                self.q[self._is(k, fam)] = p.weights[_F[fam]]
+        self._keep_planes: list[list[tuple[NDArray[np.float64], float]]] = [[] for _ in range(K)]
+        self._x_prev: NDArray[np.float64] | None = None
+        self._prev_maps: TerrainMaps | None = None
+        self._prev_slots: list[
+            tuple[int, NDArray[np.float64], list[tuple[NDArray[np.float64], float]], bool]
+        ] = []
+        # Placeholder values so the pattern survives setup; real values come with the first update.
+        self.A.data[:] = 1.0
+        self.solver = osqp.OSQP()
+        self.solver.setup(
+            self.P, self.q, self.A, self.l, self.u,
+            eps_abs=p.eps_abs, eps_rel=p.eps_rel, max_iter=p.max_iter, polishing=False, verbose=False,
+            warm_starting=True, adaptive_rho=True, check_termination=5, rho=p.rho,
+        )  # fmt: skip
+        self.last_bare_ms = 0.0
+
+    # -- value filling ------------------------------------------------------------------------------------------
+
+    def _set_row(self, block: tuple, k: int, i: int, coeffs: list[float], lo: float, hi: float) -> None:
+        r_idx, e_idx, _ = block
+        ent = e_idx[k, i]
+        n = len(coeffs)
+        self._vals[ent[:n]] = coeffs
+        self._vals[ent[n:][ent[n:] >= 0]] = 0.0
+        r = r_idx[k, i]
+        self.l[r], self.u[r] = lo, hi
+
+    def _set_keep_row(self, k: int, i: int, g: NDArray[np.float64], b: float) -> None:
+        """Step keep-out plane i of slot k: g·p >= b + keep_clearance (hard), >= b + margin (soft)."""
+        p = self.params
+        ip = self._ip(k)
+        vc = {ip: g[0], ip + 1: g[1]}
+        self._set_row(
+            self.b_keep, k, i, self._coeff_on(self.b_keep, k, vc, 1.0), b + p.keep_clearance_m, np.inf
+        )
+        self._set_row(self.b_margin, k, i, self._coeff_on(self.b_margin, k, vc, 1.0), b + p.margin_m, np.inf)
+
+    def _clear_row(self, block: tuple, k: int, i: int) -> None:
+        r_idx, e_idx, _ = block
+        ent = e_idx[k, i]
+        self._vals[ent[ent >= 0]] = 0.0
+        r = r_idx[k, i]
+        self.l[r], self.u[r] = -np.inf, np.inf
+
+    def _coeff_on(self, block: tuple, k: int, var_coeffs: dict[int, float], slack: float) -> list[float]:
+        """Gives the row's coefficient list in the block's variable order (the slack is the last variable)."""
+        vars_k = block[2][k]
+        out = [var_coeffs.get(v, 0.0) for v in vars_k[:-1]]
+        out.append(slack)
+        return out
+
+    # -- the replan ---------------------------------------------------------------------------------------------
+
+    def solve(self, req: StepRequest, maps: TerrainMaps | None) -> StepPlan:
+        """Gives the step plan for `req` on `maps` (None: no terrain constraints)."""
+        t0 = time.perf_counter()
+        p = self.params
+        K = self.K
+        self._check(req)
+        legs = np.asarray(req.legs, dtype=np.intp)
+        self._fixed_feet = np.asarray(req.p_feet, dtype=np.float64)
+        # Cost toward the nominal footholds.
+        self.q[: 2 * K] = -2 * p.w_nominal * req.p_nominal.reshape(-1)
+        self._fill_static(req, legs)
+        # Keep-out planes found in the last replan on the same maps carry over to the slot with the same leg and
+        # nearly the same nominal foothold (the active set's warm start); the others start empty.
+        reuse = maps is not None and maps is self._prev_maps
+        prev = self._prev_slots if reuse else []
+        carried: list[tuple[list[tuple[NDArray[np.float64], float]], bool]] = []
+        for k in range(K):
+            match = ([], False)
+            for leg, p_nom, planes, flipped in prev:
+                if leg == legs[k] and float(np.sum((p_nom - req.p_nominal[k]) ** 2)) < p.reuse_radius_m**2:
+                    match = (list(planes), flipped)
+                    break
+            carried.append(match)
+        self._flipped = [c[1] for c in carried]
+        for k in range(K):
+            self._keep_planes[k] = carried[k][0]
+            for i in range(p.keep_planes):
+                if i < len(self._keep_planes[k]):
+                    self._set_keep_row(k, i, *self._keep_planes[k][i])
+                else:
+                    self._clear_row(self.b_keep, k, i)
+                    self._clear_row(self.b_margin, k, i)
+            self._clear_row(self.b_fbody, k, 0)
+            self._clear_row(self.b_cbody, k, 0)
+        bare = 0.0
+        rounds = 0
+        x = None
+        status = ""
+        for rounds in range(1, p.max_rounds + 1):  # noqa: B007 (reported)
+            self.solver.update(q=self.q, l=self.l, u=self.u, Ax=self._vals[self._perm])
+            if self._x_prev is not None:
+                self.solver.warm_start(x=self._x_prev)
+            tb = time.perf_counter()
+            res = self.solver.solve()
+            bare += time.perf_counter() - tb
+            status = str(res.info.status)
+            if res.x is None or not np.all(np.isfinite(res.x)):
+                break
+            x = res.x
+            self._x_prev = x.copy()
+            if maps is None or not self._add_keep_outs(x, req, maps):
+                break
+        if x is None:
+            x = np.concatenate([req.p_nominal.reshape(-1), np.zeros(self.n_var - 2 * K)])
+        self._prev_maps = maps
+        self._prev_slots = [
+            (int(legs[k]), req.p_nominal[k].copy(), list(self._keep_planes[k]), self._flipped[k])
+            for k in range(K)
+        ]
+        feet = x[: 2 * K].reshape(K, 2)
+        slack_all = x[4 * K :].reshape(K, len(FAMILIES))
+        slack = {fam: float(max(0.0, slack_all[:, _F[fam]].max())) for fam in FAMILIES}
+        softened = tuple(f for f in FAMILIES if slack[f] > p.softened_tol_m)
+        if maps is not None:
+            z = np.asarray(maps.height_at(feet[:, 0], feet[:, 1]), dtype=np.float64)
+            in_no_step = np.asarray(maps.no_step(feet[:, 0], feet[:, 1]), dtype=bool)
+        else:
+            z = np.zeros(K)
+            in_no_step = np.zeros(K, dtype=bool)
+        self.last_bare_ms = bare * 1e3
+        return StepPlan(
+            footholds=np.column_stack([feet, z]),
+            legs=legs.copy(),
+            t_touchdown=np.asarray(req.t_touchdown, dtype=np.float64).copy(),
+            body_shift=x[2 * K : 4 * K].reshape(K, 2).copy(),
+            slack=slack,
+            softened=softened,
+            hard_softened=tuple(f for f in softened if f in HARD),
+            in_no_step=in_no_step,
+            rounds=rounds,
+            status=status,
+            solve_ms=(time.perf_counter() - t0) * 1e3,
+            bare_solver_ms=bare * 1e3,
+        )
+
+    def _check(self, req: StepRequest) -> None:
+        K = self.K
+        shapes = {
+            "legs": (K,), "t_liftoff": (K,), "t_touchdown": (K,), "p_nominal": (K, 2), "p_hip": (K, 2),
+            "hip_height": (K,), "c_body": (K, 2), "yaw_body": (K,), "p_feet": (4, 2), "v_feet": (4, 2),
+        }  # fmt: skip
+        for name, shape in shapes.items():
+            a = np.asarray(getattr(req, name))
+            if a.shape != shape:
+                raise ValueError(f"StepRequest.{name}: expected shape {shape}, got {a.shape}")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"StepRequest.{name}: contains NaN or inf")
+        legs = np.asarray(req.legs)
+        if np.any((legs < 0) | (legs > 3)):
+            raise ValueError("StepRequest.legs: leg indices must be 0..3 (FL, FR, RL, RR)")
+        for k in range(4, K):
+            if legs[k] != legs[k - 4]:
+                raise ValueError(
+                    "StepRequest.legs: every leg must step once per 4 slots (legs[k] == legs[k-4])"
+                )
+
+    def _fill_static(self, req: StepRequest, legs: NDArray[np.intp]) -> None:
+        """Rows whose values do not depend on the iterate: reach, self-collision, CoP, balance."""
+        p = self.params
+        K = self.K
+        t_td = req.t_touchdown
+        t_lo = req.t_liftoff
+        for k in range(K):
+            leg = int(legs[k])
+            yaw = float(req.yaw_body[k])
+            ex = np.array([np.cos(yaw), np.sin(yaw)])
+            ey = np.array([-np.sin(yaw), np.cos(yaw)])
+            ip = self._ip(k)
+            # reach_rect
+            if k < 4:
+                T = max(float(t_td[k]) - max(float(t_lo[k]), 0.0), 0.0)
+                if t_lo[k] <= 0.0:  # swinging now: dynamics of the swing foot
+                    T = max(float(t_td[k]), 0.0)
+                    center = req.p_feet[leg] + req.v_feet[leg] * T
+                    half = 0.5 * p.max_foot_accel * T * T
+                    halves = (half, half)
+                    axes = (np.array([1.0, 0.0]), np.array([0.0, 1.0]))
+                else:
+                    center = req.p_feet[leg]
+                    halves = p.stride_box_m
+                    axes = (ex, ey)
+                for a, (e, h) in enumerate(zip(axes, halves, strict=True)):
+                    c = float(e @ center)
+                    coeffs = self._coeff_on(self.b_rect, k, {ip: e[0], ip + 1: e[1]}, -1.0)
+                    self._set_row(self.b_rect, k, 2 * a, coeffs, -np.inf, c + h)
+                    coeffs = self._coeff_on(self.b_rect, k, {ip: e[0], ip + 1: e[1]}, 1.0)
+                    self._set_row(self.b_rect, k, 2 * a + 1, coeffs, c - h, np.inf)
+            else:
+                jp = self._ip(k - 4)
+                for a, (e, h) in enumerate(zip((ex, ey), p.stride_box_m, strict=True)):
+                    vc = {ip: e[0], ip + 1: e[1], jp: -e[0], jp + 1: -e[1]}
+                    self._set_row(self.b_rect, k, 2 * a, self._coeff_on(self.b_rect, k, vc, -1.0), -np.inf, h)
+                    self._set_row(
+                        self.b_rect, k, 2 * a + 1, self._coeff_on(self.b_rect, k, vc, 1.0), -h, np.inf
+                    )
+            # reach_oct: n·(p - hip - dc) <= r cos(pi/8) ... the inscribed octagon of the reach circle.
+            dz = float(req.hip_height[k])
+            r = float(np.sqrt(max(p.leg_length_m**2 - dz**2, 1e-4)))
+            idc = self._idc(k)
+            for i, n in enumerate(_OCT_N):
+                vc = {ip: n[0], ip + 1: n[1], idc: -n[0], idc + 1: -n[1]}
+                self._set_row(self.b_oct, k, i, self._coeff_on(self.b_oct, k, vc, -1.0), -np.inf,
+                              r * np.cos(np.pi / 8) + float(n @ req.p_hip[k]))  # fmt: skip
+            # Where every leg stands at touchdown k and in the middle of phase k.
+            t_mid = self._phase_mid(k, t_td)
+            stance_td = self._stance(k, float(t_td[k]), legs, t_lo, t_td)
+            stance_mid = self._stance(k, t_mid, legs, t_lo, t_td)
+            # self_coll: lateral and longitudinal neighbors at touchdown, in the body frame at touchdown.
+            side = 1.0 if LEG_IS_LEFT[leg] else -1.0
+            front = 1.0 if LEG_IS_FRONT[leg] else -1.0
+            for i, (nb, e, d_min) in enumerate(
+                ((LATERAL_NEIGHBOR[leg], ey * side, p.self_lateral_m),
+                 (LONGITUDINAL_NEIGHBOR[leg], ex * front, p.self_longitudinal_m))
+            ):  # fmt: skip
+                ref = stance_td.get(int(nb))
+                if ref is None:
+                    self._clear_row(self.b_self, k, i)
+                    continue
+                vc = {ip: e[0], ip + 1: e[1]}
+                lo = d_min
+                if isinstance(ref, int):
+                    jp = self._ip(ref)
+                    vc[jp] = vc.get(jp, 0.0) - e[0]
+                    vc[jp + 1] = vc.get(jp + 1, 0.0) - e[1]
+                else:
+                    lo += float(e @ ref)
+                self._set_row(self.b_self, k, i, self._coeff_on(self.b_self, k, vc, 1.0), lo, np.inf)
+            # cop and balance around the body point of phase k.
+            self._fill_support(k, req, stance_mid)
+
+    @staticmethod
+    def _phase_mid(k: int, t_td: NDArray[np.float64]) -> float:
+        later = t_td[t_td > t_td[k] + 1e-6]
+        t_next = float(later.min()) if later.size else float(t_td[k]) + 0.2
+        return 0.5 * (float(t_td[k]) + t_next)
+
+    def _stance(
+        self, k: int, t: float, legs: NDArray[np.intp], t_lo: NDArray[np.float64], t_td: NDArray[np.float64]
+    ) -> dict[int, int | NDArray[np.float64]]:
+        """Gives {leg: slot index or fixed xy} for the legs in stance at time t (slots up to k only)."""
+        out: dict[int, int | NDArray[np.float64]] = {}
+        for leg in range(4):
+            slots = np.flatnonzero(legs == leg)
+            if any(t_lo[s] <= t < t_td[s] for s in slots):
+                continue  # swinging
+            landed = [int(s) for s in slots if t_td[s] <= t + 1e-9]
+            if not landed:
+                out[leg] = self._fixed_feet[leg]
+            elif max(landed) <= k:
+                out[leg] = max(landed)
+        return out
+
+    def _fill_support(self, k: int, req: StepRequest, stance: dict[int, int | NDArray[np.float64]]) -> None:
+        p = self.params
+        c = req.c_body[k]
+        idc = self._idc(k)
+        nominal = {leg: (req.p_nominal[ref] if isinstance(ref, int) else ref) for leg, ref in stance.items()}
+        for i in range(4):
+            self._clear_row(self.b_cop, k, i)
+            self._clear_row(self.b_bal, k, i)
+        n_st = len(stance)
+        t_td = req.t_touchdown
+        if n_st < 2 or np.any(np.abs(t_td[k + 1 :] - t_td[k]) < 1e-6):
+            return  # a later slot lands at the same time: its phase carries the rows
+
+        def term(vc: dict[int, float], leg: int, w: NDArray[np.float64]) -> float:
+            """Adds w·p_leg to vc (a variable) or gives its constant value (a fixed foot)."""
+            ref = stance[leg]
+            if isinstance(ref, int):
+                jp = self._ip(ref)
+                vc[jp] = vc.get(jp, 0.0) + w[0]
+                vc[jp + 1] = vc.get(jp + 1, 0.0) + w[1]
+                return 0.0
+            return float(w @ ref)
+
+        if n_st == 2:
+            a, b = sorted(stance)
+            d = nominal[b] - nominal[a]
+            L = float(np.linalg.norm(d))
+            if L < 1e-6:
+                return
+            d = d / L
+            n = np.array([-d[1], d[0]])
+            lam = p.cop_fraction * L
+            # d·(c + dc - p_a) >= lam
+            vc: dict[int, float] = {idc: d[0], idc + 1: d[1]}
+            const = term(vc, a, -d)
+            self._set_row(
+                self.b_cop, k, 0, self._coeff_on(self.b_cop, k, vc, 1.0), lam - float(d @ c) - const, np.inf
+            )
+            # d·(p_b - c - dc) >= lam
+            vc = {idc: -d[0], idc + 1: -d[1]}
+            const = term(vc, b, d)
+            self._set_row(
+                self.b_cop, k, 1, self._coeff_on(self.b_cop, k, vc, 1.0), lam + float(d @ c) - const, np.inf
+            )
+            # |n·(c + dc - (p_a + p_b)/2)| <= balance_lateral
+            for i, sgn in ((0, 1.0), (1, -1.0)):
+                vc = {idc: sgn * n[0], idc + 1: sgn * n[1]}
+                const = term(vc, a, -0.5 * sgn * n) + term(vc, b, -0.5 * sgn * n)
+                lo = -p.balance_lateral_m - sgn * float(n @ c) - const
+                self._set_row(self.b_bal, k, i, self._coeff_on(self.b_bal, k, vc, 1.0), lo, np.inf)
+            return
+        # Three or four feet: the support polygon of the nominal positions, counterclockwise.
+        order = list(stance)
+        pts = np.array([nominal[leg] for leg in order])
+        ctr = pts.mean(axis=0)
+        ang = np.arctan2(pts[:, 1] - ctr[1], pts[:, 0] - ctr[0])
+        ccw = [order[i] for i in np.argsort(ang)]
+        for i in range(len(ccw)):
+            la, lb = ccw[i], ccw[(i + 1) % len(ccw)]
+            e = nominal[lb] - nominal[la]
+            L = float(np.linalg.norm(e))
+            if L < 1e-6:
+                continue
+            n = np.array([-e[1], e[0]]) / L  # inward for a counterclockwise polygon
+            for blk, m in ((self.b_cop, p.cop_margin_m), (self.b_bal, p.balance_margin_m)):
+                vc = {idc: n[0], idc + 1: n[1]}
+                const = term(vc, la, -n)
+                self._set_row(blk, k, i, self._coeff_on(blk, k, vc, 1.0), m - float(n @ c) - const, np.inf)
+
+    # -- keep-out planes ----------------------------------------------------------------------------------------
+
+    def _add_keep_outs(self, x: NDArray[np.float64], req: StepRequest, maps: TerrainMaps) -> bool:
+        """Adds the nearest boundary's half-plane for every foothold in (or within the margin of) a no-step region,
+        and body keep-outs; gives whether any was added."""
+        p = self.params
+        K = self.K
+        feet = x[: 2 * K].reshape(K, 2)
+        sd = np.atleast_1d(maps.sdf_step(feet[:, 0], feet[:, 1]))
+        grad = np.atleast_2d(maps.sdf_step_grad(feet[:, 0], feet[:, 1]))
+        sdb = np.atleast_1d(maps.sdf_body(feet[:, 0], feet[:, 1]))
+        gradb = np.atleast_2d(maps.sdf_body_grad(feet[:, 0], feet[:, 1]))
+        c = req.c_body + x[2 * K : 4 * K].reshape(K, 2)
+        sdc = np.atleast_1d(maps.sdf_body(c[:, 0], c[:, 1]))
+        gradc = np.atleast_2d(maps.sdf_body_grad(c[:, 0], c[:, 1]))
+        added = False
+        tol = 1e-3
+        slack_keep = x[4 * K + _F["step_keep"] :: len(FAMILIES)]
+        for k in range(K):
+            ip = self._ip(k)
+            planes = self._keep_planes[k]
+            if slack_keep[k] > p.softened_tol_m and planes and not self._flipped[k]:
+                # The nearest boundary is out of reach: try the far side of the no-step region instead.
+                self._flipped[k] = True
+                i = int(np.argmin([float(g0 @ feet[k]) - b0 for g0, b0 in planes]))
+                g0 = planes[i][0]
+                ts = np.arange(0.0, 0.8, maps.resolution_m / 2)
+                along = feet[k][None, :] - ts[:, None] * g0[None, :]
+                sd_along = np.asarray(maps.sdf_step(along[:, 0], along[:, 1]))
+                inside_seen = np.cumsum(sd_along < 0) > 0
+                exits = np.flatnonzero(inside_seen & (sd_along >= 0))
+                if exits.size:
+                    q = along[exits[0]]
+                    g = _unit(np.asarray(maps.sdf_step_grad(q[0], q[1])), g0)
+                    if float(g @ g0) > 0:  # the gradient must point out of the region, toward -g0
+                        g = -g0
+                    planes[i] = (g, float(g @ q))
+                    self._set_keep_row(k, i, g, float(g @ q))
+                    added = True
+                    continue
+            if np.isfinite(sd[k]) and sd[k] < p.margin_m - tol and len(planes) < p.keep_planes:
+                g = _unit(grad[k], feet[k] - req.p_nominal[k])
+                q = feet[k] - sd[k] * g
+                if all(float(g @ g0) < 0.95 or abs(float(g @ q) - b0) > 0.01 for g0, b0 in planes):
+                    i = len(planes)
+                    planes.append((g, float(g @ q)))
+                    self._set_keep_row(k, i, g, float(g @ q))
+                    added = True
+            if (
+                np.isfinite(sdb[k])
+                and sdb[k] < p.foot_body_clearance_m - tol
+                and self.l[self.b_fbody[0][k, 0]] == -np.inf
+            ):
+                g = _unit(gradb[k], feet[k] - req.p_nominal[k])
+                q = feet[k] - sdb[k] * g
+                vc = {ip: g[0], ip + 1: g[1]}
+                self._set_row(self.b_fbody, k, 0, self._coeff_on(self.b_fbody, k, vc, 1.0),
+                              float(g @ q) + p.foot_body_clearance_m, np.inf)  # fmt: skip
+                added = True
+            if (
+                np.isfinite(sdc[k])
+                and sdc[k] < p.body_radius_m - tol
+                and self.l[self.b_cbody[0][k, 0]] == -np.inf
+            ):
+                g = _unit(gradc[k], np.zeros(2))
+                q = c[k] - sdc[k] * g
+                idc = self._idc(k)
+                vc = {idc: g[0], idc + 1: g[1]}
+                lo = float(g @ q) + p.body_radius_m - float(g @ req.c_body[k])
+                self._set_row(self.b_cbody, k, 0, self._coeff_on(self.b_cbody, k, vc, 1.0), lo, np.inf)
+                added = True
+        return added
+
+    _fixed_feet: NDArray[np.float64]
+    _flipped: list[bool]
+
+
+def _unit(g: NDArray[np.float64], fallback: NDArray[np.float64]) -> NDArray[np.float64]:
+    n = float(np.linalg.norm(g))
+    if n > 1e-9:
+        return g / n
+    n = float(np.linalg.norm(fallback))
+    if n > 1e-9:
+        return -fallback / n
+    return np.array([1.0, 0.0])

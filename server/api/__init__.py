@@ -1,0 +1,14 @@
+"""The REST routes, one module per resource, gathered into one router."""
+
+from fastapi import APIRouter
+
+from server.api import health, maneuvers, sessions, simulations, studio
+
+api_router = APIRouter()
+api_router.include_router(health.router)
+api_router.include_router(maneuvers.router)
+api_router.include_router(simulations.router)
+api_router.include_router(sessions.router)
+api_router.include_router(studio.router)
+
+__all__ = ["api_router"]

@@ -1,0 +1,42 @@
+"""Liveness and what the service offers: GET /health, GET /terrains, GET /schema/maneuver."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter
+
+from server.deps import ServicesDep
+
+router = APIRouter(tags=["service"])
+
+
+@router.get("/health", summary="Liveness: {'status': 'ok'}")
+def health(services: ServicesDep) -> dict[str, Any]:
+    return {
+        "status": "ok",
+        "sessions": len(services.sessions),
+        "studio": services.studio is not None,
+        "token_required": services.settings.token_required,
+    }
+
+
+@router.get("/terrains", summary="The terrain names and what each is")
+def terrains() -> list[dict[str, str]]:
+    from planning.terrain.scenes import TERRAIN_NAMES, build_terrain
+
+    out = []
+    for name in TERRAIN_NAMES:
+        try:
+            desc = str(build_terrain(name).description)
+        except Exception:  # noqa: BLE001 - a description is a nicety; the name is what matters
+            desc = ""
+        out.append({"name": name, "description": desc})
+    return out
+
+
+@router.get("/schema/maneuver", summary="The JSON Schema of a maneuver file (footfall/maneuver@1)")
+def maneuver_schema() -> dict[str, Any]:
+    from planning.maneuver import maneuver_json_schema
+
+    return maneuver_json_schema()

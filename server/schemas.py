@@ -1,0 +1,156 @@
+"""Request and response bodies of the REST API (pydantic at the boundary only), in families per resource.
+
+Numbers are strict (a string "1.0" is not a number) and finite; every model forbids unknown fields, so a typo is
+answered with the field's name instead of being ignored. Units: meters, seconds, newtons, radians per second.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from server.engine import terrain_names
+
+TerrainName = Literal[terrain_names()]  # type: ignore[valid-type]
+GaitName = Literal["trot", "walk", "pace", "bound", "pronk"]
+
+
+def _num(lo: float, hi: float, *, lo_open: bool = False) -> Any:
+    if lo_open:
+        return Annotated[float, Field(strict=True, allow_inf_nan=False, gt=lo, le=hi)]
+    return Annotated[float, Field(strict=True, allow_inf_nan=False, ge=lo, le=hi)]
+
+
+Force = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-5000.0, le=5000.0)]
+Vec3Force = Annotated[list[Force], Field(min_length=3, max_length=3, description="[fx, fy, fz], N, world frame")]
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+# ---- pushes -----------------------------------------------------------------------------------------------------
+class PushIn(_In):
+    """A force on the body's center of mass: from t for duration (a scheduled push in a headless run)."""
+
+    t: _num(0.0, 600.0) = Field(description="start time, s")  # type: ignore[valid-type]
+    force: Vec3Force
+    duration: _num(0.0, 5.0, lo_open=True) = Field(0.1, description="s")  # type: ignore[valid-type]
+
+
+PushSpec = Annotated[
+    str, Field(max_length=100, description="T:FX,FY,FZ[:DURATION] as on the command line", examples=["1.0:0,150,0:0.1"])
+]
+
+
+# ---- simulations ------------------------------------------------------------------------------------------------
+class WalkIn(_In):
+    """A steering-mode run: velocity commands (or a goal) instead of a maneuver."""
+
+    vx: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
+    vy: _num(-1.0, 1.0) = 0.0  # type: ignore[valid-type]
+    yaw_rate: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
+    gait: GaitName = "trot"
+    goal: Annotated[list[_num(-100.0, 100.0)], Field(min_length=2, max_length=2)] | None = None  # type: ignore[valid-type]
+
+
+class SimulationCreate(_In):
+    """A queued headless run: a maneuver (library name or inline document) or a walk, on a terrain."""
+
+    maneuver: Annotated[str, Field(max_length=64)] | dict[str, Any] | None = Field(
+        None, description="a library name, or a maneuver document (footfall/maneuver@1) inline"
+    )
+    walk: WalkIn | None = None
+    terrain: TerrainName = "flat"  # type: ignore[valid-type]
+    pushes: Annotated[list[PushIn | PushSpec], Field(max_length=50)] = Field(default_factory=list)
+    duration: _num(0.0, 120.0, lo_open=True) | None = Field(  # type: ignore[valid-type]
+        None, description="simulated seconds (default: the maneuver's)"
+    )
+
+    @model_validator(mode="after")
+    def _one_of(self) -> SimulationCreate:
+        if (self.maneuver is None) == (self.walk is None):
+            raise ValueError("give exactly one of maneuver or walk")
+        return self
+
+
+class SimulationAccepted(BaseModel):
+    id: str
+    status: str
+    url: str
+
+
+class SimulationPublic(BaseModel):
+    """A simulation's status; `report` is the run report (CONTRACT.md) once done."""
+
+    id: str
+    status: Literal["queued", "running", "done", "failed"]
+    request: dict[str, Any]
+    created: float
+    started: float | None = None
+    finished: float | None = None
+    progress: dict[str, float] | None = None
+    report: dict[str, Any] | None = None
+    error: str | None = None
+    queue_position: int | None = None
+
+
+# ---- sessions ---------------------------------------------------------------------------------------------------
+class SessionCreate(_In):
+    terrain: TerrainName = "flat"  # type: ignore[valid-type]
+    mode: Literal["steer", "maneuver"] = "maneuver"
+
+
+class SessionCreated(BaseModel):
+    id: str
+    terrain: str
+    mode: str
+    state_url: str
+
+
+class SteerIn(_In):
+    """A velocity command in the body's heading frame: m/s, m/s, rad/s."""
+
+    vx: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
+    vy: _num(-1.0, 1.0) = 0.0  # type: ignore[valid-type]
+    yaw_rate: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
+    gait: GaitName = "trot"
+
+
+class SessionManeuverIn(_In):
+    """Start a maneuver: from the stance at the origin, at `speed` times real time."""
+
+    maneuver: Annotated[str, Field(max_length=64)] | dict[str, Any]
+    speed: _num(0.05, 4.0) | None = None  # type: ignore[valid-type]
+
+
+class SessionPushIn(_In):
+    """A push now: a force (N, world frame) on the body's center of mass for `duration` s."""
+
+    force: Vec3Force
+    duration: _num(0.0, 2.0, lo_open=True) = 0.1  # type: ignore[valid-type]
+
+
+class SessionResetIn(_In):
+    terrain: TerrainName | None = None  # type: ignore[valid-type]
+
+
+class SessionControlIn(_In):
+    """Playback control: play, pause or restart the current maneuver; speed in times real time."""
+
+    action: Literal["play", "pause", "restart"] | None = None
+    speed: _num(0.05, 4.0) | None = None  # type: ignore[valid-type]
+
+
+class StudioPreviewIn(_In):
+    maneuver: Annotated[str, Field(max_length=64)]
+    terrain: TerrainName = "flat"  # type: ignore[valid-type]
+
+    @field_validator("maneuver")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        from server.storage import check_name
+
+        check_name(v)
+        return v

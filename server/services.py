@@ -1,0 +1,157 @@
+"""What the routes and the studio share: settings, the library, sessions, the simulation pool; and the one place
+where request bodies become validated maneuvers."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+from planning.maneuver import ManeuverError, Problem, parse_maneuver, validate_maneuver
+from planning.maneuver.load import read_yaml
+from server.errors import ApiError
+from server.sessions import SessionManager
+from server.settings import Settings
+from server.simulations import SimulationPool
+from server.storage import ManeuverStore, NotFound, dump_yaml, problems_to_fields
+
+YAML_TYPES = ("application/yaml", "application/x-yaml", "text/yaml", "text/x-yaml", "text/plain")
+
+
+@dataclass
+class Services:
+    """The service objects of one app; built by create_app, closed by its lifespan."""
+
+    settings: Settings
+    store: ManeuverStore
+    sessions: SessionManager
+    simulations: SimulationPool
+    studio: Any = None
+    preview_requests: list[tuple[float, str, str]] = field(default_factory=list)  # (wall time, maneuver, terrain)
+
+    @cached_property
+    def robot(self) -> Any:
+        from planning.robot import load_robot
+
+        return load_robot(self.settings.robot)
+
+    def close(self) -> None:
+        if self.studio is not None:
+            self.studio.stop()
+        self.sessions.shutdown()
+        self.simulations.shutdown()
+
+
+@dataclass(frozen=True)
+class ManeuverBody:
+    """A maneuver sent by a client: the parsed document, the text to store, and whether it came as YAML."""
+
+    data: Any
+    text: str
+    lines: dict[str, int] | None
+    is_yaml: bool
+
+
+def read_maneuver_body(raw: bytes, content_type: str | None) -> ManeuverBody:
+    """Returns the document of a request body (JSON, or YAML by Content-Type); ApiError 4xx when unreadable."""
+    ctype = (content_type or "application/json").split(";")[0].strip().lower()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise ApiError(400, f"body: is not UTF-8 text ({e.reason} at byte {e.start})",
+                       [{"field": "body", "reason": "not UTF-8 text"}]) from None  # fmt: skip
+    if not text.strip():
+        raise ApiError(422, "body: is empty; send a maneuver document", [{"field": "body", "reason": "is empty"}])
+    if ctype in YAML_TYPES:
+        try:
+            data, lines = read_yaml(text)
+        except ManeuverError as e:
+            raise ApiError(422, f"body: {e.problems[0].message}", problems_to_fields(e.problems)) from None
+        return ManeuverBody(data, text, lines, True)
+    if ctype not in ("application/json", "") and not ctype.endswith("+json"):
+        raise ApiError(415, f"Content-Type {ctype!r}: send application/json or application/yaml",
+                       [{"field": "Content-Type", "reason": f"unsupported: {ctype[:60]}"}])  # fmt: skip
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except RecursionError:
+        raise ApiError(422, "body: nests too deeply", [{"field": "body", "reason": "nests too deeply"}]) from None
+    except ValueError as e:
+        raise ApiError(422, f"body: is not valid JSON ({e})"[:300],
+                       [{"field": "body", "reason": f"not valid JSON: {e}"[:300]}]) from None  # fmt: skip
+    return ManeuverBody(data, "", None, False)
+
+
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
+def to_maneuver(body_data: Any, lines: dict[str, int] | None, settings: Settings) -> Any:
+    """Returns the Maneuver of a document; ApiError 422 listing every shape problem, or a limit exceeded."""
+    try:
+        maneuver = parse_maneuver(body_data, lines=lines)
+    except ManeuverError as e:
+        n = len(e.problems)
+        raise ApiError(422, f"invalid maneuver ({n} problem{'s' if n != 1 else ''}): {e.problems[0]}"[:500],
+                       problems_to_fields(e.problems)) from None  # fmt: skip
+    except RecursionError:
+        raise ApiError(422, "body: nests too deeply", [{"field": "body", "reason": "nests too deeply"}]) from None
+    limit_problems = check_limits(maneuver, settings)
+    if limit_problems:
+        raise ApiError(422, f"maneuver too large: {limit_problems[0]}", problems_to_fields(limit_problems))
+    return maneuver
+
+
+def check_limits(maneuver: Any, settings: Settings) -> list[Problem]:
+    """Returns the server's size limits a maneuver breaks (events after gait expansion, keyframes)."""
+    from planning.maneuver import count_events
+
+    out = []
+    try:
+        n_events = count_events(maneuver)
+    except Exception:  # noqa: BLE001 - a gait the counter cannot expand is the validator's to report
+        n_events = len(maneuver.events)
+    if n_events > settings.max_events:
+        out.append(Problem("events", f"has {n_events} events after gait expansion; the server takes at most "
+                                     f"{settings.max_events}"))  # fmt: skip
+    if len(maneuver.body) > settings.max_keyframes:
+        out.append(Problem("body", f"has {len(maneuver.body)} keyframes; at most {settings.max_keyframes}"))
+    return out
+
+
+def validate(maneuver: Any, services: Services) -> Any:
+    """Returns the ValidationResult of a parsed maneuver for the server's robot."""
+    return validate_maneuver(maneuver, services.robot)
+
+
+def require_valid(maneuver: Any, services: Services) -> Any:
+    """Returns the validation result when it has no failures; ApiError 422 with the failures otherwise."""
+    result = validate(maneuver, services)
+    if not result.ok:
+        n = len(result.failures)
+        first = result.failures[0] if result.failures else "invalid"
+        raise ApiError(422, f"maneuver {maneuver.name} has {n} failure{'s' if n != 1 else ''}: {first}"[:500],
+                       problems_to_fields(result.failures))  # fmt: skip
+    return result
+
+
+def resolve_maneuver(ref: str | dict[str, Any], services: Services, field_name: str = "maneuver") -> Any:
+    """Returns a validated Maneuver from a library name or an inline document; ApiError 404/422 otherwise."""
+    if isinstance(ref, str):
+        try:
+            stored = services.store.get(ref)
+        except NotFound as e:
+            raise ApiError(404, f"{field_name}: {e.message}", [{"field": field_name, "reason": e.message}]) from None
+        data, lines = read_yaml(stored.text)
+        maneuver = to_maneuver(data, lines, services.settings)
+    else:
+        maneuver = to_maneuver(ref, None, services.settings)
+    require_valid(maneuver, services)
+    return maneuver
+
+
+def maneuver_text(body: ManeuverBody, maneuver: Any) -> str:
+    """Returns the text to store: YAML as sent (comments kept), or JSON converted to block YAML."""
+    if body.is_yaml:
+        return body.text if body.text.endswith("\n") else body.text + "\n"
+    return dump_yaml(body.data)

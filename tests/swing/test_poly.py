@@ -1,0 +1,68 @@
+"""The 1-D primitives: time-optimal rest, longest coast, rise–hold–fall."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from planning.swing._poly import Builder, coast_time, rest_time, rise_hold_fall, to_rest
+
+V, A = 3.0, 40.0
+pos = st.floats(-0.5, 0.5)
+vel = st.floats(-V, V)
+
+
+def _dense(poly, t0, t1, n=400):
+    ts = np.linspace(t0, t1, n)
+    return ts, poly.sample_many(ts), poly.sample_many(ts, 1), poly.sample_many(ts, 2)
+
+
+@settings(max_examples=200, deadline=None)
+@given(pos, vel, pos)
+def test_to_rest_arrives_at_rest_within_limits(p, v, p1):
+    b = Builder(0.0, p, v)
+    t = to_rest(b, p1, V, A)
+    poly = b.finish()
+    assert abs(t - rest_time(p, v, p1, V, A)) < 1e-12
+    assert poly.state(0.0)[:2] == (p, v)
+    pe, ve, _ = poly.state(t - 1e-9)
+    assert abs(pe - p1) < 1e-6 and abs(ve) < 1e-6
+    _, P, Vs, As = _dense(poly, 0.0, t + 0.1)
+    assert np.all(np.abs(Vs) <= V + 1e-9) and np.all(np.abs(As) <= A + 1e-9)
+    # Continuity: positions never jump between samples more than the speed limit allows.
+    assert np.all(np.abs(np.diff(P)) <= V * (t + 0.1) / 399 + 1e-9)
+
+
+@settings(max_examples=200, deadline=None)
+@given(pos, vel, pos, st.floats(0.0, 0.5))
+def test_coast_then_bang_arrives_exactly_on_time(p, v, p1, slack):
+    horizon = rest_time(p, v, p1, V, A) + slack
+    w = coast_time(p, v, p1, horizon, V, A)
+    assert 0.0 <= w <= horizon
+    b = Builder(0.0, p, v)
+    b.accel(w, 0.0)
+    assert abs(to_rest(b, p1, V, A) - horizon) < 1e-7
+
+
+def test_coast_time_reports_too_late():
+    assert coast_time(0.0, 0.0, 1.0, 0.1, V, A) == -1.0
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.floats(0.0, 0.2), st.floats(-1.0, 1.5), st.floats(0.0, 0.2), st.floats(0.05, 0.8), st.floats(0.0, 0.3)
+)
+def test_rise_hold_fall(z0, vz0, z1, T, h):
+    b = Builder(0.0, z0, vz0)
+    top = max(z0, z1) + h
+    ok = rise_hold_fall(b, top, z1, T, 2.0, 1.5, 40.0)
+    poly = b.finish()
+    _, Z, Vz, Az = _dense(poly, 0.0, T + 0.2)
+    assert np.all(np.abs(Az) <= 40.0 + 1e-9)
+    assert np.all(Vz <= max(2.0, vz0) + 1e-9) and np.all(Vz >= -max(1.5, 2.0, -vz0) - 1e-9)
+    if ok:
+        z, v, _ = poly.state(T)
+        assert abs(z - z1) < 1e-6 and abs(v) < 1e-6
+        assert Z.max() <= max(top, z0 + max(vz0, 0.0) ** 2 / 80.0) + 1e-9
+    else:
+        # Too late even for the lowest top: it still comes to rest on z1, after T.
+        assert rest_time(z0, vz0, z1, 2.0, 40.0) > T - 1e-9 or T < 0.3
