@@ -54,7 +54,7 @@ class HandlerParams:
     kd_swing: tuple[float, float, float] = (3.0, 3.0, 3.0)  # N·m·s/rad
     stance_damping: float = 0.5  # N·m·s/rad on stance legs
     early_touchdown_fraction: float = 0.5  # a contact after this fraction of the swing counts as a touchdown
-    late_descent_mps: float = 0.3  # late touchdown: descend at this speed until contact
+    max_liftoff_delay_s: float = 0.12  # a liftoff waits at most this long for a late foot to land
     mu: float = 0.6
 
 
@@ -97,7 +97,11 @@ class Handler:
             sw = plan.swing_at(leg, t)
             if ph == Phase.STANCE:
                 if sw is not None and t < sw.t_touchdown:
-                    self._lift(leg, sw, s)
+                    # measured state wins: while another foot is late, lifting this one would leave the body
+                    # on fewer feet than planned; wait for the late foot (briefly)
+                    late = bool(np.any(self.phase == Phase.LATE))
+                    if not late or t - sw.t_liftoff > self.params.max_liftoff_delay_s:
+                        self._lift(leg, sw, s)
             elif ph == Phase.SWING:
                 frac = (t - self.t_liftoff[leg]) / max(self.t_touchdown[leg] - self.t_liftoff[leg], 1e-3)
                 if s.contact[leg] and frac >= self.params.early_touchdown_fraction:
@@ -145,14 +149,8 @@ class Handler:
         for i in legs:
             p = s.p_world_foot[i].copy()
             p[2] -= r
-            t_td = self.t_touchdown[i]
-            p_td = self.p_touchdown[i]
-            if self.phase[i] == Phase.LATE:
-                # descend at a fixed speed until contact: aim below the planned place, a little later
-                t_td = s.t + 0.1
-                p_td = p_td.copy()
-                p_td[2] = p[2] - self.params.late_descent_mps * 0.1
-            reqs.append(SwingRequest(i, p, s.v_world_foot[i], p_td, max(t_td, s.t + 0.02)))
+            # a touchdown time in the past selects the planner's late-touchdown policy (descend until contact)
+            reqs.append(SwingRequest(i, p, s.v_world_foot[i], self.p_touchdown[i], float(self.t_touchdown[i])))
         stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == Phase.STANCE}
         v = s.v_world_body if v_body_des is None else v_body_des
         body = BodyMotion(s.t, s.p_world_body.copy(), s.R_world_body.copy(), v.copy(), float(s.omega_world[2]))

@@ -76,7 +76,7 @@ class CentroidalParams:
     eps_rel: float = 1e-6
     max_iter: int = 4000
     rho: float = 0.1
-    polish: bool = False
+    polish: bool = True
 
 
 @dataclass(frozen=True)
@@ -254,6 +254,8 @@ class CentroidalSolver:
         self._cone_dir = np.zeros((L.N, N_LEGS, 2))
         self._len_dir = np.zeros((L.K - 1, N_LEGS, 3))
         self._len_on = np.zeros((L.K - 1, N_LEGS), dtype=bool)
+        self._cone_on = np.zeros((L.N, N_LEGS), dtype=bool)
+        self._air = np.ones((L.N, N_LEGS), dtype=bool)
         self._prev: _Previous | None = None
         self.last_snapshot: dict[str, object] | None = None
         self.last_info: list[object] = []
@@ -454,9 +456,12 @@ class CentroidalSolver:
         fr[:, :, 4] = n
         fr[:, :, 5] = n
         # The cone cut starts along the linearization point's tangential force: a valid tangent plane anyway.
+        # (off where that force is too small to have a direction, or along a face: it would repeat the face).
         ft = np.stack([np.sum(tk.f * t1, -1), np.sum(tk.f * t2, -1)], -1)
         nt = np.linalg.norm(ft, axis=-1, keepdims=True)
-        self._cone_dir[:] = np.where(nt > 1e-6 * tk.Fs, ft / np.maximum(nt, 1e-300), np.array([1.0, 0.0]))
+        self._cone_dir[:] = np.where(nt > 1e-3 * tk.Fs, ft / np.maximum(nt, 1e-300), np.array([1.0, 0.0]))
+        self._cone_on = (nt[..., 0] > 1e-3 * tk.Fs) & (np.min(np.abs(self._cone_dir), axis=-1) > 0.05)
+        self._air = np.ones((L.N, N_LEGS), dtype=bool)
         self._write_cone_cuts(tk)
         frc = np.empty((L.N, N_LEGS, 2))
         frc[..., 0] = -pr.fz_max_N / tk.Fs
@@ -470,12 +475,21 @@ class CentroidalSolver:
         c_lo = np.zeros((L.N, N_LEGS))
         c_hi = np.zeros((L.N, N_LEGS))
         c_lo[: tk.N], c_hi[: tk.N] = sch.c_lo, sch.c_hi
+        # A foot that may touch: pyramid faces, c fz_min <= f_n <= c fz_max, the cone cut. A foot in the air: the
+        # same rows reduced to f = 0 without redundant active rows (f_n = 0 and two faces as equalities), which
+        # keeps the active set independent for the solver.
+        air = c_hi == 0.0
         l[rf[:, :, 0:5]] = -INF
         u[rf[:, :, 0:5]] = 0.0
         l[rf[:, :, 5]] = 0.0
         u[rf[:, :, 5]] = INF
-        l[rf[:, :, 6]] = -INF
-        u[rf[:, :, 6]] = np.where(c_hi > 0.0, 0.0, INF)
+        for j in (0, 2):
+            l[rf[:, :, j]] = np.where(air, 0.0, -INF)
+        for j in (1, 3, 4):
+            u[rf[:, :, j]] = np.where(air, INF, 0.0)
+        u[rf[:, :, 5]] = np.where(air, 0.0, INF)
+        self._air = air
+        self._write_cut_bounds()
         l[L.r_cb] = c_lo
         u[L.r_cb] = c_hi
         mono = np.zeros((L.N - 1, N_LEGS), dtype=np.int64)
@@ -487,6 +501,12 @@ class CentroidalSolver:
         d = self._cone_dir
         self._fr[:, :, 6] = d[..., :1] * tk.t1 + d[..., 1:] * tk.t2 - tk.pr.mu * tk.n
         self._put("fr", self._fr)
+        self._write_cut_bounds()
+
+    def _write_cut_bounds(self) -> None:
+        r = self.L.r_fric[:, :, 6]
+        self._l[r] = -INF
+        self._u[r] = np.where(self._cone_on & ~self._air, 0.0, INF)
 
     def _fill_kinematics(self, tk: _Tick) -> None:
         """Writes the hip line rows and the leg-length cut rows of knots 1..K-1."""
@@ -791,6 +811,7 @@ class CentroidalSolver:
         new_cone[:N] = (cone_rel > prm.cone_tol) & (ftn > 1e-9)
         if new_cone.any():
             self._cone_dir[new_cone] = (ft / np.maximum(ftn, 1e-12)[..., None])[new_cone[:N]]
+            self._cone_on |= new_cone
         return (
             float(max(over.max(initial=0.0), 0.0)),
             float(max(cone_rel.max(initial=0.0), 0.0)),

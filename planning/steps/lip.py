@@ -202,6 +202,39 @@ class PathBatch:
     def n(self) -> int:
         return int(self.t_td.shape[0])
 
+    def rows(self, sl: slice) -> PathBatch:
+        """Returns the batch of the paths in rows ``sl``."""
+        return PathBatch(self.leg, self.t_td[sl], self.t_lo[sl], self.t_lo_now[sl], self.p_td[sl], self.body)
+
+    def with_first(self, path: StepPath) -> PathBatch:
+        """Returns this batch with ``path`` (same touchdown legs) stacked in front as row 0."""
+        if not np.array_equal(path.leg, self.leg):
+            raise ValueError("paths: every candidate must have the reference's touchdown legs, in order")
+        return PathBatch(
+            leg=self.leg,
+            t_td=np.concatenate([path.t_touchdown[None], self.t_td]),
+            t_lo=np.concatenate([path.t_liftoff[None], self.t_lo]),
+            t_lo_now=np.concatenate([path.t_liftoff_now[None], self.t_lo_now]),
+            p_td=np.concatenate([path.p_world_touchdown[None], self.p_td]),
+            body=self.body,
+        )
+
+
+class StepPaths(list[StepPath]):
+    """A list of step paths that also carries them stacked (``batch``), so scoring need not restack them."""
+
+    def __init__(self, paths: list[StepPath], batch: PathBatch) -> None:
+        super().__init__(paths)
+        self.batch = batch
+
+
+def batch_of(paths: list[StepPath]) -> PathBatch:
+    """Returns the paths stacked: the carried batch of a StepPaths (when unchanged), else a new one."""
+    b = getattr(paths, "batch", None)
+    if isinstance(b, PathBatch) and b.n == len(paths):
+        return b
+    return PathBatch.of(paths)
+
 
 @dataclass(frozen=True)
 class Events:

@@ -30,9 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planning.steps.lip import PathBatch, sort_events, state_omega
+from planning.steps.lip import PathBatch, StepPaths, sort_events, state_omega
 from planning.steps.reference import eval_height, touchdown_rank
-from planning.steps.state import N_LEGS, F64, StepMaps, StepPath, StepRobot, WalkState, rot2
+from planning.steps.state import N_LEGS, F64, StepMaps, StepPath, StepRobot, WalkState, rotate_yaw
 
 
 @dataclass(frozen=True)
@@ -129,7 +129,7 @@ class _Family:
 
 
 def _heading_to_world(yaw: F64, d: F64) -> F64:
-    return np.einsum("...ij,...j->...i", rot2(yaw), d)
+    return rotate_yaw(yaw, d)
 
 
 def _generate(reference: StepPath, state: WalkState, oct_: Octagon, n: int, p: PotentialParams, omega: float,
@@ -369,20 +369,24 @@ def potential_step_paths(
     keep = np.flatnonzero(total <= 0.0)
     if keep.size == 0:
         keep = np.arange(batch.n)
-    return [
+    kept = batch if keep.size == batch.n else PathBatch(
+        batch.leg, batch.t_td[keep], batch.t_lo[keep], batch.t_lo_now[keep], batch.p_td[keep], batch.body
+    )
+    paths = [
         StepPath(
             leg=reference.leg,
-            t_touchdown=batch.t_td[i],
-            t_liftoff=batch.t_lo[i],
-            p_world_touchdown=batch.p_td[i],
-            t_liftoff_now=batch.t_lo_now[i],
+            t_touchdown=kept.t_td[j],
+            t_liftoff=kept.t_lo[j],
+            p_world_touchdown=kept.p_td[j],
+            t_liftoff_now=kept.t_lo_now[j],
             body=reference.body,
             kind=fam.kind[i],
             gait=reference.gait,
             violation=float(total[i]),
         )
-        for i in keep
+        for j, i in enumerate(keep)
     ]
+    return StepPaths(paths, kept)
 
 
 def build_batch(reference: StepPath, fam: _Family, maps: StepMaps | None) -> PathBatch:

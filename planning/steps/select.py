@@ -16,7 +16,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from planning.steps.lip import CopEstimate, PathBatch, gather_xy, predict_batch, sort_events, state_omega
+from planning.steps.lip import CopEstimate, PathBatch, StepPaths, batch_of, gather_xy, predict_batch, sort_events, state_omega
 from planning.steps.state import F64, StepPath, WalkState
 
 
@@ -96,7 +96,7 @@ def score_components(
     """Returns (placement (N,), capture (N,), xi_td (N,K,2), xi_td_reference (K,2)): the unweighted Eq. 1 sums."""
     p = params or SelectionParams()
     w = omega if omega is not None else state_omega(state, 0.5)
-    batch = PathBatch.of([reference, *candidates])
+    batch = batch_of(candidates).with_first(reference)
     ev = sort_events(batch, state)
     pred = predict_batch(batch, state, w, p.estimate, p.tracking_fraction, events=ev, feedback_gain=p.feedback_gain)
     feet = gather_xy(ev.p_all, ev.slot_td)  # (N+1,K,4,2)
@@ -161,8 +161,10 @@ def select_step_path(
     chunk = n if p.lazy_threshold is None else max(1, p.lazy_chunk)
     index = -1
     evaluated = 0
+    whole = batch_of(candidates)
     for start in range(0, n, chunk):
-        part = candidates[start : start + chunk]
+        sl = slice(start, start + chunk)
+        part: list[StepPath] = candidates if chunk >= n else StepPaths(candidates[sl], whole.rows(sl))
         placement, capture, xi, xi_ref = score_components(part, reference, state, omega, p)
         s = _combine(placement, capture, part, wt, p)
         scores[start : start + len(part)] = s

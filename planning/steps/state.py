@@ -135,11 +135,15 @@ def standing_state(robot: StepRobot, *, t: float = 0.0, yaw: float = 0.0, v_xy: 
     )
 
 
-def rot2(yaw: F64 | float) -> F64:
-    """Returns rotation matrices (..., 2, 2) for yaw angles (...,), rad."""
+def rotate_yaw(yaw: F64 | float, d: F64) -> F64:
+    """Returns planar vectors d (..., 2) turned by yaw (...,) rad (broadcasting)."""
     y = np.asarray(yaw, dtype=np.float64)
     c, s = np.cos(y), np.sin(y)
-    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+    dx, dy = d[..., 0], d[..., 1]
+    out = np.empty(np.broadcast_shapes(np.shape(dx), c.shape) + (2,))
+    out[..., 0] = c * dx - s * dy
+    out[..., 1] = s * dx + c * dy
+    return out
 
 
 @dataclass(frozen=True)
@@ -174,16 +178,18 @@ class BodyMotion:
             dcos = (np.cos(y1) - math.cos(self.yaw0)) / r
             dx = dsin * vx + dcos * vy
             dy = -dcos * vx + dsin * vy
-        return np.stack([self.p0_world[0] + dx, self.p0_world[1] + dy], -1)
+        out = np.empty(np.shape(dx) + (2,))
+        out[..., 0] = self.p0_world[0] + dx
+        out[..., 1] = self.p0_world[1] + dy
+        return out
 
     def velocity_world(self, t: F64 | float) -> F64:
         """Returns the predicted body velocity (..., 2) in world m/s at times t (...,) s."""
-        return np.einsum("...ij,j->...i", rot2(self.yaw(t)), self.v_heading)
+        return rotate_yaw(self.yaw(t), self.v_heading)
 
     def neutral_points(self, t: F64, neutral_body: F64, legs: I64) -> F64:
         """Returns the world xy (..., 2) of the legs' neutral points (nominal foot xy, body frame) at times t."""
-        R = rot2(self.yaw(t))
-        return self.position(t) + np.einsum("...ij,...j->...i", R, neutral_body[legs])
+        return self.position(t) + rotate_yaw(self.yaw(t), neutral_body[legs])
 
 
 @dataclass(frozen=True)

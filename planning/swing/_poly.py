@@ -240,7 +240,7 @@ def rest_segments(p: float, v: float, p1: float, v_max: float, a_max: float) -> 
         segs.append((dt, -s * a_max))
         D -= 0.5 * (V + v_max) * dt
         V = v_max
-    if V > 0.0 and V * V > 2.0 * a_max * D + 1e-12:
+    if V > 0.0 and V * V >= 2.0 * a_max * D:
         dt = V / a_max
         segs.append((dt, -s * a_max))
         D -= 0.5 * V * dt
@@ -280,8 +280,11 @@ def coast_time(p: float, v: float, p1: float, horizon: float, v_max: float, a_ma
 
     Returns −1 when even w = 0 arrives too late.
     """
-    if rest_time(p, v, p1, v_max, a_max) > horizon + 1e-12:
+    t_opt = rest_time(p, v, p1, v_max, a_max)
+    if t_opt > horizon + 1e-7:
         return -1.0
+    if t_opt >= horizon - 1e-9:
+        return 0.0  # no time to spare (a replan from the plan's own state lands here, give or take rounding)
     if abs(v) < 1e-12:
         return horizon - rest_time(p, 0.0, p1, v_max, a_max)
     # Closed forms for the usual case (moving toward the target, no overshoot), verified before use.

@@ -41,7 +41,7 @@ class MapParams:
     max_step_height_m: ground higher than the lowest ground within low_radius_m by more than this is a step
     obstacle; edge_radius_m,
     edge_height_m: a height spread above edge_height_m within edge_radius_m is an edge; leg_band_m: obstacles at
-    these heights are step obstacles; knee_radius_m, knee_height_m: a cell with ground higher by knee_height_m within
+    these heights are step obstacles; min_support_m: steppable patches narrower than this are no-step; knee_radius_m, knee_height_m: a cell with ground higher by knee_height_m within
     knee_radius_m is a step obstacle (the knee would hit); near_body_m: step obstacles around body obstacles;
     dense_radius_m, dense_fraction: where step obstacles cover more than this share of the disk, the area becomes a
     body obstacle; speck_cells: obstacle components smaller than this are removed; close_cells: body-map closing
@@ -55,8 +55,9 @@ class MapParams:
     wall_radius_m: float = 0.06
     low_radius_m: float = 0.3
     max_step_height_m: float = 0.32
-    edge_radius_m: float = 0.045
-    edge_height_m: float = 0.06
+    edge_radius_m: float = 0.03
+    edge_height_m: float = 0.04
+    min_support_m: float = 0.16
     leg_band_m: tuple[float, float] = (0.05, 0.30)
     knee_radius_m: float = 0.12
     knee_height_m: float = 0.25
@@ -287,7 +288,9 @@ def build_maps(
         body |= share > p.dense_fraction
     if body.any():
         step |= ndimage.binary_dilation(body, structure=_disk(p.near_body_m / res))
-    step = ndimage.binary_closing(np.pad(step, 1, mode="edge"), structure=np.ones((3, 3), bool))[1:-1, 1:-1]
+    # Steppable patches narrower than min_support_m (a small box top, a sliver between obstacles) become no-step.
+    r = max(int(round(p.min_support_m / 2 / res)), 1)
+    step = ndimage.binary_closing(np.pad(step, r, mode="edge"), structure=_disk(r))[r:-r, r:-r]
 
     # Clearance under overhangs: the lowest obstacle layer at least ceiling_above_m above the ground.
     nz = columns.obstacle.shape[2]
@@ -361,3 +364,37 @@ def maps_from_scene(
 ) -> TerrainMaps:
     """Gives the maps of a scene's ground truth (perfect perception) around center_xy."""
     return build_maps(columns_from_scene(scene, center_xy, half_extent_m, resolution_m), params)
+
+
+def maps_from_grids(
+    origin_xy: tuple[float, float],
+    resolution_m: float,
+    ground_height: NDArray[np.float64],
+    step_obstacle: NDArray[np.bool_],
+    body_obstacle: NDArray[np.bool_] | None = None,
+    t_s: float = 0.0,
+) -> TerrainMaps:
+    """Gives maps made directly from grids (for tests, synthetic scenes and user-drawn keep-out areas)."""
+    h = np.asarray(ground_height, dtype=np.float64)
+    step = np.asarray(step_obstacle, dtype=bool)
+    body = np.zeros_like(step) if body_obstacle is None else np.asarray(body_obstacle, dtype=bool)
+    if h.shape != step.shape or body.shape != step.shape:
+        raise ValueError(
+            f"maps_from_grids: shapes differ: ground {h.shape}, step {step.shape}, body {body.shape}"
+        )
+    sdf_body = signed_distance(body, resolution_m)
+    sdf_step = signed_distance(step, resolution_m)
+    return TerrainMaps(
+        origin_xy=(float(origin_xy[0]), float(origin_xy[1])),
+        resolution_m=resolution_m,
+        ground_height=h,
+        observed=np.ones(h.shape, dtype=bool),
+        body_obstacle=body,
+        step_obstacle=step,
+        sdf_body_m=sdf_body,
+        sdf_step_m=sdf_step,
+        grad_sdf_body=_gradient(sdf_body, resolution_m),
+        grad_sdf_step=_gradient(sdf_step, resolution_m),
+        clearance_m=np.full(h.shape, np.inf),
+        t_s=t_s,
+    )

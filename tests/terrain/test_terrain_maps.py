@@ -1,0 +1,119 @@
+"""Maps: known scenes give known cells; signed distance fields match brute force."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from planning.terrain.maps import maps_from_grids, maps_from_scene, signed_distance
+from planning.terrain.scenes import build_terrain
+
+
+def test_clutter_box_tops_are_steppable_only_when_low_and_wide() -> None:
+    scene = build_terrain("clutter", seed=0)
+    maps = maps_from_scene(scene, center_xy=(3.0, 0.0), half_extent_m=2.2)
+    boxes = {}
+    for line in scene.worldbody_xml.splitlines():
+        if 'type="box"' in line:
+            name = line.split('name="')[1].split('"')[0]
+            pos = [float(v) for v in line.split('pos="')[1].split('"')[0].split()]
+            size = [float(v) for v in line.split('size="')[1].split('"')[0].split()]
+            boxes[name] = (pos, size)
+    # The wide low platform: its middle is ground for steps, at its top height.
+    (px, py, pz), (sx, sy, sz) = boxes["terrain_box_platform"]
+    assert not maps.no_step(px, py)
+    assert maps.height_at(px, py) == pytest.approx(2 * sz, abs=1e-6)
+    assert not maps.no_body(px, py)
+    # Small low boxes: a foot may not land on them (edges all around), the body passes over them.
+    low = [v for k, v in boxes.items() if k.startswith("terrain_box_low_")]
+    assert low
+    for (x, y, _), _ in low:
+        if maps.in_map(x, y):
+            assert maps.no_step(x, y)
+            assert not maps.no_body(x, y)
+    # Tall boxes are body obstacles.
+    (x, y, _), _ = boxes["terrain_obstacle_box_tall_0"]
+    assert maps.no_body(x, y) and maps.no_step(x, y)
+
+
+def test_table_top_is_not_ground_and_its_legs_are_body_obstacles() -> None:
+    scene = build_terrain("under-table")
+    p = scene.params
+    maps = maps_from_scene(scene, center_xy=(p.x_center_m, 0.0))
+    assert maps.height_at(p.x_center_m, 0.0) == pytest.approx(0.0, abs=1e-9)
+    assert not maps.no_body(p.x_center_m, 0.0)
+    assert not maps.no_step(p.x_center_m, 0.0)
+    assert maps.clearance_at(p.x_center_m, 0.0) == pytest.approx(p.clearance_m, abs=0.03)
+    leg_x = p.x_center_m + p.length_m / 2 - p.leg_m / 2
+    leg_y = p.width_m / 2 - p.leg_m / 2
+    assert maps.no_body(leg_x, leg_y) and maps.no_body(leg_x, -leg_y)
+    assert maps.clearance_at(0.0, 0.0) == np.inf
+
+
+def test_stairs_rails_are_body_obstacles_and_treads_are_steppable() -> None:
+    scene = build_terrain("stairs")
+    p = scene.params
+    maps = maps_from_scene(scene, center_xy=(2.0, 0.0))
+    rail_y = p.width_m / 2 + p.rail_offset_m + 0.02
+    for x in (1.2, 1.6, 2.5, 3.0):
+        assert maps.no_body(x, rail_y) and maps.no_body(x, -rail_y)
+        assert not maps.no_body(x, 0.0)
+    for k in range(p.n_steps):
+        x_mid = p.x_start_m + (k + 0.5) * p.tread_m
+        assert not maps.no_step(x_mid, 0.0)
+        assert maps.height_at(x_mid, 0.0) == pytest.approx((k + 1) * p.riser_m)
+        assert maps.no_step(p.x_start_m + k * p.tread_m, 0.0)  # the riser's edge
+
+
+def test_stones_gaps_are_no_step() -> None:
+    scene = build_terrain("stones", seed=2)
+    maps = maps_from_scene(scene, center_xy=(3.0, 0.0), half_extent_m=2.2)
+    xs = np.arange(1.0, 5.0, 0.01)
+    ys = np.full_like(xs, 0.25)
+    pit = np.asarray(scene.ground_height(xs, ys)) < -0.2
+    no_step = np.asarray(maps.no_step(xs, ys))
+    assert np.all(no_step[pit])
+    assert np.any(~no_step[~pit])
+
+
+def brute_force_sdf(mask: np.ndarray, res: float) -> np.ndarray:
+    ii, jj = np.indices(mask.shape)
+    cells = np.stack([ii.ravel(), jj.ravel()], axis=1).astype(float)
+    m = mask.ravel()
+    d = np.linalg.norm(cells[:, None, :] - cells[None, :, :], axis=2)
+    out = np.empty(m.shape)
+    for c in range(cells.shape[0]):
+        other = ~m if m[c] else m
+        dist = d[c, other].min() - 0.5
+        out[c] = -dist if m[c] else dist
+    return out.reshape(mask.shape) * res
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    arrays(np.bool_, st.tuples(st.integers(2, 12), st.integers(2, 12))), st.sampled_from([0.03, 0.05, 0.1])
+)
+def test_signed_distance_matches_brute_force(mask: np.ndarray, res: float) -> None:
+    if not mask.any() or mask.all():
+        sdf = signed_distance(mask, res)
+        assert np.all(np.sign(sdf) == (-1 if mask.all() else 1))
+        return
+    np.testing.assert_allclose(signed_distance(mask, res), brute_force_sdf(mask, res), atol=1e-9)
+
+
+def test_sdf_queries_interpolate_and_gradient_points_away() -> None:
+    step = np.zeros((40, 40), dtype=bool)
+    step[20:, :] = True  # no-step for x >= 20 cells
+    maps = maps_from_grids((0.0, 0.0), 0.05, np.zeros((40, 40)), step)
+    boundary_x = 19.5 * 0.05
+    assert maps.sdf_step(boundary_x, 1.0) == pytest.approx(0.0, abs=1e-9)
+    assert maps.sdf_step(boundary_x - 0.2, 1.0) == pytest.approx(0.2, abs=1e-9)
+    assert maps.sdf_step(boundary_x + 0.2, 1.0) == pytest.approx(-0.2, abs=1e-9)
+    g = maps.sdf_step_grad(boundary_x - 0.2, 1.0)
+    assert g[0] < -0.9 and abs(g[1]) < 1e-9
+    assert maps.no_step(1.5, 1.0) and not maps.no_step(0.5, 1.0)
+    assert not maps.no_step(100.0, 1.0)  # off the map
+    assert maps.sdf_step(np.array([0.1, 1.5]), np.array([0.2, 0.2])).shape == (2,)
