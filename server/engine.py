@@ -334,7 +334,6 @@ def run_headless(job: dict[str, Any]) -> dict[str, Any]:
     from planning.maneuver import parse_maneuver
     from planning.sim.run import RunOptions, run_maneuver
     from planning.sim.world import Push
-
     from server import simulations
 
     maneuver = parse_maneuver(job["maneuver"])

@@ -206,8 +206,9 @@ class BodyTargets:
         """Returns targets interpolated between keyframes (t, p_world (3,), R_world_body (3,3), weight).
 
         Positions interpolate linearly and orientations along the geodesic from the state at ``start`` through
-        the keyframes; after the last keyframe its pose holds. Every knot gets ``running_weight``; knots within
-        keyframe_radius_s of a keyframe (or the nearest knot) get the keyframe's weight on top.
+        the keyframes; after the last keyframe its pose holds. Velocity targets follow the interpolated path.
+        Every knot gets ``running_weight``; knots within keyframe_radius_s of a keyframe (or the nearest knot) get
+        the keyframe's weight on top.
         """
         t = np.asarray(t_knots, dtype=float)
         K = t.size
@@ -234,7 +235,14 @@ class BodyTargets:
                 near[int(np.argmin(np.abs(t - tk)))] = True
             w[near] += wk
         W = np.repeat(w[:, None], 3, axis=1)
-        return cls(p, R, W, W.copy(), np.zeros((K, 3)), np.zeros((K, 3)))
+        v = np.zeros((K, 3))
+        om = np.zeros((K, 3))
+        if K > 1:
+            h = np.maximum(np.diff(t), 1e-9)[:, None]
+            v[:-1] = np.diff(p, axis=0) / h
+            om[:-1] = _so3.log(R[1:] @ np.swapaxes(R[:-1], -1, -2)) / h
+            v[-1], om[-1] = v[-2], om[-2]
+        return cls(p, R, W, W.copy(), v, om)
 
 
 @dataclass(frozen=True)

@@ -126,9 +126,16 @@ def standing(model: BodyModel | None = None) -> Scenario:
 
 
 def trot(
-    model: BodyModel | None = None, cycle_s: float = 0.5, duration_s: float = 3.0, adjust: bool = True
+    model: BodyModel | None = None,
+    cycle_s: float = 0.5,
+    duration_s: float = 3.0,
+    vx: float = 0.0,
+    adjust_radius_m: float = 0.04,
 ) -> Scenario:
-    """Diagonal pairs alternate in place (FL+RR, then FR+RL), duty 0.5, after a 0.2 s four-leg start."""
+    """Diagonal pairs alternate (FL+RR, then FR+RL), duty 0.5, after a 0.2 s four-leg start; vx m/s forward.
+
+    Each touchdown is planned under its hip at mid-stance; the solver may move it within adjust_radius_m.
+    """
     model = model or default_model()
     feet = nominal_feet()
     half = 0.5 * cycle_s
@@ -141,11 +148,11 @@ def trot(
         phases.append(ContactPhase(i, -1.0, t, feet[i]))
         t += half
         while t < duration_s + 2.0:
-            radius = 0.04 if adjust else 0.0
-            phases.append(ContactPhase(i, t, t + half, feet[i], adjust_radius_m=radius))
+            at = feet[i] + [vx * (min(t, duration_s) + 0.5 * half), 0.0, 0.0]
+            phases.append(ContactPhase(i, t, t + half, at, adjust_radius_m=adjust_radius_m))
             t += 2 * half
-    p, R = _pose(0.0, 0.0, 0.52)
-    return Scenario("trot", model, _start(), tuple(phases), ((0.5, p, R, 0.0),), duration_s)
+    p, R = _pose(vx * duration_s, 0.0, 0.52)
+    return Scenario("trot", model, _start(), tuple(phases), ((duration_s, p, R, 20.0),), duration_s)
 
 
 def jump(model: BodyModel | None = None) -> Scenario:

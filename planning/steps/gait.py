@@ -127,11 +127,12 @@ class GaitClock:
     def _gait_contact(self, gait: Gait, t_ref: float, leg: int, t: float) -> bool:
         if gait.is_stand:
             return True
-        ph = ((t - t_ref) / gait.cycle_s - gait.offset[leg]) % 1.0
+        # Read just after t: an event at t (up to rounding) has happened, as intervals are [start, end).
+        ph = ((t + _EPS_S - t_ref) / gait.cycle_s - gait.offset[leg]) % 1.0
         return ph < gait.duty
 
     def _swing_progress(self, gait: Gait, t_ref: float, leg: int, t: float) -> float:
-        ph = ((t - t_ref) / gait.cycle_s - gait.offset[leg]) % 1.0
+        ph = ((t + _EPS_S - t_ref) / gait.cycle_s - gait.offset[leg]) % 1.0
         return (ph - gait.duty) / (1.0 - gait.duty) if ph >= gait.duty else -1.0
 
     def _next_gait_event(self, gait: Gait, t_ref: float, leg: int, t: float, touchdown: bool) -> float:
@@ -148,7 +149,7 @@ class GaitClock:
     def leg_contact(self, leg: int, t: float) -> bool:
         """Returns the planned contact of one leg at time t (s), holds included."""
         for t_end, c in self._holds[leg]:
-            if t < t_end:
+            if t + _EPS_S < t_end:
                 return c
         return self._gait_contact(self.gait, self._t_ref, leg, t)
 
@@ -161,9 +162,11 @@ class GaitClock:
         out: list[tuple[float, bool]] = []
         c = self.leg_contact(leg, t_from)
         t = t_from
-        holds = [h for h in self._holds[leg] if h[0] > t_from]
+        # Window (t_from, t_to] with both ends nudged by _EPS_S, as in _next_gait_event, so that an event on a
+        # boundary falls in exactly one of two adjacent windows despite rounding.
+        holds = [h for h in self._holds[leg] if h[0] > t_from + _EPS_S]
         for t_end, _ in holds:
-            if t_end > t_to:
+            if t_end > t_to + _EPS_S:
                 return out
             c_new = self.leg_contact(leg, t_end + _EPS_S)
             if c_new != c:
@@ -174,7 +177,7 @@ class GaitClock:
             return out
         while True:
             te = self._next_gait_event(self.gait, self._t_ref, leg, t, touchdown=not c)
-            if te > t_to:
+            if te > t_to + _EPS_S:
                 return out
             c = not c
             out.append((te, c))

@@ -278,7 +278,7 @@ def to_rest(b: Builder, p1: float, v_max: float, a_max: float) -> float:
 def coast_time(p: float, v: float, p1: float, horizon: float, v_max: float, a_max: float) -> float:
     """Returns the longest coast w (s) at velocity v after which a time-optimal motion still rests at p1 by horizon.
 
-    Returns −1 when even w = 0 arrives too late.
+    The coast never runs so far that the motion would overshoot p1. Returns −1 when even w = 0 arrives too late.
     """
     t_opt = rest_time(p, v, p1, v_max, a_max)
     if t_opt > horizon + 1e-7:
@@ -310,8 +310,13 @@ def coast_time(p: float, v: float, p1: float, horizon: float, v_max: float, a_ma
                 t = rest_time(p + v * w, v, p1, v_max, a_max)
                 if abs(w + t - horizon) < 1e-9:
                     return w
-    # Bisection: w + rest_time(after coasting w) grows with w.
+    # Bisection: w + rest_time(after coasting w) grows with w. Coasting toward the target stops where braking
+    # would just make it (beyond that the motion overshoots and comes back); then the motion arrives early.
     lo, hi = 0.0, horizon
+    if V > 0.0:
+        hi = min(hi, max((D - V * V / (2.0 * a_max)) / V, 0.0))
+        if hi + rest_time(p + v * hi, v, p1, v_max, a_max) <= horizon:
+            return hi
     for _ in range(40):
         mid = 0.5 * (lo + hi)
         if mid + rest_time(p + v * mid, v, p1, v_max, a_max) <= horizon:

@@ -65,7 +65,8 @@ class StepQPParams:
     (two feet down); cop_margin_m: body point inside the support polygon by this much (three or four feet);
     balance_lateral_m: body point off the support line by at most this (two feet); balance_margin_m: the polygon
     margin wanted (three or four feet); keep_planes: half-planes per foothold; keep_clearance_m: the hard plane lies this far out of the no-step region;
-    reuse_radius_m: a slot whose nominal foothold moved less than this since the last replan (same maps) keeps its
+    max_retargets: times per replan a foothold whose planes conflict is aimed at another free spot;
+    reach_search_m: how far that spot is searched (m); reuse_radius_m: a slot whose nominal foothold moved less than this since the last replan (same maps) keeps its
     planes; max_rounds: solve-add rounds;
     softened_tol_m: a slack above this counts as softened.
     """
@@ -91,8 +92,10 @@ class StepQPParams:
     balance_margin_m: float = 0.05
     keep_planes: int = 3
     keep_clearance_m: float = 0.01
+    max_retargets: int = 2
+    reach_search_m: float = 0.5
     reuse_radius_m: float = 0.05
-    max_rounds: int = 5
+    max_rounds: int = 6
     softened_tol_m: float = 2e-3
     w_slack_quadratic: float = 100.0
     rho: float = 0.1
@@ -145,6 +148,7 @@ class StepPlan:
     bare_solver_ms: float
 
 
+_RAYS = np.stack([np.cos(np.arange(16) * np.pi / 8), np.sin(np.arange(16) * np.pi / 8)], axis=1)
 _OCT_N = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)
 
 
@@ -324,17 +328,18 @@ class StepQP:
         # nearly the same nominal foothold (the active set's warm start); the others start empty.
         reuse = maps is not None and maps is self._prev_maps
         prev = self._prev_slots if reuse else []
-        carried: list[tuple[list[tuple[NDArray[np.float64], float]], bool]] = []
+        carried: list[list[tuple[NDArray[np.float64], float]]] = []
         for k in range(K):
-            match = ([], False)
-            for leg, p_nom, planes, flipped in prev:
+            match: list[tuple[NDArray[np.float64], float]] = []
+            for leg, p_nom, planes in prev:
                 if leg == legs[k] and float(np.sum((p_nom - req.p_nominal[k]) ** 2)) < p.reuse_radius_m**2:
-                    match = (list(planes), flipped)
+                    match = list(planes)
                     break
             carried.append(match)
-        self._flipped = [c[1] for c in carried]
+        self._retargets = [0] * K
+        self._tried: list[list[NDArray[np.float64]]] = [[] for _ in range(K)]
         for k in range(K):
-            self._keep_planes[k] = carried[k][0]
+            self._keep_planes[k] = carried[k]
             for i in range(p.keep_planes):
                 if i < len(self._keep_planes[k]):
                     self._set_keep_row(k, i, *self._keep_planes[k][i])
@@ -352,7 +357,7 @@ class StepQP:
             if self._x_prev is not None:
                 self.solver.warm_start(x=self._x_prev)
             tb = time.perf_counter()
-            res = self.solver.solve()
+            res = self.solver.solve(raise_error=False)
             bare += time.perf_counter() - tb
             status = str(res.info.status)
             if res.x is None or not np.all(np.isfinite(res.x)):
@@ -365,8 +370,7 @@ class StepQP:
             x = np.concatenate([req.p_nominal.reshape(-1), np.zeros(self.n_var - 2 * K)])
         self._prev_maps = maps
         self._prev_slots = [
-            (int(legs[k]), req.p_nominal[k].copy(), list(self._keep_planes[k]), self._flipped[k])
-            for k in range(K)
+            (int(legs[k]), req.p_nominal[k].copy(), list(self._keep_planes[k])) for k in range(K)
         ]
         feet = x[: 2 * K].reshape(K, 2)
         slack_all = x[4 * K :].reshape(K, len(FAMILIES))
@@ -601,26 +605,32 @@ class StepQP:
         for k in range(K):
             ip = self._ip(k)
             planes = self._keep_planes[k]
-            if slack_keep[k] > p.softened_tol_m and planes and not self._flipped[k]:
-                # The nearest boundary is out of reach: try the far side of the no-step region instead.
-                self._flipped[k] = True
-                i = int(np.argmin([float(g0 @ feet[k]) - b0 for g0, b0 in planes]))
-                g0 = planes[i][0]
-                ts = np.arange(0.0, 0.8, maps.resolution_m / 2)
-                along = feet[k][None, :] - ts[:, None] * g0[None, :]
-                sd_along = np.asarray(maps.sdf_step(along[:, 0], along[:, 1]))
-                inside_seen = np.cumsum(sd_along < 0) > 0
-                exits = np.flatnonzero(inside_seen & (sd_along >= 0))
-                if exits.size:
-                    q = along[exits[0]]
-                    g = _unit(np.asarray(maps.sdf_step_grad(q[0], q[1])), g0)
-                    if float(g @ g0) > 0:  # the gradient must point out of the region, toward -g0
-                        g = -g0
-                    planes[i] = (g, float(g @ q))
-                    self._set_keep_row(k, i, g, float(g @ q))
-                    added = True
-                    continue
-            if np.isfinite(sd[k]) and sd[k] < p.margin_m - tol and len(planes) < p.keep_planes:
+            stuck = slack_keep[k] > p.softened_tol_m and bool(planes)
+            full = len(planes) >= p.keep_planes
+            if np.isfinite(sd[k]) and sd[k] < p.margin_m - tol and (stuck or full):
+                # The planes found so far cannot be met together (or there is no room for another): aim at a free
+                # spot instead, the one nearest the nominal foothold among those reachable in a straight line from
+                # here that were not aimed at already, and keep only the planes that spot satisfies.
+                if self._retargets[k] < p.max_retargets:
+                    target = self._free_target(maps, feet[k], req.p_nominal[k], self._tried[k])
+                    if target is not None:
+                        self._retargets[k] += 1
+                        self._tried[k].append(target)
+                        g = _unit(np.asarray(maps.sdf_step_grad(target[0], target[1])), target - feet[k])
+                        q = target - float(maps.sdf_step(target[0], target[1])) * g
+                        kept = [
+                            (g0, b0) for g0, b0 in planes if float(g0 @ target) >= b0 + p.keep_clearance_m
+                        ]
+                        kept = kept[: p.keep_planes - 1] + [(g, float(g @ q))]
+                        self._keep_planes[k] = planes = kept
+                        for i in range(p.keep_planes):
+                            if i < len(planes):
+                                self._set_keep_row(k, i, *planes[i])
+                            else:
+                                self._clear_row(self.b_keep, k, i)
+                                self._clear_row(self.b_margin, k, i)
+                        added = True
+            elif np.isfinite(sd[k]) and sd[k] < p.margin_m - tol:
                 g = _unit(grad[k], feet[k] - req.p_nominal[k])
                 q = feet[k] - sd[k] * g
                 if all(float(g @ g0) < 0.95 or abs(float(g @ q) - b0) > 0.01 for g0, b0 in planes):
@@ -653,8 +663,29 @@ class StepQP:
                 added = True
         return added
 
+    def _free_target(
+        self, maps: TerrainMaps, p_now: NDArray[np.float64], p_nom: NDArray[np.float64], tried: list
+    ) -> NDArray[np.float64] | None:
+        """Gives the free spot (step SDF >= margin) nearest p_nom among the first free points along 16 rays from
+        p_now, away from spots already tried; None when there is none within reach_search_m."""
+        p = self.params
+        ts = np.arange(0.0, p.reach_search_m, maps.resolution_m / 2)
+        pts = p_now[None, None, :] + ts[None, :, None] * _RAYS[:, None, :]
+        sd = np.asarray(maps.sdf_step(pts[..., 0], pts[..., 1]))
+        ok = sd >= p.margin_m + p.keep_clearance_m
+        has = ok.any(axis=1)
+        if not has.any():
+            return None
+        first = np.argmax(ok, axis=1)
+        cand = pts[np.arange(len(_RAYS)), first][has]
+        for t in tried:
+            cand = cand[np.sum((cand - t) ** 2, axis=1) > 0.1**2]
+        if cand.shape[0] == 0:
+            return None
+        return cand[int(np.argmin(np.sum((cand - p_nom) ** 2, axis=1)))].copy()
+
     _fixed_feet: NDArray[np.float64]
-    _flipped: list[bool]
+    _retargets: list[int]
 
 
 def _unit(g: NDArray[np.float64], fallback: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -214,7 +214,9 @@ def test_replanning_every_3ms_from_the_plans_own_state_keeps_the_plan(planner):
     first = planner.plan(0.0, [req], flat_ground, {}, standing_body())[0]
     for t in np.arange(0.003, 0.29, 0.003):
         p, v, _ = first.sample(t)
-        again = planner.plan(t, [SwingRequest(0, p, v, req.p_touchdown, 0.3)], flat_ground, {}, standing_body(t))[0]
+        again = planner.plan(
+            t, [SwingRequest(0, p, v, req.p_touchdown, 0.3)], flat_ground, {}, standing_body(t)
+        )[0]
         assert again.policy_names == first.policy_names
         ts = np.linspace(t, 0.3, 20)
         np.testing.assert_allclose(again.positions(ts), first.positions(ts), atol=1e-7)

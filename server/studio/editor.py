@@ -1,0 +1,994 @@
+"""The authoring panel of one studio tab: a maneuver being edited, its timeline, its items as GUI folders, its
+touchdown targets and body keyframes as 3D markers (dragged with transform controls), validation on the items.
+
+The document is kept as plain lists of item dicts (events, keyframes, gaits, objectives) whose identity survives
+edits; `document()` writes them out in file order (events and keyframes sorted by time, as the format requires)
+together with the map from file index back to item, so a problem at ``events[3].t`` lands on the right folder.
+Coordinates in the GUI are the maneuver frame; the 3D markers add the session's world offset (the ground height
+at the start).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import re
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from planning.maneuver import ManeuverError, parse_maneuver, validate_maneuver
+from planning.maneuver.load import read_yaml
+from server.storage import Conflict, StorageError, dump_yaml
+from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
+
+FORMAT = "footfall/maneuver@1"
+WEIGHT_NAMES = ("force", "pose", "touchdown_time", "touchdown_position", "hip_over_foot")
+WEIGHT_DEFAULTS = {"force": 1.0e-4, "pose": 1.0, "touchdown_time": 1.0, "touchdown_position": 10.0, "hip_over_foot": 0.1}
+GAITS = ("trot", "walk", "pace", "bound", "pronk")
+OBJECTIVES = ("maximize_height", "lean", "minimize_torque")
+TARGET_MODES = ("at", "offset", "in place")
+TRUNK_DIMS_M = (0.84, 0.24, 0.16)
+_PATH_RE = re.compile(r"^(events|body|gaits|objectives)\[(\d+)\]")
+
+
+def _hex_rgb(h: str) -> tuple[int, int, int]:
+    return (int(h[1:3], 16), int(h[3:5], 16), int(h[5:7], 16))
+
+
+def _r(x: float, nd: int = 4) -> float:
+    return float(round(float(x), nd))
+
+
+def rpy_deg_from_wxyz(wxyz: Any) -> list[float]:
+    """Returns [roll, pitch, yaw] in degrees (ZYX: yaw, then pitch, then roll) of a wxyz quaternion."""
+    import viser.transforms as tf
+
+    rpy = tf.SO3(np.asarray(wxyz, dtype=float)).as_rpy_radians()
+    return [_r(np.degrees(rpy.roll), 2), _r(np.degrees(rpy.pitch), 2), _r(np.degrees(rpy.yaw), 2)]
+
+
+def wxyz_from_rpy_deg(rpy: Any) -> np.ndarray:
+    import viser.transforms as tf
+
+    r, p, y = np.radians(np.asarray(rpy, dtype=float))
+    return np.asarray(tf.SO3.from_rpy_radians(r, p, y).wxyz)
+
+
+@dataclass
+class ItemUi:
+    """The GUI of one item (a step, a keyframe, a gait, an objective): its folder and problem line."""
+
+    folder: Any
+    problems: Any
+    label: str
+    handles: dict[str, Any] = field(default_factory=dict)
+
+
+class ManeuverEditor:
+    """The maneuver being authored in one studio tab."""
+
+    def __init__(
+        self,
+        client: Any,
+        services: Any,
+        *,
+        notify: Callable[[str, str, str], None],
+        authorized: Callable[[str], bool],
+        start_preview: Callable[[Any], None],
+        world_offset: Callable[[], np.ndarray],
+    ) -> None:
+        self.client = client
+        self.gui = client.gui
+        self.scene = client.scene
+        self.services = services
+        self.notify = notify
+        self.authorized = authorized
+        self.start_preview = start_preview
+        self.world_offset = world_offset
+        self.lock = threading.RLock()
+        # the document
+        self.meta: dict[str, Any] = {}
+        self.events: list[dict[str, Any]] = []
+        self.keyframes: list[dict[str, Any]] = []
+        self.gaits: list[dict[str, Any]] = []
+        self.objectives: list[dict[str, Any]] = []
+        self.weights: dict[str, float] | None = None
+        self.source_name: str | None = None
+        self.source: str | None = None
+        self.etag: str | None = None
+        self.dirty = False
+        # what validation said
+        self.result: Any = None
+        self.problems_by_item: dict[int, list[Any]] = {}
+        self.general_problems: list[Any] = []
+        # gui
+        self.item_ui: dict[int, ItemUi] = {}
+        self._holder_items: list[Any] = []
+        self.markers: dict[int, Any] = {}
+        self.gizmo: Any = None
+        self.gizmo_item: int | None = None
+        self.scrub_nodes: list[Any] = []
+        self._validate_timer: threading.Timer | None = None
+        self._suspend = False  # set while the GUI is written from the document (its callbacks must not echo)
+
+    # ================================================================================================================
+    # document
+    # ================================================================================================================
+    def load_document(self, data: dict[str, Any], *, name: str | None, source: str | None, etag: str | None) -> None:
+        """Replaces the edited document (a parsed file) and rebuilds the panel's items."""
+        data = json.loads(json.dumps(data, default=str))
+        with self.lock:
+            self.meta = {k: data.get(k) for k in ("format", "name", "title", "description", "duration", "start",
+                                                  "tracks", "friction") if k in data}  # fmt: skip
+            self.meta.setdefault("format", FORMAT)
+            self.events = [dict(e) for e in data.get("events") or [] if isinstance(e, dict)]
+            self.keyframes = [dict(k) for k in data.get("body") or [] if isinstance(k, dict)]
+            self.gaits = [dict(g) for g in data.get("gaits") or [] if isinstance(g, dict)]
+            self.objectives = [dict(o) for o in data.get("objectives") or [] if isinstance(o, dict)]
+            w = data.get("weights")
+            self.weights = dict(w) if isinstance(w, dict) else None
+            self.source_name, self.source, self.etag = name, source, etag
+            self.dirty = False
+        self._write_static_fields()
+        self.rebuild_items()
+        self.request_validation(0.0)
+
+    def new_document(self) -> None:
+        h = float(getattr(self.services.robot, "standing_height_m", 0.52))
+        self.load_document(
+            {"format": FORMAT, "name": "my-maneuver", "title": "My maneuver", "duration": 3.0, "start": "stand",
+             "tracks": ["legs", "body"], "body": [{"t": 3.0, "position": [0.0, 0.0, round(h, 3)],
+                                                   "rpy": [0, 0, 0], "weight": 5.0}]},
+            name=None, source=None, etag=None,
+        )  # fmt: skip
+
+    def open(self, name: str) -> bool:
+        """Loads a library maneuver into the editor; returns False (after telling the user) when it cannot."""
+        try:
+            stored = self.services.store.get(name)
+            data, _ = read_yaml(stored.text)
+        except (StorageError, ManeuverError) as e:
+            self.notify("Cannot open", str(e), "red")
+            return False
+        if not isinstance(data, dict):
+            self.notify("Cannot open", f"{name}: not a maneuver document", "red")
+            return False
+        self.load_document(data, name=name, source=stored.source, etag=stored.etag)
+        return True
+
+    def document(self) -> tuple[dict[str, Any], list[int], list[int]]:
+        """Returns (document in file order, file event index → item id, file keyframe index → item id)."""
+        with self.lock:
+            doc: dict[str, Any] = {k: v for k, v in self.meta.items() if v is not None}
+            ev = sorted(enumerate(self.events), key=lambda p: (float(p[1].get("t", 0.0)), p[0]))
+            kf = sorted(enumerate(self.keyframes), key=lambda p: (float(p[1].get("t", 0.0)), p[0]))
+            if ev:
+                doc["events"] = [copy.deepcopy(e) for _, e in ev]
+            if self.gaits:
+                doc["gaits"] = copy.deepcopy(self.gaits)
+            if kf:
+                doc["body"] = [copy.deepcopy(k) for _, k in kf]
+            if self.weights:
+                doc["weights"] = dict(self.weights)
+            if self.objectives:
+                doc["objectives"] = copy.deepcopy(self.objectives)
+            return doc, [id(e) for _, e in ev], [id(k) for _, k in kf]
+
+    def yaml_text(self) -> str:
+        return dump_yaml(self.document()[0])
+
+    def _changed(self, structural: bool = False) -> None:
+        if self._suspend:
+            return
+        self.dirty = True
+        if structural:
+            self.rebuild_items()
+        self._refresh_header()
+        self.request_validation()
+
+    # ================================================================================================================
+    # the panel
+    # ================================================================================================================
+    def build(self) -> None:
+        """Creates the panel's fixed widgets (in the current GUI container)."""
+        gui = self.gui
+        self.md_header = gui.add_markdown("*no maneuver open*")
+        with gui.add_folder("Library"):
+            names = [e["name"] for e in self.services.store.list()] or ["stand"]
+            self.dd_library = gui.add_dropdown("Maneuver", names, initial_value="bow" if "bow" in names else names[0])
+            self.btn_open = gui.add_button("Open", icon=None)
+            self.btn_new = gui.add_button("New")
+        with gui.add_folder("Maneuver"):
+            self.txt_name = gui.add_text("name", "")
+            self.txt_title = gui.add_text("title", "")
+            self.num_duration = gui.add_number("duration (s)", 3.0, min=0.1, max=60.0, step=0.1)
+            self.num_friction = gui.add_number("friction", 0.6, min=0.05, max=3.0, step=0.05)
+        self.html_timeline = gui.add_html(timeline_svg(3.0, [], []))
+        self.sl_scrub = gui.add_slider("scrub (s)", 0.0, 3.0, 0.01, 0.0)
+        self.fd_legs = gui.add_folder("Legs (steps)", expand_by_default=True)
+        self.fd_body = gui.add_folder("Body keyframes", expand_by_default=False)
+        self.fd_gaits = gui.add_folder("Gaits", expand_by_default=False)
+        with gui.add_folder("Weights", expand_by_default=False):
+            self.num_weights = {
+                w: gui.add_number(w, WEIGHT_DEFAULTS[w], min=0.0, max=1e6, step=1e-4 if w == "force" else 0.01)
+                for w in WEIGHT_NAMES
+            }
+        self.fd_objectives = gui.add_folder("Objectives", expand_by_default=False)
+        with gui.add_folder("Check and preview", expand_by_default=True):
+            self.md_validation = gui.add_markdown("")
+            self.btn_validate = gui.add_button("Validate")
+            self.btn_preview = gui.add_button("Preview", color="green")
+            self.btn_pause = gui.add_button("Play / pause")
+            self.btn_restart = gui.add_button("Restart")
+            self.sl_speed = gui.add_slider("speed (× real time)", 0.1, 2.0, 0.05, 1.0)
+        with gui.add_folder("File", expand_by_default=False):
+            self.btn_save = gui.add_button("Save")
+            self.txt_save_as = gui.add_text("save as name", "")
+            self.btn_save_as = gui.add_button("Save as")
+            self.btn_download = gui.add_button("Download YAML")
+            self.btn_export = gui.add_button("Export preview (HTML)")
+        self._bind_static()
+
+    def _bind_static(self) -> None:
+        @self.btn_open.on_click
+        def _(_: Any) -> None:
+            self.open(str(self.dd_library.value))
+
+        @self.btn_new.on_click
+        def _(_: Any) -> None:
+            self.new_document()
+
+        def meta_setter(key: str, conv: Callable[[Any], Any]) -> Callable[[Any], None]:
+            def cb(event: Any) -> None:
+                if self._suspend:
+                    return
+                with self.lock:
+                    self.meta[key] = conv(event.target.value)
+                if key == "duration":
+                    self.sl_scrub.max = max(0.1, float(event.target.value))
+                self._changed()
+
+            return cb
+
+        self.txt_name.on_update(meta_setter("name", lambda v: str(v).strip()))
+        self.txt_title.on_update(meta_setter("title", lambda v: str(v) or None))
+        self.num_duration.on_update(meta_setter("duration", float))
+        self.num_friction.on_update(meta_setter("friction", float))
+
+        for w, h in self.num_weights.items():
+
+            def cb(event: Any, w: str = w) -> None:
+                if self._suspend:
+                    return
+                with self.lock:
+                    if self.weights is None:
+                        self.weights = {}
+                    self.weights[w] = float(event.target.value)
+                self._changed()
+
+            h.on_update(cb)
+
+        @self.sl_scrub.on_update
+        def _(_: Any) -> None:
+            self._refresh_timeline()
+            self._refresh_scrub()
+
+        @self.btn_validate.on_click
+        def _(_: Any) -> None:
+            self.validate_now(announce=True)
+
+        @self.btn_preview.on_click
+        def _(_: Any) -> None:
+            self.preview()
+
+        @self.btn_save.on_click
+        def _(_: Any) -> None:
+            self.save(None)
+
+        @self.btn_save_as.on_click
+        def _(_: Any) -> None:
+            self.save(str(self.txt_save_as.value).strip())
+
+        @self.btn_download.on_click
+        def _(_: Any) -> None:
+            name = str(self.meta.get("name") or "maneuver")
+            self.client.send_file_download(f"{name}.yaml", self.yaml_text().encode("utf-8"), save_immediately=True)
+
+    def _write_static_fields(self) -> None:
+        self._suspend = True
+        try:
+            m = self.meta
+            self.txt_name.value = str(m.get("name") or "")
+            self.txt_title.value = str(m.get("title") or "")
+            d = float(m.get("duration") or 3.0)
+            self.num_duration.value = d
+            self.num_friction.value = float(m.get("friction") or 0.6)
+            self.sl_scrub.max = max(0.1, d)
+            self.sl_scrub.value = 0.0
+            w = self.weights or {}
+            for k, h in self.num_weights.items():
+                h.value = float(w.get(k, WEIGHT_DEFAULTS[k]))
+            self.txt_save_as.value = ""
+        finally:
+            self._suspend = False
+        self._refresh_header()
+
+    def _refresh_header(self) -> None:
+        name = self.meta.get("name") or "(unnamed)"
+        where = {"shipped": "shipped library (read-only: save as a new name)", "user": "your library"}.get(
+            self.source or "", "not saved yet"
+        )
+        star = " *(modified)*" if self.dirty else ""
+        self.md_header.content = f"**{name}** · {where}{star}"
+
+    # ---- items ------------------------------------------------------------------------------------------------
+    def _steps_of(self, leg: str) -> list[tuple[dict[str, Any] | None, dict[str, Any] | None]]:
+        """Returns the leg's events paired in time order: (liftoff, touchdown), a lone one paired with None."""
+        evs = sorted((e for e in self.events if e.get("leg") == leg), key=lambda e: float(e.get("t", 0.0)))
+        out: list[tuple[dict[str, Any] | None, dict[str, Any] | None]] = []
+        open_lo: dict[str, Any] | None = None
+        for e in evs:
+            if e.get("type") == "liftoff":
+                if open_lo is not None:
+                    out.append((open_lo, None))
+                open_lo = e
+            else:
+                out.append((open_lo, e))
+                open_lo = None
+        if open_lo is not None:
+            out.append((open_lo, None))
+        return out
+
+    def _clear_items(self) -> None:
+        for h in [*(ui.folder for ui in self.item_ui.values()), *self._holder_items]:
+            try:
+                h.remove()
+            except Exception:  # noqa: BLE001 - already gone (with its parent, or with the client)
+                pass
+        self.item_ui.clear()
+        self._holder_items.clear()
+
+    def rebuild_items(self) -> None:
+        """Recreates the item folders (after open, add or delete) and the 3D markers."""
+        with self.lock:
+            self._suspend = True
+            try:
+                self._clear_items()
+                keep = self._holder_items
+                with self.fd_legs:
+                    for leg in LEG_ROWS:
+                        with self.gui.add_folder(leg, expand_by_default=False) as fl:
+                            btn = self.gui.add_button(f"Add {leg} step at scrub time")
+                            btn.on_click(lambda _e, leg=leg: self.add_step(leg))
+                            for lo, td in self._steps_of(leg):
+                                self._step_folder(leg, lo, td)
+                        keep.append(fl)
+                with self.fd_body:
+                    keep.append(self.gui.add_button("Add keyframe at scrub time"))
+                    keep[-1].on_click(lambda _e: self.add_keyframe())
+                    for kf in sorted(self.keyframes, key=lambda k: float(k.get("t", 0.0))):
+                        self._keyframe_folder(kf)
+                with self.fd_gaits:
+                    keep.append(self.gui.add_button("Add gait segment at scrub time"))
+                    keep[-1].on_click(lambda _e: self.add_gait())
+                    for g in self.gaits:
+                        self._gait_folder(g)
+                with self.fd_objectives:
+                    keep.append(self.gui.add_button("Add objective"))
+                    keep[-1].on_click(lambda _e: self.add_objective())
+                    for o in self.objectives:
+                        self._objective_folder(o)
+            finally:
+                self._suspend = False
+        self._refresh_timeline()
+        self.refresh_markers()
+        self._apply_problems()
+
+    def _problem_md(self) -> Any:
+        md = self.gui.add_markdown("")
+        md.visible = False
+        return md
+
+    def _step_folder(self, leg: str, lo: dict[str, Any] | None, td: dict[str, Any] | None) -> None:
+        gui = self.gui
+        t0 = float(lo["t"]) if lo else None
+        t1 = float(td["t"]) if td else None
+        label = (f"step {t0:.2f} → {t1:.2f} s" if lo and td else
+                 f"liftoff {t0:.2f} s (no touchdown)" if lo else f"touchdown {t1:.2f} s (no liftoff)")  # fmt: skip
+        with gui.add_folder(label, expand_by_default=False) as f:
+            md = self._problem_md()
+            h: dict[str, Any] = {}
+            if lo is not None:
+                h["lo_t"] = gui.add_number("liftoff t (s)", float(lo["t"]), min=0.0, max=60.0, step=0.01)
+                h["lo_t"].on_update(lambda e, it=lo: self._set(it, "t", float(e.target.value)))
+            if td is not None:
+                h["td_t"] = gui.add_number("touchdown t (s)", float(td["t"]), min=0.0, max=60.0, step=0.01)
+                h["td_t"].on_update(lambda e, it=td: self._set(it, "t", float(e.target.value)))
+                mode = "at" if td.get("at") is not None else "offset" if td.get("offset") is not None else "in place"
+                h["mode"] = gui.add_dropdown("target", TARGET_MODES, initial_value=mode)
+                vec = td.get("at") or td.get("offset") or [0.0, 0.0, 0.0]
+                vec = [float(v) for v in vec] + [0.0] * (3 - len(vec))
+                h["vec"] = gui.add_vector3("target / offset (m)", tuple(vec[:3]), step=0.005)
+                h["vec"].disabled = mode == "in place"
+                adj = td.get("adjust") or {}
+                h["adj_t"] = gui.add_number("adjust ± time (s)", float(adj.get("time", 0.0)), min=0.0, max=5.0,
+                                            step=0.01)  # fmt: skip
+                h["adj_r"] = gui.add_number("adjust radius (m)", float(adj.get("radius") or 0.0), min=0.0, max=2.0,
+                                            step=0.005)  # fmt: skip
+                n = td.get("normal") or [0.0, 0.0, 1.0]
+                h["normal"] = gui.add_vector3("contact normal", tuple(float(v) for v in n[:3]), step=0.05)
+                h["mode"].on_update(lambda e, it=td, hh=h: self._set_target_mode(it, str(e.target.value), hh))
+                h["vec"].on_update(lambda e, it=td, hh=h: self._set_target_vec(it, e.target.value, hh))
+                h["adj_t"].on_update(lambda e, it=td: self._set_adjust(it, "time", float(e.target.value)))
+                h["adj_r"].on_update(lambda e, it=td: self._set_adjust(it, "radius", float(e.target.value)))
+                h["normal"].on_update(lambda e, it=td: self._set(it, "normal", [_r(v) for v in e.target.value]))
+                gui.add_button("Move target in 3D").on_click(lambda _e, it=td: self.select(id(it)))
+            gui.add_button("Delete", color="red").on_click(lambda _e, a=lo, b=td: self.delete_items(a, b))
+        ui = ItemUi(f, md, label, h)
+        for it in (lo, td):
+            if it is not None:
+                self.item_ui[id(it)] = ui
+
+    def _keyframe_folder(self, kf: dict[str, Any]) -> None:
+        gui = self.gui
+        label = f"keyframe {float(kf.get('t', 0.0)):.2f} s"
+        with gui.add_folder(label, expand_by_default=False) as f:
+            md = self._problem_md()
+            h = {
+                "t": gui.add_number("t (s)", float(kf.get("t", 0.0)), min=0.0, max=60.0, step=0.01),
+                "pos": gui.add_vector3("position (m)", tuple(float(v) for v in kf.get("position", [0, 0, 0.52])),
+                                       step=0.005),
+                "rpy": gui.add_vector3("roll, pitch, yaw (deg)", tuple(float(v) for v in kf.get("rpy", [0, 0, 0])),
+                                       step=0.5),
+                "w": gui.add_number("weight", float(kf.get("weight", 1.0)), min=0.0, max=1e4, step=0.1),
+            }  # fmt: skip
+            h["t"].on_update(lambda e, it=kf: self._set(it, "t", float(e.target.value)))
+            h["pos"].on_update(lambda e, it=kf: self._set(it, "position", [_r(v) for v in e.target.value], marker=True))
+            h["rpy"].on_update(lambda e, it=kf: self._set(it, "rpy", [_r(v, 2) for v in e.target.value], marker=True))
+            h["w"].on_update(lambda e, it=kf: self._set(it, "weight", float(e.target.value)))
+            gui.add_button("Move in 3D").on_click(lambda _e, it=kf: self.select(id(it)))
+            gui.add_button("Delete", color="red").on_click(lambda _e, it=kf: self.delete_items(it))
+        self.item_ui[id(kf)] = ItemUi(f, md, label, h)
+
+    def _gait_folder(self, g: dict[str, Any]) -> None:
+        gui = self.gui
+        label = f"{g.get('gait', 'trot')} {float(g.get('from', 0.0)):.2f} → {float(g.get('to', 0.0)):.2f} s"
+        with gui.add_folder(label, expand_by_default=False) as f:
+            md = self._problem_md()
+            h = {
+                "gait": gui.add_dropdown("gait", GAITS, initial_value=g.get("gait", "trot")
+                                         if g.get("gait") in GAITS else "trot"),
+                "from": gui.add_number("from (s)", float(g.get("from", 0.0)), min=0.0, max=60.0, step=0.05),
+                "to": gui.add_number("to (s)", float(g.get("to", 1.0)), min=0.0, max=60.0, step=0.05),
+                "cycle": gui.add_number("cycle (s)", float(g.get("cycle", 0.5)), min=0.05, max=10.0, step=0.01),
+                "duty": gui.add_number("duty", float(g.get("duty", 0.6)), min=0.05, max=0.95, step=0.01),
+                "step": gui.add_vector3("step dx, dy (m), dyaw (deg)",
+                                        tuple(float(v) for v in g.get("step", [0.0, 0.0, 0.0])), step=0.01),
+            }  # fmt: skip
+            h["gait"].on_update(lambda e, it=g: self._set(it, "gait", str(e.target.value)))
+            for key in ("from", "to", "cycle", "duty"):
+                h[key].on_update(lambda e, it=g, key=key: self._set(it, key, float(e.target.value)))
+            h["step"].on_update(lambda e, it=g: self._set(it, "step", [_r(v) for v in e.target.value]))
+            gui.add_button("Delete", color="red").on_click(lambda _e, it=g: self.delete_items(it))
+        self.item_ui[id(g)] = ItemUi(f, md, label, h)
+
+    def _objective_folder(self, o: dict[str, Any]) -> None:
+        gui = self.gui
+        kind = o.get("type") if o.get("type") in OBJECTIVES else "maximize_height"
+        t = o.get("t", [0.0, 0.0])
+        t = [float(t), float(t)] if isinstance(t, (int, float)) else [float(v) for v in (t or [0.0, 0.0])[:2]]
+        with gui.add_folder(f"{kind}", expand_by_default=False) as f:
+            md = self._problem_md()
+            h = {
+                "type": gui.add_dropdown("type", OBJECTIVES, initial_value=kind),
+                "t": gui.add_vector2("t start, end (s)", (t[0], t[1]) if len(t) == 2 else (0.0, 0.0), step=0.05),
+                "w": gui.add_number("weight", float(o.get("weight", 1.0)), min=0.0, max=1e4, step=0.1),
+                "dir": gui.add_vector2("lean direction x, y", tuple(float(v) for v in o.get("direction", [1.0, 0.0])),
+                                       step=0.1),
+            }  # fmt: skip
+            h["dir"].visible = kind == "lean"
+            h["type"].on_update(lambda e, it=o: self._set_objective_type(it, str(e.target.value)))
+            h["t"].on_update(lambda e, it=o: self._set(it, "t", [_r(v, 3) for v in e.target.value]))
+            h["w"].on_update(lambda e, it=o: self._set(it, "weight", float(e.target.value)))
+            h["dir"].on_update(lambda e, it=o: self._set(it, "direction", [_r(v, 3) for v in e.target.value]))
+            gui.add_button("Delete", color="red").on_click(lambda _e, it=o: self.delete_items(it))
+        self.item_ui[id(o)] = ItemUi(f, md, kind, h)
+
+    # ---- edits ------------------------------------------------------------------------------------------------
+    def _set(self, item: dict[str, Any], key: str, value: Any, marker: bool = False) -> None:
+        if self._suspend:
+            return
+        with self.lock:
+            item[key] = value
+        if key == "t":
+            self._refresh_timeline()
+        if marker:
+            self.refresh_markers()
+        self._changed()
+
+    def _set_adjust(self, td: dict[str, Any], key: str, value: float) -> None:
+        if self._suspend:
+            return
+        with self.lock:
+            adj = dict(td.get("adjust") or {})
+            if key == "radius" and value <= 0.0:
+                adj.pop("radius", None)
+            else:
+                adj[key] = value
+            if key == "radius":
+                adj.pop("region", None)
+            td["adjust"] = adj if adj else None
+            if td["adjust"] is None:
+                del td["adjust"]
+        self._changed()
+
+    def _set_target_mode(self, td: dict[str, Any], mode: str, h: dict[str, Any]) -> None:
+        if self._suspend:
+            return
+        p_world = self._resolved_target(td)
+        with self.lock:
+            td.pop("at", None)
+            td.pop("offset", None)
+            if mode == "at":
+                p = p_world if p_world is not None else np.zeros(3)
+                td["at"] = [_r(v) for v in p]
+            elif mode == "offset":
+                td["offset"] = [0.0, 0.0, 0.0]
+        vec = td.get("at") or td.get("offset") or [0.0, 0.0, 0.0]
+        self._suspend = True
+        try:
+            h["vec"].value = tuple(float(v) for v in vec)
+            h["vec"].disabled = mode == "in place"
+        finally:
+            self._suspend = False
+        self.refresh_markers()
+        self._changed()
+
+    def _set_target_vec(self, td: dict[str, Any], value: Any, h: dict[str, Any]) -> None:
+        if self._suspend:
+            return
+        mode = str(h["mode"].value)
+        with self.lock:
+            if mode == "at":
+                td["at"] = [_r(v) for v in value]
+            elif mode == "offset":
+                td["offset"] = [_r(v) for v in value]
+        self.refresh_markers()
+        self._changed()
+
+    def _set_objective_type(self, o: dict[str, Any], kind: str) -> None:
+        if self._suspend:
+            return
+        with self.lock:
+            o["type"] = kind
+            if kind == "lean":
+                o.setdefault("direction", [1.0, 0.0])
+            else:
+                o.pop("direction", None)
+        ui = self.item_ui.get(id(o))
+        if ui is not None:
+            ui.handles["dir"].visible = kind == "lean"
+        self._changed()
+
+    def _scrub_t(self) -> float:
+        return float(self.sl_scrub.value)
+
+    def add_step(self, leg: str) -> None:
+        t = self._scrub_t()
+        d = float(self.meta.get("duration") or 3.0)
+        t0 = min(t, max(0.0, d - 0.5))
+        with self.lock:
+            self.events.append({"t": _r(t0, 3), "leg": leg, "type": "liftoff"})
+            self.events.append({"t": _r(t0 + 0.35, 3), "leg": leg, "type": "touchdown", "offset": [0.1, 0.0, 0.0]})
+        self._changed(structural=True)
+
+    def add_keyframe(self) -> None:
+        t = self._scrub_t()
+        p, rpy = self._reference_at(t)
+        with self.lock:
+            self.keyframes.append({"t": _r(t, 3), "position": [_r(v) for v in p], "rpy": [_r(v, 2) for v in rpy],
+                                   "weight": 1.0})  # fmt: skip
+        self._changed(structural=True)
+
+    def add_gait(self) -> None:
+        t = self._scrub_t()
+        d = float(self.meta.get("duration") or 3.0)
+        with self.lock:
+            self.gaits.append({"gait": "trot", "from": _r(t, 2), "to": _r(min(d, t + 2.0), 2), "cycle": 0.5,
+                               "duty": 0.6, "step": [0.1, 0.0, 0.0]})  # fmt: skip
+        self._changed(structural=True)
+
+    def add_objective(self) -> None:
+        t = self._scrub_t()
+        with self.lock:
+            self.objectives.append({"type": "maximize_height", "t": [_r(t, 2), _r(t + 0.2, 2)], "weight": 1.0})
+        self._changed(structural=True)
+
+    def delete_items(self, *items: dict[str, Any] | None) -> None:
+        ids = {id(i) for i in items if i is not None}
+        with self.lock:
+            self.events = [e for e in self.events if id(e) not in ids]
+            self.keyframes = [k for k in self.keyframes if id(k) not in ids]
+            self.gaits = [g for g in self.gaits if id(g) not in ids]
+            self.objectives = [o for o in self.objectives if id(o) not in ids]
+            if self.gizmo_item in ids:
+                self._drop_gizmo()
+        self._changed(structural=True)
+
+    # ================================================================================================================
+    # validation
+    # ================================================================================================================
+    def request_validation(self, delay_s: float = 0.4) -> None:
+        """Validates after `delay_s` of quiet (edits in a burst validate once)."""
+        with self.lock:
+            if self._validate_timer is not None:
+                self._validate_timer.cancel()
+            self._validate_timer = threading.Timer(delay_s, self.validate_now)
+            self._validate_timer.daemon = True
+            self._validate_timer.start()
+
+    def validate_now(self, announce: bool = False) -> Any:
+        """Validates the document, shows the problems on their items; returns the result (None: shape errors)."""
+        doc, ev_ids, kf_ids = self.document()
+        try:
+            maneuver = parse_maneuver(doc)
+        except ManeuverError as e:
+            problems, result = list(e.problems), None
+        else:
+            result = validate_maneuver(maneuver, self.services.robot)
+            problems = [*result.failures, *result.warnings]
+        with self.lock:
+            self.result = result
+            self.problems_by_item = {}
+            self.general_problems = []
+            for p in problems:
+                target = self._item_of_path(p.path, ev_ids, kf_ids)
+                if target is None:
+                    self.general_problems.append(p)
+                else:
+                    self.problems_by_item.setdefault(target, []).append(p)
+        self._apply_problems()
+        self._refresh_timeline()
+        self.refresh_markers()
+        self._refresh_scrub()
+        if announce:
+            n_f = sum(1 for p in problems if p.severity == "failure")
+            n_w = len(problems) - n_f
+            self.notify("Validation", "valid" if n_f == 0 else f"{n_f} failures, {n_w} warnings",
+                        "green" if n_f == 0 else "red")  # fmt: skip
+        return result
+
+    def _item_of_path(self, path: str, ev_ids: list[int], kf_ids: list[int]) -> int | None:
+        m = _PATH_RE.match(path or "")
+        if not m:
+            return None
+        kind, k = m.group(1), int(m.group(2))
+        if kind == "events":
+            return ev_ids[k] if k < len(ev_ids) else None
+        if kind == "body":
+            return kf_ids[k] if k < len(kf_ids) else None
+        items = self.gaits if kind == "gaits" else self.objectives
+        return id(items[k]) if k < len(items) else None
+
+    def _severity(self, item_id: int) -> str | None:
+        ps = self.problems_by_item.get(item_id, [])
+        if any(p.severity == "failure" for p in ps):
+            return "failure"
+        return "warning" if ps else None
+
+    def _apply_problems(self) -> None:
+        seen: set[int] = set()
+        with self.lock:
+            groups: dict[int, tuple[ItemUi, list[Any]]] = {}
+            for item_id, ui in self.item_ui.items():
+                if ui.problems is None:
+                    continue
+                g = groups.setdefault(id(ui), (ui, []))
+                g[1].extend(self.problems_by_item.get(item_id, []))
+            for ui, ps in groups.values():
+                if id(ui) in seen:
+                    continue
+                seen.add(id(ui))
+                fails = [p for p in ps if p.severity == "failure"]
+                icon = "✖ " if fails else "⚠ " if ps else ""
+                try:
+                    ui.folder.label = icon + ui.label
+                    ui.problems.content = "\n".join(
+                        f"- {'✖' if p.severity == 'failure' else '⚠'} `{p.path}`: {p.message}" for p in ps
+                    )
+                    ui.problems.visible = bool(ps)
+                except Exception:  # noqa: BLE001 - the client may be gone
+                    pass
+            general = self.general_problems
+            all_ps = [p for ps in self.problems_by_item.values() for p in ps] + general
+        n_f = sum(1 for p in all_ps if p.severity == "failure")
+        n_w = len(all_ps) - n_f
+        lines = [f"**{'✔ valid' if n_f == 0 else '✖ invalid'}** — {n_f} failures, {n_w} warnings"]
+        lines += [f"- {'✖' if p.severity == 'failure' else '⚠'} `{p.path or 'file'}`: {p.message}" for p in general]
+        try:
+            self.md_validation.content = "\n".join(lines)
+        except Exception:  # noqa: BLE001
+            pass
+
+    # ================================================================================================================
+    # timeline and 3D
+    # ================================================================================================================
+    def _refresh_timeline(self) -> None:
+        with self.lock:
+            d = float(self.meta.get("duration") or 1.0)
+            bars, marks = [], []
+            for leg in LEG_ROWS:
+                for lo, td in self._steps_of(leg):
+                    sev = None
+                    for it in (lo, td):
+                        if it is not None:
+                            s = self._severity(id(it))
+                            sev = "failure" if s == "failure" or sev == "failure" else s or sev
+                    if lo is not None and td is not None:
+                        bars.append(Bar(leg, float(lo["t"]), float(td["t"]), True, sev))
+                    else:
+                        it = lo or td
+                        assert it is not None
+                        marks.append(Mark(leg, float(it["t"]), sev or "failure"))
+            sched = getattr(self.result, "schedule", None)
+            if sched is not None:
+                for leg_swings in sched.swings:
+                    for sw in leg_swings:
+                        if str(sw.liftoff_path).startswith("gaits"):
+                            bars.append(Bar(LEG_ROWS[sw.leg], sw.t_liftoff, sw.t_touchdown, False))
+            for kf in self.keyframes:
+                marks.append(Mark("body", float(kf.get("t", 0.0)), self._severity(id(kf))))
+            gaits = [(float(g.get("from", 0.0)), float(g.get("to", 0.0)), str(g.get("gait", ""))) for g in self.gaits]
+        try:
+            self.html_timeline.content = timeline_svg(d, bars, marks, gaits, self._scrub_t())
+        except Exception:  # noqa: BLE001
+            pass
+
+    def _resolved_target(self, td: dict[str, Any]) -> np.ndarray | None:
+        """Returns where a touchdown lands (maneuver frame, m): its `at`, or liftoff point + offset (schedule)."""
+        if td.get("at") is not None:
+            return np.asarray(td["at"], dtype=float)
+        sw = self._swing_of(td)
+        return None if sw is None else np.asarray(sw.p_touchdown, dtype=float)
+
+    def _swing_of(self, td: dict[str, Any]) -> Any:
+        sched = getattr(self.result, "schedule", None)
+        if sched is None:
+            return None
+        _, ev_ids, _ = self.document()
+        try:
+            k = ev_ids.index(id(td))
+        except ValueError:
+            return None
+        for leg_swings in sched.swings:
+            for sw in leg_swings:
+                if sw.touchdown_path == f"events[{k}]":
+                    return sw
+        return None
+
+    def _reference_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Returns the body reference (position m, rpy deg) at t, from the last good validation."""
+        body = getattr(self.result, "body", None)
+        if body is not None:
+            try:
+                p, _v, rpy, _w = body.sample(t)
+                return np.asarray(p, dtype=float), np.degrees(np.asarray(rpy, dtype=float))
+            except Exception:  # noqa: BLE001
+                pass
+        return np.array([0.0, 0.0, float(getattr(self.services.robot, "standing_height_m", 0.52))]), np.zeros(3)
+
+    def refresh_markers(self) -> None:
+        """Redraws the touchdown targets, keyframe ghosts and gait footholds (3D, world frame)."""
+        off = self.world_offset()
+        sc = self.scene
+        with self.lock:
+            wanted: dict[int, tuple[str, np.ndarray, np.ndarray | None, str]] = {}
+            for td in (e for e in self.events if e.get("type") == "touchdown"):
+                p = self._resolved_target(td)
+                if p is not None:
+                    wanted[id(td)] = ("td", p + off, None, str(td.get("leg", "FL")))
+            for kf in self.keyframes:
+                try:
+                    p = np.asarray(kf.get("position", [0, 0, 0.52]), dtype=float) + off
+                    q = wxyz_from_rpy_deg(kf.get("rpy", [0, 0, 0]))
+                except (TypeError, ValueError):
+                    continue
+                wanted[id(kf)] = ("kf", p, q, "body")
+            for item_id in list(self.markers):
+                if item_id not in wanted:
+                    self.markers.pop(item_id).remove()
+            for item_id, (kind, p, q, leg) in wanted.items():
+                h = self.markers.get(item_id)
+                sev = self._severity(item_id)
+                if kind == "td":
+                    color = (255, 59, 48) if sev == "failure" else _hex_rgb(LEG_COLORS.get(leg, "#cccccc"))
+                    if h is None:
+                        h = sc.add_icosphere(f"/edit/targets/{item_id}", radius=0.035, color=color, subdivisions=2)
+                        h.on_click(lambda _e, i=item_id: self.select(i))
+                        self.markers[item_id] = h
+                    h.color = color
+                    h.position = p
+                else:
+                    color = (255, 59, 48) if sev == "failure" else (120, 200, 255)
+                    if h is None:
+                        h = sc.add_box(f"/edit/keyframes/{item_id}", dimensions=TRUNK_DIMS_M, color=color,
+                                       opacity=0.35)  # fmt: skip
+                        h.on_click(lambda _e, i=item_id: self.select(i))
+                        self.markers[item_id] = h
+                    h.color = color
+                    h.position = p
+                    h.wxyz = q
+            # gait footholds (not editable here: edit the gait segment)
+            sched = getattr(self.result, "schedule", None)
+            pts = []
+            if sched is not None:
+                for leg_swings in sched.swings:
+                    pts += [sw.p_touchdown for sw in leg_swings if str(sw.touchdown_path).startswith("gaits")]
+            if pts:
+                sc.add_point_cloud("/edit/gait_footholds", points=np.asarray(pts, dtype=np.float32) + off,
+                                   colors=(200, 200, 200), point_size=0.03, point_shape="circle")  # fmt: skip
+            else:
+                sc.remove_by_name("/edit/gait_footholds")
+
+    def _refresh_scrub(self) -> None:
+        """Shows the planned body pose and feet at the scrub time (a ghost)."""
+        t = self._scrub_t()
+        off = self.world_offset()
+        p, rpy = self._reference_at(t)
+        sc = self.scene
+        sc.add_box("/edit/scrub/body", dimensions=TRUNK_DIMS_M, color=(76, 201, 240), opacity=0.25,
+                   position=p + off, wxyz=wxyz_from_rpy_deg(rpy))  # fmt: skip
+        sched = getattr(self.result, "schedule", None)
+        if sched is not None:
+            try:
+                feet = np.array([sched.foot_target(i, t) for i in range(4)], dtype=np.float32) + off
+                sc.add_point_cloud("/edit/scrub/feet", points=feet, colors=(76, 201, 240), point_size=0.05,
+                                   point_shape="circle")  # fmt: skip
+            except Exception:  # noqa: BLE001
+                pass
+
+    def set_visible(self, on: bool) -> None:
+        for name in ("/edit/targets", "/edit/keyframes", "/edit/scrub", "/edit/gait_footholds"):
+            h = self.scene.get_handle_by_name(name) if hasattr(self.scene, "get_handle_by_name") else None
+            if h is not None:
+                h.visible = on
+        for h in self.markers.values():
+            h.visible = on
+
+    # ---- 3D dragging ------------------------------------------------------------------------------------------
+    def _drop_gizmo(self) -> None:
+        if self.gizmo is not None:
+            try:
+                self.gizmo.remove()
+            except Exception:  # noqa: BLE001
+                pass
+        self.gizmo, self.gizmo_item = None, None
+
+    def _item_by_id(self, item_id: int) -> dict[str, Any] | None:
+        for lst in (self.events, self.keyframes):
+            for it in lst:
+                if id(it) == item_id:
+                    return it
+        return None
+
+    def select(self, item_id: int) -> None:
+        """Attaches transform controls to a touchdown target (translate) or a keyframe (translate + rotate)."""
+        with self.lock:
+            item = self._item_by_id(item_id)
+            marker = self.markers.get(item_id)
+            if item is None or marker is None:
+                self.notify("Cannot move", "this target has no position yet (fix the problems first)", "yellow")
+                return
+            self._drop_gizmo()
+            is_kf = item in self.keyframes
+            self.gizmo = self.scene.add_transform_controls(
+                "/edit/gizmo", scale=0.35, disable_rotations=not is_kf, position=marker.position,
+                wxyz=marker.wxyz if is_kf else (1.0, 0.0, 0.0, 0.0), depth_test=False,
+            )  # fmt: skip
+            self.gizmo_item = item_id
+
+            @self.gizmo.on_update
+            def _(event: Any) -> None:
+                target = event.target
+                m = self.markers.get(item_id)
+                if m is not None:
+                    m.position = target.position
+                    if is_kf:
+                        m.wxyz = target.wxyz
+                if getattr(event, "phase", "end") == "end":
+                    self._commit_drag(item, np.asarray(target.position, dtype=float),
+                                      np.asarray(target.wxyz, dtype=float), is_kf)  # fmt: skip
+
+    def _commit_drag(self, item: dict[str, Any], p_world: np.ndarray, wxyz: np.ndarray, is_kf: bool) -> None:
+        p = p_world - self.world_offset()
+        with self.lock:
+            if is_kf:
+                item["position"] = [_r(v) for v in p]
+                item["rpy"] = rpy_deg_from_wxyz(wxyz)
+            elif item.get("at") is not None or (item.get("offset") is None and self._swing_of(item) is None):
+                item.pop("offset", None)
+                item["at"] = [_r(v) for v in p]
+            else:
+                sw = self._swing_of(item)
+                base = np.asarray(sw.p_liftoff, dtype=float) if sw is not None else p
+                item.pop("at", None)
+                item["offset"] = [_r(v) for v in p - base]
+        ui = self.item_ui.get(id(item))
+        if ui is not None:
+            self._suspend = True
+            try:
+                if is_kf:
+                    ui.handles["pos"].value = tuple(item["position"])
+                    ui.handles["rpy"].value = tuple(item["rpy"])
+                else:
+                    mode = "at" if item.get("at") is not None else "offset"
+                    ui.handles["mode"].value = mode
+                    ui.handles["vec"].value = tuple(item.get("at") or item.get("offset"))
+                    ui.handles["vec"].disabled = False
+            finally:
+                self._suspend = False
+        self._changed()
+
+    # ================================================================================================================
+    # preview and file
+    # ================================================================================================================
+    def maneuver_or_none(self) -> Any:
+        """Returns the validated Maneuver, or None after telling the user what is wrong."""
+        result = self.validate_now()
+        if result is None or not result.ok:
+            n = len(getattr(result, "failures", []) or []) or len(self.general_problems) or 1
+            self.notify("Not valid", f"fix {n} failure(s) first (marked ✖ on the items)", "red")
+            return None
+        return result.maneuver
+
+    def preview(self) -> None:
+        if not self.authorized("preview"):
+            return
+        m = self.maneuver_or_none()
+        if m is not None:
+            self.start_preview(m)
+
+    def save(self, save_as: str | None) -> None:
+        """Saves to the user library: under the current name (Save) or a new one (Save as)."""
+        if not self.authorized("save"):
+            return
+        name = save_as if save_as else str(self.meta.get("name") or "")
+        if save_as:
+            with self.lock:
+                self.meta["name"] = save_as
+            self._suspend = True
+            try:
+                self.txt_name.value = save_as
+            finally:
+                self._suspend = False
+        m = self.maneuver_or_none()
+        if m is None:
+            return
+        store = self.services.store
+        if_match = None
+        if self.source == "user" and self.source_name == name and self.etag:
+            if_match = self.etag
+        elif save_as or self.source_name != name:
+            if_match = None  # a new file: must not exist yet
+        try:
+            stored, _created = store.save(name, self.yaml_text(), if_match=if_match,
+                                          if_none_match="*" if if_match is None else None)  # fmt: skip
+        except Conflict as e:
+            self.notify("Not saved", f"{e.message}", "red")
+            return
+        except StorageError as e:
+            self.notify("Not saved", e.message, "red")
+            return
+        with self.lock:
+            self.source_name, self.source, self.etag, self.dirty = stored.name, "user", stored.etag, False
+        self._refresh_header()
+        try:
+            names = [e["name"] for e in store.list()]
+            self.dd_library.options = names
+        except Exception:  # noqa: BLE001
+            pass
+        self.notify("Saved", f"{stored.name} saved to your library", "green")
