@@ -15,7 +15,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.types import ASGIApp, Receive, Scope, Send
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from server.sessions import SessionError
 from server.simulations import QueueFull
@@ -120,6 +120,9 @@ def install(app: FastAPI) -> None:
         detail = e.detail if isinstance(e.detail, str) else "error"
         if e.status_code == 404 and detail == "Not Found":
             detail = f"no such endpoint: {request.method} {request.url.path[:200]} (see /docs)"
+        if e.status_code == 413:
+            return JSONResponse(error_body(detail, [{"field": "body", "reason": detail}]), status_code=413,
+                                headers={"Connection": "close"})  # fmt: skip
         if e.status_code == 405:
             detail = f"{request.method} is not allowed on {request.url.path[:200]} (see /docs)"
         return JSONResponse(error_body(detail), status_code=e.status_code, headers=getattr(e, "headers", None))
@@ -130,8 +133,16 @@ def install(app: FastAPI) -> None:
         return JSONResponse(error_body(f"internal error ({type(e).__name__}); this is a bug"), status_code=500)
 
 
+class BodyTooLarge(StarletteHTTPException):
+    """The request body grew past the limit while it was read (an HTTPException, so every route answers 413)."""
+
+    def __init__(self, max_bytes: int) -> None:
+        super().__init__(413, f"the request body is larger than {max_bytes} bytes")
+
+
 class BodyLimit:
-    """ASGI middleware: 413 for a request whose Content-Length exceeds `max_bytes`, before anything is read."""
+    """ASGI middleware: 413 for a body larger than `max_bytes`, by Content-Length before anything is read, or
+    while a body without one (chunked) is streamed in."""
 
     def __init__(self, app: ASGIApp, max_bytes: int) -> None:
         self.app = app
@@ -164,5 +175,15 @@ class BodyLimit:
                 if n < 0 or n > self.max_bytes:
                     await self._too_large(send)
                     return
-        # Bodies without a Content-Length (chunked) are capped by FastAPI's own max_body_size.
-        await self.app(scope, receive, send)
+        seen = 0
+
+        async def limited_receive() -> Message:
+            nonlocal seen
+            msg = await receive()
+            if msg["type"] == "http.request":
+                seen += len(msg.get("body", b""))
+                if seen > self.max_bytes:
+                    raise BodyTooLarge(self.max_bytes)
+            return msg
+
+        await self.app(scope, limited_receive, send)

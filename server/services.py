@@ -3,6 +3,7 @@ where request bodies become validated maneuvers."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -10,6 +11,7 @@ from typing import Any
 
 from planning.maneuver import ManeuverError, Problem, parse_maneuver, validate_maneuver
 from planning.maneuver.load import read_yaml
+from planning.maneuver.problems import with_lines
 from server.errors import ApiError
 from server.sessions import SessionManager
 from server.settings import Settings
@@ -119,14 +121,19 @@ def check_limits(maneuver: Any, settings: Settings) -> list[Problem]:
     return out
 
 
-def validate(maneuver: Any, services: Services) -> Any:
-    """Returns the ValidationResult of a parsed maneuver for the server's robot."""
-    return validate_maneuver(maneuver, services.robot)
+def validate(maneuver: Any, services: Services, lines: dict[str, int] | None = None) -> Any:
+    """Returns the ValidationResult of a parsed maneuver for the server's robot (problems with YAML lines)."""
+    result = validate_maneuver(maneuver, services.robot)
+    if lines:
+        result = dataclasses.replace(
+            result, warnings=with_lines(result.warnings, lines), failures=with_lines(result.failures, lines)
+        )
+    return result
 
 
-def require_valid(maneuver: Any, services: Services) -> Any:
+def require_valid(maneuver: Any, services: Services, lines: dict[str, int] | None = None) -> Any:
     """Returns the validation result when it has no failures; ApiError 422 with the failures otherwise."""
-    result = validate(maneuver, services)
+    result = validate(maneuver, services, lines)
     if not result.ok:
         n = len(result.failures)
         first = result.failures[0] if result.failures else "invalid"

@@ -5,6 +5,7 @@ from planning.steps.gait import GAIT_NAMES, GAITS, Gait, GaitClock, Schedule, ge
 from planning.steps.lip import (
     GRAVITY_MPS2,
     PathBatch,
+    StepPaths,
     TouchdownStates,
     capture_point,
     capture_point_relative,
@@ -16,8 +17,15 @@ from planning.steps.lip import (
     state_omega,
 )
 from planning.steps.planner import StepPlanner, StepPlannerParams
-from planning.steps.potential import Constraints, Octagon, PotentialParams, Screening, potential_step_paths, screen_paths
-from planning.steps.reference import ReferenceParams, body_motion, reference_step_path
+from planning.steps.potential import (
+    Constraints,
+    Octagon,
+    PotentialParams,
+    Screening,
+    potential_step_paths,
+    screen_paths,
+)
+from planning.steps.reference import ReferenceParams, body_motion, map_height, reference_step_path
 from planning.steps.select import (
     Selection,
     SelectionParams,
@@ -60,6 +68,7 @@ __all__ = [
     "SteeringParams",
     "StepMaps",
     "StepPath",
+    "StepPaths",
     "StepPlanner",
     "StepPlannerParams",
     "StepRobot",
@@ -73,6 +82,7 @@ __all__ = [
     "get_gait",
     "lip_omega",
     "lip_predict",
+    "map_height",
     "potential_step_paths",
     "predict_batch",
     "predict_touchdown_states",

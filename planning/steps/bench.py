@@ -8,7 +8,14 @@ import numpy as np
 
 from planning.steps.gait import GAITS, GaitClock
 from planning.steps.lip import state_omega
-from planning.steps.potential import Constraints, Octagon, PotentialParams, _generate, build_batch, potential_step_paths
+from planning.steps.potential import (
+    Constraints,
+    Octagon,
+    PotentialParams,
+    _generate,
+    build_batch,
+    potential_step_paths,
+)
 from planning.steps.reference import reference_step_path
 from planning.steps.select import WeightPresets, select_step_path
 from planning.steps.state import SteeringCommand, StepPath, WalkState, standing_state
@@ -35,7 +42,9 @@ def _exact_candidates(ref: StepPath, state: WalkState, robot: object, n: int) ->
     ]
 
 
-def bench_step_selection(n_candidates: int = 25, n_calls: int = 300, robot_name: str = "spot") -> dict[str, float]:
+def bench_step_selection(
+    n_candidates: int = 25, n_calls: int = 300, robot_name: str = "spot"
+) -> dict[str, float]:
     """Returns selection time per replan with n_candidates (p50_ms, p99_ms), and the whole replan's (reference +
     potential paths + screening + selection: replan_p50_ms, replan_p99_ms), over n_calls calls."""
     from planning.robot import load_robot

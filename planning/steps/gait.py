@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planning.steps.state import N_LEGS, B, F64, I64
+from planning.steps.state import F64, I64, N_LEGS, B
 
 
 @dataclass(frozen=True)
@@ -101,8 +101,13 @@ class GaitClock:
     The clock is the plan of contacts (not a contact sensor); it holds per-leg holds created at a switch.
     """
 
-    def __init__(self, gait: Gait | str = "stand", t0: float = 0.0, max_start_progress: float = 0.2,
-                 min_stance_fraction: float = 0.5) -> None:
+    def __init__(
+        self,
+        gait: Gait | str = "stand",
+        t0: float = 0.0,
+        max_start_progress: float = 0.2,
+        min_stance_fraction: float = 0.5,
+    ) -> None:
         """gait: initial gait. t0: s. max_start_progress: fraction of a swing already elapsed under which a foot
         in stance may lift off immediately when a new gait says it should be swinging. min_stance_fraction: a
         foot landing after a switch stays down at least this fraction of the new gait's stance time."""
@@ -274,7 +279,9 @@ class GaitClock:
         downs = [te for te, c in self._leg_events(leg, t - span, t) if c]
         return downs[-1] if downs else -math.inf
 
-    def _holds_for(self, g: Gait, t: float, anchor: tuple[int, float] | None) -> list[list[tuple[float, bool]]]:
+    def _holds_for(
+        self, g: Gait, t: float, anchor: tuple[int, float] | None
+    ) -> list[list[tuple[float, bool]]]:
         t_ref1 = self._t_ref_for(g, t, anchor)
         min_stance = self.min_stance_fraction * g.stance_s
         holds: list[list[tuple[float, bool]]] = [[] for _ in range(N_LEGS)]

@@ -25,7 +25,7 @@ from typing import Literal
 
 import numpy as np
 
-from planning.steps.state import N_LEGS, F64, I64, BodyMotion, StepPath, WalkState
+from planning.steps.state import F64, I64, N_LEGS, BodyMotion, StepPath, WalkState
 
 GRAVITY_MPS2 = 9.81  # m/s²
 
@@ -61,7 +61,9 @@ def capture_point_relative(xi_world: F64, p_world_foot: F64) -> F64:
     return np.asarray(xi_world)[..., :2] - np.asarray(p_world_foot)[..., :2]
 
 
-def lip_predict(x0: F64, v0: F64, u0: F64, tau: float, omega: float, u1: F64 | None = None) -> tuple[F64, F64]:
+def lip_predict(
+    x0: F64, v0: F64, u0: F64, tau: float, omega: float, u1: F64 | None = None
+) -> tuple[F64, F64]:
     """Returns (x, v) after tau s of LIP motion from x0 (m), v0 (m/s), with the CoP constant at u0 (m) or, when
     u1 is given, moving linearly from u0 to u1 over the interval."""
     x0, v0, u0 = (np.asarray(a, dtype=np.float64) for a in (x0, v0, u0))
@@ -94,7 +96,9 @@ def _g_minus(x: F64 | float) -> F64:
 
 
 # ---- support polygon ----------------------------------------------------------------------------------------------
-_PAIRS = np.array([(i, j) for i in range(N_LEGS) for j in range(i, N_LEGS)], dtype=np.int64)  # (10,2) incl. i=j
+_PAIRS = np.array(
+    [(i, j) for i in range(N_LEGS) for j in range(i, N_LEGS)], dtype=np.int64
+)  # (10,2) incl. i=j
 _TRIS = np.array([(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)], dtype=np.int64)
 
 
@@ -138,7 +142,7 @@ class Support:
             p2=p2,
             e20=e20,
             tri_ok=tri_ok & (np.abs(area) > 1e-12),
-            any_stance=stance.any(axis=-1),
+            any_stance=np.asarray(stance.any(axis=-1)),
         )
 
     def project(self, q: F64, j: int | None = None) -> F64:
@@ -155,7 +159,11 @@ class Support:
         def side(p: F64, e: F64) -> F64:
             return e[..., 0] * (qq[..., 1] - p[..., 1]) - e[..., 1] * (qq[..., 0] - p[..., 0])
 
-        c0, c1, c2 = side(self.p0[s_], self.e01[s_]), side(self.p1[s_], self.e12[s_]), side(self.p2[s_], self.e20[s_])
+        c0, c1, c2 = (
+            side(self.p0[s_], self.e01[s_]),
+            side(self.p1[s_], self.e12[s_]),
+            side(self.p2[s_], self.e20[s_]),
+        )
         inside = self.tri_ok[s_] & (((c0 >= 0) & (c1 >= 0) & (c2 >= 0)) | ((c0 <= 0) & (c1 <= 0) & (c2 <= 0)))
         keep = inside.any(axis=-1) | ~self.any_stance[s_]
         return np.where(keep[..., None], q, edge)
@@ -280,7 +288,9 @@ def sort_events(batch: PathBatch, state: WalkState) -> Events:
     stance_after = np.where(has, np.take_along_axis(s_type[:, :, None], lastc, axis=1), c0)
     slot_after = np.where(has, np.take_along_axis(s_slot[:, :, None], lastc, axis=1), np.arange(N_LEGS))
     stance_seg = np.concatenate([np.broadcast_to(c0, (n, 1, N_LEGS)), stance_after[:, :-1]], axis=1)
-    slot_seg = np.concatenate([np.broadcast_to(np.arange(N_LEGS), (n, 1, N_LEGS)), slot_after[:, :-1]], axis=1)
+    slot_seg = np.concatenate(
+        [np.broadcast_to(np.arange(N_LEGS), (n, 1, N_LEGS)), slot_after[:, :-1]], axis=1
+    )
     pos_td = np.empty((n, k), dtype=np.int64)
     inv = np.empty_like(order)
     np.put_along_axis(inv, order, np.arange(e)[None, :], axis=1)
@@ -291,8 +301,12 @@ def sort_events(batch: PathBatch, state: WalkState) -> Events:
         first[batch.leg[i]] = i
     init_cp = np.where(c0 | (first < 0), np.arange(N_LEGS), N_LEGS + first)
     slot_cp = np.where(has, slot_after, init_cp)
-    slot_td = np.take_along_axis(slot_cp, pos_td[:, :, None], axis=1) if k else np.zeros((n, 0, N_LEGS), np.int64)
-    p_all = np.concatenate([np.broadcast_to(state.p_world_feet[:, :2], (n, N_LEGS, 2)), batch.p_td[:, :, :2]], 1)
+    slot_td = (
+        np.take_along_axis(slot_cp, pos_td[:, :, None], axis=1) if k else np.zeros((n, 0, N_LEGS), np.int64)
+    )
+    p_all = np.concatenate(
+        [np.broadcast_to(state.p_world_feet[:, :2], (n, N_LEGS, 2)), batch.p_td[:, :, :2]], 1
+    )
     bounds = np.concatenate([np.full((n, 1), t0), ts], axis=1)
     return Events(ts, bounds, stance_seg, slot_seg, pos_td, slot_td, p_all)
 
@@ -342,7 +356,9 @@ def predict_batch(
     cof = np.einsum("nel,neli->nei", w.astype(np.float64), feet) / np.maximum(cnt, 1)[..., None]
     if not np.all(cnt > 0):
         idx = np.maximum.accumulate(np.where(cnt > 0, np.arange(e), -1), axis=1)
-        cof = np.where((idx >= 0)[..., None], np.take_along_axis(cof, np.maximum(idx, 0)[..., None], axis=1), x0)
+        cof = np.where(
+            (idx >= 0)[..., None], np.take_along_axis(cof, np.maximum(idx, 0)[..., None], axis=1), x0
+        )
     # ξ at segment ends: ξ_e = exp(ω(t_e - t0)) (ξ0 - Σ_{j≤e} (a_j - a_j+1) u_j), a_j = exp(-ω(b_j - t0)).
     rel = ev.bounds - t0
     a = np.exp(-omega * rel)  # (N,E+1)
@@ -363,7 +379,7 @@ def predict_batch(
         u1 = cof.copy()
         xi_end = np.empty_like(cof)
         xi = np.broadcast_to(xi0, (n, 2))
-        active = (tau > 0.0).any(axis=0)
+        active = np.asarray((tau > 0.0).any(axis=0))
         for j in range(e):
             if active[j]:
                 d = xi - v_plan[:, j] / omega + feedback_gain * (xi - xi_plan[:, j])
@@ -381,8 +397,9 @@ def predict_batch(
         zeta_end = shrink[..., None] * (zeta0 + np.cumsum(db * u0, axis=1))
         if estimate == "tracking":
             tau = np.diff(ev.bounds, axis=1)
-            zeta_end = zeta_end + shrink[..., None] * np.cumsum((b[:, 1:] * _g_minus(omega * tau))[..., None]
-                                                                * (u1 - u0), axis=1)
+            zeta_end = zeta_end + shrink[..., None] * np.cumsum(
+                (b[:, 1:] * _g_minus(omega * tau))[..., None] * (u1 - u0), axis=1
+            )
         zeta_td = np.take_along_axis(zeta_end, ev.pos_td[..., None], axis=1) if k else np.zeros((n, 0, 2))
         x_td = 0.5 * (xi_td + zeta_td)
         v_td = 0.5 * omega * (xi_td - zeta_td)
@@ -412,8 +429,16 @@ def predict_touchdown_states(
     """Returns the LIP state and capture points at each touchdown of ``path`` from ``state``."""
     batch = PathBatch.of([path])
     ev = sort_events(batch, state)
-    pr = predict_batch(batch, state, omega, estimate, tracking_fraction, events=ev, with_states=True,
-                       feedback_gain=feedback_gain)
+    pr = predict_batch(
+        batch,
+        state,
+        omega,
+        estimate,
+        tracking_fraction,
+        events=ev,
+        with_states=True,
+        feedback_gain=feedback_gain,
+    )
     assert pr.x_td is not None and pr.v_td is not None
     feet_td = gather_xy(ev.p_all, ev.slot_td)  # (1,K,4,2)
     return TouchdownStates(

@@ -9,7 +9,7 @@ import numpy as np
 from planning.steps.gait import Gait, GaitClock, get_gait
 from planning.steps.lip import capture_point, project_to_support, state_omega
 from planning.steps.potential import PotentialParams, potential_step_paths
-from planning.steps.reference import ReferenceParams, reference_step_path
+from planning.steps.reference import ReferenceParams, map_height, reference_step_path
 from planning.steps.select import Selection, SelectionParams, WeightPresets, Weights, select_step_path
 from planning.steps.state import SteeringCommand, StepMaps, StepRobot, WalkState
 from planning.steps.steering import SteeringFilter, SteeringParams
@@ -20,7 +20,7 @@ class StepPlannerParams:
     """Composed stage parameters. n_candidates: potential paths per replan. walk_gait: gait used to start
     walking from a stand. start_speed_mps: command magnitude (m/s, rad/s) above which a stand starts walking.
     push_margin_m: a standing robot whose capture point leaves its support polygon by more than this (m) starts
-    stepping."""
+    stepping. settle_speed_mps: a stopped robot stepping after a push stands again below this speed (m/s)."""
 
     steering: SteeringParams = field(default_factory=SteeringParams)
     reference: ReferenceParams = field(default_factory=ReferenceParams)
@@ -30,6 +30,7 @@ class StepPlannerParams:
     walk_gait: str = "trot"
     start_speed_mps: float = 0.05
     push_margin_m: float = 0.03
+    settle_speed_mps: float = 0.1
 
 
 class StepPlanner:
@@ -38,8 +39,14 @@ class StepPlanner:
     State it holds: the filtered command, the gait clock, the current weights, the last selection.
     """
 
-    def __init__(self, robot: StepRobot, params: StepPlannerParams | None = None, t0: float = 0.0,
-                 gait: Gait | str = "stand", weights: Weights | str = "default") -> None:
+    def __init__(
+        self,
+        robot: StepRobot,
+        params: StepPlannerParams | None = None,
+        t0: float = 0.0,
+        gait: Gait | str = "stand",
+        weights: Weights | str = "default",
+    ) -> None:
         self.robot = robot
         self.params = params or StepPlannerParams()
         self.steering = SteeringFilter(self.params.steering)
@@ -75,20 +82,30 @@ class StepPlanner:
         if not state.contact.any():
             return False
         z = float(state.p_world_com[2]) - state.ground_z()
-        xi = capture_point(state.p_world_com, state.v_world_com, z if z > 0.05 else self.robot.standing_height_m)
+        xi = capture_point(
+            state.p_world_com, state.v_world_com, z if z > 0.05 else self.robot.standing_height_m
+        )
         q = project_to_support(xi[None], state.p_world_feet[None, :, :2], state.contact[None])[0]
         return bool(np.linalg.norm(xi - q) > self.params.push_margin_m)
+
+    def _settled(self, state: WalkState) -> bool:
+        """Returns True when the robot barely moves and its capture point is inside its support polygon."""
+        slow = float(np.linalg.norm(state.v_world_com[:2])) < self.params.settle_speed_mps
+        return slow and state.contact.sum() >= 3 and not self.pushed_out_of_support(state)
 
     def tick(self, cmd: SteeringCommand, state: WalkState, maps: StepMaps | None = None) -> Selection:
         """Returns the selected step path for this tick (its next touchdowns are the contact schedule)."""
         dt = max(state.t - self._t_last, 0.0)
         self._t_last = state.t
-        if self.clock.gait.is_stand and self.clock.pending is None:
-            wants_walk = not self._stopped and max(abs(cmd.vx), abs(cmd.vy), abs(cmd.yaw_rate)) > (
-                self.params.start_speed_mps
-            )
-            if wants_walk or self.pushed_out_of_support(state):
-                self.clock.request(self.walk_gait)
+        if self.clock.pending is None:
+            if self.clock.gait.is_stand:
+                wants_walk = not self._stopped and max(abs(cmd.vx), abs(cmd.vy), abs(cmd.yaw_rate)) > (
+                    self.params.start_speed_mps
+                )
+                if wants_walk or self.pushed_out_of_support(state):
+                    self.clock.request(self.walk_gait)
+            elif self._stopped and self._settled(state):
+                self.clock.request("stand")  # stepping after a push while stopped: stand again once settled
         self.clock.advance(state.t)
         target_gait = self.clock.pending or self.clock.gait
         filtered = self.steering.update(cmd if not self._stopped else SteeringCommand(), dt, target_gait)
@@ -99,11 +116,12 @@ class StepPlanner:
             self.clock.gait,
             self.clock,
             state.t,
-            ground_height=None if maps is None else maps.ground_height,
+            ground_height=map_height(maps),
             params=self.params.reference,
         )
-        candidates = potential_step_paths(reference, state, self.robot, maps, self.params.n_candidates,
-                                          self.params.potential)
+        candidates = potential_step_paths(
+            reference, state, self.robot, maps, self.params.n_candidates, self.params.potential
+        )
         omega = state_omega(state, self.robot.standing_height_m)
         self.last = select_step_path(reference, candidates, state, self.weights, omega, self.params.selection)
         return self.last

@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planning.steps.lip import PathBatch, StepPaths, sort_events, state_omega
-from planning.steps.reference import eval_height, touchdown_rank
-from planning.steps.state import N_LEGS, F64, StepMaps, StepPath, StepRobot, WalkState, rotate_yaw
+from planning.steps.reference import eval_map, map_height, touchdown_rank
+from planning.steps.state import F64, N_LEGS, StepMaps, StepPath, StepRobot, WalkState, rotate_yaw
 
 
 @dataclass(frozen=True)
@@ -65,13 +65,15 @@ class Constraints:
 @dataclass(frozen=True)
 class PotentialParams:
     """offset_step_m: spacing of the offset rings, m. timing_shift_s: s. push_gains: -, capture-point feedback
-    gains of the push family (the reference uses ReferenceParams.capture_gain). width_delta_m: m, wider /
+    gains of the push family (the reference uses ReferenceParams.capture_gain). push_min_error_mps: m/s, the
+    push family is generated only above this velocity error. width_delta_m: m, wider /
     narrower template."""
 
     constraints: Constraints = field(default_factory=Constraints)
     offset_step_m: float = 0.035
     timing_shift_s: float = 0.03
     push_gains: tuple[float, ...] = (0.6, 1.4, 1.8)
+    push_min_error_mps: float = 0.05
     width_delta_m: float = 0.04
 
 
@@ -132,8 +134,16 @@ def _heading_to_world(yaw: F64, d: F64) -> F64:
     return rotate_yaw(yaw, d)
 
 
-def _generate(reference: StepPath, state: WalkState, oct_: Octagon, n: int, p: PotentialParams, omega: float,
-              maps: StepMaps | None) -> _Family:
+def _generate(
+    reference: StepPath,
+    state: WalkState,
+    oct_: Octagon,
+    n: int,
+    p: PotentialParams,
+    omega: float,
+    maps: StepMaps | None,
+) -> _Family:
+    """Returns up to n candidates (touchdown xy and timing changes) in family order, unscreened."""
     fam = _Family()
     ref_xy = reference.p_world_touchdown[:, :2]
     leg = reference.leg
@@ -170,24 +180,29 @@ def _generate(reference: StepPath, state: WalkState, oct_: Octagon, n: int, p: P
         # Off the no-step cells: each touchdown on one moves to the nearest allowed point of its footprint
         # (any direction, or only forward / backward along the heading: a longer or a shorter step).
         for name, keep in (("avoid", None), ("avoid_long", 1.0), ("avoid_short", -1.0)):
-            fam.add(_avoid(clamped, yaw_td, maps, p, keep), name)
+            fam.add(_avoid(clamped, yaw_td, maps, keep), name)
     # Push counteraction.
     v_err = state.v_world_com[:2] - body.velocity_world(t0)
-    decay = 0.5 ** rank
+    decay = 0.5**rank
     lat = _heading_to_world(np.asarray(body.yaw0), np.array([0.0, 1.0]))
     v_lat = lat * float(v_err @ lat)
-    for g in p.push_gains:
-        fam.add(neutral_mid + g * decay[:, None] * v_err / omega, "push")
-    for g in p.push_gains[:2]:
-        fam.add(neutral_mid + g * decay[:, None] * v_lat / omega, "push_lateral")
+    if float(np.linalg.norm(v_err)) > p.push_min_error_mps:
+        for g in p.push_gains:
+            fam.add(neutral_mid + g * decay[:, None] * v_err / omega, "push")
+        for g in p.push_gains[:2]:
+            fam.add(neutral_mid + g * decay[:, None] * v_lat / omega, "push_lateral")
     # Timing variants.
-    shifts = [-p.timing_shift_s, p.timing_shift_s] + ([-2 * p.timing_shift_s, 2 * p.timing_shift_s] if n >= 50 else [])
+    shifts = [-p.timing_shift_s, p.timing_shift_s] + (
+        [-2 * p.timing_shift_s, 2 * p.timing_shift_s] if n >= 50 else []
+    )
     for s in shifts:
         fam.add(ref_xy + body.neutral_points(t_mid + s, oct_.neutral, leg) - neutral_mid, "timing", shift=s)
     if n >= 50:
         for sc in (0.9, 1.1):
             t_mid_sc = t0 + sc * (t_mid - t0)
-            fam.add(ref_xy + body.neutral_points(t_mid_sc, oct_.neutral, leg) - neutral_mid, "cadence", scale=sc)
+            fam.add(
+                ref_xy + body.neutral_points(t_mid_sc, oct_.neutral, leg) - neutral_mid, "cadence", scale=sc
+            )
     # Templates.
     fam.add(neutral_mid, "template")
     in_place = body.position(t0) + _heading_to_world(np.asarray(body.yaw0), oct_.neutral[leg])
@@ -212,8 +227,10 @@ def _generate(reference: StepPath, state: WalkState, oct_: Octagon, n: int, p: P
         f = fracs[(j // 12) % 3]
         a = angles[j % 12] + (j // 36) * math.pi / 12
         d = f * oct_.clamp(np.array([math.cos(a), math.sin(a)]) * max(oct_.rx, oct_.ry))
-        fam.add(np.where(first, neutral_td + _heading_to_world(yaw_td, np.broadcast_to(d, (k, 2))), ref_xy),
-                "footprint")
+        fam.add(
+            np.where(first, neutral_td + _heading_to_world(yaw_td, np.broadcast_to(d, (k, 2))), ref_xy),
+            "footprint",
+        )
     if len(fam.kind) > n:
         for name in ("xy", "shift", "scale", "kind"):
             setattr(fam, name, getattr(fam, name)[:n])
@@ -225,15 +242,17 @@ _AVOID_DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.arange(16) * math
 _AVOID_OFFSETS = (_AVOID_RINGS_M[:, None, None] * _AVOID_DIRS[None]).reshape(-1, 2)  # (S,2), nearest first
 
 
-def _avoid(xy: F64, yaw: F64, maps: StepMaps, p: PotentialParams, forward: float | None) -> F64:
+def _avoid(xy: F64, yaw: F64, maps: StepMaps, forward: float | None) -> F64:
     """Returns touchdowns (K,2) moved off no-step cells to the nearest allowed sample (heading-frame offsets,
     only those with sign(dx) == forward when given); touchdowns with no allowed sample stay."""
-    bad = eval_height(maps.no_step, xy[:, 0], xy[:, 1]) > 0.5
+    bad = eval_map(maps.no_step, xy[:, 0], xy[:, 1]) > 0.5
     if not bad.any():
         return xy
     offs = _AVOID_OFFSETS if forward is None else _AVOID_OFFSETS[forward * _AVOID_OFFSETS[:, 0] > 0.0]
-    cand = xy[bad][:, None, :] + _heading_to_world(yaw[bad][:, None], np.broadcast_to(offs, (int(bad.sum()), *offs.shape)))
-    ok = ~(eval_height(maps.no_step, cand[..., 0], cand[..., 1]) > 0.5)
+    cand = xy[bad][:, None, :] + _heading_to_world(
+        yaw[bad][:, None], np.broadcast_to(offs, (int(bad.sum()), *offs.shape))
+    )
+    ok = ~(eval_map(maps.no_step, cand[..., 0], cand[..., 1]) > 0.5)
     first = np.argmax(ok, axis=1)
     out = xy.copy()
     found = ok.any(axis=1)
@@ -276,8 +295,14 @@ class Screening:
         return self.total <= 0.0
 
 
-def screen_paths(batch: PathBatch, reference: StepPath, state: WalkState, robot: StepRobot,
-                 maps: StepMaps | None = None, constraints: Constraints | None = None) -> Screening:
+def screen_paths(
+    batch: PathBatch,
+    reference: StepPath,
+    state: WalkState,
+    robot: StepRobot,
+    maps: StepMaps | None = None,
+    constraints: Constraints | None = None,
+) -> Screening:
     """Returns the constraint violations of every candidate in the batch (0 where satisfied)."""
     c = constraints or Constraints()
     oct_ = Octagon.of(robot, c)
@@ -299,14 +324,16 @@ def screen_paths(batch: PathBatch, reference: StepPath, state: WalkState, robot:
     lateral = _heading_to_world(-body.yaw(batch.t_td), xy - body.position(batch.t_td))[..., 1]
     collision = np.maximum(c.midline_margin_m - side * lateral, 0.0).sum(axis=1)
     ev = sort_events(batch, state)
-    others = np.take_along_axis(ev.p_all, ev.slot_td.reshape(n, -1)[:, :, None], axis=1).reshape(n, k, N_LEGS, 2)
+    others = np.take_along_axis(ev.p_all, ev.slot_td.reshape(n, -1)[:, :, None], axis=1).reshape(
+        n, k, N_LEGS, 2
+    )
     dist = np.linalg.norm(others - xy[:, :, None, :], axis=-1)
     dist = np.where(np.arange(N_LEGS)[None, None, :] == leg[None, :, None], np.inf, dist)
     collision += np.maximum(c.keep_out_m - dist, 0.0).sum(axis=(1, 2))
     # No-step map.
     no_step = zeros.copy()
     if maps is not None:
-        bad = eval_height(maps.no_step, xy[..., 0], xy[..., 1]) > 0.5
+        bad = eval_map(maps.no_step, xy[..., 0], xy[..., 1]) > 0.5
         no_step = bad.sum(axis=1) * c.no_step_violation_m
     # Timing: previous liftoff and place of each touchdown's leg.
     prev_lo = np.empty((n, k))
@@ -369,8 +396,12 @@ def potential_step_paths(
     keep = np.flatnonzero(total <= 0.0)
     if keep.size == 0:
         keep = np.arange(batch.n)
-    kept = batch if keep.size == batch.n else PathBatch(
-        batch.leg, batch.t_td[keep], batch.t_lo[keep], batch.t_lo_now[keep], batch.p_td[keep], batch.body
+    kept = (
+        batch
+        if keep.size == batch.n
+        else PathBatch(
+            batch.leg, batch.t_td[keep], batch.t_lo[keep], batch.t_lo_now[keep], batch.p_td[keep], batch.body
+        )
     )
     paths = [
         StepPath(
@@ -403,8 +434,9 @@ def build_batch(reference: StepPath, fam: _Family, maps: StepMaps | None) -> Pat
     lo_now = reference.t_liftoff_now[None, :]
     t_lo_now = np.where(np.isfinite(lo_now), t0 + scale * (lo_now - t0) + shift, lo_now)
     xy = np.stack(fam.xy) if m else np.zeros((0, k, 2))
-    if maps is not None and k:
-        z = eval_height(maps.ground_height, xy[..., 0], xy[..., 1])
+    height = map_height(maps)
+    if height is not None and k:
+        z = eval_map(height, xy[..., 0], xy[..., 1])
     else:
         z = np.broadcast_to(reference.p_world_touchdown[:, 2], (m, k))
     return PathBatch(

@@ -11,12 +11,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
 from planning.steps.gait import Gait, GaitClock
 from planning.steps.lip import state_omega
-from planning.steps.state import N_LEGS, F64, BodyMotion, SteeringCommand, StepPath, StepRobot, WalkState
+from planning.steps.state import F64, N_LEGS, BodyMotion, SteeringCommand, StepPath, StepRobot, WalkState
 
 GroundHeight = Callable[[F64, F64], object]
 
@@ -35,7 +36,7 @@ class ReferenceParams:
             raise ValueError(f"ReferenceParams.n_cycles: must be >= 1, got {self.n_cycles}")
 
 
-def eval_height(fn: GroundHeight, x: F64, y: F64) -> F64:
+def eval_map(fn: GroundHeight, x: F64, y: F64) -> F64:
     """Returns fn evaluated on arrays x, y (same shape): one vectorized call, else one call per point."""
     try:
         z = np.asarray(fn(x, y), dtype=np.float64)
@@ -43,9 +44,20 @@ def eval_height(fn: GroundHeight, x: F64, y: F64) -> F64:
             return z
     except (TypeError, ValueError):
         pass
-    return np.array([float(fn(float(a), float(b))) for a, b in zip(x.ravel(), y.ravel(), strict=True)]).reshape(
-        x.shape
-    )
+    one = cast(Callable[[float, float], float], fn)
+    return np.array(
+        [float(one(float(a), float(b))) for a, b in zip(x.ravel(), y.ravel(), strict=True)]
+    ).reshape(x.shape)
+
+
+def map_height(maps: object | None) -> GroundHeight | None:
+    """Returns the height lookup of a maps object: its ``height_at`` (TerrainMaps), else a callable
+    ``ground_height``, else None."""
+    for name in ("height_at", "ground_height"):
+        fn = getattr(maps, name, None)
+        if callable(fn):
+            return cast(GroundHeight, fn)
+    return None
 
 
 def body_motion(cmd: SteeringCommand, state: WalkState, t_now: float) -> BodyMotion:
@@ -97,12 +109,14 @@ def reference_step_path(
     gain = p.capture_gain * p.capture_decay ** touchdown_rank(leg)
     xy = xy + gain[:, None] * (v_err / omega)[None, :]
     if ground_height is not None and leg.shape[0]:
-        z = eval_height(ground_height, xy[:, 0], xy[:, 1])
+        z = eval_map(ground_height, xy[:, 0], xy[:, 1])
     else:
         z = np.full(leg.shape[0], state.ground_z())
     # The measured contact wins over the plan: a foot still down that the plan has in the air lifts off now; a
     # foot in the air has no liftoff to come before its next touchdown.
-    t_lo_now = np.where(state.contact, np.where(np.isnan(sched.t_liftoff_now), t_now, sched.t_liftoff_now), np.nan)
+    t_lo_now = np.where(
+        state.contact, np.where(np.isnan(sched.t_liftoff_now), t_now, sched.t_liftoff_now), np.nan
+    )
     return StepPath(
         leg=leg,
         t_touchdown=sched.t_touchdown,

@@ -16,7 +16,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from planning.steps.lip import CopEstimate, PathBatch, StepPaths, batch_of, gather_xy, predict_batch, sort_events, state_omega
+from planning.steps.lip import (
+    CopEstimate,
+    StepPaths,
+    batch_of,
+    gather_xy,
+    predict_batch,
+    sort_events,
+    state_omega,
+)
 from planning.steps.state import F64, StepPath, WalkState
 
 
@@ -98,7 +106,9 @@ def score_components(
     w = omega if omega is not None else state_omega(state, 0.5)
     batch = batch_of(candidates).with_first(reference)
     ev = sort_events(batch, state)
-    pred = predict_batch(batch, state, w, p.estimate, p.tracking_fraction, events=ev, feedback_gain=p.feedback_gain)
+    pred = predict_batch(
+        batch, state, w, p.estimate, p.tracking_fraction, events=ev, feedback_gain=p.feedback_gain
+    )
     feet = gather_xy(ev.p_all, ev.slot_td)  # (N+1,K,4,2)
     rel = pred.xi_td[:, :, None, :] - feet  # Eq. 2
     d_rel = rel[1:] - rel[:1]
@@ -124,7 +134,9 @@ def score_paths(
     return _combine(placement, capture, candidates, wt, p)
 
 
-def _combine(placement: F64, capture: F64, candidates: list[StepPath], wt: Weights, p: SelectionParams) -> F64:
+def _combine(
+    placement: F64, capture: F64, candidates: list[StepPath], wt: Weights, p: SelectionParams
+) -> F64:
     viol = np.array([c.violation for c in candidates])
     return wt.q_p * placement + wt.q_r * capture + p.infeasible_penalty * viol
 

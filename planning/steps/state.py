@@ -32,21 +32,19 @@ class StepRobot(Protocol):
 
 
 class StepMaps(Protocol):
-    """Terrain knowledge for screening and touchdown heights; both calls take scalars or arrays (world m)."""
+    """Terrain knowledge for screening (``planning.terrain.TerrainMaps`` is one): ``no_step(x, y)`` on world m,
+    scalars or arrays. Touchdown heights come from its ``height_at(x, y)`` (or a callable ``ground_height(x, y)``)
+    when it has one."""
 
     def no_step(self, x: F64, y: F64) -> object:
         """True where a foot must not be placed."""
-        ...
-
-    def ground_height(self, x: F64, y: F64) -> object:
-        """Height (m) of the surface a foot stands on."""
         ...
 
 
 def _array(name: str, value: object, shape: tuple[int, ...], dtype: type = np.float64) -> NDArray:
     """Returns ``value`` as a read-only array of ``shape``; raises ValueError naming the field otherwise."""
     try:
-        a = np.array(value, dtype=dtype)
+        a: NDArray = np.array(value, dtype=dtype)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{name}: not a numeric array of shape {shape} ({e})") from None
     if a.shape != shape:
@@ -117,8 +115,14 @@ class WalkState:
         return float(feet_z[self.contact].mean() if self.contact.any() else feet_z.min())
 
 
-def standing_state(robot: StepRobot, *, t: float = 0.0, yaw: float = 0.0, v_xy: tuple[float, float] = (0.0, 0.0),
-                   xy: tuple[float, float] = (0.0, 0.0)) -> WalkState:
+def standing_state(
+    robot: StepRobot,
+    *,
+    t: float = 0.0,
+    yaw: float = 0.0,
+    v_xy: tuple[float, float] = (0.0, 0.0),
+    xy: tuple[float, float] = (0.0, 0.0),
+) -> WalkState:
     """Returns a WalkState of the robot standing at its nominal stance on flat ground (z=0)."""
     c, s = math.cos(yaw), math.sin(yaw)
     R = np.array([[c, -s], [s, c]])
@@ -216,7 +220,11 @@ class StepPath:
 
     def __post_init__(self) -> None:
         k = self.leg.shape[0]
-        if self.t_touchdown.shape != (k,) or self.t_liftoff.shape != (k,) or self.p_world_touchdown.shape != (k, 3):
+        if (
+            self.t_touchdown.shape != (k,)
+            or self.t_liftoff.shape != (k,)
+            or self.p_world_touchdown.shape != (k, 3)
+        ):
             raise ValueError(f"StepPath: inconsistent shapes for {k} touchdowns")
         first = np.full(N_LEGS, -1, dtype=np.int64)
         for i in range(k - 1, -1, -1):

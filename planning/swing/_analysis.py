@@ -29,6 +29,22 @@ class OtherLeg:
     leg: int
     foot_center: np.ndarray  # (K,3) or (1,3) world, m
     shank: np.ndarray  # (3,) knee − foot center, world, m
+    xy_box: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # x/y extent of the lower leg, m
+
+    def __post_init__(self) -> None:
+        fc = self.foot_center
+        sx, sy = float(self.shank[0]), float(self.shank[1])
+        if len(fc) == 1:
+            x, y = float(fc[0, 0]), float(fc[0, 1])
+            self.xy_box = (min(x, x + sx), max(x, x + sx), min(y, y + sy), max(y, y + sy))
+        else:
+            lo, hi = fc.min(axis=0), fc.max(axis=0)
+            self.xy_box = (
+                float(lo[0]) + min(sx, 0.0),
+                float(hi[0]) + max(sx, 0.0),
+                float(lo[1]) + min(sy, 0.0),
+                float(hi[1]) + max(sy, 0.0),
+            )
 
 
 @dataclass(slots=True)
@@ -53,6 +69,7 @@ class LegProblem:
     previous_policy: str | None
     u_z_aggressive: float  # vertical undesirability of the most aggressive policy, added to every candidate
     z_ref: float  # lift-off height of this swing, m: vertical tops are measured from max(z_ref, touchdown z)
+    g_knee_max: float | None = None  # highest ground probed around the hips (filled on first use), m
 
 
 @dataclass(slots=True)
@@ -72,6 +89,15 @@ class Verdict:
     )  # (K,) ground is an obstacle
     ring_g: np.ndarray | None = None  # (K,R) highest obstacle ground on each probe ring (−inf: none)
     foot_self_sev: float = 0.0
+    near_others: list[OtherLeg] = field(default_factory=list)  # other legs close enough to matter
+    knee_idx: np.ndarray = field(
+        default_factory=lambda: np.zeros(0, dtype=int)
+    )  # samples where knees are checked
+    knee_terrain: bool = False  # knees may reach the terrain here
+    knee_sev: tuple[float, float] = (
+        0.0,
+        0.0,
+    )  # knee-terrain and knee-self intrusions with the aggressive policy
 
 
 def undesirability_h(hp: HPath, params: SwingParams) -> float:
@@ -140,8 +166,8 @@ class Analyzer:
         """Ground under the samples and which samples are over an obstacle (above the reference surface)."""
         if prob.flat_height is not None:
             g = np.full(len(xw), prob.flat_height)
-        else:
-            g = np.asarray(prob.ground(xw, yw), dtype=float)
+            return g, g  # flat ground is never an obstacle
+        g = np.asarray(prob.ground(xw, yw), dtype=float)
         p0, p1 = prob.p_start, prob.p_target
         d = p1[:2] - p0[:2]
         dd = float(d @ d)
@@ -180,9 +206,12 @@ class Analyzer:
         v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g)
         zs = prob.zs_aggressive
         pen, scrape, h_margin = self.terrain_scores(v, zs)
-        foot_sev, blame, near = self._foot_self(prob, xw, yw, zs)
+        v.near_others = self._near_others(prob, xw, yw)
+        foot_sev, blame, near = self._foot_self(v.near_others, xw, yw, zs)
         v.foot_self_sev = foot_sev
-        knee_terrain, knee_self, knee_blame = self._knees(prob, xw, yw, zs, g, near)
+        v.knee_idx, v.knee_terrain = self._knee_samples(prob, g, near)
+        knee_terrain, knee_self, knee_blame = self._knees(prob, v.near_others, v, zs)
+        v.knee_sev = (knee_terrain, knee_self)
 
         bucket = pr.severity_bucket_m
         reach = reaches(hp, c, pr)
@@ -223,16 +252,28 @@ class Analyzer:
             h_margin = 0.0
         return pen, scrape, h_margin
 
+    def _near_others(self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray) -> list[OtherLeg]:
+        """Other legs whose lower leg comes within the knee-check radius of the path's x/y extent."""
+        if not prob.others:
+            return []
+        r = max(self.params.knee_check_radius_m, self.params.keepout_radius_m)
+        x0, x1, y0, y1 = float(xw.min()) - r, float(xw.max()) + r, float(yw.min()) - r, float(yw.max()) + r
+        return [
+            o
+            for o in prob.others
+            if o.xy_box[0] <= x1 and o.xy_box[1] >= x0 and o.xy_box[2] <= y1 and o.xy_box[3] >= y0
+        ]
+
     def _foot_self(
-        self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray, zs: np.ndarray
+        self, others: list[OtherLeg], xw: np.ndarray, yw: np.ndarray, zs: np.ndarray
     ) -> tuple[float, int | None, np.ndarray]:
         """Worst foot-to-other-leg intrusion (m), the leg intruded on, and samples near any other leg."""
         near = np.zeros(len(xw), dtype=bool)
-        if not prob.others:
+        if not others:
             return 0.0, None, near
         p = np.column_stack((xw, yw, zs + self.r_foot))
         worst, blame = 0.0, None
-        for o in prob.others:
+        for o in others:
             d, _ = _point_segment(p, o.foot_center, o.shank)
             sev = float(self.params.keepout_radius_m - d.min())
             if sev > worst:
@@ -240,39 +281,47 @@ class Analyzer:
             near |= d < self.params.knee_check_radius_m
         return worst, blame, near
 
+    def _knee_samples(self, prob: LegProblem, g: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, bool]:
+        """Sample indices at which to compute knees, and whether knees can reach the terrain at all.
+
+        Knees lie within knee_reach of the hips: when the hips stand higher than that above every ground height
+        probed (under the path, under the hips and knee_reach fore and aft of them), no knee touches terrain;
+        knees are then computed only where the foot comes near another leg.
+        """
+        pr = self.params
+        if prob.g_knee_max is None:
+            if prob.flat_height is not None:
+                prob.g_knee_max = prob.flat_height
+            else:
+                r = self.knee_reach
+                dx, dy = r * prob.cos_yaw, r * prob.sin_yaw
+                hx, hy = prob.hips[:, 0], prob.hips[:, 1]
+                px = np.concatenate((hx, hx + dx, hx - dx))
+                py = np.concatenate((hy, hy + dy, hy - dy))
+                prob.g_knee_max = float(np.max(prob.ground(px, py)))
+        g_max = max(prob.g_knee_max, float(g.max()))
+        terrain = float(prob.hips[:, 2].min()) - self.knee_reach - g_max < pr.knee_radius_m
+        K = len(near)
+        idx = np.unique(np.linspace(1, K - 2, pr.knee_samples).round().astype(int))
+        if not terrain:
+            idx = idx[near[idx]]
+        return idx, terrain
+
     def _knees(
         self,
         prob: LegProblem,
-        xw: np.ndarray,
-        yw: np.ndarray,
+        others: list[OtherLeg],
+        v: Verdict,
         zs: np.ndarray,
-        g: np.ndarray,
-        near: np.ndarray,
     ) -> tuple[float, float, int | None]:
-        """Knee-terrain and knee-to-other-leg intrusions (m) at a few samples, through the leg IK.
-
-        Skipped when a bound shows no knee can reach the terrain and the foot comes near no other leg.
-        """
+        """Knee-terrain and knee-to-other-leg intrusions (m) at v's knee samples, through the leg IK."""
         pr = self.params
-        hips_z_min = float(prob.hips[:, 2].min())
-        if prob.flat_height is not None:
-            g_max = prob.flat_height
-        else:
-            g_hips = np.asarray(prob.ground(prob.hips[:, 0], prob.hips[:, 1]), dtype=float)
-            g_max = float(max(g.max(), g_hips.max()))
-        terrain_needed = hips_z_min - self.knee_reach - g_max < pr.knee_radius_m
-        if not terrain_needed and not near.any():
+        if len(v.knee_idx) == 0:
             return 0.0, 0.0, None
-        K = len(xw)
-        idx = np.unique(np.linspace(1, K - 2, pr.knee_samples).round().astype(int))
-        if not terrain_needed:
-            idx = idx[near[idx]]
-            if len(idx) == 0:
-                return 0.0, 0.0, None
         knees, kept = [], []
-        for k in idx:
+        for k in v.knee_idx:
             p_w, R = prob.body.pose_at(float(prob.ts[k]))
-            foot_c = np.array([xw[k], yw[k], zs[k] + self.r_foot])
+            foot_c = np.array([v.xw[k], v.yw[k], zs[k] + self.r_foot])
             try:
                 q = self.robot.ik_leg(prob.leg, R.T @ (foot_c - p_w))
             except ReachError:
@@ -283,7 +332,7 @@ class Analyzer:
             return 0.0, 0.0, None
         kn = np.array(knees)
         kt = 0.0
-        if terrain_needed:
+        if v.knee_terrain:
             gk = (
                 np.full(len(kn), prob.flat_height)
                 if prob.flat_height is not None
@@ -291,7 +340,7 @@ class Analyzer:
             )
             kt = max(0.0, float(pr.knee_radius_m - (kn[:, 2] - gk).min()))
         ks, blame = 0.0, None
-        for o in prob.others:
+        for o in others:
             fc = o.foot_center if len(o.foot_center) == 1 else o.foot_center[kept]
             d, _ = _point_segment(kn, fc, o.shank)
             sev = float(pr.knee_keepout_m - d.min())
@@ -301,12 +350,17 @@ class Analyzer:
 
     # ---- vertical policy check ----------------------------------------------------------------------------
     def vertical_ok(self, prob: LegProblem, v: Verdict, zs: np.ndarray) -> bool:
-        """True when a vertical trajectory sampled at zs keeps the required margins along the chosen path."""
+        """True when a vertical trajectory sampled at zs keeps the required margins along the chosen path (and
+        its knees and foot come no closer to terrain and other legs than with the most aggressive policy)."""
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         if pen > self.params.penetration_tol_m or scrape or h_margin < self.params.cliff_margin_m:
             return False
-        if prob.others:
-            sev, _, _ = self._foot_self(prob, v.xw, v.yw, zs)
+        if v.near_others:
+            sev, _, _ = self._foot_self(v.near_others, v.xw, v.yw, zs)
             if sev > v.foot_self_sev + 1e-9:
+                return False
+        if len(v.knee_idx):
+            kt, ks, _ = self._knees(prob, v.near_others, v, zs)
+            if kt > v.knee_sev[0] + 1e-9 or ks > v.knee_sev[1] + 1e-9:
                 return False
         return True

@@ -61,7 +61,7 @@ class SwingParams:
     cliff_margin_m: float = 0.03  # horizontal margin to terrain above the foot; less is Cliff Scraping
     cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.03)  # radii probed for the horizontal margin
     samples: int = 20  # time samples of a candidate trajectory in the detailed analysis
-    knee_samples: int = 4  # interior samples at which knees are computed through the leg IK (when needed)
+    knee_samples: int = 6  # interior samples at which knees are computed through the leg IK (when needed)
     knee_radius_m: float = 0.04  # knee-to-terrain margin
     knee_check_radius_m: float = 0.20  # knees are checked against a leg only when the foot comes this close
 

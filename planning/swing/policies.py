@@ -321,10 +321,10 @@ def wiggle(c: LegCtx) -> HPath | None:
     vel.append((0.0, 0.0))
     axes = []
     for i in (0, 1):
-        b = Builder(c.t0, pts[0][i], c.v0[i])
+        bld = Builder(c.t0, pts[0][i], c.v0[i])
         for k in range(1, len(pts)):
-            b.cubic(times[k] - times[k - 1], pts[k][i], vel[k][i])
-        axes.append(b.finish(pts[-1][i], 0.0))
+            bld.cubic(times[k] - times[k - 1], pts[k][i], vel[k][i])
+        axes.append(bld.finish(pts[-1][i], 0.0))
     return _path("Wiggle", axes[0], axes[1], c.t_end, c.t_end)
 
 

@@ -94,10 +94,9 @@ class TerrainMaps:
     def cell_centers(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Gives world x (nx,) and y (ny,) of the cell centers (m)."""
         nx, ny = self.shape
-        return (
-            self.origin_xy[0] + np.arange(nx) * self.resolution_m,
-            self.origin_xy[1] + np.arange(ny) * self.resolution_m,
-        )
+        xs = self.origin_xy[0] + np.arange(nx, dtype=np.float64) * self.resolution_m
+        ys = self.origin_xy[1] + np.arange(ny, dtype=np.float64) * self.resolution_m
+        return xs.astype(np.float64), ys.astype(np.float64)
 
     def in_map(self, x: ArrayLike, y: ArrayLike) -> Any:
         """Gives whether world (x, y) lies on the map."""
@@ -261,8 +260,10 @@ def build_maps(
         _count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0
     )
     # A wall rising right beside a cell (higher than the body can pass over) blocks the body there.
-    h_wall = ndimage.maximum_filter(h, footprint=_disk(p.wall_radius_m / res), mode="nearest")
-    body |= h_wall - h > p.body_step_m
+    # The same on the top side: the rim of something tall (a rail or box seen from above with nothing seen under it).
+    wall_fp = _disk(p.wall_radius_m / res)
+    body |= ndimage.maximum_filter(h, footprint=wall_fp, mode="nearest") - h > p.body_step_m
+    body |= h - ndimage.minimum_filter(h, footprint=wall_fp, mode="nearest") > p.body_step_m
     body = _remove_specks(body, p.speck_cells)
     if p.close_cells > 0 and body.any():
         st = _disk(p.close_cells)

@@ -149,8 +149,8 @@ class DepthSensor:
             sigma = p.noise_m + p.noise_per_m * r
             r = r + sigma * self._rng.standard_normal(r.shape[0])
             if p.outlier_fraction > 0:
-                bad = self._rng.random(r.shape[0]) < p.outlier_fraction
-                r[bad] += self._rng.uniform(-p.outlier_m, p.outlier_m, int(bad.sum()))
+                bad = np.asarray(self._rng.random(r.shape[0]) < p.outlier_fraction)
+                r[bad] += self._rng.uniform(-p.outlier_m, p.outlier_m, int(np.count_nonzero(bad)))
             r = np.maximum(r, 0.0)
             points.append(origin + vec[hit] * r[:, None])
             origins.append(np.broadcast_to(origin, (r.shape[0], 3)))

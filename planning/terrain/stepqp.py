@@ -90,12 +90,12 @@ class StepQPParams:
     cop_margin_m: float = 0.0
     balance_lateral_m: float = 0.04
     balance_margin_m: float = 0.05
-    keep_planes: int = 3
+    keep_planes: int = 4
     keep_clearance_m: float = 0.01
-    max_retargets: int = 2
+    max_retargets: int = 4
     reach_search_m: float = 0.5
     reuse_radius_m: float = 0.05
-    max_rounds: int = 6
+    max_rounds: int = 10
     softened_tol_m: float = 2e-3
     w_slack_quadratic: float = 100.0
     rho: float = 0.1
@@ -263,9 +263,7 @@ class StepQP:
         self._keep_planes: list[list[tuple[NDArray[np.float64], float]]] = [[] for _ in range(K)]
         self._x_prev: NDArray[np.float64] | None = None
         self._prev_maps: TerrainMaps | None = None
-        self._prev_slots: list[
-            tuple[int, NDArray[np.float64], list[tuple[NDArray[np.float64], float]], bool]
-        ] = []
+        self._prev_slots: list[tuple[int, NDArray[np.float64], list[tuple[NDArray[np.float64], float]]]] = []
         # Placeholder values so the pattern survives setup; real values come with the first update.
         self.A.data[:] = 1.0
         self.solver = osqp.OSQP()

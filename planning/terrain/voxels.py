@@ -210,7 +210,12 @@ class VoxelMap:
         h1 = np.where(thin, np.take_along_axis(self.hits, k1, 0)[0], 0.0)
         z1s = np.where(thin, np.take_along_axis(self.sum_z, k1, 0)[0], 0.0)
         ground_z = np.where(has_ground, (z0s + z1s) / np.maximum(h0 + h1, 1e-12), np.nan).astype(np.float64)
-        return ground_z, k_ground, has_ground, thin
+        return (
+            ground_z,
+            k_ground.astype(np.intp),
+            np.asarray(has_ground, dtype=bool),
+            np.asarray(thin, dtype=bool),
+        )
 
     def labels(self) -> NDArray[np.uint8]:
         """Gives every voxel's class, (nx, ny, nz): 0 free or unknown, GROUND, OBSTACLE, OTHER (for views, tests)."""

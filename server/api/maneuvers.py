@@ -89,7 +89,7 @@ async def validate_maneuver_body(request: Request, services: ServicesDep) -> dic
             if e.status != 422:
                 raise
             return {"ok": False, "warnings": [], "failures": e.errors}
-        result = validate(maneuver, services)
+        result = validate(maneuver, services, body.lines)
         return {
             "ok": bool(result.ok),
             "warnings": problems_to_fields(list(result.warnings)),
@@ -181,7 +181,7 @@ async def put_maneuver(
         maneuver = to_maneuver(body.data, body.lines, services.settings)
         if maneuver.name != name:
             raise field_error(422, "name", f"must match the URL ({name!r}), got {maneuver.name!r}")
-        result = require_valid(maneuver, services)
+        result = require_valid(maneuver, services, body.lines)
         stored, created = services.store.save(
             name, maneuver_text(body, maneuver), if_match=if_match, if_none_match=if_none_match
         )

@@ -7,7 +7,15 @@ from functools import lru_cache
 import numpy as np
 
 from planning.robot import RobotModel, load_robot
-from planning.steps import GaitClock, SteeringCommand, StepPath, WalkState, get_gait, reference_step_path, standing_state
+from planning.steps import (
+    GaitClock,
+    SteeringCommand,
+    StepPath,
+    WalkState,
+    get_gait,
+    reference_step_path,
+    standing_state,
+)
 
 
 @lru_cache(maxsize=2)
@@ -16,8 +24,11 @@ def robot(name: str = "spot") -> RobotModel:
 
 
 def walking_reference(
-    gait: str = "trot", v: tuple[float, float, float] = (0.5, 0.0, 0.0), v_state: tuple[float, float] | None = None,
-    t0: float = 0.0, name: str = "spot",
+    gait: str = "trot",
+    v: tuple[float, float, float] = (0.5, 0.0, 0.0),
+    v_state: tuple[float, float] | None = None,
+    t0: float = 0.0,
+    name: str = "spot",
 ) -> tuple[StepPath, WalkState, GaitClock]:
     """Returns a reference path for a robot standing at its nominal stance moving at v_state (default the command)."""
     r = robot(name)

@@ -49,8 +49,9 @@ def _integrate(x0, v0, cop, t_end, omega):
     def f(t, s):
         return np.concatenate([s[2:], omega**2 * (s[:2] - cop(t))])
 
-    sol = solve_ivp(f, (0.0, t_end), np.concatenate([x0, v0]), method="DOP853", rtol=1e-10, atol=1e-12,
-                    max_step=0.01)
+    sol = solve_ivp(
+        f, (0.0, t_end), np.concatenate([x0, v0]), method="DOP853", rtol=1e-10, atol=1e-12, max_step=0.01
+    )
     return sol.y[:2, -1], sol.y[2:, -1]
 
 
@@ -132,7 +133,11 @@ feet_st = st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1)), min_size=4, ma
 
 
 @settings(max_examples=60, deadline=None)
-@given(feet=feet_st, mask=st.lists(st.booleans(), min_size=4, max_size=4), q=st.tuples(st.floats(-2, 2), st.floats(-2, 2)))
+@given(
+    feet=feet_st,
+    mask=st.lists(st.booleans(), min_size=4, max_size=4),
+    q=st.tuples(st.floats(-2, 2), st.floats(-2, 2)),
+)
 def test_projection_onto_the_support_polygon(feet, mask, q) -> None:
     f = np.array(feet)[None]
     m = np.array(mask)[None]

@@ -77,3 +77,6 @@ def test_stop_comes_to_a_stand_and_a_push_makes_it_step() -> None:
     # A shove sideways while standing: the capture point leaves the support polygon, so it steps.
     sim.tick(planner, SteeringCommand(), v_extra=(0.0, 1.2))
     assert planner.clock.gait.name == "trot" and planner.last.path.n_touchdowns > 0
+    for _ in range(100):  # the shove is over: once settled, it stands again
+        sim.tick(planner, SteeringCommand())
+    assert planner.clock.gait.is_stand

@@ -87,3 +87,20 @@ def test_standing_returns_the_reference_alone_and_n_is_checked() -> None:
     assert potential_step_paths(ref, state, robot()) == [ref]
     with pytest.raises(ValueError, match="n"):
         potential_step_paths(ref, state, robot(), n=1)
+
+
+def test_works_with_terrain_maps_no_step_and_heights() -> None:
+    from planning.terrain.maps import maps_from_grids
+
+    res = 0.02
+    xs = -1.0 + np.arange(150) * res
+    ground = np.where(xs[:, None] > 0.7, 0.1, 0.0) * np.ones((1, 100))  # a 10 cm step up at x = 0.7
+    gap = (np.abs(xs - 0.45) < 0.07)[:, None] * np.ones((1, 100), bool)  # a gap a foot must not enter
+    maps = maps_from_grids((-1.0, -1.0), res, ground, gap)
+    ref, state, _ = walking_reference("trot", (0.5, 0.0, 0.0))
+    paths = potential_step_paths(ref, state, robot(), maps=maps, n=25)
+    assert len(paths) >= 2 and all(p.violation == 0.0 for p in paths)
+    for p in paths:
+        x, z = p.p_world_touchdown[:, 0], p.p_world_touchdown[:, 2]
+        assert not np.any(np.asarray(maps.no_step(x, p.p_world_touchdown[:, 1])))
+        assert np.allclose(z, np.where(x > 0.71, 0.1, np.where(x < 0.69, 0.0, z)))

@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 from _steps_common import StripMaps, robot, walking_reference
 
-from planning.steps import GAITS, GaitClock, SteeringCommand, WalkState, lip_omega, reference_step_path, standing_state
+from planning.steps import (
+    GAITS,
+    GaitClock,
+    SteeringCommand,
+    WalkState,
+    lip_omega,
+    reference_step_path,
+    standing_state,
+)
 
 
 @pytest.mark.parametrize("gait", ["trot", "walk", "pace", "bound"])
@@ -56,14 +64,23 @@ def test_heights_come_from_the_terrain_when_known() -> None:
     r = robot()
     state = standing_state(r)
     maps = StripMaps(x0=9.0, half_width_m=0.1, z_m=0.07)
-    ref = reference_step_path(SteeringCommand(0.3, 0, 0), state, r, GAITS["trot"], GaitClock("trot"), 0.0,
-                              ground_height=maps.ground_height)
+    ref = reference_step_path(
+        SteeringCommand(0.3, 0, 0),
+        state,
+        r,
+        GAITS["trot"],
+        GaitClock("trot"),
+        0.0,
+        ground_height=maps.ground_height,
+    )
     assert np.allclose(ref.p_world_touchdown[:, 2], 0.07)
 
 
 def test_standing_has_no_touchdowns() -> None:
     r = robot()
-    ref = reference_step_path(SteeringCommand(), standing_state(r), r, GAITS["stand"], GaitClock("stand"), 0.0)
+    ref = reference_step_path(
+        SteeringCommand(), standing_state(r), r, GAITS["stand"], GaitClock("stand"), 0.0
+    )
     assert ref.n_touchdowns == 0
 
 

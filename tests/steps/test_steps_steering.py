@@ -37,7 +37,9 @@ def test_acceleration_is_limited_and_the_target_is_reached() -> None:
 
 
 def test_a_stand_allows_no_motion() -> None:
-    f = SteeringFilter(SteeringParams(tau_s=0.0, max_accel_x_mps2=100, max_accel_y_mps2=100, max_yaw_accel_rps2=100))
+    f = SteeringFilter(
+        SteeringParams(tau_s=0.0, max_accel_x_mps2=100, max_accel_y_mps2=100, max_yaw_accel_rps2=100)
+    )
     c = f.update(SteeringCommand(1.0, 0.5, 0.5), 0.1, GAITS["stand"])
     assert c.is_zero
 

@@ -22,7 +22,7 @@ def test_to_rest_arrives_at_rest_within_limits(p, v, p1):
     b = Builder(0.0, p, v)
     t = to_rest(b, p1, V, A)
     poly = b.finish()
-    assert abs(t - rest_time(p, v, p1, V, A)) < 1e-12
+    assert abs(t - rest_time(p, v, p1, V, A)) < 1e-9
     assert poly.state(0.0)[:2] == (p, v)
     pe, ve, _ = poly.state(t - 1e-9)
     assert abs(pe - p1) < 1e-6 and abs(ve) < 1e-6

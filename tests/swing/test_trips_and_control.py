@@ -50,8 +50,8 @@ def test_recent_normal_trip_elevates_then_it_expires(planner):
     assert not plan.horizontal_policy.startswith("Trip:")
     assert plan.vertical_policy == "Aggressive"  # recent normal trip: elevate the foot
     # Keep replanning until the trip is no longer recent: the foot goes back to the gentlest vertical.
-    for t in np.arange(t + 0.003, t_trip + P.recent_trip_s + 0.01, 0.003):
-        plan = planner.plan(t, [_req(t_td=0.9)], flat_ground, STANCE, standing_body(t))[0]
+    for tk in np.arange(t + 0.003, t_trip + P.recent_trip_s + 0.01, 0.003):
+        plan = planner.plan(tk, [_req(t_td=0.9)], flat_ground, STANCE, standing_body(tk))[0]
     assert plan.vertical_policy.startswith("Gentle")
 
 

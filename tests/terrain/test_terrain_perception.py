@@ -1,0 +1,120 @@
+"""Perception: the sensor ignores the robot, the voxel map sees known cells, bench numbers come out."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from planning.terrain.bench import bench_perception
+from planning.terrain.maps import maps_from_scene
+from planning.terrain.perception import Perception
+from planning.terrain.scenes import build_terrain
+from planning.terrain.sensor import DepthSensor
+from planning.terrain.voxels import GROUND, OBSTACLE
+
+STAND_IN = (
+    '<body name="robot" pos="0 0 0.52"><freejoint/>'
+    '<geom name="robot_body" type="box" size="0.45 0.13 0.08" mass="32" group="3"/></body>'
+)
+SPOT = Path(__file__).resolve().parents[2] / "planning" / "robot" / "assets" / "spot.xml"
+
+
+def scanned(name: str, xs: list[float], seed: int = 0):
+    scene = build_terrain(name, seed=seed)
+    model = mujoco.MjModel.from_xml_string(scene.mjcf(STAND_IN))
+    data = mujoco.MjData(model)
+    perception = Perception(model, "robot")
+    for x in xs:
+        for _ in range(2):
+            data.qpos[0] = x
+            data.qpos[2] = 0.52 + float(scene.ground_height(x, 0.0))
+            mujoco.mj_kinematics(model, data)
+            maps = perception.scan_now(data)
+    return scene, perception, maps
+
+
+def test_flat_ground_is_seen_at_its_height() -> None:
+    _, perception, maps = scanned("flat", [0.0])
+    assert perception.last_cloud is not None and perception.last_cloud.size > 5000
+    assert maps.observed.mean() > 0.25
+    err = np.abs(maps.ground_height[maps.observed])
+    assert np.percentile(err, 95) < 0.01
+    assert not maps.step_obstacle.any() and not maps.body_obstacle.any()
+
+
+def test_table_top_is_not_ground_and_legs_are_seen() -> None:
+    scene, perception, maps = scanned("under-table", [1.0, 1.4])
+    p = scene.params
+    xs, ys = maps.cell_centers()
+    under = (np.abs(xs[:, None] - p.x_center_m) < p.length_m / 2 - 0.1) & (np.abs(ys[None, :]) < 0.3)
+    seen = under & maps.observed
+    assert seen.sum() > 50
+    assert np.all(np.abs(maps.ground_height[seen]) < 0.03)  # the floor, not the top at 0.6 m
+    assert not maps.body_obstacle[under].any()
+    leg_x = p.x_center_m - p.length_m / 2 + p.leg_m / 2
+    leg_y = p.width_m / 2 - p.leg_m / 2
+    near_leg = (np.abs(xs[:, None] - leg_x) < 0.06) & (np.abs(np.abs(ys[None, :]) - leg_y) < 0.06)
+    assert maps.body_obstacle[near_leg].any() and maps.step_obstacle[near_leg].any()
+    labels = perception.voxels.labels()
+    assert (labels == GROUND).sum() > 1000 and (labels == OBSTACLE).sum() > 20
+
+
+def test_stairs_rails_are_body_obstacles_in_perceived_maps() -> None:
+    # The cameras look down: a railing above the body is seen once the robot is on the stairs beside it.
+    scene, _, maps = scanned("stairs", [1.2, 1.5, 1.8])
+    truth = maps_from_scene(scene, center_xy=(1.8, 0.0))
+    p = scene.params
+    xs, ys = maps.cell_centers()
+    band = np.abs(np.abs(ys) - (p.width_m / 2 + p.rail_offset_m + 0.02)) < 0.06
+    along = (xs > 1.4) & (xs < 2.2)
+    for side in (ys > 0, ys < 0):
+        # Along its length, each side's railing shows in the body map (per x, some cell of its band).
+        assert maps.body_obstacle[np.ix_(along, band & side)].any(axis=1).mean() > 0.8
+    tread = (np.abs(xs[:, None] - (p.x_start_m + 1.5 * p.tread_m)) < 0.06) & (np.abs(ys[None, :]) < 0.3)
+    assert np.all(np.abs(maps.ground_height[tread & maps.observed] - 2 * p.riser_m) < 0.02)
+    both = maps.observed & truth.observed
+    # Perception finds a good share of the true no-step cells (it sees less of the rail zone than the truth has),
+    # adds few of its own, and does not forbid tread middles.
+    assert (maps.step_obstacle & truth.step_obstacle & both).sum() > 0.4 * (truth.step_obstacle & both).sum()
+    assert (maps.step_obstacle & ~truth.step_obstacle & both).sum() < 0.05 * both.sum()
+    assert not maps.step_obstacle[tread & maps.observed].any()
+
+
+def _spot_with(scene_name: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    scene = build_terrain(scene_name)
+    xml = SPOT.read_text()
+    xml = xml.replace("<worldbody>", "<worldbody>\n" + scene.worldbody_xml, 1)
+    xml = xml.replace("</mujoco>", f"<asset>{scene.asset_xml}</asset>\n</mujoco>", 1)
+    model = mujoco.MjModel.from_xml_string(xml)
+    return model, mujoco.MjData(model)
+
+
+@pytest.mark.skipif(not SPOT.exists(), reason="robot model not there yet")
+def test_sensor_never_returns_robot_points() -> None:
+    model, data = _spot_with("clutter")
+    mujoco.mj_forward(model, data)
+    sensor = DepthSensor(model, "trunk")
+    cloud = sensor.scan(data)
+    assert cloud.size > 3000
+    # The robot's geoms: no point lies on or inside them.
+    root = model.body_rootid[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "trunk")]
+    robot_geoms = np.flatnonzero(model.body_rootid[model.geom_bodyid] == root)
+    for g in robot_geoms:
+        c = data.geom_xpos[g]
+        r = float(model.geom_rbound[g])
+        d = np.linalg.norm(cloud.p_world_points - c, axis=1)
+        assert np.sum(d < 0.5 * r) == 0
+
+
+def test_unknown_sensor_body_is_named() -> None:
+    model = mujoco.MjModel.from_xml_string(build_terrain("flat").mjcf(STAND_IN))
+    with pytest.raises(ValueError, match="nobody"):
+        DepthSensor(model, "nobody")
+
+
+def test_bench_perception_reports_points() -> None:
+    out = bench_perception(n=3)
+    assert out["points"] > 5000 and out["p50_ms"] > 0 and out["p99_ms"] >= out["p50_ms"]
