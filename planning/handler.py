@@ -55,6 +55,7 @@ class HandlerParams:
     stance_damping: float = 0.5  # N·m·s/rad on stance legs
     early_touchdown_fraction: float = 0.5  # a contact after this fraction of the swing counts as a touchdown
     max_liftoff_delay_s: float = 0.12  # a liftoff waits at most this long for a late foot to land
+    min_stance_s: float = 0.08  # a foot that just landed stays down at least this long
     mu: float = 0.6
 
 
@@ -73,6 +74,7 @@ class Handler:
         self.stance = np.ones(4, dtype=bool)
         self.t_liftoff = np.zeros(4)
         self.t_touchdown = np.zeros(4)
+        self.t_landed = np.full(4, -np.inf)
         self.p_touchdown = np.zeros((4, 3))
         self.p_contact = np.zeros((4, 3))  # where each stance foot stands (contact point)
         self.plans: dict[int, SwingPlan] = {}
@@ -96,13 +98,17 @@ class Handler:
             ph = self.phase[leg]
             sw = plan.swing_at(leg, t)
             if ph == Phase.STANCE:
-                if sw is not None and t < sw.t_touchdown:
+                if sw is not None and t < sw.t_touchdown and t - self.t_landed[leg] >= self.params.min_stance_s:
                     # measured state wins: while another foot is late, lifting this one would leave the body
                     # on fewer feet than planned; wait for the late foot (briefly)
                     late = bool(np.any(self.phase == Phase.LATE))
                     if not late or t - sw.t_liftoff > self.params.max_liftoff_delay_s:
                         self._lift(leg, sw, s)
             elif ph == Phase.SWING:
+                if sw is not None and leg not in self.touchdown_overrides:
+                    # the plan may move a touchdown while the foot is in the air (step replanning)
+                    self.t_touchdown[leg] = sw.t_touchdown
+                    self.p_touchdown[leg] = sw.p_touchdown
                 frac = (t - self.t_liftoff[leg]) / max(self.t_touchdown[leg] - self.t_liftoff[leg], 1e-3)
                 if s.contact[leg] and frac >= self.params.early_touchdown_fraction:
                     self._land(leg, s)
@@ -124,6 +130,7 @@ class Handler:
 
     def _land(self, leg: int, s: RobotState) -> None:
         self.phase[leg] = Phase.STANCE
+        self.t_landed[leg] = s.t
         self.p_contact[leg] = s.p_world_foot[leg]
         self.p_contact[leg, 2] -= self.robot.foot_radius_m
         self.plans.pop(leg, None)

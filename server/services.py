@@ -16,7 +16,7 @@ from server.errors import ApiError
 from server.sessions import SessionManager
 from server.settings import Settings
 from server.simulations import SimulationPool
-from server.storage import ManeuverStore, NotFound, dump_yaml, problems_to_fields
+from server.storage import ManeuverStore, StorageError, dump_yaml, problems_to_fields
 
 YAML_TYPES = ("application/yaml", "application/x-yaml", "text/yaml", "text/x-yaml", "text/plain")
 
@@ -147,8 +147,9 @@ def resolve_maneuver(ref: str | dict[str, Any], services: Services, field_name: 
     if isinstance(ref, str):
         try:
             stored = services.store.get(ref)
-        except NotFound as e:
-            raise ApiError(404, f"{field_name}: {e.message}", [{"field": field_name, "reason": e.message}]) from None
+        except StorageError as e:
+            reason = e.message.removeprefix("name: ")
+            raise ApiError(e.status, f"{field_name}: {reason}", [{"field": field_name, "reason": reason}]) from None
         data, lines = read_yaml(stored.text)
         maneuver = to_maneuver(data, lines, services.settings)
     else:

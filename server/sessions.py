@@ -361,8 +361,8 @@ class LiveSession:
         self.command = {"vx": vx, "vy": vy, "yaw_rate": yaw_rate, "gait": gait}
 
     def state(self) -> dict[str, Any]:
-        """Returns the latest published state (never waits for the physics)."""
-        return dict(self.snapshot.state)
+        """Returns the latest published state with the session's status as of now (never waits for the physics)."""
+        return {**self.snapshot.state, **self._meta(), "t": self.snapshot.state.get("t")}
 
     def plan(self) -> dict[str, Any]:
         """Returns the current plan overlays (briefly takes the lock: the arrays are live)."""

@@ -285,7 +285,7 @@ class Analyzer:
         """Sample indices at which to compute knees, and whether knees can reach the terrain at all.
 
         Knees lie within knee_reach of the hips: when the hips stand higher than that above every ground height
-        probed (under the path, under the hips and knee_reach fore and aft of them), no knee touches terrain;
+        probed (under the path, and on a grid up to knee_reach fore and aft of the hips), no knee touches terrain;
         knees are then computed only where the foot comes near another leg.
         """
         pr = self.params
@@ -293,11 +293,15 @@ class Analyzer:
             if prob.flat_height is not None:
                 prob.g_knee_max = prob.flat_height
             else:
-                r = self.knee_reach
-                dx, dy = r * prob.cos_yaw, r * prob.sin_yaw
-                hx, hy = prob.hips[:, 0], prob.hips[:, 1]
-                px = np.concatenate((hx, hx + dx, hx - dx))
-                py = np.concatenate((hy, hy + dy, hy - dy))
+                # A grid fore and aft of each hip, in line with the hip and with the foot (abduction offset).
+                c, sn = prob.cos_yaw, prob.sin_yaw
+                fore = np.linspace(-self.knee_reach, self.knee_reach, 17)  # every ~4 cm
+                side = np.array([0.0, float(self.robot.abd_offset[prob.leg])])
+                ox = (fore[:, None] * c - side[None, :] * sn).ravel()
+                oy = (fore[:, None] * sn + side[None, :] * c).ravel()
+                hips = prob.hips[[0, len(prob.hips) // 2, -1]]
+                px = (hips[:, 0:1] + ox).ravel()
+                py = (hips[:, 1:2] + oy).ravel()
                 prob.g_knee_max = float(np.max(prob.ground(px, py)))
         g_max = max(prob.g_knee_max, float(g.max()))
         terrain = float(prob.hips[:, 2].min()) - self.knee_reach - g_max < pr.knee_radius_m

@@ -155,8 +155,6 @@ _OCT_N = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi
 class StepQP:
     """The step QP, built once with a fixed sparsity pattern; `solve` updates it in place and warm-starts."""
 
-    ROWS_PER_SLOT = {"reach_rect": 4, "reach_oct": 8, "keep": 0, "self_coll": 2, "cop": 4, "balance": 4}
-
     def __init__(self, params: StepQPParams | None = None) -> None:
         self.params = p = params or StepQPParams()
         if len(p.weights) != len(FAMILIES):

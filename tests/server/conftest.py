@@ -8,9 +8,8 @@ from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
-from server_fakes import FakeSim, fake_runner
+from server_fakes import FakeSim, fake_runner, make_client
 
-from server.app import create_app
 from server.settings import Settings
 
 
@@ -23,12 +22,6 @@ def pytest_configure(config: pytest.Config) -> None:
 def settings(tmp_path: Path) -> Settings:
     return Settings(data_dir=tmp_path / "data", max_sessions=3, sim_workers=1, max_queued_simulations=4,
                     reaper_period_s=0.2)  # fmt: skip
-
-
-def make_client(settings: Settings, **kw: Any) -> Iterator[TestClient]:
-    app = create_app(settings, **kw)
-    with TestClient(app, raise_server_exceptions=False) as c:
-        yield c
 
 
 @pytest.fixture

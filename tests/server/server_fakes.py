@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from fastapi.testclient import TestClient
+
+from server.app import create_app
 from server.engine import SteeringUnavailable
+from server.settings import Settings
 
 
 class FakeSim:
@@ -100,3 +105,10 @@ def slow_runner(job: dict[str, Any]) -> dict[str, Any]:
 def files_in(d: Path) -> list[str]:
     """Returns the file names in a directory (hidden temporaries and the lock file included), sorted."""
     return sorted(p.name for p in d.iterdir()) if d.is_dir() else []
+
+
+def make_client(settings: Settings, **kw: Any) -> Iterator[TestClient]:
+    """Yields a TestClient of an app built with `settings` (lifespan run: reaper started, services closed)."""
+    app = create_app(settings, **kw)
+    with TestClient(app, raise_server_exceptions=False) as c:
+        yield c

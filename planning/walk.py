@@ -1,0 +1,196 @@
+"""Steering mode: velocity commands (or a goal) → capture-point step selection → the handler's contact plan.
+
+The step planner (capture-point-step-path seed) replans at its own rate (≥ 100 Hz); its selected path's next
+touchdowns become the handler's contact schedule and the swing legs' targets, so a push changes the next steps before
+the swing foot lands. The body reference follows the filtered command.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from planning.balance import BalanceController, BalanceParams, BodyTarget
+from planning.geometry import yaw_R
+from planning.handler import Handler, HandlerParams
+from planning.robot import RobotModel
+from planning.sim.loop import Stage
+from planning.sim.world import RobotState
+from planning.steps import SteeringCommand, StepPlanner, StepPlannerParams, WalkState
+from planning.steps.select import Selection
+
+
+@dataclass(frozen=True)
+class _PlannedSwing:
+    leg: int
+    t_liftoff: float
+    t_touchdown: float
+    p_touchdown: np.ndarray
+
+
+class StepPathPlan:
+    """The handler's contact plan from the step planner's latest selection."""
+
+    def __init__(self) -> None:
+        self.selection: Selection | None = None
+        self._t_td = np.full(4, np.nan)
+        self._p_td = np.full((4, 3), np.nan)
+        self._t_lo = np.full(4, np.inf)
+        self.reference_only = False
+
+    def update(self, sel: Selection) -> None:
+        self.selection = sel
+        self._t_td, self._p_td = sel.path.next_touchdowns()
+        self._t_lo = sel.path.t_liftoff_now
+
+    def swing_at(self, leg: int, t: float) -> _PlannedSwing | None:
+        t_td = self._t_td[leg]
+        if not np.isfinite(t_td):
+            return None
+        lo = self._t_lo[leg]
+        if np.isnan(lo):  # swinging now
+            return _PlannedSwing(leg, -np.inf, float(t_td), self._p_td[leg])
+        if t >= lo:
+            return _PlannedSwing(leg, float(lo), float(t_td), self._p_td[leg])
+        return None
+
+
+@dataclass(frozen=True)
+class WalkParams:
+    """Rates and gains of steering mode."""
+
+    step_rate_hz: float = 100.0  # step path replanning
+    balance_rate_hz: float = 500.0
+    swing_rate_hz: float = 1000.0 / 3.0
+    goal_gain: float = 0.8  # 1/s, goal distance → speed command
+    goal_speed_mps: float = 0.5  # speed cap when walking to a goal
+    goal_tolerance_m: float = 0.08  # stop within this of the goal
+    max_position_lead_m: float = 0.05  # the body target leads the body by at most this (m)
+    steps: StepPlannerParams = field(default_factory=StepPlannerParams)
+    balance: BalanceParams = field(default_factory=BalanceParams)
+    handler: HandlerParams = field(default_factory=HandlerParams)
+
+
+class WalkController:
+    """Steering-mode controller: step planning, handler, balance forces."""
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        params: WalkParams | None = None,
+        gait: str = "trot",
+        weights: str = "default",
+        reference_only: bool = False,
+    ) -> None:
+        self.robot = robot
+        self.params = p = params or WalkParams()
+        self.planner = StepPlanner(robot, p.steps, gait="stand", weights=weights)
+        self.planner.walk_gait = __import__("planning.steps.gait", fromlist=["get_gait"]).get_gait(gait)
+        self.gait = gait
+        self.reference_only = reference_only
+        self.plan = StepPathPlan()
+        self.handler = Handler(robot, params=p.handler)
+        self.balance = BalanceController(robot, p.balance)
+        self.command = SteeringCommand()
+        self.goal: np.ndarray | None = None
+        self.f_des = np.zeros((4, 3))
+        self.height = robot.standing_height_m
+        self.target = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
+        self._p_des: np.ndarray | None = None
+        self._yaw_des = 0.0
+        self._t_last = 0.0
+        self.stages = [
+            Stage("step_plan", p.step_rate_hz, self._step_plan),
+            Stage("balance", p.balance_rate_hz, self._balance),
+            Stage("swing", p.swing_rate_hz, self._swing),
+        ]
+
+    # ---- inputs -----------------------------------------------------------------------------------------------
+    def steer(self, vx: float, vy: float, yaw_rate: float) -> None:
+        """Sets the velocity command (m/s forward, m/s left, rad/s); the planner's filter limits and smooths it."""
+        self.command = SteeringCommand(vx, vy, yaw_rate)
+        self.goal = None
+
+    def set_goal(self, x: float, y: float) -> None:
+        self.goal = np.array([x, y], dtype=float)
+
+    def set_gait(self, gait: str) -> None:
+        self.gait = gait
+        self.planner.set_gait(gait)
+
+    def _goal_command(self, s: RobotState) -> SteeringCommand:
+        assert self.goal is not None
+        p = self.params
+        d_world = self.goal - s.p_world_body[:2]
+        dist = float(np.linalg.norm(d_world))
+        if dist < p.goal_tolerance_m:
+            return SteeringCommand()
+        yaw = s.yaw
+        c, sn = np.cos(yaw), np.sin(yaw)
+        d_body = np.array([c * d_world[0] + sn * d_world[1], -sn * d_world[0] + c * d_world[1]])
+        speed = min(p.goal_speed_mps, p.goal_gain * dist)
+        v = d_body / dist * speed
+        return SteeringCommand(float(v[0]), float(v[1]), 0.0)
+
+    # ---- stages -----------------------------------------------------------------------------------------------
+    def _walk_state(self, s: RobotState) -> WalkState:
+        feet = s.p_world_foot.copy()
+        feet[:, 2] -= self.robot.foot_radius_m
+        return WalkState(
+            s.p_world_com.copy(),
+            s.v_world_com.copy(),
+            s.yaw,
+            float(s.omega_world[2]),
+            feet,
+            self.handler.stance.copy(),
+            s.t,
+        )
+
+    def _step_plan(self, s: RobotState) -> None:
+        cmd = self._goal_command(s) if self.goal is not None else self.command
+        if self.planner.clock.gait.is_stand and self.planner._stopped is False and cmd == SteeringCommand():
+            pass
+        sel = self.planner.tick(cmd, self._walk_state(s))
+        if self.reference_only:
+            ref = sel.candidates[0]
+            sel = Selection(ref, 0.0, sel.scores, 0, sel.candidates, sel.xi_td, sel.xi_td_reference, True, 1)
+        self.plan.update(sel)
+
+    def _balance(self, s: RobotState) -> None:
+        self.handler.update_phases(s, self.plan)
+        self._update_target(s)
+        self.f_des[:] = self.balance.contact_forces(s, self.target, self.handler.stance)
+
+    def _update_target(self, s: RobotState) -> None:
+        dt = s.t - self._t_last
+        self._t_last = s.t
+        cmd = self.planner.steering.command
+        if self._p_des is None:
+            self._p_des = s.p_world_body.copy()
+            self._yaw_des = s.yaw
+        self._yaw_des += cmd.yaw_rate * dt
+        R = yaw_R(self._yaw_des)
+        v = R @ np.array([cmd.vx, cmd.vy, 0.0])
+        self._p_des += v * dt
+        # the target leads the body by a bounded amount: it tracks velocity, not an absolute path
+        lead = self._p_des[:2] - s.p_world_body[:2]
+        n = float(np.linalg.norm(lead))
+        if n > self.params.max_position_lead_m:
+            self._p_des[:2] = s.p_world_body[:2] + lead * (self.params.max_position_lead_m / n)
+        dyaw = (self._yaw_des - s.yaw + np.pi) % (2 * np.pi) - np.pi
+        if abs(dyaw) > 0.3:
+            self._yaw_des = s.yaw + np.sign(dyaw) * 0.3
+        ground = float(np.mean(self.handler.p_contact[:, 2]))
+        self._p_des[2] = ground + self.height
+        t = self.target
+        t.p_world_body = self._p_des.copy()
+        t.v_world_body = v
+        t.R_world_body = R
+        t.omega_world = np.array([0.0, 0.0, cmd.yaw_rate])
+
+    def _swing(self, s: RobotState) -> None:
+        self.handler.plan_swings(s, self.target.v_world_body)
+
+    def actuate(self, s: RobotState) -> np.ndarray:
+        return self.handler.torques(s, self.f_des, self.balance.r_com_foot)

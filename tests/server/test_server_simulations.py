@@ -1,0 +1,112 @@
+"""Queued headless runs: 202 + id, progress, report; failures and dead workers are the job's result; bounded queue."""
+
+from __future__ import annotations
+
+import copy
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+from fastapi.testclient import TestClient
+from server_fakes import dying_runner, failing_runner, make_client, slow_runner
+
+from server.settings import Settings
+
+
+def wait_done(client: TestClient, job_id: str, timeout_s: float = 60.0) -> dict[str, Any]:
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        j = client.get(f"/simulations/{job_id}").json()
+        if j["status"] in ("done", "failed"):
+            return j
+        time.sleep(0.05)
+    raise AssertionError(f"simulation {job_id} did not finish")
+
+
+def test_simulation_runs_and_reports(client: TestClient) -> None:
+    r = client.post("/simulations", json={"maneuver": "bow", "terrain": "stairs",
+                                          "pushes": [{"t": 1.0, "force": [0, 150, 0]}, "2.0:0,-100,0:0.2"]})  # fmt: skip
+    assert r.status_code == 202 and r.headers["location"] == f"/simulations/{r.json()['id']}"
+    j = wait_done(client, r.json()["id"])
+    assert j["status"] == "done", j
+    assert j["report"]["maneuver"] == "bow" and j["report"]["terrain"] == "stairs"
+    assert j["report"]["pushes"] == [[1.0, [0.0, 150.0, 0.0], 0.1], [2.0, [0.0, -100.0, 0.0], 0.2]]
+    assert j["progress"]["fraction"] == 1.0
+    assert any(s["id"] == j["id"] for s in client.get("/simulations").json())
+
+
+def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
+    doc = copy.deepcopy(bow)
+    doc["name"] = "inline-bow"
+    r = client.post("/simulations", json={"maneuver": doc})
+    assert r.status_code == 202
+    assert wait_done(client, r.json()["id"])["report"]["maneuver"] == "inline-bow"
+
+
+@pytest.mark.parametrize(
+    "body,status,field",
+    [
+        ({"maneuver": "no-such"}, 404, "maneuver"),
+        ({"maneuver": "../../x"}, 422, "maneuver"),
+        ({"maneuver": {"format": "footfall/maneuver@1"}}, 422, "name"),
+        ({"maneuver": "bow", "terrain": "lava"}, 422, "body.terrain"),
+        ({"maneuver": "bow", "pushes": ["1.0:0,150"]}, 422, "pushes[0]"),
+        ({"maneuver": "bow", "pushes": [{"t": -1, "force": [0, 0, 0]}]}, 422, "body.pushes[0].t"),
+        ({"maneuver": "bow", "duration": 0}, 422, "body.duration"),
+        ({"maneuver": "bow", "duration": "long"}, 422, "body.duration"),
+        ({}, 422, ""),
+        ({"maneuver": "bow", "walk": {"vx": 0.3}}, 422, ""),
+        ({"walk": {"vx": 0.3}}, 409, "walk"),
+    ],
+)
+def test_bad_simulation_requests(client: TestClient, body: dict[str, Any], status: int, field: str) -> None:
+    n_before = len(client.get("/simulations").json())
+    r = client.post("/simulations", json=body)
+    assert r.status_code == status, r.text
+    assert any(e["field"].startswith(field) for e in r.json()["errors"]), r.json()
+    assert len(client.get("/simulations").json()) == n_before  # nothing queued
+
+
+def test_unknown_simulation_is_404(client: TestClient) -> None:
+    assert client.get("/simulations/0123456789abcdef").status_code == 404
+
+
+@pytest.fixture
+def failing_client(settings: Settings) -> Iterator[TestClient]:
+    yield from make_client(settings, sim_runner=failing_runner)
+
+
+def test_a_failing_run_is_a_failed_job(failing_client: TestClient) -> None:
+    r = failing_client.post("/simulations", json={"maneuver": "stand"})
+    j = wait_done(failing_client, r.json()["id"])
+    assert j["status"] == "failed" and "planner gave up" in j["error"]
+
+
+@pytest.fixture
+def dying_client(settings: Settings) -> Iterator[TestClient]:
+    yield from make_client(settings, sim_runner=dying_runner)
+
+
+def test_a_dead_worker_fails_its_job_only(dying_client: TestClient) -> None:
+    r1 = dying_client.post("/simulations", json={"maneuver": "bow"})
+    r2 = dying_client.post("/simulations", json={"maneuver": "stand"})
+    j1, j2 = wait_done(dying_client, r1.json()["id"]), wait_done(dying_client, r2.json()["id"])
+    assert j1["status"] == "failed" and "crashed" in j1["error"]
+    assert j2["status"] == "done", j2  # the pool was rebuilt
+    assert dying_client.get("/health").status_code == 200
+
+
+@pytest.fixture
+def slow_client(settings: Settings) -> Iterator[TestClient]:
+    yield from make_client(settings, sim_runner=slow_runner)
+
+
+def test_the_queue_is_bounded(slow_client: TestClient, settings: Settings) -> None:
+    answers = [slow_client.post("/simulations", json={"maneuver": "stand"}) for _ in range(settings.max_queued_simulations + 3)]
+    codes = [a.status_code for a in answers]
+    assert 429 in codes and codes[0] == 202
+    refused = next(a for a in answers if a.status_code == 429)
+    assert refused.headers["retry-after"] and "queue" in refused.json()["detail"]
+    first = answers[0].json()["id"]
+    assert slow_client.get(f"/simulations/{first}").json()["status"] in ("running", "done")
