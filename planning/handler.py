@@ -56,6 +56,7 @@ class HandlerParams:
     early_touchdown_fraction: float = 0.5  # a contact after this fraction of the swing counts as a touchdown
     max_liftoff_delay_s: float = 0.12  # a liftoff waits at most this long for a late foot to land
     min_stance_s: float = 0.08  # a foot that just landed stays down at least this long
+    max_touchdown_shift_s: float = 0.1  # a replanned touchdown may move by at most this much in time mid-swing
     mu: float = 0.6
 
 
@@ -106,9 +107,11 @@ class Handler:
                         self._lift(leg, sw, s)
             elif ph == Phase.SWING:
                 if sw is not None and leg not in self.touchdown_overrides:
-                    # the plan may move a touchdown while the foot is in the air (step replanning)
-                    self.t_touchdown[leg] = sw.t_touchdown
-                    self.p_touchdown[leg] = sw.p_touchdown
+                    # the plan may move a touchdown while the foot is in the air (step replanning), but not into
+                    # a later cycle: a foot that should be down by now is a late touchdown, not a new step
+                    if abs(sw.t_touchdown - self.t_touchdown[leg]) <= self.params.max_touchdown_shift_s:
+                        self.t_touchdown[leg] = sw.t_touchdown
+                        self.p_touchdown[leg] = sw.p_touchdown
                 frac = (t - self.t_liftoff[leg]) / max(self.t_touchdown[leg] - self.t_liftoff[leg], 1e-3)
                 if s.contact[leg] and frac >= self.params.early_touchdown_fraction:
                     self._land(leg, s)

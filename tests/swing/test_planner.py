@@ -9,7 +9,6 @@ from hypothesis import strategies as st
 
 from planning.swing import Box, BoxGround, SwingParams, SwingPlanner, SwingRequest, Tier, flat_ground
 from planning.swing.policies import HORIZONTAL_POLICIES
-from tests.swing.conftest import standing_body
 
 P = SwingParams()
 
@@ -37,7 +36,7 @@ off = st.floats(-0.15, 0.15)
 vxy = st.floats(-1.5, 1.5)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(
     leg=leg_st,
     dx0=off,
@@ -54,7 +53,7 @@ vxy = st.floats(-1.5, 1.5)
     boxed=st.booleans(),
 )
 def test_random_swings_keep_the_invariants(
-    planner, robot, leg, dx0, dy0, z0, vx, vy, vz, dx1, dy1, z1, T, yaw, boxed
+    planner, robot, leg, dx0, dy0, z0, vx, vy, vz, dx1, dy1, z1, T, yaw, boxed, standing_body
 ):
     body = standing_body(yaw=yaw)
     c, s = math.cos(yaw), math.sin(yaw)
@@ -95,7 +94,7 @@ def test_random_swings_keep_the_invariants(
     assert plan.tier == best
 
 
-def _fig8(box_x, height=0.12, T=0.35):
+def _fig8(standing_body, box_x, height=0.12, T=0.35):
     ground = BoxGround([Box(box_x[0], box_x[1], -0.1, 0.1, height) for box_x in box_x])
     req = SwingRequest(0, np.zeros(3), np.zeros(3), np.array([0.4, 0.0, 0.0]), T)
     body = standing_body(x=0.2, y=-0.11)
@@ -109,8 +108,8 @@ def _fig8(box_x, height=0.12, T=0.35):
         ([(0.30, 0.35)], "BangBangWait"),  # obstacle near the end: get there first, then come down
     ],
 )
-def test_fig8_obstacle_picks_the_policy(planner, boxes, winner):
-    req, ground, body = _fig8(boxes)
+def test_fig8_obstacle_picks_the_policy(planner, boxes, winner, standing_body):
+    req, ground, body = _fig8(standing_body, boxes)
     plan = planner.plan(0.0, [req], ground, {}, body)[0]
     assert plan.tier == Tier.SUCCESS
     assert plan.horizontal_policy == winner
@@ -118,14 +117,14 @@ def test_fig8_obstacle_picks_the_policy(planner, boxes, winner):
     assert np.all(pts[:, 2] >= ground(pts[:, 0], pts[:, 1]) - 1e-9)
 
 
-def test_fig8_both_obstacles_leave_no_success(planner):
-    req, ground, body = _fig8([(0.05, 0.10), (0.30, 0.35)])
+def test_fig8_both_obstacles_leave_no_success(planner, standing_body):
+    req, ground, body = _fig8(standing_body, [(0.05, 0.10), (0.30, 0.35)])
     plan = planner.plan(0.0, [req], ground, {}, body)[0]
     assert plan.tier > Tier.SUCCESS
     assert plan.tier != Tier.VIOLATES_CONSTRAINTS
 
 
-def test_flat_ground_takes_cubic_at_once_with_the_gentlest_vertical(planner, robot):
+def test_flat_ground_takes_cubic_at_once_with_the_gentlest_vertical(planner, robot, standing_body):
     req = SwingRequest(0, np.array([0.3, 0.165, 0.0]), np.zeros(3), np.array([0.45, 0.165, 0.0]), 0.3)
     stance = {j: robot.nominal_foot_body[j] * (1, 1, 0) for j in (1, 2, 3)}
     plan = planner.plan(0.0, [req], flat_ground, stance, standing_body())[0]
@@ -135,21 +134,21 @@ def test_flat_ground_takes_cubic_at_once_with_the_gentlest_vertical(planner, rob
     assert pts[:, 2].max() == pytest.approx(0.06, abs=0.005)
 
 
-def test_too_short_a_swing_cannot_reach(planner):
+def test_too_short_a_swing_cannot_reach(planner, standing_body):
     req = SwingRequest(0, np.array([0.3, 0.165, 0.0]), np.zeros(3), np.array([0.8, 0.165, 0.0]), 0.1)
     plan = planner.plan(0.0, [req], flat_ground, {}, standing_body())[0]
     assert plan.tier == Tier.XY_CANT_REACH
     assert plan.horizontal_policy in ("BangBangWait", "BBW-x+Cubic-y", "BBW→Cubic")
 
 
-def test_touchdown_too_high_for_the_time_is_z_impossible(planner):
+def test_touchdown_too_high_for_the_time_is_z_impossible(planner, standing_body):
     req = SwingRequest(0, np.array([0.3, 0.165, 0.0]), np.zeros(3), np.array([0.33, 0.165, 0.1]), 0.07)
     plan = planner.plan(0.0, [req], flat_ground, {}, standing_body())[0]
     assert plan.tier == Tier.XY_SUCCESS_Z_IMPOSSIBLE
     assert plan.vertical_policy == "Aggressive"
 
 
-def _crossing(robot):
+def _crossing(robot, standing_body):
     # FR stands in FL's way: FL must swing from behind FR's foot to beyond it.
     stance = {
         1: np.array([0.30, 0.0, 0.0]),
@@ -160,8 +159,8 @@ def _crossing(robot):
     return req, stance, standing_body(x=0.05)
 
 
-def test_crossing_leg_goes_around_the_keepout(planner, robot):
-    req, stance, body = _crossing(robot)
+def test_crossing_leg_goes_around_the_keepout(planner, robot, standing_body):
+    req, stance, body = _crossing(robot, standing_body)
     plan = planner.plan(0.0, [req], flat_ground, stance, body)[0]
     assert plan.tier == Tier.SUCCESS
     assert plan.horizontal_policy.startswith(("SwingAround", "Wiggle"))
@@ -175,7 +174,7 @@ def test_crossing_leg_goes_around_the_keepout(planner, robot):
     assert planner.analyzer.analyze(prob, cubic, 0.0).tier == Tier.SELF_COLLISION
 
 
-def test_later_leg_avoids_the_earlier_legs_lower_leg(planner, robot):
+def test_later_leg_avoids_the_earlier_legs_lower_leg(planner, robot, standing_body):
     # FL lands first right beside FR's straight route; FR (later) must pass its lower leg, over or around.
     fl = SwingRequest(0, np.array([0.30, 0.165, 0.0]), np.zeros(3), np.array([0.40, -0.06, 0.0]), 0.2)
     fr = SwingRequest(1, np.array([0.25, -0.10, 0.0]), np.zeros(3), np.array([0.55, -0.10, 0.0]), 0.45)
@@ -200,7 +199,7 @@ def test_later_leg_avoids_the_earlier_legs_lower_leg(planner, robot):
     assert np.linalg.norm(pts - (fc + s[:, None] * (knee - fc)), axis=1).min() < P.keepout_radius_m
 
 
-def test_late_touchdown_keeps_descending(planner):
+def test_late_touchdown_keeps_descending(planner, standing_body):
     req = SwingRequest(0, np.array([0.45, 0.165, 0.03]), np.zeros(3), np.array([0.45, 0.165, 0.0]), 0.2)
     plan = planner.plan(0.25, [req], flat_ground, {}, standing_body(0.25))[0]
     assert plan.vertical_policy == "LateTouchdown"
@@ -209,7 +208,7 @@ def test_late_touchdown_keeps_descending(planner):
     assert plan.sample(1.0)[0][2] < 0.0  # keeps going until contact stops it
 
 
-def test_replanning_every_3ms_from_the_plans_own_state_keeps_the_plan(planner):
+def test_replanning_every_3ms_from_the_plans_own_state_keeps_the_plan(planner, standing_body):
     req = SwingRequest(0, np.array([0.3, 0.165, 0.0]), np.zeros(3), np.array([0.45, 0.165, 0.0]), 0.3)
     first = planner.plan(0.0, [req], flat_ground, {}, standing_body())[0]
     for t in np.arange(0.003, 0.29, 0.003):
@@ -235,3 +234,33 @@ def test_duplicate_legs_are_rejected(robot):
     req = SwingRequest(0, np.zeros(3), np.zeros(3), np.zeros(3), 0.3)
     with pytest.raises(ValueError, match="twice"):
         SwingPlanner(robot).plan(0.0, [req, req])
+
+
+def _beside(robot, standing_body):
+    stance = {
+        1: np.array([0.3, -0.165, 0.0]),
+        2: np.array([-0.3, 0.165, 0.0]),
+        3: np.array([-0.3, -0.165, 0.0]),
+    }
+    req = SwingRequest(0, np.array([0.2, 0.165, 0.0]), np.zeros(3), np.array([0.5, 0.165, 0.0]), 0.35)
+    return req, stance, standing_body(x=0.05)
+
+
+def test_a_wall_alongside_is_cliff_scraping(planner, robot, standing_body):
+    req, stance, body = _beside(robot, standing_body)
+    wall = BoxGround([Box(0.0, 0.8, 0.185, 0.4, 0.5)])  # 2 cm beside the foot's path, taller than the swing
+    plan = planner.plan(0.0, [req], wall, stance, body)[0]
+    assert plan.tier == Tier.CLIFF_SCRAPING
+
+
+def test_terrain_under_the_knee_is_a_knee_terrain_collision(planner, robot, standing_body):
+    req, stance, body = _beside(robot, standing_body)
+    ledge = BoxGround([Box(0.05, 0.15, 0.0, 0.4, 0.35)])  # behind the foot, where the knee is
+    plan = planner.plan(0.0, [req], ledge, stance, body)[0]
+    assert plan.tier == Tier.KNEE_TERRAIN_COLLISION
+
+
+def test_tier_colors_cover_every_tier():
+    from planning.swing import TIER_RGB
+
+    assert set(TIER_RGB) == set(Tier)

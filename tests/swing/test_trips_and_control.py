@@ -14,7 +14,6 @@ from planning.swing import (
     legs_crossed,
     swing_joint_command,
 )
-from tests.swing.conftest import standing_body
 
 P = SwingParams()
 STANCE = {1: np.array([0.3, -0.165, 0.0]), 2: np.array([-0.3, 0.165, 0.0]), 3: np.array([-0.3, -0.165, 0.0])}
@@ -24,7 +23,7 @@ def _req(trip=None, t_td=0.35, p=(0.35, 0.165, 0.05), v=(1.0, 0.0, 0.3)):
     return SwingRequest(0, np.array(p), np.array(v), np.array([0.50, 0.165, 0.0]), t_td, trip)
 
 
-def test_normal_trip_stops_forward_motion_and_elevates(planner):
+def test_normal_trip_stops_forward_motion_and_elevates(planner, standing_body):
     plan = planner.plan(
         0.1, [_req(TripEvent(TripKind.NORMAL, 0.1))], flat_ground, STANCE, standing_body(0.1)
     )[0]
@@ -37,7 +36,7 @@ def test_normal_trip_stops_forward_motion_and_elevates(planner):
     assert np.all(np.diff(plan.positions(np.linspace(0.1, 0.3, 50))[:, 2]) >= -1e-12)
 
 
-def test_recent_normal_trip_elevates_then_it_expires(planner):
+def test_recent_normal_trip_elevates_then_it_expires(planner, standing_body):
     t_trip = 0.1
     planner.plan(
         t_trip, [_req(TripEvent(TripKind.NORMAL, t_trip))], flat_ground, STANCE, standing_body(t_trip)
@@ -55,7 +54,7 @@ def test_recent_normal_trip_elevates_then_it_expires(planner):
     assert plan.vertical_policy.startswith("Gentle")
 
 
-def test_knee_trip_moves_on_slowly(planner):
+def test_knee_trip_moves_on_slowly(planner, standing_body):
     req = _req(TripEvent(TripKind.KNEE, 0.1), v=(0.0, 0.0, 0.0))
     plan = planner.plan(0.1, [req], flat_ground, STANCE, standing_body(0.1))[0]
     assert plan.horizontal_policy == "Trip:Knee"
@@ -64,7 +63,7 @@ def test_knee_trip_moves_on_slowly(planner):
     assert plan.sample(0.6)[0][0] == pytest.approx(0.50)
 
 
-def test_crossed_self_collision_disentangles_to_its_own_side(planner):
+def test_crossed_self_collision_disentangles_to_its_own_side(planner, standing_body):
     # FL's foot ended up right of FR's (crossed): go back left of FR first, then on to the target.
     stance = dict(STANCE)
     stance[1] = np.array([0.35, 0.0, 0.0])
@@ -85,7 +84,7 @@ def test_crossed_self_collision_disentangles_to_its_own_side(planner):
     assert np.abs(pts[:i_clear, 0] - 0.35).max() < 1e-9  # no x motion until back on its own side
 
 
-def test_uncrossed_self_collision_side_steps_away(planner):
+def test_uncrossed_self_collision_side_steps_away(planner, standing_body):
     stance = dict(STANCE)
     stance[1] = np.array([0.35, 0.0, 0.0])
     req = SwingRequest(
@@ -115,13 +114,13 @@ def test_simulated_contacts_classify_into_the_table(robot):
     assert classify_trip(robot, 0, 1.0, feet) is None
 
 
-def test_trip_event_drives_the_response_through_the_planner(planner, robot):
+def test_trip_event_drives_the_response_through_the_planner(planner, robot, standing_body):
     ev = classify_trip(robot, 0, 0.1, robot.nominal_foot_body, foot_hit=True)
     plan = planner.plan(0.1, [_req(ev)], flat_ground, STANCE, standing_body(0.1))[0]
     assert plan.policy_names == ("Trip:StopForward", "Elevate")
 
 
-def test_joint_command_tracks_the_plan(planner, robot):
+def test_joint_command_tracks_the_plan(planner, robot, standing_body):
     req = SwingRequest(0, np.array([0.30, 0.165, 0.0]), np.zeros(3), np.array([0.45, 0.165, 0.0]), 0.3)
     body = standing_body()
     plan = planner.plan(0.0, [req], flat_ground, STANCE, body)[0]
@@ -139,7 +138,7 @@ def test_joint_command_tracks_the_plan(planner, robot):
         np.testing.assert_allclose(tau_ff, robot.jacobian_leg(0, q).T @ f, atol=1e-9)
 
 
-def test_joint_command_out_of_reach_steps_toward_it(planner, robot):
+def test_joint_command_out_of_reach_steps_toward_it(planner, robot, standing_body):
     req = SwingRequest(0, np.array([0.30, 0.165, 0.0]), np.zeros(3), np.array([1.5, 0.165, 0.0]), 0.3)
     plan = planner.plan(0.0, [req], flat_ground, STANCE, standing_body())[0]
     q = robot.q_nominal[0]
