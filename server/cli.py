@@ -23,6 +23,8 @@ examples:
   footfall run stand --push 1.0:0,150,0:0.1 --report out.json
                                                       stand, take a 15 N·s sideways push, write the run report
   footfall run maneuvers/crouch.yaml --realtime       run a file, paced to the wall clock
+  footfall walk --vx 0.5 --duration 10                trot forward at 0.5 m/s
+  footfall walk --goal 3,1 --push 4:0,200,0:0.1       walk to a goal, taking a push on the way
   footfall bench --json bench.json                    time every stage and the closed loop
   footfall serve                                      REST API on :8000 and the 3D studio on :8080
 """
@@ -98,12 +100,23 @@ def _write_report(report: dict[str, Any], path: str | None) -> None:
 def _summary(report: dict[str, Any]) -> str:
     verdict = "success" if report["success"] else f"FAILED ({report['failure_reason']})"
     fpe = report["final_pose_error"]
-    return (
+    line = (
         f"{report.get('maneuver') or report.get('mode')} on {report['terrain']}: {verdict}; "
         f"{report['duration_s']:.2f} s simulated in {report['timing']['wall_s']:.2f} s "
-        f"({report['timing']['rtf']:.2f}× real time); final pose error {fpe['position_m']:.3f} m, "
-        f"{fpe['yaw_rad']:.3f} rad"
+        f"({report['timing']['rtf']:.2f}× real time)"
     )
+    if fpe.get("position_m") is not None:
+        line += f"; final pose error {fpe['position_m']:.3f} m"
+        if fpe.get("yaw_rad") is not None:
+            line += f", {fpe['yaw_rad']:.3f} rad"
+    mv = report.get("mean_velocity")
+    if mv:
+        rms = report["velocity_tracking_rms"]
+        line += (
+            f"; mean velocity vx {mv['vx']:.3f} m/s, vy {mv['vy']:.3f} m/s, yaw rate {mv['yaw_rate']:.3f} rad/s"
+            f" (RMS error {rms['vx']}, {rms['vy']}, {rms['yaw_rate']})"
+        )
+    return line
 
 
 # ---- commands ------------------------------------------------------------------------------------------------
@@ -140,6 +153,49 @@ def _robot(name: str) -> Any:
         return load_robot(name)
     except RobotDescriptionError as e:
         raise UsageError(str(e)) from None
+
+
+def _parse_goal(text: str | None) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    parts = text.split(",")
+    try:
+        x, y = (float(v) for v in parts)
+    except ValueError:
+        raise UsageError(f"--goal {text!r}: expected X,Y in meters, e.g. 6,0") from None
+    if not all(map(lambda v: abs(v) < 1e4, (x, y))):
+        raise UsageError(f"--goal {text!r}: coordinates must be finite and within 10 km")
+    return (x, y)
+
+
+def cmd_walk(a: argparse.Namespace) -> int:
+    from planning.sim.run import RunOptions, WalkCommand, run_walk
+    from planning.steps.gait import GAIT_NAMES
+
+    _check_terrain(a.terrain)
+    pushes = _parse_pushes(a.push)
+    goal = _parse_goal(a.goal)
+    if a.gait not in GAIT_NAMES or a.gait == "stand":
+        raise UsageError(
+            f"--gait {a.gait!r}: unknown gait (one of: {', '.join(g for g in GAIT_NAMES if g != 'stand')})"
+        )
+    for name in ("vx", "vy", "yaw_rate"):
+        v = getattr(a, name)
+        if not (abs(v) <= 5.0):
+            raise UsageError(f"--{name.replace('_', '-')} {v}: must be within ±5")
+    if a.duration is not None and not (0 < a.duration <= 600):
+        raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
+    _robot(a.robot)
+    cmd = WalkCommand(a.vx, a.vy, a.yaw_rate, a.gait, goal, a.weights, not a.reference_only)
+    opts = RunOptions(
+        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+    )
+    progress = _Progress("walk")
+    report = run_walk(cmd, opts, progress=progress)
+    progress.done()
+    _write_report(report, a.report)
+    print(_summary(report))
+    return EXIT_OK if report["success"] else EXIT_FAILED
 
 
 def cmd_validate(a: argparse.Namespace) -> int:
@@ -210,6 +266,33 @@ def build_parser() -> argparse.ArgumentParser:
         "--robot", default="spot", help="robot description: spot (default) or go1, or a .yaml path"
     )
     r.set_defaults(fn=cmd_run)
+
+    w = sub.add_parser("walk", help="steering mode: velocity commands, or a goal to reach through terrain")
+    w.add_argument("--vx", type=float, default=0.0, metavar="V", help="forward speed, m/s")
+    w.add_argument("--vy", type=float, default=0.0, metavar="V", help="sideways speed (left), m/s")
+    w.add_argument("--yaw-rate", type=float, default=0.0, metavar="W", help="turning rate (left), rad/s")
+    w.add_argument("--gait", default="trot", metavar="NAME", help="trot (default), walk, pace or bound")
+    w.add_argument("--goal", metavar="X,Y", help="walk to this point (m, start frame) instead of a velocity")
+    w.add_argument(
+        "--weights",
+        default="default",
+        metavar="PRESET",
+        help="step selection weights: default, precise_footing or stable_body",
+    )
+    w.add_argument(
+        "--reference-only",
+        action="store_true",
+        help="walk the reference step path only (capture-point selection off), for comparison",
+    )
+    w.add_argument(
+        "--duration", type=float, metavar="S", help="simulated seconds (default 10, 30 with --goal)"
+    )
+    w.add_argument("--terrain", default="flat", metavar="NAME")
+    w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
+    w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
+    w.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+    w.add_argument("--robot", default="spot", help="robot description")
+    w.set_defaults(fn=cmd_walk)
 
     v = sub.add_parser("validate", help="check a maneuver without simulating (warnings and failures)")
     v.add_argument("maneuver", metavar="MANEUVER", help="a library name or a .yaml path")

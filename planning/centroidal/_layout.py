@@ -56,7 +56,9 @@ class _Pattern:
             raise AssertionError("duplicate entries in the QP pattern")
         indptr = np.zeros(shape[1] + 1, dtype=np.int64)
         np.cumsum(np.bincount(cols, minlength=shape[1]), out=indptr[1:])
-        M = sp.csc_matrix((np.ones(rows.size), rows[order], indptr), shape=shape)
+        # Placeholder values: ones on the diagonal, small elsewhere (keeps a cost pattern convex at setup).
+        vals = np.where(rows[order] == np.repeat(np.arange(shape[1]), np.diff(indptr)), 1.0, 1e-3)
+        M = sp.csc_matrix((vals, rows[order], indptr), shape=shape)
         return M, order
 
 
@@ -136,6 +138,8 @@ class Layout:
         ia, ib = np.triu_indices(6)
         self.pt_pairs = (ia, ib)
         P.add("pt", self.ix[:, loc[ia]], self.ix[:, loc[ib]])
+        # p, θ of every knot × every foothold variable: the hip-over-foot cost of a touchdown that may move.
+        P.add("pd", self.ix[:, loc][:, :, None, None, None], self.i_d[None, None])
         P.add("vv", self.i_v, self.i_v)
         P.add("ww", self.i_w, self.i_w)
         P.add("ff", self.i_f, self.i_f)

@@ -252,6 +252,7 @@ class CentroidalSolver:
         self._kin = (np.zeros((L.K - 1, N_LEGS, 2, 3)), np.zeros((L.K - 1, N_LEGS, 2, 3)))
         self._kd = np.zeros((L.K - 1, N_LEGS, 2, L.S, 2))
         self._cone_dir = np.zeros((L.N, N_LEGS, 2))
+        self._pyr_dir = np.zeros((L.N, N_LEGS, 2))
         self._len_dir = np.zeros((L.K - 1, N_LEGS, 3))
         self._len_on = np.zeros((L.K - 1, N_LEGS), dtype=bool)
         self._cone_on = np.zeros((L.N, N_LEGS), dtype=bool)
@@ -447,22 +448,14 @@ class CentroidalSolver:
         t1 /= np.linalg.norm(t1, axis=-1, keepdims=True)
         t2 = np.cross(n, t1)
         tk.t1, tk.t2, tk.n = t1, t2, n
-        mu = pr.mu
-        fr = self._fr
-        fr[:, :, 0] = t1 - mu * n
-        fr[:, :, 1] = -t1 - mu * n
-        fr[:, :, 2] = t2 - mu * n
-        fr[:, :, 3] = -t2 - mu * n
-        fr[:, :, 4] = n
-        fr[:, :, 5] = n
-        # The cone cut starts along the linearization point's tangential force: a valid tangent plane anyway.
-        # (off where that force is too small to have a direction, or along a face: it would repeat the face).
+        # The pyramid is turned about the normal so that one face faces the linearization point's tangential
+        # force: there it is exact, and the cuts only have to handle the force turning within the tick.
         ft = np.stack([np.sum(tk.f * t1, -1), np.sum(tk.f * t2, -1)], -1)
         nt = np.linalg.norm(ft, axis=-1, keepdims=True)
-        self._cone_dir[:] = np.where(nt > 1e-3 * tk.Fs, ft / np.maximum(nt, 1e-300), np.array([1.0, 0.0]))
-        self._cone_on = (nt[..., 0] > 1e-3 * tk.Fs) & (np.min(np.abs(self._cone_dir), axis=-1) > 0.05)
+        self._pyr_dir[:] = np.where(nt > 1e-3 * tk.Fs, ft / np.maximum(nt, 1e-300), np.array([1.0, 0.0]))
+        self._cone_on[:] = False
         self._air = np.ones((L.N, N_LEGS), dtype=bool)
-        self._write_cone_cuts(tk)
+        self._write_cone_rows(tk)
         frc = np.empty((L.N, N_LEGS, 2))
         frc[..., 0] = -pr.fz_max_N / tk.Fs
         frc[..., 1] = -pr.fz_min_N / tk.Fs
@@ -497,10 +490,21 @@ class CentroidalSolver:
         l[L.r_mono] = np.where(mono > 0, 0.0, -INF)
         u[L.r_mono] = np.where(mono < 0, 0.0, INF)
 
-    def _write_cone_cuts(self, tk: _Tick) -> None:
-        d = self._cone_dir
-        self._fr[:, :, 6] = d[..., :1] * tk.t1 + d[..., 1:] * tk.t2 - tk.pr.mu * tk.n
-        self._put("fr", self._fr)
+    def _write_cone_rows(self, tk: _Tick) -> None:
+        """Writes the pyramid (4 faces turned to ``_pyr_dir``), the normal-force rows and the cone cut."""
+        a, c = self._pyr_dir, self._cone_dir
+        u1 = a[..., :1] * tk.t1 + a[..., 1:] * tk.t2  # the face directions, world
+        u2 = -a[..., 1:] * tk.t1 + a[..., :1] * tk.t2
+        mn = tk.pr.mu * tk.n
+        fr = self._fr
+        fr[:, :, 0] = u1 - mn
+        fr[:, :, 1] = -u1 - mn
+        fr[:, :, 2] = u2 - mn
+        fr[:, :, 3] = -u2 - mn
+        fr[:, :, 4] = tk.n
+        fr[:, :, 5] = tk.n
+        fr[:, :, 6] = c[..., :1] * tk.t1 + c[..., 1:] * tk.t2 - mn
+        self._put("fr", fr)
         self._write_cut_bounds()
 
     def _write_cut_bounds(self) -> None:
@@ -628,9 +632,13 @@ class CentroidalSolver:
         wt[:K] = tg.omega_world
         q[L.i_v] = -2.0 * wv * vt
         q[L.i_w] = -2.0 * ww * wt
-        # Hip over foot on sure-stance knots: hip_xy ≈ p_xy + (R̄ p_bh)_xy − ([R̄ p_bh]× θ)_xy.
+        # Hip over foot on sure-stance knots: hip_xy ≈ p_xy + (R̄ p_bh)_xy − ([R̄ p_bh]× θ)_xy over the foot's
+        # contact point (nominal + d when the touchdown may move), less the nominal hip-to-foot offset.
         model = pr.model
         hip_const = 0.0
+        Hpd = np.zeros((Kmax, 6, N_LEGS, L.S, 2))
+        Hdd = np.zeros((N_LEGS, L.S, 2))
+        q_d = np.zeros((N_LEGS, L.S, 2))
         if w.hip_over_foot > 0.0:
             st = np.zeros((Kmax, N_LEGS), dtype=bool)
             st[1:K] = sch.stance_knot[1:]
@@ -640,7 +648,7 @@ class CentroidalSolver:
             if kk.size:
                 hb = np.einsum("nij,nj->ni", tk.R[kk], model.p_body_hip[ii])
                 off = np.einsum("nij,nj->ni", tk.R[kk][:, :2, :2], model.foot_offset_body_xy[ii])
-                foot = tk.feet[ii, ks[kk, ii]]
+                foot = sch.nom[ii, ks[kk, ii]]  # a touchdown that may move adds its shift d below
                 J = np.zeros((kk.size, 2, 6))
                 J[:, 0, 0] = 1.0
                 J[:, 1, 1] = 1.0
@@ -652,6 +660,15 @@ class CentroidalSolver:
                 np.add.at(q_p, kk, g_[:, :3])
                 np.add.at(q_t, kk, g_[:, 3:])
                 hip_const = float(np.sum(wk * np.sum(r0 * r0, axis=1)))
+                # r = J z + r0 − d (d in xy): cross terms −2w Jᵀ, d·d terms 2w, linear −2w r0.
+                kv = sch.var[ii, ks[kk, ii]]
+                mv = kv >= 0
+                if mv.any():
+                    km, im, vm = kk[mv], ii[mv], kv[mv]
+                    wm = 2.0 * wk[mv]
+                    np.add.at(Hpd, (km, slice(None), im, vm), -wm[:, None, None] * np.swapaxes(J[mv], 1, 2))
+                    np.add.at(Hdd, (im, vm), wm[:, None])
+                    np.add.at(q_d, (im, vm), -wm[:, None] * r0[mv])
         # Custom objectives: linear rewards on the CoM over their windows.
         tkn = np.full(Kmax, np.inf)
         tkn[:K] = pr.t_knots
@@ -668,7 +685,7 @@ class CentroidalSolver:
         q[L.i_f] = 0.0
         q[L.i_c] = 0.0
         q[L.i_c[:N]] = sch.q_c
-        q[L.i_d] = 0.0
+        q[L.i_d] = q_d
         # The constant part of the cost, so ``cost`` compares across problems (e.g. timing adjustment on/off).
         tk.cost_const = (
             float(np.sum(wp * pt * pt) + np.sum(wr * et * et) + np.sum(wv * vt * vt) + np.sum(ww * wt * wt))
@@ -688,7 +705,8 @@ class CentroidalSolver:
         putp("ww", 2.0 * ww + 1e-6)
         putp("ff", (2.0 * w.force * Fs * Fs * dt + 1e-6)[:, None, None])
         putp("cc", 2.0 * w.contact_regularization + 1e-6)
-        putp("dd", 2.0 * w.touchdown_position + 1e-6)
+        putp("dd", 2.0 * w.touchdown_position + Hdd + 1e-6)
+        putp("pd", Hpd)
 
     # ----------------------------------------------------------------------------------------------------------
     def _solve(self, pr: CentroidalProblem, sch: ContactSchedule, t0: float) -> CentroidalSolution:
@@ -725,7 +743,7 @@ class CentroidalSolver:
             rounds += 1
             n_cuts += int(new_len.sum() + new_cone.sum())
             self._write_length_cuts(tk)
-            self._write_cone_cuts(tk)
+            self._write_cone_rows(tk)
             tq = time.perf_counter()
             self._qp.update(l=self._l, u=self._u, Ax=self._Ax[L.A_order])
             self._qp.warm_start(x=res.x)
@@ -810,7 +828,10 @@ class CentroidalSolver:
         new_cone = np.zeros(self._cone_dir.shape[:2], dtype=bool)
         new_cone[:N] = (cone_rel > prm.cone_tol) & (ftn > 1e-9)
         if new_cone.any():
-            self._cone_dir[new_cone] = (ft / np.maximum(ftn, 1e-12)[..., None])[new_cone[:N]]
+            # The cut row keeps the face the pyramid had (its tangent plane stays), the pyramid turns to face
+            # the violating force: the polytope is then exact in both directions.
+            self._cone_dir[new_cone] = self._pyr_dir[new_cone]
+            self._pyr_dir[new_cone] = (ft / np.maximum(ftn, 1e-12)[..., None])[new_cone[:N]]
             self._cone_on |= new_cone
         return (
             float(max(over.max(initial=0.0), 0.0)),

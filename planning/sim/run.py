@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -14,9 +14,9 @@ from planning.controller import Controller, ControllerParams
 from planning.geometry import rpy_to_R
 from planning.maneuver import BodyReference, Maneuver, build_schedule
 from planning.robot import RobotModel, load_robot
-from planning.sim.loop import Loop, ProgressFn
+from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
-from planning.sim.world import Push, World
+from planning.sim.world import Push, RobotState, World
 from planning.terrain.scenes import build_terrain
 
 POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
@@ -36,25 +36,88 @@ class RunOptions:
     controller: ControllerParams = field(default_factory=ControllerParams)
 
 
-class ManeuverSession:
-    """A robot in a world executing one maneuver: the loop plus what the report needs. Usable step by step."""
+class _Session:
+    """What every run shares: robot, terrain, world, loop, recorder, and the report fields they give."""
 
-    def __init__(self, maneuver: Maneuver, options: RunOptions, robot: RobotModel | None = None) -> None:
-        self.maneuver = maneuver
+    mode = "maneuver"
+    options: RunOptions
+    robot: RobotModel
+    world: World
+    loop: Loop
+    recorder: Recorder
+    stages: list[Stage]
+
+    def _setup(self, options: RunOptions, robot: RobotModel | None) -> None:
         self.options = options
         self.robot = robot or load_robot(options.robot)
         self.scene = build_terrain(options.terrain, seed=options.seed)
         self.world = World(self.robot, self.scene)
         self.world.pushes = list(options.pushes)
+        self.recorder = Recorder(self.robot.foot_radius_m)
+
+    def _start_loop(self, stages: list[Stage], actuate: Callable[[RobotState], np.ndarray]) -> None:
+        self.stages = stages
+        self.loop = Loop(self.world, stages, actuate, monitors=[self.recorder])
+
+    def _duration(self) -> float:
+        raise NotImplementedError
+
+    def run(self, progress: ProgressFn | None = None) -> dict[str, Any]:
+        """Runs to the end (or a fall) and returns the run report."""
+        duration = self.options.duration_s if self.options.duration_s is not None else self._duration()
+        t0 = time.perf_counter()
+        self.loop.run(duration, realtime=self.options.realtime, progress=progress)
+        wall = time.perf_counter() - t0
+        return self.report(wall)
+
+    def report(self, wall_s: float) -> dict[str, Any]:
+        raise NotImplementedError
+
+    def _common_report(self, wall_s: float) -> dict[str, Any]:
+        t_end = self.world.t
+        rec = self.recorder
+        drift = 0.0
+        if rec.p_body:
+            P = np.array(rec.p_body)
+            drift = float(np.max(np.linalg.norm(P[:, :2] - P[0, :2], axis=1)))
+        stage_times = {st.name: percentiles(st.times_ms) for st in self.stages}
+        return {
+            "mode": self.mode,
+            "robot": self.robot.name,
+            "terrain": self.options.terrain,
+            "duration_s": round(t_end, 4),
+            "fell": bool(self.loop.fell),
+            "fall_time_s": None if self.loop.fall_time is None else round(self.loop.fall_time, 4),
+            "no_step_touchdowns": 0,
+            "body_collisions": 0 if not self.loop.fell else 1,
+            "max_horizontal_drift_m": round(drift, 4),
+            "max_foot_slip_m": round(rec.max_foot_slip_m, 4),
+            "pushes": [
+                {
+                    "t": p.t_s,
+                    "force_n": list(p.force_n),
+                    "duration_s": p.duration_s,
+                    "impulse_ns": p.impulse_ns,
+                }
+                for p in self.world.pushes
+            ],
+            "stages": stage_times,
+            "timing": {"wall_s": round(wall_s, 3), "rtf": round(t_end / wall_s, 3) if wall_s > 0 else None},
+        }
+
+
+class ManeuverSession(_Session):
+    """A robot in a world executing one maneuver: the loop plus what the report needs. Usable step by step."""
+
+    def __init__(self, maneuver: Maneuver, options: RunOptions, robot: RobotModel | None = None) -> None:
+        self.maneuver = maneuver
+        self._setup(options, robot)
         self.schedule = build_schedule(maneuver, self.robot)
         self.body_ref = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
         z0 = float(self.scene.ground_height(0.0, 0.0))
         self._offset = np.array([0.0, 0.0, z0])
         self.controller = Controller(self.robot, self._target, options.controller, contact_plan=self.schedule)
-        self.recorder = Recorder(self.robot.foot_radius_m)
-        self.loop = Loop(
-            self.world, self.controller.stages, self.controller.actuate, monitors=[self.recorder]
-        )
+        self._start_loop(self.controller.stages, self.controller.actuate)
         self._tgt = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
 
     def _target(self, t: float) -> BodyTarget:
@@ -65,13 +128,8 @@ class ManeuverSession:
         self._tgt.omega_world = omega
         return self._tgt
 
-    def run(self, progress: ProgressFn | None = None) -> dict[str, Any]:
-        """Runs to the end (or a fall) and returns the run report."""
-        duration = self.options.duration_s if self.options.duration_s is not None else self.maneuver.duration
-        t0 = time.perf_counter()
-        self.loop.run(duration, realtime=self.options.realtime, progress=progress)
-        wall = time.perf_counter() - t0
-        return self.report(wall)
+    def _duration(self) -> float:
+        return float(self.maneuver.duration)
 
     def _velocity_rms(self) -> dict[str, float | None]:
         rec = self.recorder
@@ -118,21 +176,12 @@ class ManeuverSession:
             reason = f"touchdown of {missed['leg']} planned at {missed['planned_t']} s missed its window"
         if reason is None and not pose_ok:
             reason = f"final pose off by {pos_err:.3f} m and {dyaw:.3f} rad"
-        stage_times = {st.name: percentiles(st.times_ms) for st in self.controller.stages}
-        rec = self.recorder
-        drift = 0.0
-        if rec.p_body:
-            P = np.array(rec.p_body)
-            drift = float(np.max(np.linalg.norm(P[:, :2] - P[0, :2], axis=1)))
+        base = self._common_report(wall_s)
+        stage_times = base["stages"]
         return {
             "maneuver": m.name,
-            "mode": "maneuver",
-            "robot": self.robot.name,
-            "terrain": self.options.terrain,
-            "duration_s": round(t_end, 4),
+            **base,
             "success": bool(success),
-            "fell": bool(fell),
-            "fall_time_s": None if self.loop.fall_time is None else round(self.loop.fall_time, 4),
             "failure_reason": None if success else reason,
             "final_pose_error": {"position_m": round(pos_err, 4), "yaw_rad": round(abs(dyaw), 4)},
             "touchdowns": tds,
@@ -140,20 +189,7 @@ class ManeuverSession:
                 "median": round(float(np.median(errs)), 4) if errs else None,
                 "max": round(float(np.max(errs)), 4) if errs else None,
             },
-            "no_step_touchdowns": 0,
             "velocity_tracking_rms": self._velocity_rms(),
-            "body_collisions": 0 if not fell else 1,
-            "max_horizontal_drift_m": round(drift, 4),
-            "max_foot_slip_m": round(rec.max_foot_slip_m, 4),
-            "pushes": [
-                {
-                    "t": p.t_s,
-                    "force_n": list(p.force_n),
-                    "duration_s": p.duration_s,
-                    "impulse_ns": p.impulse_ns,
-                }
-                for p in self.world.pushes
-            ],
             "solver": {
                 "tick_ms_p50": stage_times.get("balance", {}).get("p50_ms"),
                 "tick_ms_p99": stage_times.get("balance", {}).get("p99_ms"),
@@ -161,8 +197,6 @@ class ManeuverSession:
                 "fallback_ticks": 0,
                 "linearization_error_p50": None,
             },
-            "stages": stage_times,
-            "timing": {"wall_s": round(wall_s, 3), "rtf": round(t_end / wall_s, 3) if wall_s > 0 else None},
         }
 
 
@@ -179,3 +213,115 @@ def run_maneuver(
 ) -> dict[str, Any]:
     """Simulates a maneuver and returns its run report (CONTRACT.md)."""
     return ManeuverSession(maneuver, options or RunOptions()).run(progress)
+
+
+@dataclass(frozen=True)
+class WalkCommand:
+    """Steering mode: a velocity command (m/s, m/s, rad/s) or a goal (x, y in m) to reach."""
+
+    vx: float = 0.0
+    vy: float = 0.0
+    yaw_rate: float = 0.0
+    gait: str = "trot"
+    goal: tuple[float, float] | None = None
+    weights: str = "default"
+    capture_point_selection: bool = True  # False: walk the reference step path only
+    settle_s: float = 1.5  # velocity tracking is measured after this much time (s)
+
+
+class WalkSession(_Session):
+    """A robot steered by velocity commands or sent to a goal; usable step by step."""
+
+    mode = "walk"
+
+    def __init__(self, command: WalkCommand, options: RunOptions, robot: RobotModel | None = None) -> None:
+        from planning.walk import WalkController
+
+        self.command = command
+        self._setup(options, robot)
+        self.controller = WalkController(
+            self.robot,
+            gait=command.gait,
+            weights=command.weights,
+            reference_only=not command.capture_point_selection,
+        )
+        if command.goal is not None:
+            self.controller.set_goal(*command.goal)
+        else:
+            self.controller.steer(command.vx, command.vy, command.yaw_rate)
+        self._start_loop(self.controller.stages, self.controller.actuate)
+
+    def _duration(self) -> float:
+        return 30.0 if self.command.goal is not None else 10.0
+
+    def _velocity_rms(self) -> dict[str, float | None]:
+        rec = self.recorder
+        c = self.command
+        keep = [k for k, t in enumerate(rec.t) if t >= c.settle_s]
+        if c.goal is not None or not keep:
+            return velocity_rms(np.zeros((0, 3)))
+        err = np.array([[*(rec.v_body[k] - (c.vx, c.vy)), rec.yaw_rate[k] - c.yaw_rate] for k in keep])
+        return velocity_rms(err)
+
+    def report(self, wall_s: float) -> dict[str, Any]:
+        base = self._common_report(wall_s)
+        s = self.loop.state
+        c = self.command
+        fell = self.loop.fell
+        reason = self.loop.failure_reason
+        if c.goal is not None:
+            d = s.p_world_body[:2] - np.asarray(c.goal)
+            pos_err: float | None = float(np.linalg.norm(d))
+            ok = pos_err <= POSITION_TOLERANCE_M
+            if reason is None and not ok:
+                reason = f"ended {pos_err:.2f} m from the goal {list(c.goal)}"
+        else:
+            pos_err, ok = None, True
+        success = not fell and ok
+        rms = self._velocity_rms()
+        rec = self.recorder
+        keep = [k for k, t in enumerate(rec.t) if t >= c.settle_s]
+        mean_v = np.mean([rec.v_body[k] for k in keep], axis=0) if keep else np.full(2, np.nan)
+        mean_w = float(np.mean([rec.yaw_rate[k] for k in keep])) if keep else float("nan")
+        return {
+            "maneuver": None,
+            **base,
+            "success": bool(success),
+            "failure_reason": None if success else reason,
+            "command": {
+                "vx": c.vx,
+                "vy": c.vy,
+                "yaw_rate": c.yaw_rate,
+                "gait": c.gait,
+                "goal": c.goal,
+                "weights": c.weights,
+                "capture_point_selection": c.capture_point_selection,
+            },
+            "final_pose_error": {
+                "position_m": None if pos_err is None else round(pos_err, 4),
+                "yaw_rad": None,
+            },
+            "touchdowns": [],
+            "foot_placement_error_m": {"median": None, "max": None},
+            "velocity_tracking_rms": rms,
+            "mean_velocity": {
+                "vx": round(float(mean_v[0]), 4),
+                "vy": round(float(mean_v[1]), 4),
+                "yaw_rate": round(mean_w, 4),
+            },
+            "steps_taken": len(rec.touchdowns),
+            "solver": {
+                "tick_ms_p50": base["stages"].get("balance", {}).get("p50_ms"),
+                "tick_ms_p99": base["stages"].get("balance", {}).get("p99_ms"),
+                "qp_ms_p50": None,
+                "fallback_ticks": 0,
+                "linearization_error_p50": None,
+            },
+        }
+
+
+def run_walk(
+    command: WalkCommand, options: RunOptions | None = None, progress: ProgressFn | None = None
+) -> dict[str, Any]:
+    """Simulates steering mode and returns its run report (CONTRACT.md)."""
+    return WalkSession(command, options or RunOptions()).run(progress)

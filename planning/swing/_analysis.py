@@ -16,7 +16,7 @@ import numpy as np
 from planning.robot import ReachError, RobotModel
 from planning.swing._poly import Poly1D
 from planning.swing.params import SwingParams
-from planning.swing.policies import HPath, LegCtx
+from planning.swing.policies import HPath, LegCtx, vertical, vertical_family
 from planning.swing.types import BodyMotion, GroundHeightFn, Tier
 
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
@@ -57,6 +57,7 @@ class LegProblem:
     sin_yaw: float
     ts: np.ndarray  # (K,) sample times, s
     p_start: np.ndarray  # (3,) world contact point
+    v_start: np.ndarray  # (3,) world velocity
     p_target: np.ndarray  # (3,)
     z_aggressive: Poly1D
     z_ok: bool  # the most aggressive vertical policy arrives on time
@@ -69,7 +70,11 @@ class LegProblem:
     previous_policy: str | None
     u_z_aggressive: float  # vertical undesirability of the most aggressive policy, added to every candidate
     z_ref: float  # lift-off height of this swing, m: vertical tops are measured from max(z_ref, touchdown z)
+    z_ceiling: float = math.inf  # highest foot the leg can reach, m
     g_knee_max: float | None = None  # highest ground probed around the hips (filled on first use), m
+    z_gentlest: Poly1D | None = None  # the gentlest vertical policy's trajectory (filled on first use)
+    zs_gentlest: np.ndarray | None = None  # (K,) its samples
+    z_gentlest_ok: bool = False  # it arrives on time
 
 
 @dataclass(slots=True)
@@ -150,6 +155,7 @@ class Analyzer:
         self.r_foot = float(robot.foot_radius_m)
         # Largest hip-to-knee distance: bounds how low a knee can be.
         self.knee_reach = float(np.sqrt(robot.l_upper**2 + np.max(np.abs(robot.abd_offset)) ** 2))
+        self.family = vertical_family(params)
         self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
         self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
 
@@ -208,6 +214,13 @@ class Analyzer:
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         v.near_others = self._near_others(prob, xw, yw)
         foot_sev, blame, near = self._foot_self(v.near_others, xw, yw, zs)
+        if foot_sev > 0.0:
+            # Higher is not always safer near another leg (its shin slants up and back): a vertical policy
+            # exists that avoids the leg when the gentlest one does.
+            sev_low, blame_low, near_low = self._foot_self(v.near_others, xw, yw, self.gentlest(prob)[1])
+            near |= near_low
+            if sev_low < foot_sev:
+                foot_sev, blame = sev_low, blame_low
         v.foot_self_sev = foot_sev
         v.knee_idx, v.knee_terrain = self._knee_samples(prob, g, near)
         knee_terrain, knee_self, knee_blame = self._knees(prob, v.near_others, v, zs)
@@ -251,6 +264,16 @@ class Analyzer:
         if scrape:
             h_margin = 0.0
         return pen, scrape, h_margin
+
+    def gentlest(self, prob: LegProblem) -> tuple[Poly1D, np.ndarray]:
+        """The gentlest vertical policy's trajectory for this leg and its samples (computed once per leg)."""
+        if prob.z_gentlest is None or prob.zs_gentlest is None:
+            p0, v0, p1 = prob.p_start, prob.v_start, prob.p_target
+            prob.z_gentlest, prob.z_gentlest_ok = vertical(
+                self.family[0], prob.ctx.t0, p0[2], v0[2], p1[2], prob.ctx.t_end, prob.z_ceiling, prob.z_ref
+            )
+            prob.zs_gentlest = prob.z_gentlest.sample_many(prob.ts)
+        return prob.z_gentlest, prob.zs_gentlest
 
     def _near_others(self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray) -> list[OtherLeg]:
         """Other legs whose lower leg comes within the knee-check radius of the path's x/y extent."""

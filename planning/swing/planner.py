@@ -216,18 +216,38 @@ class SwingPlanner:
             plan = self._plan_leg(t_now, req, ground, stance, body, planned)
             blame = plan.colliding_leg
             if plan.tier in (Tier.SELF_COLLISION, Tier.KNEE_SELF_COLLISION) and blame in planned:
-                earlier = planned.pop(blame)
-                redo = self._plan_leg(t_now, by_leg[blame], ground, stance, body, {**planned, req.leg: plan})
-                if redo.tier <= earlier.tier:
-                    planned[blame] = redo
-                    plan = self._plan_leg(t_now, req, ground, stance, body, planned)
-                else:
-                    planned[blame] = earlier
+                plan = self._replan_earlier(t_now, req, by_leg[blame], plan, ground, stance, body, planned)
             planned[req.leg] = plan
         for leg, p in planned.items():
             self._last_plan[leg] = p
             self._previous[leg] = p.horizontal_policy
         return planned
+
+    def _replan_earlier(
+        self,
+        t_now: float,
+        req: SwingRequest,
+        earlier_req: SwingRequest,
+        plan: SwingPlan,
+        ground: GroundHeightFn,
+        stance: dict[int, np.ndarray],
+        body: BodyMotion,
+        planned: dict[int, SwingPlan],
+    ) -> SwingPlan:
+        """The later leg cannot avoid an earlier one: replan the earlier leg around the later leg's own
+        unobstructed plan, then the later leg again; keep the change only when the later leg does better.
+        Updates ``planned`` in place; returns the later leg's plan."""
+        j = earlier_req.leg
+        earlier = planned.pop(j)
+        free = self._plan_leg(t_now, req, ground, stance, body, planned)
+        redo = self._plan_leg(t_now, earlier_req, ground, stance, body, {**planned, req.leg: free})
+        if redo.tier <= earlier.tier:
+            planned[j] = redo
+            again = self._plan_leg(t_now, req, ground, stance, body, planned)
+            if again.tier < plan.tier:
+                return again
+        planned[j] = earlier
+        return plan
 
     def plan_one(
         self,
@@ -333,6 +353,7 @@ class SwingPlanner:
             sin_yaw=s,
             ts=ts,
             p_start=req.p_world_foot,
+            v_start=req.v_world_foot,
             p_target=req.p_touchdown,
             z_aggressive=z_agg,
             z_ok=z_ok,
@@ -345,6 +366,7 @@ class SwingPlanner:
             previous_policy=self._previous[leg],
             u_z_aggressive=undesirability_z(z_agg, agg.height_m, pr),
             z_ref=z_ref,
+            z_ceiling=z_ceiling,
         )
 
     def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
@@ -435,15 +457,17 @@ class SwingPlanner:
         if choice.verdict.tier == Tier.SUCCESS and not force_aggressive:
             z0, vz0 = float(req.p_world_foot[2]), float(req.v_world_foot[2])
             z1 = float(req.p_touchdown[2])
-            z_ceiling = (
-                float(prob.hips[:, 2].min()) - self.robot.min_leg_length_m - self.params.hip_clearance_m
-            )
-            for spec in self.family:
+            for i, spec in enumerate(self.family):
                 evaluations += 1
-                if spec is self.family[-1]:
+                if i == len(self.family) - 1:
                     break
-                zp, ok = vertical(spec, c.t0, z0, vz0, z1, c.t_end, z_ceiling, prob.z_ref)
-                if ok and self.analyzer.vertical_ok(prob, choice.verdict, zp.sample_many(prob.ts)):
+                if i == 0:
+                    zp, zs = self.analyzer.gentlest(prob)
+                    ok = prob.z_gentlest_ok
+                else:
+                    zp, ok = vertical(spec, c.t0, z0, vz0, z1, c.t_end, prob.z_ceiling, prob.z_ref)
+                    zs = zp.sample_many(prob.ts)
+                if ok and self.analyzer.vertical_ok(prob, choice.verdict, zs):
                     z_poly, z_name = zp, spec.name
                     break
         else:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 from fastapi import APIRouter
@@ -23,6 +24,11 @@ def health(services: ServicesDep) -> dict[str, Any]:
 
 @router.get("/terrains", summary="The terrain names and what each is")
 def terrains() -> list[dict[str, str]]:
+    return _terrains()
+
+
+@lru_cache(maxsize=1)
+def _terrains() -> list[dict[str, str]]:
     from planning.terrain.scenes import TERRAIN_NAMES, build_terrain
 
     out = []

@@ -41,15 +41,35 @@ def _perturbed_state():
 
 
 def test_linearization_error_converges_over_iterations(model):
-    """Re-linearizing about each solution (same problem) shrinks the error about quadratically."""
+    """Re-linearizing about each solution (same problem): from a cold start to well under the threshold."""
     pr = _stand_problem(model, _perturbed_state())
     solver = CentroidalSolver(PARAMS)
     errs = [solver.solve(pr).linearization_error for _ in range(4)]
-    assert errs[0] > 1e-3  # the cold start is a poor linearization point
-    assert errs[1] < 0.2 * errs[0]
-    assert errs[2] < 0.2 * errs[1]
-    assert errs[2] < 2.0 * errs[1] ** 2 / errs[0] + 1e-7  # each step at least as good as quadratic predicts
-    assert errs[3] < 1e-5
+    assert errs[0] > 0.02  # the cold start is a poor linearization point
+    assert errs[1] < 0.01 * errs[0]
+    assert errs[2] < 0.5 * errs[1] and errs[3] < errs[1]
+
+
+def test_linearization_error_is_quadratic_in_the_estimate_error(model):
+    """Move the linearization point off the solution by ε·δ: the error scales with ε² (halve ε, quarter it)."""
+    pr = _stand_problem(model, _perturbed_state())
+    solver = CentroidalSolver(PARAMS)
+    for _ in range(8):
+        sol = solver.solve(pr)
+    assert sol.linearization_error < 1e-4
+    star = solver._prev  # white box: the linearization point the next solve uses
+    assert star is not None
+    rng = np.random.default_rng(0)
+    K = star.p.shape[0]
+    dp, dth = rng.normal(size=(K, 3)) * 0.02, rng.normal(size=(K, 3)) * 0.05
+    df, dw = rng.normal(size=star.f.shape) * 20.0, rng.normal(size=(K, 3)) * 0.3
+    errs = []
+    for eps in (1.0, 0.5, 0.25):
+        solver._prev = replace(star, p=star.p + eps * dp, R=_so3.exp(eps * dth) @ star.R, f=star.f + eps * df,
+                               w=star.w + eps * dw)  # fmt: skip
+        errs.append(solver.solve(pr).linearization_error)
+    ratios = np.array(errs[:-1]) / np.array(errs[1:])
+    assert np.all((ratios > 3.0) & (ratios < 5.0)), ratios
 
 
 def test_closed_loop_first_solutions_converge(model):
@@ -57,7 +77,7 @@ def test_closed_loop_first_solutions_converge(model):
     sc = replace(standing(model), start=_perturbed_state())
     log = run(sc, CentroidalSolver(PARAMS), duration_s=0.1, tick_s=0.02)
     errs = [s.linearization_error for s in log.solutions[:4]]
-    assert errs[1] < 0.3 * errs[0] and errs[3] < 0.1 * errs[0]
+    assert errs[1] < 0.3 * errs[0] and errs[3] < 0.3 * errs[0]
     assert not log.solutions[0].ok or errs[0] < PARAMS.linearization_error_threshold_m
     assert all(s.ok for s in log.solutions[1:])
 
@@ -71,7 +91,7 @@ def test_violated_leg_length_is_satisfied_after_its_cut(model):
     sol = CentroidalSolver(replace(PARAMS, cut_margin_m=-1.0)).solve(pr)
     assert sol.n_cuts > 0 and sol.cut_iterations >= 1
     assert sol.max_leg_length_violation_m < 2 * PARAMS.leg_length_tol_m
-    hips = sol.p_world + np.einsum("kij,lj->kli", sol.R_world_body, model.p_body_hip)
+    hips = sol.p_world[:, None, :] + np.einsum("kij,lj->kli", sol.R_world_body, model.p_body_hip)
     feet = nominal_feet() + [0.0, 0.0, model.foot_radius_m]
     dist = np.linalg.norm(hips[1:] - feet[None], axis=-1)
     assert dist.max() <= model.leg_length_max_m + 2 * PARAMS.leg_length_tol_m
@@ -168,6 +188,11 @@ def test_warm_start_cuts_iterations(model):
     assert later < first
 
 
+def _resized(pr, n):
+    t = np.linspace(0.0, 3.0, n)
+    return replace(pr, t_knots=t, targets=BodyTargets.hold(n, pr.targets.p_world[0], np.eye(3)))
+
+
 @pytest.mark.parametrize(
     "change, field",
     [
@@ -176,7 +201,7 @@ def test_warm_start_cuts_iterations(model):
         (lambda p: replace(p, initial=replace(p.initial, p_world=np.array([np.nan, 0.0, 0.5]))), "initial.p_world"),
         (lambda p: replace(p, initial=replace(p.initial, R_world_body=2.0 * np.eye(3))), "initial.R_world_body"),
         (lambda p: replace(p, t_knots=p.t_knots[::-1]), "t_knots"),
-        (lambda p: replace(p, t_knots=np.linspace(0.0, 3.0, 40)), "t_knots"),
+        (lambda p: _resized(p, 40), "t_knots"),
         (lambda p: replace(p, phases=p.phases + (ContactPhase(0, 0.2, 0.5, np.zeros(3)),)), "phases"),
         (lambda p: replace(p, objectives=(Objective("fly", 0.0, 1.0, 1.0),)), "objectives[0].kind"),  # type: ignore[arg-type]
         (

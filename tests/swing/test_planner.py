@@ -264,3 +264,18 @@ def test_tier_colors_cover_every_tier():
     from planning.swing import TIER_RGB
 
     assert set(TIER_RGB) == set(Tier)
+
+
+def test_earlier_leg_is_replanned_when_the_later_one_cannot_avoid_it(planner, standing_body):
+    # FL steps in place (touchdown later); FR lands first and its straight route runs through FL's foot, and
+    # FR's slanted shin hangs over FL's spot: FL cannot dodge, so FR is replanned around FL.
+    fr = SwingRequest(1, np.array([0.10, 0.0, 0.0]), np.zeros(3), np.array([0.5, 0.0, 0.0]), 0.25)
+    fl = SwingRequest(0, np.array([0.30, 0.0, 0.0]), np.zeros(3), np.array([0.30, 0.0, 0.0]), 0.5)
+    stance = {2: np.array([-0.3, 0.165, 0.0]), 3: np.array([-0.3, -0.165, 0.0])}
+    body = standing_body(x=0.1)
+    alone = planner.plan(0.0, [fr], flat_ground, stance, body)[1]
+    assert alone.horizontal_policy == "Cubic"
+    planner.reset()
+    plans = planner.plan(0.0, [fr, fl], flat_ground, stance, body)
+    assert plans[1].horizontal_policy.startswith(("SwingAround", "Wiggle"))
+    assert plans[0].tier == plans[1].tier == Tier.SUCCESS

@@ -1,0 +1,57 @@
+"""The REST API on the real planning stack: a live MuJoCo session and a headless run in a worker process."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+from server_fakes import make_client
+
+from server.settings import Settings
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
+    s = Settings(data_dir=Path(tmp_path_factory.mktemp("live")), max_sessions=2, sim_workers=1)
+    yield from make_client(s)
+
+
+def test_live_session_state_and_plan(live: TestClient) -> None:
+    r = live.post("/sessions", json={"terrain": "flat", "mode": "maneuver"})
+    assert r.status_code == 201
+    sid = r.json()["id"]
+    st = live.get(f"/sessions/{sid}/state").json()
+    assert st["body"]["position"][2] == pytest.approx(0.52, abs=0.03)
+    assert set(st["joints"]) == {"FL", "FR", "RL", "RR"} and all(st["contacts"].values())
+    live.post(f"/sessions/{sid}/maneuver", json={"maneuver": "crouch", "speed": 1.0})
+    time.sleep(1.5)
+    st = live.get(f"/sessions/{sid}/state").json()
+    assert st["status"] == "running" and not st["fell"] and st["t"] > 1.0
+    assert st["realtime_factor"] == pytest.approx(1.0, abs=0.15)
+    plan = live.get(f"/sessions/{sid}/plan").json()["overlays"]
+    assert {"contact_forces", "body_path", "capture_point"} <= set(plan)
+    forces = plan["contact_forces"]["forces_n"]
+    total_fz = sum(f[2] for f in forces.values())
+    assert 150.0 < total_fz < 500.0  # the feet carry the robot's weight (~32 kg)
+    report = live.get(f"/sessions/{sid}/report").json()
+    assert report["maneuver"] == "crouch" and "solver" in report
+    assert live.delete(f"/sessions/{sid}").status_code == 204
+
+
+def test_headless_simulation_in_a_worker(live: TestClient) -> None:
+    r = live.post("/simulations", json={"maneuver": "stand", "duration": 0.6, "pushes": ["0.2:0,40,0:0.1"]})
+    assert r.status_code == 202
+    jid = r.json()["id"]
+    end = time.monotonic() + 90
+    while time.monotonic() < end:
+        j = live.get(f"/simulations/{jid}").json()
+        if j["status"] in ("done", "failed"):
+            break
+        time.sleep(0.2)
+    assert j["status"] == "done", j
+    rep = j["report"]
+    assert rep["maneuver"] == "stand" and rep["duration_s"] == pytest.approx(0.6, abs=0.01)
+    assert rep["pushes"][0]["force_n"] == [0.0, 40.0, 0.0] and isinstance(rep["success"], bool)

@@ -1,0 +1,192 @@
+"""The studio without a browser: a raw viser websocket client connects, gets a live robot at ≥ 30 fps, and the
+authoring panel's logic (open, edit, validate on items, drag, preview, save as, export) runs on the real stack."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import msgspec
+import numpy as np
+import pytest
+import viser
+from fastapi.testclient import TestClient
+from websockets.sync.client import connect
+
+from server.app import create_app
+from server.settings import Settings
+from server.studio.overlays import overlay_geometry
+from server.studio.robot_view import capsule_mesh, hfield_mesh
+from server.studio.timeline import Bar, Mark, timeline_svg
+
+
+def wait_for(pred: Callable[[], bool], timeout_s: float = 10.0) -> bool:
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if pred():
+            return True
+        time.sleep(0.05)
+    return False
+
+
+class FakeBrowser:
+    """Speaks just enough of viser's protocol to count as a connected tab (a camera message), then drains."""
+
+    def __init__(self, port: int) -> None:
+        self.ws = connect(f"ws://127.0.0.1:{port}", subprotocols=[f"viser-v{viser.__version__}"], max_size=None)
+        cam = {"type": "ViewerCameraMessage", "wxyz": [1, 0, 0, 0], "position": [2, -2, 1.2], "fov": 1.0,
+               "near": 0.01, "far": 100.0, "image_height": 600, "image_width": 800, "look_at": [0, 0, 0.3],
+               "up_direction": [0, 0, 1]}  # fmt: skip
+        self.ws.send(msgspec.msgpack.encode(cam))
+        self.bytes = 0
+        self._stop = threading.Event()
+        self._t = threading.Thread(target=self._drain, daemon=True)
+        self._t.start()
+
+    def _drain(self) -> None:
+        while not self._stop.is_set():
+            try:
+                self.bytes += len(self.ws.recv(timeout=0.5))
+            except TimeoutError:
+                continue
+            except Exception:  # noqa: BLE001 - closed
+                return
+
+    def close(self) -> None:
+        self._stop.set()
+        self.ws.close()
+        self._t.join(2.0)
+
+
+@pytest.fixture(scope="module")
+def studio_app(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestClient, Any]]:
+    data = tmp_path_factory.mktemp("studio")
+    s = Settings(data_dir=data, viewer_port=0, max_sessions=3)
+    app = create_app(s, with_studio=True)
+    with TestClient(app, raise_server_exceptions=False) as c:
+        yield c, app.state.services
+
+
+@pytest.fixture(scope="module")
+def tab(studio_app: tuple[TestClient, Any]) -> Iterator[Any]:
+    client, services = studio_app
+    browser = FakeBrowser(services.studio.port)
+    assert wait_for(lambda: client.get("/studio").json()["clients"] == 1), "the studio did not register the tab"
+    studio_client = next(iter(services.studio.clients.values()))
+    assert wait_for(lambda: studio_client.session is not None and hasattr(studio_client, "editor"))
+    yield studio_client
+    browser.close()
+    assert wait_for(lambda: client.get("/studio").json()["clients"] == 0)
+
+
+def test_a_tab_gets_a_live_robot_at_30_fps(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    client, _ = studio_app
+    sid = tab.session.id
+    sessions = {s["id"]: s for s in client.get("/sessions").json()}
+    assert sessions[sid]["origin"] == "studio"
+    assert wait_for(lambda: client.get("/studio").json()["fps"].get(str(tab.client.client_id), 0) >= 30, 5.0), (
+        client.get("/studio").json()
+    )
+    assert tab.view is not None and len(tab.view.bodies) >= 13  # trunk + 4 × (hip, upper, lower)
+
+
+def test_open_edit_validate_and_preview(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    client, _ = studio_app
+    ed = tab.editor
+    assert ed.open("bow") and ed.meta["name"] == "bow" and ed.source == "shipped"
+    assert ed.validate_now().ok
+    # an edit that breaks a rule shows up on the item it concerns
+    ed.sl_scrub.value = 1.0
+    ed.add_step("FL")
+    lo, td = next(p for p in ed._steps_of("FL"))
+    assert lo["t"] == pytest.approx(1.0)
+    ed._set(td, "t", 0.9)  # touchdown before its liftoff
+    result = ed.validate_now()
+    assert result is not None and not result.ok
+    ui = ed.item_ui[id(td)]
+    assert ui.folder.label.startswith("✖") and ui.problems.visible and "before" in ui.problems.content
+    ed.delete_items(lo, td)
+    assert ed.validate_now().ok
+    # dragging a keyframe in 3D writes its position and rpy back into the document
+    kf = ed.keyframes[0]
+    off = tab.world_offset()
+    q = np.array([np.cos(np.radians(5)), 0.0, np.sin(np.radians(5)), 0.0])  # 10° pitch
+    ed._commit_drag(kf, np.array([0.05, 0.0, 0.47]) + off, q, True)
+    assert kf["position"] == pytest.approx([0.05, 0.0, 0.47]) and kf["rpy"][1] == pytest.approx(10.0, abs=0.05)
+    # preview runs it on the live session
+    before = np.array(client.get(f"/sessions/{tab.session.id}/state").json()["body"]["rpy_deg"])
+    ed.sl_speed.value = 2.0
+    ed.preview()
+    assert client.get(f"/sessions/{tab.session.id}/state").json()["maneuver"] == "bow"
+    assert wait_for(
+        lambda: abs(client.get(f"/sessions/{tab.session.id}/state").json()["body"]["rpy_deg"][1] - before[1]) > 5.0,
+        8.0,
+    ), "the robot did not pitch during the bow preview"
+
+
+def test_save_as_then_save_with_etag(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    client, services = studio_app
+    ed = tab.editor
+    ed.open("stand")
+    ed.save("my-stand")
+    assert ed.source == "user" and ed.etag and client.get("/maneuvers/my-stand").status_code == 200
+    path = Path(services.settings.user_dir) / "my-stand.yaml"
+    ed.meta["title"] = "Mine"
+    ed.save(None)
+    assert "Mine" in path.read_text()
+    # someone else edits the file: the studio's next save is refused, the other edit survives
+    etag = client.get("/maneuvers/my-stand").headers["etag"]
+    doc = client.get("/maneuvers/my-stand").json()
+    doc["title"] = "Theirs"
+    assert client.put("/maneuvers/my-stand", json=doc, headers={"If-Match": etag}).status_code == 200
+    ed.meta["title"] = "Mine again"
+    ed.save(None)
+    assert "Theirs" in path.read_text()
+
+
+def test_export_recording_is_self_contained(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    client, _ = studio_app
+    time.sleep(0.5)
+    r = client.get(f"/sessions/{tab.session.id}/recording")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/html")
+    assert "__VISER_EMBED_DATA__" in r.text and "attachment" in r.headers["content-disposition"]
+    assert "ws://" not in r.text.split("__VISER_EMBED_DATA__")[0][-2000:]  # plays from the embedded data
+
+
+def test_landing_preview_request_is_picked_up(studio_app: tuple[TestClient, Any]) -> None:
+    client, services = studio_app
+    assert client.post("/studio/preview", json={"maneuver": "nope"}).status_code == 404
+    assert client.post("/studio/preview", json={"maneuver": "../x"}).status_code == 422
+    assert client.post("/studio/preview", json={"maneuver": "crouch"}).status_code == 202
+    browser = FakeBrowser(services.studio.port)
+    try:
+        def crouching() -> bool:
+            return any(s["maneuver"] == "crouch" and s["origin"] == "studio" for s in client.get("/sessions").json())
+
+        assert wait_for(crouching), client.get("/sessions").json()
+    finally:
+        browser.close()
+
+
+# ---- pure pieces ------------------------------------------------------------------------------------------------------
+def test_overlay_geometry_is_generic() -> None:
+    kind, arr = overlay_geometry({"kind": "polyline", "points": [[0, 0, 0], [1, 0, 0], [1, 1, 0]]}) or ("", None)
+    assert kind == "segments" and arr.shape == (2, 2, 3)
+    kind, arr = overlay_geometry({"kind": "segments", "points": [[0, 0, 0], [0, 0, 1], [1, 0, 0]]}) or ("", None)
+    assert arr.shape == (1, 2, 3)
+    assert overlay_geometry({"kind": "points", "points": [[0, 0, float("nan")]]}) is None
+    assert overlay_geometry({"kind": "nonsense", "points": [[0, 0, 0]]}) is None
+    assert overlay_geometry({"kind": "points", "points": "junk"}) is None
+
+
+def test_meshes_and_timeline() -> None:
+    v, f = capsule_mesh(0.02, 0.15)
+    assert v[:, 2].max() == pytest.approx(0.17, abs=1e-6) and v[:, 2].min() == pytest.approx(-0.17, abs=1e-6)
+    assert f.max() < len(v)
+    v, f = hfield_mesh(np.zeros((3, 4)), 1.0, 0.5)
+    assert v.shape == (12, 3) and f.shape == (12, 3) and v[:, 0].max() == 1.0 and v[:, 1].min() == -0.5
+    svg = timeline_svg(4.0, [Bar("RL", 0.8, 1.4, True, "failure")], [Mark("body", 2.0)], [(1.0, 3.0, "trot")], 1.2)
+    assert svg.startswith("<svg") and "#ff3b30" in svg and "trot" in svg and svg.count("<rect") >= 2
