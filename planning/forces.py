@@ -27,6 +27,7 @@ import scipy.sparse as sp
 N_LEGS = 4
 OSQP_INF = 1e30  # OSQP's own infinity; bounds beyond it are clamped to it
 _SOLVED = "solved"
+FEASIBLE_AS_PLANNED = "feasible as planned"  # the stance handler's shortcut: the plan needed no correction
 _SOLVED_INACCURATE = "solved inaccurate"
 _USABLE = (_SOLVED, _SOLVED_INACCURATE)
 _STOPPED_SHORT = (_SOLVED_INACCURATE, "maximum iterations reached")
@@ -61,7 +62,7 @@ class SolveStatus:
     @property
     def ok(self) -> bool:
         return (
-            self.solver == _SOLVED
+            self.solver in (_SOLVED, FEASIBLE_AS_PLANNED)
             and not self.fallback
             and not self.fz_min_relaxed
             and not self.torque_clipped

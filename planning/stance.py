@@ -30,6 +30,7 @@ import numpy as np
 import osqp
 
 from planning.forces import (
+    FEASIBLE_AS_PLANNED,
     N_LEGS,
     OSQP_INF,
     SolveStatus,
@@ -72,6 +73,7 @@ class StanceHandlerParams:
     max_iter: int = 1000  # per attempt; bounds the time of absurd inputs (~3 ms); realistic ones take 25–500
     retry_rho: float = 1.0  # ADMM ρ of the second attempt when the first stops short
     polish: bool = False  # OSQP 1.1's polish prints to fd 1 whatever `verbose` says
+    skip_feasible: bool = True  # return a plan that already meets every limit without solving (it is the optimum)
 
     def __post_init__(self) -> None:
         for name in ("force_scale_n", "w_normal", "w_tangent"):
@@ -209,6 +211,16 @@ class StanceHandler:
         if not (math.isfinite(mu) and mu >= 0.0):
             sanitized.append("mu")
         mu_face = pyramid_mu(mu, p.inscribed_pyramid)
+        if (
+            p.skip_feasible
+            and n_world_contact is None
+            and not sanitized
+            and self._feasible_as_planned(f_des, J, stance, T, b, mu_face)
+        ):
+            # The plan already satisfies every constraint, so it is the QP's optimum (zero cost): skip the solve.
+            self.last_status = SolveStatus(solver=FEASIBLE_AS_PLANNED, iterations=0)
+            self.last_solve_ms = (time.perf_counter() - t0) * 1e3
+            return self._tau_view
         if n_world_contact is not None:
             contact_frames(checked("n_world_contact", n_world_contact, (N_LEGS, 3)), out=self._R)
         else:
@@ -288,6 +300,30 @@ class StanceHandler:
         return self._tau_view
 
     # ----------------------------------------------------------------------------------------------------------
+
+    def _feasible_as_planned(
+        self, f_des: np.ndarray, J: np.ndarray, stance: np.ndarray, T: np.ndarray, b: np.ndarray, mu_face: float
+    ) -> bool:
+        """Returns True (and writes forces and torques) when f_des on flat contacts needs no correction: every
+        stance force inside the pyramid and the normal-force bounds, every torque within its limit."""
+        p = self.params
+        f = self._f
+        np.copyto(f, f_des)
+        f[~stance] = 0.0
+        fz = f[:, 2]
+        lim = mu_face * fz
+        if not (
+            np.all((fz >= p.fz_min_n)[stance])
+            and np.all((fz <= p.fz_max_n)[stance])
+            and np.all(np.abs(f[:, 0]) <= lim)
+            and np.all(np.abs(f[:, 1]) <= lim)
+        ):
+            return False
+        tau = self._tau
+        np.einsum("lji,lj->li", J, f, out=tau)
+        np.subtract(b, tau, out=tau)
+        tau[~stance] = 0.0
+        return bool(np.all(np.abs(tau) <= T))
 
     def _bias(self, tau_bias_leg: np.ndarray | None, sanitized: list[str]) -> np.ndarray:
         if tau_bias_leg is None:

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
-from planning.maneuver import ManeuverError, Problem, parse_maneuver, validate_maneuver
+from planning.maneuver import ManeuverError, Problem, ValidationResult, parse_maneuver, validate_maneuver
 from planning.maneuver.load import read_yaml
 from planning.maneuver.problems import with_lines
 from server.errors import ApiError
@@ -18,6 +19,7 @@ from server.settings import Settings
 from server.simulations import SimulationPool
 from server.storage import ManeuverStore, StorageError, dump_yaml, problems_to_fields
 
+log = logging.getLogger("footfall.api")
 YAML_TYPES = ("application/yaml", "application/x-yaml", "text/yaml", "text/x-yaml", "text/plain")
 
 
@@ -123,7 +125,12 @@ def check_limits(maneuver: Any, settings: Settings) -> list[Problem]:
 
 def validate(maneuver: Any, services: Services, lines: dict[str, int] | None = None) -> Any:
     """Returns the ValidationResult of a parsed maneuver for the server's robot (problems with YAML lines)."""
-    result = validate_maneuver(maneuver, services.robot)
+    try:
+        result = validate_maneuver(maneuver, services.robot)
+    except Exception as e:  # noqa: BLE001 - a checker that chokes on odd input must not turn into a 500
+        log.warning("validation of %s raised %r", getattr(maneuver, "name", "?"), e)
+        failure = Problem("", f"the maneuver could not be checked ({type(e).__name__}: {e}); is a value extreme?")
+        return ValidationResult(False, [], [failure], maneuver)
     if lines:
         result = dataclasses.replace(
             result, warnings=with_lines(result.warnings, lines), failures=with_lines(result.failures, lines)

@@ -296,7 +296,12 @@ class LiveSession:
     # ---- commands (from REST handlers and the studio) -----------------------------------------------------------
     def _replace(self, maneuver: Any, terrain: str | None = None) -> None:
         terrain = terrain or self.terrain
-        sim = self._factory(maneuver, terrain, self.robot)  # built outside the lock: MuJoCo compile takes ms
+        try:
+            sim = self._factory(maneuver, terrain, self.robot)  # built outside the lock: MuJoCo compile takes ms
+        except Exception as e:  # noqa: BLE001 - the session keeps running what it ran before
+            log.warning("session %s: cannot start %s: %r", self.id, getattr(maneuver, "name", "?"), e)
+            raise SessionError(f"could not start {getattr(maneuver, 'name', 'the maneuver')}: "
+                               f"{type(e).__name__}: {e}"[:500], field="maneuver") from None
         with self.lock:
             self.sim = sim
             self.terrain = terrain

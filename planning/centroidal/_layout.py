@@ -7,7 +7,7 @@ horizontal shift of an adjustable touchdown's contact point (fixed contact point
 Rows (A x in [l, u]), in order:
   init   12          x_0 = measured state
   dyn    N × 12      p, v, θ, ω rows of the linearized discrete map
-  fric   N × 4 × 7   4 pyramid faces, f_n <= c fz_max, f_n >= c fz_min, one cone cut (tangent plane)
+  fric   N × 4 × 8   4 pyramid faces, f_n <= c fz_max, f_n >= c fz_min, two cone cuts (tangent planes)
   cbnd   N × 4       c in [c_lo, c_hi]
   mono   (N−1) × 4   c_{k+1} − c_k >= 0 (touchdown window) / <= 0 (liftoff window) / free
   kin    (K−1) × 4 × 2  leg-length cut (tangent plane of the circle of FIG. 2E), hip line
@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 N_LEGS = 4
-FRIC_ROWS = 7
+FRIC_ROWS = 8
 KIN_ROWS = 2
 
 

@@ -51,7 +51,8 @@ class CentroidalParams:
     max_knots: the QP's size (knot times, so max_knots − 1 intervals); bigger problems fail, smaller are padded.
     max_adjustable_per_leg: foothold variables per leg (later adjustable touchdowns keep their nominal place).
     max_polygon_edges: rows reserved per foothold region. max_cut_rounds: re-solves per tick after adding
-    tangent-plane cuts. leg_length_tol_m / cone_tol: violations below these (m; fraction of μ f_n) need no cut.
+    tangent-plane cuts. leg_length_tol_m / cone_tol: violations below these (m; fraction of μ f_n) need no cut;
+    nor does a friction excess under cone_tol_N newtons (lightly loaded feet).
     cut_margin_m: leg-length rows start active when the linearization point is this close to a limit.
     linearization_error_threshold_m: the integrated solution must stay this close (position m + orientation rad ×
     error_length_m) for ``ok``. time_budget_ms: a tick over it is not ``ok`` and adds no more cuts.
@@ -67,6 +68,7 @@ class CentroidalParams:
     max_cut_rounds: int = 3
     leg_length_tol_m: float = 0.003
     cone_tol: float = 0.01
+    cone_tol_N: float = 1.0
     cut_margin_m: float = 0.01
     linearization_error_threshold_m: float = 0.02
     error_length_m: float = 0.35
@@ -248,14 +250,14 @@ class CentroidalSolver:
         self._q = np.zeros(L.n)
         self._l = np.full(L.m, -INF)
         self._u = np.full(L.m, INF)
-        self._fr = np.zeros((L.N, N_LEGS, 7, 3))
+        self._fr = np.zeros((L.N, N_LEGS, 8, 3))
         self._kin = (np.zeros((L.K - 1, N_LEGS, 2, 3)), np.zeros((L.K - 1, N_LEGS, 2, 3)))
         self._kd = np.zeros((L.K - 1, N_LEGS, 2, L.S, 2))
-        self._cone_dir = np.zeros((L.N, N_LEGS, 2))
+        self._cone_dir = np.zeros((L.N, N_LEGS, 2, 2))  # two remembered faces per interval and leg
         self._pyr_dir = np.zeros((L.N, N_LEGS, 2))
         self._len_dir = np.zeros((L.K - 1, N_LEGS, 3))
         self._len_on = np.zeros((L.K - 1, N_LEGS), dtype=bool)
-        self._cone_on = np.zeros((L.N, N_LEGS), dtype=bool)
+        self._cone_on = np.zeros((L.N, N_LEGS, 2), dtype=bool)
         self._air = np.ones((L.N, N_LEGS), dtype=bool)
         self._prev: _Previous | None = None
         self.last_snapshot: dict[str, object] | None = None
@@ -503,14 +505,15 @@ class CentroidalSolver:
         fr[:, :, 3] = -u2 - mn
         fr[:, :, 4] = tk.n
         fr[:, :, 5] = tk.n
-        fr[:, :, 6] = c[..., :1] * tk.t1 + c[..., 1:] * tk.t2 - mn
+        fr[:, :, 6] = c[:, :, 0, :1] * tk.t1 + c[:, :, 0, 1:] * tk.t2 - mn
+        fr[:, :, 7] = c[:, :, 1, :1] * tk.t1 + c[:, :, 1, 1:] * tk.t2 - mn
         self._put("fr", fr)
         self._write_cut_bounds()
 
     def _write_cut_bounds(self) -> None:
-        r = self.L.r_fric[:, :, 6]
+        r = self.L.r_fric[:, :, 6:8]
         self._l[r] = -INF
-        self._u[r] = np.where(self._cone_on & ~self._air, 0.0, INF)
+        self._u[r] = np.where(self._cone_on & ~self._air[..., None], 0.0, INF)
 
     def _fill_kinematics(self, tk: _Tick) -> None:
         """Writes the hip line rows and the leg-length cut rows of knots 1..K-1."""
@@ -823,16 +826,19 @@ class CentroidalSolver:
         fn = np.sum(f * n, -1)
         ft = np.stack([np.sum(f * t1, -1), np.sum(f * t2, -1)], -1)
         ftn = np.linalg.norm(ft, axis=-1)
-        # Relative to the cone's radius, never finer than a fraction of fz_min (noise on unloaded feet).
-        cone_rel = (ftn - pr.mu * fn) / np.maximum(pr.mu * np.maximum(fn, pr.fz_min_N), 1e-9)
+        # Relative to the cone's radius, and never for less than cone_tol_N of excess (lightly loaded feet).
+        excess = ftn - pr.mu * fn
+        cone_rel = np.where(excess > prm.cone_tol_N, excess / np.maximum(pr.mu * np.maximum(fn, pr.fz_min_N), 1e-9), 0.0)
         new_cone = np.zeros(self._cone_dir.shape[:2], dtype=bool)
         new_cone[:N] = (cone_rel > prm.cone_tol) & (ftn > 1e-9)
         if new_cone.any():
-            # The cut row keeps the face the pyramid had (its tangent plane stays), the pyramid turns to face
-            # the violating force: the polytope is then exact in both directions.
-            self._cone_dir[new_cone] = self._pyr_dir[new_cone]
+            # The pyramid turns to face the violating force (exact there); the two cut rows keep the faces it
+            # had before (their tangent planes stay): the polytope tightens around where the forces go.
+            self._cone_dir[new_cone, 1] = self._cone_dir[new_cone, 0]
+            self._cone_on[new_cone, 1] = self._cone_on[new_cone, 0]
+            self._cone_dir[new_cone, 0] = self._pyr_dir[new_cone]
+            self._cone_on[new_cone, 0] = True
             self._pyr_dir[new_cone] = (ft / np.maximum(ftn, 1e-12)[..., None])[new_cone[:N]]
-            self._cone_on |= new_cone
         return (
             float(max(over.max(initial=0.0), 0.0)),
             float(max(cone_rel.max(initial=0.0), 0.0)),

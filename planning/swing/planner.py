@@ -186,10 +186,19 @@ class SwingPlanner:
     ) -> dict[int, SwingPlan]:
         """Returns a plan per swing leg, planned in touchdown order around each other and the stance legs.
 
-        stance_feet_world: contact points (3,) of the legs in stance, by leg index. body: the body's predicted
-        motion (defaults to standing still at the nominal height over the origin).
+        Call it every replan period with every swing leg: a leg missing from a call is taken to be in stance,
+        and its memory (lift-off height, last policy, trip) is cleared. stance_feet_world: contact points (3,)
+        of the legs in stance, by leg index. body: the body's predicted motion (defaults to standing still at
+        the nominal height over the origin).
         """
-        stance = {int(k): np.asarray(v, dtype=float) for k, v in (stance_feet_world or {}).items()}
+        stance: dict[int, np.ndarray] = {}
+        for k, v in (stance_feet_world or {}).items():
+            a = np.asarray(v, dtype=float)
+            if not (0 <= int(k) < 4) or a.shape != (3,) or not np.all(np.isfinite(a)):
+                raise ValueError(
+                    f"plan: stance_feet_world[{k!r}]: needs a leg index 0..3 and 3 finite numbers"
+                )
+            stance[int(k)] = a
         seen = set()
         for r in legs:
             if r.leg in seen:
@@ -276,6 +285,7 @@ class SwingPlanner:
         horizon = req.t_touchdown - t_now
         if (
             last is not None
+            and self._trip[leg] is None
             and 0.0 < horizon < pr.min_replan_horizon_s
             and last.t_touchdown == req.t_touchdown
             and np.allclose(last.p_touchdown, req.p_touchdown)

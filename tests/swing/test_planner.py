@@ -279,3 +279,11 @@ def test_earlier_leg_is_replanned_when_the_later_one_cannot_avoid_it(planner, st
     plans = planner.plan(0.0, [fr, fl], flat_ground, stance, body)
     assert plans[1].horizontal_policy.startswith(("SwingAround", "Wiggle"))
     assert plans[0].tier == plans[1].tier == Tier.SUCCESS
+
+
+def test_close_to_touchdown_the_last_plan_is_kept(planner, standing_body):
+    req = SwingRequest(0, np.array([0.3, 0.165, 0.0]), np.zeros(3), np.array([0.45, 0.165, 0.0]), 0.3)
+    first = planner.plan(0.29, [req], flat_ground, {}, standing_body(0.29))[0]
+    p, v, _ = first.sample(0.295)
+    noisy = SwingRequest(0, p + 0.003, v, req.p_touchdown, 0.3)
+    assert planner.plan(0.295, [noisy], flat_ground, {}, standing_body(0.295))[0] is first
