@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planning.forces import ForceDistributor
+from planning.forces import ForceDistributor, ForceDistributorParams
 from planning.geometry import so3_log
 from planning.robot import RobotModel
 from planning.sim.world import RobotState
@@ -30,6 +30,7 @@ class BalanceParams:
     mu: float = 0.6  # friction coefficient assumed by the planner (MuJoCo's is 0.8)
     fz_min_n: float = 5.0  # N, minimum normal force on a stance foot
     fz_max_fraction: float = 1.5  # × body weight, maximum normal force per foot
+    w_force_horizontal: float | None = None  # QP weight of the horizontal force residual (None: as vertical)
 
 
 @dataclass
@@ -57,7 +58,9 @@ class BalanceController:
         self.mass = robot.mass_kg
         self.inertia_body = robot.inertia_body
         self.fz_max_n = p.fz_max_fraction * self.mass * 9.81
-        self.distributor = ForceDistributor(self.mass)
+        self.distributor = ForceDistributor(
+            self.mass, ForceDistributorParams(w_force_horizontal=p.w_force_horizontal)
+        )
         self.wrench = np.zeros(6)
         self.r_com_foot = np.zeros((4, 3))
         self.forces = np.zeros((4, 3))

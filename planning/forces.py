@@ -254,6 +254,7 @@ class ForceDistributorParams:
     """
 
     w_force: float = 1.0  # weight of the net-force residual, per (m g)²
+    w_force_horizontal: float | None = None  # weight of its x, y part when different (None: w_force)
     w_torque: float = 10.0  # weight of the torque residual about the CoM, per (m g · torque_length_m)²
     torque_length_m: float = 1.0  # m; turns a torque residual into a force-sized one
     # Regularization toward f_ref (default: the least-norm forces that make the wrench), per (m g)². Larger
@@ -287,6 +288,8 @@ class ForceDistributor:
         p = self.params
         self._sqrt_wf = math.sqrt(p.w_force)
         self._sqrt_wt = math.sqrt(p.w_torque) / p.torque_length_m
+        # horizontal force rows relative to the vertical one (walking: attitude first, foot placement steers)
+        self._h_ratio = math.sqrt(p.w_force_horizontal / p.w_force) if p.w_force_horizontal is not None else 1.0
 
         n_var, n_row = 3 * N_LEGS, 5 * N_LEGS
         P0, self._p_gather = dense_upper_csc(n_var)
@@ -412,6 +415,9 @@ class ForceDistributor:
         G *= self._col_mask
         self._w[0:3] = F
         self._w[0:3] *= self._sqrt_wf / fs
+        if self._h_ratio != 1.0:
+            G[0:2] *= self._h_ratio
+            self._w[0:2] *= self._h_ratio
         self._w[3:6] = T
         self._w[3:6] *= self._sqrt_wt / fs
         np.dot(G.T, G, out=self._P)

@@ -56,6 +56,8 @@ class HandlerParams:
     early_touchdown_fraction: float = 0.5  # a contact after this fraction of the swing counts as a touchdown
     max_liftoff_delay_s: float = 0.12  # a liftoff waits at most this long for a late foot to land
     min_stance_s: float = 0.08  # a foot that just landed stays down at least this long
+    touchdown_lead_s: float = 0.02  # swing trajectories aim to land this much before the planned time
+    touchdown_depth_m: float = 0.0  # ... and this far below the planned contact point (the swing planner counts depth as terrain collision)
     max_touchdown_shift_s: float = 0.1  # a replanned touchdown may move by at most this much in time mid-swing
     mu: float = 0.6
 
@@ -159,8 +161,15 @@ class Handler:
         for i in legs:
             p = s.p_world_foot[i].copy()
             p[2] -= r
-            # a touchdown time in the past selects the planner's late-touchdown policy (descend until contact)
-            reqs.append(SwingRequest(i, p, s.v_world_foot[i], self.p_touchdown[i], float(self.t_touchdown[i])))
+            # Aim a little early and a little low: the leg lags its reference, and a plan that arrives exactly on
+            # time has no room for replanning from measured states. A touchdown time in the past selects the
+            # planner's late-touchdown policy (descend until contact).
+            t_td = float(self.t_touchdown[i])
+            if self.phase[i] == Phase.SWING and t_td - self.params.touchdown_lead_s > s.t + 0.01:
+                t_td -= self.params.touchdown_lead_s
+            target = self.p_touchdown[i].copy()
+            target[2] -= self.params.touchdown_depth_m
+            reqs.append(SwingRequest(i, p, s.v_world_foot[i], target, t_td))
         stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == Phase.STANCE}
         v = s.v_world_body if v_body_des is None else v_body_des
         body = BodyMotion(s.t, s.p_world_body.copy(), s.R_world_body.copy(), v.copy(), float(s.omega_world[2]))

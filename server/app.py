@@ -55,7 +55,9 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
     from planning.maneuver.spec import Maneuver
 
     schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
-    m = Maneuver.model_json_schema(by_alias=True, mode="validation", ref_template="#/components/schemas/{model}")
+    m = Maneuver.model_json_schema(
+        by_alias=True, mode="validation", ref_template="#/components/schemas/{model}"
+    )
     comps = schema.setdefault("components", {}).setdefault("schemas", {})
     for k, v in m.pop("$defs", {}).items():
         comps.setdefault(k, v)
@@ -104,13 +106,19 @@ def create_app(
     return app
 
 
-def serve(host: str | None = None, port: int | None = None, viewer_port: int | None = None) -> None:
-    """Runs the REST API (uvicorn) and the studio until interrupted; arguments override FOOTFALL_* variables."""
+def serve(
+    host: str | None = None, port: int | None = None, viewer_port: int | None = None, **overrides: Any
+) -> None:
+    """Runs the REST API (uvicorn) and the studio until interrupted.
+
+    Arguments (and `overrides`: any Settings field, e.g. data_dir=Path(...)) win over FOOTFALL_* variables; None
+    means "not given".
+    """
     import uvicorn
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
     try:
-        settings = Settings.from_env(host=host, port=port, viewer_port=viewer_port)
+        settings = Settings.from_env(host=host, port=port, viewer_port=viewer_port, **overrides)
     except SettingsError as e:
         print(f"footfall: error: {e}", file=sys.stderr)
         raise SystemExit(2) from None

@@ -1,4 +1,4 @@
-"""Dependencies of the routes, as named `Annotated` aliases."""
+"""Dependencies of the routes, as named `Annotated` aliases (async: trivial, so no trip through the threadpool)."""
 
 from __future__ import annotations
 
@@ -17,26 +17,26 @@ from server.storage import ManeuverStore
 TOKEN_HEADER = "X-Footfall-Token"
 
 
-def get_services(request: Request) -> Services:
+async def get_services(request: Request) -> Services:
     return request.app.state.services  # type: ignore[no-any-return]
 
 
 ServicesDep = Annotated[Services, Depends(get_services)]
 
 
-def get_settings(services: ServicesDep) -> Settings:
+async def get_settings(services: ServicesDep) -> Settings:
     return services.settings
 
 
-def get_store(services: ServicesDep) -> ManeuverStore:
+async def get_store(services: ServicesDep) -> ManeuverStore:
     return services.store
 
 
-def get_sessions(services: ServicesDep) -> SessionManager:
+async def get_sessions(services: ServicesDep) -> SessionManager:
     return services.sessions
 
 
-def get_simulations(services: ServicesDep) -> SimulationPool:
+async def get_simulations(services: ServicesDep) -> SimulationPool:
     return services.simulations
 
 
@@ -61,7 +61,7 @@ def check_token(settings: Settings, presented: str | None) -> None:
         raise ApiError(403, "the API token is wrong", [{"field": TOKEN_HEADER, "reason": "does not match"}])
 
 
-def require_write(
+async def require_write(
     settings: SettingsDep,
     x_footfall_token: Annotated[str | None, Header(include_in_schema=False)] = None,
     authorization: Annotated[str | None, Header(include_in_schema=False)] = None,

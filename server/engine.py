@@ -24,7 +24,9 @@ import numpy as np
 
 LEGS = ("FL", "FR", "RL", "RR")
 GRAVITY_MPS2 = 9.81
-FORCE_ARROW_M_PER_N = 0.0015  # contact force arrows: 1.5 mm per newton (a 32 kg robot's ~80 N per foot → 12 cm)
+FORCE_ARROW_M_PER_N = (
+    0.0015  # contact force arrows: 1.5 mm per newton (a 32 kg robot's ~80 N per foot → 12 cm)
+)
 GeomKind = Literal["plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh"]
 _GEOM_KINDS: dict[int, GeomKind] = {
     int(mujoco.mjtGeom.mjGEOM_PLANE): "plane",
@@ -147,7 +149,9 @@ class LiveSim:
 
         self.maneuver = maneuver
         self.terrain = terrain
-        self.session = ManeuverSession(maneuver, RunOptions(terrain=terrain, robot=robot), robot=_robot(robot))
+        self.session = ManeuverSession(
+            maneuver, RunOptions(terrain=terrain, robot=robot), robot=_robot(robot)
+        )
         self.world = self.session.world
         self.model = self.world.model
         self.data = self.world.data
@@ -181,7 +185,9 @@ class LiveSim:
         """Advances one physics tick (2 ms); raises FloatingPointError when the simulation diverges."""
         s = self.session.loop.step()
         if not np.isfinite(s.p_world_body).all():
-            raise FloatingPointError(f"the simulation diverged at t = {self.t:.3f} s (non-finite body position)")
+            raise FloatingPointError(
+                f"the simulation diverged at t = {self.t:.3f} s (non-finite body position)"
+            )
         if self.t >= self._next_path_t:
             self._next_path_t = self.t + 0.1
             self.body_path.append(_t3(s.p_world_body))
@@ -338,6 +344,8 @@ def run_headless(job: dict[str, Any]) -> dict[str, Any]:
 
     maneuver = parse_maneuver(job["maneuver"])
     pushes = [Push(float(t), (float(f[0]), float(f[1]), float(f[2])), float(d)) for t, f, d in job["pushes"]]
-    opts = RunOptions(terrain=job["terrain"], pushes=pushes, duration_s=job.get("duration"), robot=job["robot"])
+    opts = RunOptions(
+        terrain=job["terrain"], pushes=pushes, duration_s=job.get("duration"), robot=job["robot"]
+    )
     progress = simulations.worker_progress(job["id"])
     return run_maneuver(maneuver, opts, progress=progress)

@@ -94,7 +94,11 @@ def install(app: FastAPI) -> None:
         for err in e.errors():
             loc = list(err.get("loc", ()))
             # drop pydantic's union branch names (e.g. "str", "PushIn") from the field path
-            loc = [x for x in loc if not (isinstance(x, str) and (x[:1].isupper() or x in ("str", "dict[str,any]")))]
+            loc = [
+                x
+                for x in loc
+                if not (isinstance(x, str) and (x[:1].isupper() or x in ("str", "dict[str,any]")))
+            ]
             errors.append({"field": _loc_to_field(loc), "reason": _reason(err)})
         first = errors[0] if errors else {"field": "", "reason": "invalid request"}
         detail = f"{first['field']}: {first['reason']}" if first["field"] else first["reason"]
@@ -102,11 +106,15 @@ def install(app: FastAPI) -> None:
 
     @app.exception_handler(StorageError)
     async def _storage(request: Request, e: StorageError) -> JSONResponse:
-        return JSONResponse(error_body(e.message, [{"field": e.field, "reason": e.message}]), status_code=e.status)
+        return JSONResponse(
+            error_body(e.message, [{"field": e.field, "reason": e.message}]), status_code=e.status
+        )
 
     @app.exception_handler(SessionError)
     async def _session(request: Request, e: SessionError) -> JSONResponse:
-        return JSONResponse(error_body(e.message, [{"field": e.field, "reason": e.message}]), status_code=e.status)
+        return JSONResponse(
+            error_body(e.message, [{"field": e.field, "reason": e.message}]), status_code=e.status
+        )
 
     @app.exception_handler(QueueFull)
     async def _queue_full(request: Request, e: QueueFull) -> JSONResponse:
@@ -125,12 +133,16 @@ def install(app: FastAPI) -> None:
                                 headers={"Connection": "close"})  # fmt: skip
         if e.status_code == 405:
             detail = f"{request.method} is not allowed on {request.url.path[:200]} (see /docs)"
-        return JSONResponse(error_body(detail), status_code=e.status_code, headers=getattr(e, "headers", None))
+        return JSONResponse(
+            error_body(detail), status_code=e.status_code, headers=getattr(e, "headers", None)
+        )
 
     @app.exception_handler(Exception)
     async def _unexpected(request: Request, e: Exception) -> JSONResponse:
         log.exception("unexpected error on %s %s", request.method, request.url.path)
-        return JSONResponse(error_body(f"internal error ({type(e).__name__}); this is a bug"), status_code=500)
+        return JSONResponse(
+            error_body(f"internal error ({type(e).__name__}); this is a bug"), status_code=500
+        )
 
 
 class BodyTooLarge(StarletteHTTPException):

@@ -23,7 +23,9 @@ def _num(lo: float, hi: float, *, lo_open: bool = False) -> Any:
 
 
 Force = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-5000.0, le=5000.0)]
-Vec3Force = Annotated[list[Force], Field(min_length=3, max_length=3, description="[fx, fy, fz], N, world frame")]
+Vec3Force = Annotated[
+    list[Force], Field(min_length=3, max_length=3, description="[fx, fy, fz], N, world frame")
+]
 
 
 class _In(BaseModel):
@@ -40,7 +42,12 @@ class PushIn(_In):
 
 
 PushSpec = Annotated[
-    str, Field(max_length=100, description="T:FX,FY,FZ[:DURATION] as on the command line", examples=["1.0:0,150,0:0.1"])
+    str,
+    Field(
+        max_length=100,
+        description="T:FX,FY,FZ[:DURATION] as on the command line",
+        examples=["1.0:0,150,0:0.1"],
+    ),
 ]
 
 

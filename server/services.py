@@ -32,7 +32,9 @@ class Services:
     sessions: SessionManager
     simulations: SimulationPool
     studio: Any = None
-    preview_requests: list[tuple[float, str, str]] = field(default_factory=list)  # (wall time, maneuver, terrain)
+    preview_requests: list[tuple[float, str, str]] = field(
+        default_factory=list
+    )  # (wall time, maneuver, terrain)
 
     @cached_property
     def robot(self) -> Any:
@@ -66,7 +68,9 @@ def read_maneuver_body(raw: bytes, content_type: str | None) -> ManeuverBody:
         raise ApiError(400, f"body: is not UTF-8 text ({e.reason} at byte {e.start})",
                        [{"field": "body", "reason": "not UTF-8 text"}]) from None  # fmt: skip
     if not text.strip():
-        raise ApiError(422, "body: is empty; send a maneuver document", [{"field": "body", "reason": "is empty"}])
+        raise ApiError(
+            422, "body: is empty; send a maneuver document", [{"field": "body", "reason": "is empty"}]
+        )
     if ctype in YAML_TYPES:
         try:
             data, lines = read_yaml(text)
@@ -79,7 +83,9 @@ def read_maneuver_body(raw: bytes, content_type: str | None) -> ManeuverBody:
     try:
         data = json.loads(text, parse_constant=_reject_constant)
     except RecursionError:
-        raise ApiError(422, "body: nests too deeply", [{"field": "body", "reason": "nests too deeply"}]) from None
+        raise ApiError(
+            422, "body: nests too deeply", [{"field": "body", "reason": "nests too deeply"}]
+        ) from None
     except ValueError as e:
         raise ApiError(422, f"body: is not valid JSON ({e})"[:300],
                        [{"field": "body", "reason": f"not valid JSON: {e}"[:300]}]) from None  # fmt: skip
@@ -99,7 +105,9 @@ def to_maneuver(body_data: Any, lines: dict[str, int] | None, settings: Settings
         raise ApiError(422, f"invalid maneuver ({n} problem{'s' if n != 1 else ''}): {e.problems[0]}"[:500],
                        problems_to_fields(e.problems)) from None  # fmt: skip
     except RecursionError:
-        raise ApiError(422, "body: nests too deeply", [{"field": "body", "reason": "nests too deeply"}]) from None
+        raise ApiError(
+            422, "body: nests too deeply", [{"field": "body", "reason": "nests too deeply"}]
+        ) from None
     limit_problems = check_limits(maneuver, settings)
     if limit_problems:
         raise ApiError(422, f"maneuver too large: {limit_problems[0]}", problems_to_fields(limit_problems))
@@ -129,7 +137,9 @@ def validate(maneuver: Any, services: Services, lines: dict[str, int] | None = N
         result = validate_maneuver(maneuver, services.robot)
     except Exception as e:  # noqa: BLE001 - a checker that chokes on odd input must not turn into a 500
         log.warning("validation of %s raised %r", getattr(maneuver, "name", "?"), e)
-        failure = Problem("", f"the maneuver could not be checked ({type(e).__name__}: {e}); is a value extreme?")
+        failure = Problem(
+            "", f"the maneuver could not be checked ({type(e).__name__}: {e}); is a value extreme?"
+        )
         return ValidationResult(False, [], [failure], maneuver)
     if lines:
         result = dataclasses.replace(
@@ -156,7 +166,9 @@ def resolve_maneuver(ref: str | dict[str, Any], services: Services, field_name: 
             stored = services.store.get(ref)
         except StorageError as e:
             reason = e.message.removeprefix("name: ")
-            raise ApiError(e.status, f"{field_name}: {reason}", [{"field": field_name, "reason": reason}]) from None
+            raise ApiError(
+                e.status, f"{field_name}: {reason}", [{"field": field_name, "reason": reason}]
+            ) from None
         data, lines = read_yaml(stored.text)
         maneuver = to_maneuver(data, lines, services.settings)
     else:

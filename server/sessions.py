@@ -12,6 +12,7 @@ alive so a reset can revive it, and nothing propagates to the server. Sessions n
 
 from __future__ import annotations
 
+import json
 import logging
 import secrets
 import threading
@@ -103,6 +104,7 @@ class Snapshot:
     state: dict[str, Any]
     xpos: np.ndarray  # (nb,3) robot body positions, world, m
     xquat: np.ndarray  # (nb,4) robot body orientations, wxyz
+    sim_json: str = "{}"  # the simulation's part of `state`, JSON-encoded once for every reader
 
 
 @dataclass
@@ -280,8 +282,9 @@ class LiveSession:
     def _take_snapshot(self) -> Snapshot:
         self._seq += 1
         xpos, xquat = self.sim.body_poses()
-        state = {**self.sim.state_dict(), **self._meta()}
-        return Snapshot(self._seq, time.time(), state, xpos, xquat)
+        sim_state = self.sim.state_dict()
+        state = {**sim_state, **self._meta()}
+        return Snapshot(self._seq, time.time(), state, xpos, xquat, json.dumps(sim_state, allow_nan=False))
 
     def _sample_plot(self) -> None:
         st = self.snapshot.state
@@ -297,11 +300,15 @@ class LiveSession:
     def _replace(self, maneuver: Any, terrain: str | None = None) -> None:
         terrain = terrain or self.terrain
         try:
-            sim = self._factory(maneuver, terrain, self.robot)  # built outside the lock: MuJoCo compile takes ms
+            sim = self._factory(
+                maneuver, terrain, self.robot
+            )  # built outside the lock: MuJoCo compile takes ms
         except Exception as e:  # noqa: BLE001 - the session keeps running what it ran before
             log.warning("session %s: cannot start %s: %r", self.id, getattr(maneuver, "name", "?"), e)
-            raise SessionError(f"could not start {getattr(maneuver, 'name', 'the maneuver')}: "
-                               f"{type(e).__name__}: {e}"[:500], field="maneuver") from None
+            raise SessionError(
+                f"could not start {getattr(maneuver, 'name', 'the maneuver')}: {type(e).__name__}: {e}"[:500],
+                field="maneuver",
+            ) from None
         with self.lock:
             self.sim = sim
             self.terrain = terrain
@@ -369,6 +376,14 @@ class LiveSession:
         """Returns the latest published state with the session's status as of now (never waits for the physics)."""
         return {**self.snapshot.state, **self._meta(), "t": self.snapshot.state.get("t")}
 
+    def state_json(self) -> str:
+        """Returns state() as JSON text, cheaply: the simulation's part was encoded once when published."""
+        sim_json = self.snapshot.sim_json
+        meta = json.dumps(self._meta(), allow_nan=False)
+        if sim_json == "{}" or len(sim_json) < 2:
+            return meta
+        return sim_json[:-1] + ", " + meta[1:]
+
     def plan(self) -> dict[str, Any]:
         """Returns the current plan overlays (briefly takes the lock: the arrays are live)."""
         self._check_live()
@@ -381,16 +396,19 @@ class LiveSession:
 
     def summary(self) -> dict[str, Any]:
         st = self.snapshot.state
-        return {k: st.get(k) for k in ("id", "status", "mode", "terrain", "maneuver", "origin", "t", "fell")} | {
-            "idle_s": round(self._clock() - self.last_access, 1)
-        }
+        return {
+            k: st.get(k) for k in ("id", "status", "mode", "terrain", "maneuver", "origin", "t", "fell")
+        } | {"idle_s": round(self._clock() - self.last_access, 1)}
 
 
 class SessionManager:
     """Creates, finds, caps and reaps live sessions."""
 
     def __init__(
-        self, settings: Settings, factory: SimFactory | None = None, clock: Callable[[], float] = time.monotonic
+        self,
+        settings: Settings,
+        factory: SimFactory | None = None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.settings = settings
         self.factory: SimFactory = factory or LiveSim
@@ -440,7 +458,9 @@ class SessionManager:
         with self._lock:
             s = self._sessions.get(session_id)
         if s is None:
-            raise SessionNotFound(f"no session {session_id[:40]!r} (ended, reaped or never created)", field="id")
+            raise SessionNotFound(
+                f"no session {session_id[:40]!r} (ended, reaped or never created)", field="id"
+            )
         if touch:
             s.touch()
         return s
@@ -465,7 +485,9 @@ class SessionManager:
         """Ends sessions idle longer than the limit; returns their ids."""
         now = self.clock()
         with self._lock:
-            idle = [sid for sid, s in self._sessions.items() if now - s.last_access > self.settings.session_idle_s]
+            idle = [
+                sid for sid, s in self._sessions.items() if now - s.last_access > self.settings.session_idle_s
+            ]
             gone = [self._sessions.pop(sid) for sid in idle]
         for s in gone:
             s.stop()

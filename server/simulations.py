@@ -8,6 +8,7 @@ rebuilt. Workers report progress through a queue that a thread of the server dra
 
 from __future__ import annotations
 
+import functools
 import logging
 import multiprocessing as mp
 import queue
@@ -157,7 +158,9 @@ class SimulationPool:
         if self._executor is None:
             if self._progress is None:
                 self._progress = self._ctx.Queue(maxsize=1000)
-                self._drain = threading.Thread(target=self._drain_progress, name="footfall-sim-progress", daemon=True)
+                self._drain = threading.Thread(
+                    target=self._drain_progress, name="footfall-sim-progress", daemon=True
+                )
                 self._drain.start()
             self._executor = ProcessPoolExecutor(
                 max_workers=self.settings.sim_workers,
@@ -179,11 +182,15 @@ class SimulationPool:
                     fut = self._ensure_executor().submit(self.runner, job.payload)
                 except (BrokenProcessPool, RuntimeError) as e:
                     self._executor = None
-                    job.status, job.error, job.finished = "failed", f"could not start a worker: {e}", time.time()
+                    job.status, job.error, job.finished = (
+                        "failed",
+                        f"could not start a worker: {e}",
+                        time.time(),
+                    )
                     continue
                 self._in_flight.add(job.id)
                 job.status, job.started = "running", time.time()
-                fut.add_done_callback(lambda f, jid=job.id: self._done(jid, f))
+                fut.add_done_callback(functools.partial(self._done, job.id))
 
     def _done(self, job_id: str, fut: Future[dict[str, Any]]) -> None:
         with self._lock:

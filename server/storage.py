@@ -70,7 +70,9 @@ def check_name(name: str) -> str:
     if len(name) > MAX_NAME_LEN:
         raise BadName(f"name: is too long (at most {MAX_NAME_LEN} characters)")
     if not _NAME_RE.fullmatch(name):
-        raise BadName(f"name: {name[:80]!r} is not a maneuver name (lowercase letters, digits and single dashes)")
+        raise BadName(
+            f"name: {name[:80]!r} is not a maneuver name (lowercase letters, digits and single dashes)"
+        )
     return name
 
 
@@ -126,6 +128,7 @@ def atomic_write(path: Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.fchmod(fd, 0o644)  # mkstemp makes 0600; a library file is as readable as any other document
         with os.fdopen(fd, "wb") as f:
             f.write(data)
             f.flush()
@@ -262,7 +265,9 @@ class ManeuverStore:
             if if_match is not None:
                 etag = etag_of(current.read_bytes())
                 if not etag_matches(if_match, etag):
-                    raise Conflict(f"maneuver {name!r} was changed since you read it (ETag {etag})", field="If-Match")
+                    raise Conflict(
+                        f"maneuver {name!r} was changed since you read it (ETag {etag})", field="If-Match"
+                    )
             current.unlink()
             _fsync_dir(self.user_dir)
 

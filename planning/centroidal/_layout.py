@@ -112,6 +112,8 @@ class Layout:
         A.add("tt0", rt[:, :, None], self.i_th[:-1][:, None, :])
         A.add("tw0", rt[:, :, None], self.i_w[:-1][:, None, :])
         A.add("tw1", rt[:, :, None], self.i_w[1:][:, None, :])
+        A.add("tv0", rt[:, :, None], self.i_v[:-1][:, None, :])
+        A.add("tf", rt[:, :, None, None], self.i_f[:, None, :, :])
         A.add("ww1", rw, self.i_w[1:])
         A.add("ww0", rw[:, :, None], self.i_w[:-1][:, None, :])
         A.add("wt0", rw[:, :, None], self.i_th[:-1][:, None, :])

@@ -11,6 +11,7 @@ shift Δt: a quadratic penalty on the timing shift, exact on the grid.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -53,6 +54,7 @@ class ContactSchedule:
     )
 
 
+@functools.lru_cache(maxsize=64)
 def _octagon(radius: float) -> tuple[np.ndarray, np.ndarray]:
     ang = np.arange(8) * (np.pi / 4.0) + np.pi / 8.0
     a = np.stack([np.cos(ang), np.sin(ang)], axis=1)
@@ -68,60 +70,65 @@ def build_schedule(
     """
     t = problem.t_knots
     N = t.size - 1
+    K = N + 1
     t0, tN = t[0], t[-1]
     tm = 0.5 * (t[:-1] + t[1:])
     dt = np.diff(t)
     w_t = problem.weights.touchdown_time
+    phases = sorted(problem.phases, key=lambda p: (p.leg, p.t_touchdown))
+    # Per phase (P): times and windows, all phases at once.
+    arr = np.array(
+        [(p.leg, p.t_touchdown, p.t_liftoff, *p.touchdown_window_s, *p.liftoff_window_s) for p in phases]
+        if phases
+        else np.zeros((0, 7))
+    ).reshape(-1, 7)
+    leg, td, lo = arr[:, 0].astype(np.int64), arr[:, 1], arr[:, 2]
+    e1, l1, e2, l2 = (arr[:, j] * float(timing) for j in (3, 4, 5, 6))
+    planted = td <= t0 + 1e-9
+    e1 = np.where(planted, 0.0, e1)
+    l1 = np.where(planted, 0.0, l1)
+    keep = ~((lo + l2 <= t0 + 1e-9) | (td - e1 >= tN - 1e-9))
+    leg, td, lo, e1, l1, e2, l2, planted = (x[keep] for x in (leg, td, lo, e1, l1, e2, l2, planted))
+    phases = [p for p, k in zip(phases, keep, strict=True) if k]
+    has_tw = (e1 + l1 > 0.0)[:, None]
+    has_lw = (e2 + l2 > 0.0)[:, None]
+    T = tm[None, :]
+    in_td = (T >= (td - e1)[:, None]) & (T < (td + l1)[:, None]) & has_tw
+    in_lo = (T >= (lo - e2)[:, None]) & (T < (lo + l2)[:, None]) & has_lw
+    sure = (T >= (td + l1)[:, None]) & (T < (lo - e2)[:, None])
+    any_c = in_td | in_lo | sure  # (P,N)
     c_lo = np.zeros((N, N_LEGS))
     c_hi = np.zeros((N, N_LEGS))
     q_c = np.zeros((N, N_LEGS))
     slot = np.full((N, N_LEGS), -1, dtype=np.int64)
     mono = np.zeros((max(N - 1, 0), N_LEGS), dtype=np.int64)
+    # Timing costs: touchdown early (c = 1 before nominal) or late (c = 0 after nominal); liftoff likewise.
+    d_td = 2.0 * w_t * (tm[None, :] - td[:, None]) * dt[None, :]
+    d_lo = 2.0 * w_t * (tm[None, :] - lo[:, None]) * dt[None, :]
+    q_ph = np.where(in_td, -d_td, 0.0) + np.where(in_lo, d_lo, 0.0)  # (P,N): + early td, − late td, ...
     slots: list[list[Slot]] = [[] for _ in range(N_LEGS)]
     n_capacity = 0
-    phases = sorted(problem.phases, key=lambda p: (p.leg, p.t_touchdown))
-    for ph in phases:
-        e1, l1 = ph.touchdown_window_s if timing else (0.0, 0.0)
-        e2, l2 = ph.liftoff_window_s if timing else (0.0, 0.0)
-        planted = ph.t_touchdown <= t0 + 1e-9
-        if planted:
-            e1 = l1 = 0.0
-        start = ph.t_touchdown - e1
-        end = ph.t_liftoff + l2
-        if end <= t0 + 1e-9 or start >= tN - 1e-9:
-            continue
-        leg = ph.leg
-        s = len(slots[leg])
-        td_lo, td_hi = ph.t_touchdown - e1, ph.t_touchdown + l1
-        lo_lo, lo_hi = ph.t_liftoff - e2, ph.t_liftoff + l2
-        in_td = (tm >= td_lo) & (tm < td_hi) & (l1 + e1 > 0.0)
-        in_lo = (tm >= lo_lo) & (tm < lo_hi) & (l2 + e2 > 0.0)
-        sure = (tm >= td_hi) & (tm < lo_lo) if (l1 + e1 > 0.0) else (tm >= ph.t_touchdown) & (tm < lo_lo)
-        if not (l2 + e2 > 0.0):
-            sure = sure & (tm < ph.t_liftoff)
-        any_c = in_td | in_lo | sure
-        if (slot[any_c, leg] >= 0).any():
-            return f"phases: leg {LEG_NAMES[leg]} has overlapping contact phases at {ph.t_touchdown:.3f} s"
-        slot[any_c, leg] = s
-        c_lo[sure, leg] = 1.0
-        c_hi[any_c, leg] = 1.0
-        # Timing costs: touchdown early (c = 1 before nominal) or late (c = 0 after nominal); liftoff likewise.
-        dev = 2.0 * w_t * np.abs(tm - ph.t_touchdown) * dt
-        q_c[in_td & (tm < ph.t_touchdown), leg] += dev[in_td & (tm < ph.t_touchdown)]
-        q_c[in_td & (tm >= ph.t_touchdown), leg] -= dev[in_td & (tm >= ph.t_touchdown)]
-        dev = 2.0 * w_t * np.abs(tm - ph.t_liftoff) * dt
-        q_c[in_lo & (tm < ph.t_liftoff), leg] -= dev[in_lo & (tm < ph.t_liftoff)]
-        q_c[in_lo & (tm >= ph.t_liftoff), leg] += dev[in_lo & (tm >= ph.t_liftoff)]
+    td_span = _spans(in_td)
+    lo_span = _spans(in_lo)
+    for j, ph in enumerate(phases):
+        i = int(leg[j])
+        if (slot[any_c[j], i] >= 0).any():
+            return f"phases: leg {LEG_NAMES[i]} has overlapping contact phases at {ph.t_touchdown:.3f} s"
+        s = len(slots[i])
+        slot[any_c[j], i] = s
+        c_lo[sure[j], i] = 1.0
+        c_hi[any_c[j], i] = 1.0
+        q_c[:, i] += q_ph[j]
         if N > 1:
-            mono[in_td[:-1] & in_td[1:], leg] = 1
-            mono[in_lo[:-1] & in_lo[1:], leg] = -1
+            mono[in_td[j, :-1] & in_td[j, 1:], i] = 1
+            mono[in_lo[j, :-1] & in_lo[j, 1:], i] = -1
         # Foothold shift set.
-        n_var = sum(1 for x in slots[leg] if x.var >= 0)
-        var = n_var if (not planted and ph.adjustable_place and n_var < max_adjustable) else -1
-        if not planted and ph.adjustable_place and var < 0:
-            n_capacity += 1
+        adjustable = (not planted[j]) and ph.adjustable_place
+        n_var = sum(1 for x in slots[i] if x.var >= 0)
+        var = n_var if (adjustable and n_var < max_adjustable) else -1
+        n_capacity += int(adjustable and var < 0)
         if var < 0:
-            box, pa, pb = 0.0, np.zeros((0, 2)), np.zeros(0)
+            box, pa, pb = 0.0, _NO_EDGES, _NO_OFFSETS
         elif ph.region_xy is not None:
             pa, pb = polygon_halfplanes(ph.region_xy)
             pb = pb - pa @ ph.p_world_foot[:2]
@@ -131,15 +138,10 @@ def build_schedule(
             box = ph.adjust_radius_m
         if pa.shape[0] > max_edges:
             return (
-                f"phases ({LEG_NAMES[leg]} at {ph.t_touchdown:.3f} s).region_xy: {pa.shape[0]} edges, "
+                f"phases ({LEG_NAMES[i]} at {ph.t_touchdown:.3f} s).region_xy: {pa.shape[0]} edges, "
                 f"the solver takes at most {max_edges}"
             )
-        idx = np.nonzero(in_td)[0]
-        td_w = (int(idx[0]), int(idx[-1]) + 1) if idx.size else (0, 0)
-        idx = np.nonzero(in_lo)[0]
-        lo_w = (int(idx[0]), int(idx[-1]) + 1) if idx.size else (0, 0)
-        slots[leg].append(Slot(ph, planted, var, box, pa, pb, td_w, lo_w))
-    K = N + 1
+        slots[i].append(Slot(ph, bool(planted[j]), var, box, pa, pb, td_span[j], lo_span[j]))
     knot_slot = np.full((K, N_LEGS), -1, dtype=np.int64)
     knot_slot[1:] = slot  # the foot of the interval that ends at the knot ...
     knot_slot[:-1] = np.where(slot >= 0, slot, knot_slot[:-1])  # ... unless one starts there
@@ -159,3 +161,19 @@ def build_schedule(
     return ContactSchedule(
         c_lo, c_hi, q_c, slot, mono, knot_slot, stance_knot, slots, nom, nrm, var_idx, n_capacity
     )
+
+
+_NO_EDGES = np.zeros((0, 2))
+_NO_OFFSETS = np.zeros(0)
+
+
+def _spans(mask: np.ndarray) -> list[tuple[int, int]]:
+    """Returns per row of mask (P,N) the range [first, last + 1) of its True entries, or (0, 0)."""
+    if mask.size == 0:
+        return [(0, 0)] * mask.shape[0]
+    anyr = np.asarray(mask.any(axis=1)).tolist()
+    first = np.argmax(mask, axis=1)
+    last = mask.shape[1] - np.argmax(mask[:, ::-1], axis=1)
+    return [
+        (int(f), int(e)) if a else (0, 0) for a, f, e in zip(anyr, first.tolist(), last.tolist(), strict=True)
+    ]

@@ -50,7 +50,9 @@ class BodyModel:
     (abduction joint) positions in the body frame. leg_length_min_m / leg_length_max_m: limits on the distance
     from the hip to the foot center (the circle of FIG. 2E). foot_radius_m: the foot center sits this far from
     the contact point along the contact normal. foot_offset_body_xy: (4,2) m, the nominal horizontal offset of
-    each foot from its hip in the body frame (the "hip over foot" cost pulls toward it). hip_x_range_m: the hip constraint, a pair of lines in the body's
+    each foot from its hip in the body frame (the "hip over foot" cost pulls toward it). p_body_com: (3,) m,
+    the composite CoM in the trunk frame at nominal stance. The solver's body is the CoM: p_body_hip is measured
+    from it, and a state's p_world is the CoM's (p_com = p_trunk + R p_body_com). hip_x_range_m: the hip constraint, a pair of lines in the body's
     X–Z plane: the foot center's body-x offset from its hip, after tilting the body X–Z plane by hip_line_tilt_rad
     about body y, stays within this range (m); keeps the upper leg from over-rotating into the body.
     """
@@ -64,6 +66,7 @@ class BodyModel:
     hip_x_range_m: tuple[float, float] = (-0.45, 0.45)
     hip_line_tilt_rad: float = 0.0
     foot_offset_body_xy: np.ndarray = field(default_factory=lambda: np.zeros((4, 2)))
+    p_body_com: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "inertia_body", _arr(self.inertia_body, (3, 3), "model.inertia_body"))
@@ -71,6 +74,7 @@ class BodyModel:
         object.__setattr__(
             self, "foot_offset_body_xy", _arr(self.foot_offset_body_xy, (4, 2), "model.foot_offset_body_xy")
         )
+        object.__setattr__(self, "p_body_com", _arr(self.p_body_com, (3,), "model.p_body_com"))
 
     @classmethod
     def from_robot(
@@ -85,10 +89,12 @@ class BodyModel:
         a = float(np.max(np.abs(robot.abd_offset))) if hasattr(robot, "abd_offset") else 0.0
         lmax = math.hypot(float(robot.max_leg_length_m), a) * reach_margin
         lmin = max(math.hypot(float(robot.min_leg_length_m), a), min_length_m)
+        com = _com_offset_body(robot)
         return cls(
             mass_kg=float(robot.mass_kg),
             inertia_body=np.asarray(robot.inertia_body, dtype=float),
-            p_body_hip=np.asarray(robot.p_body_hip, dtype=float),
+            p_body_hip=np.asarray(robot.p_body_hip, dtype=float) - com,
+            p_body_com=com,
             leg_length_min_m=lmin,
             leg_length_max_m=lmax,
             foot_radius_m=float(robot.foot_radius_m),
@@ -97,9 +103,27 @@ class BodyModel:
         )
 
 
+def _com_offset_body(robot: RobotModel) -> np.ndarray:
+    """Returns the composite CoM (3,) m in the trunk frame at the robot's nominal stance (zeros if unknown)."""
+    try:
+        import mujoco
+
+        m = robot.model
+        d = mujoco.MjData(m)
+        d.qpos[:] = robot.home_qpos()
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        R = d.xmat[robot.body_id].reshape(3, 3)
+        return np.asarray(R.T @ (d.subtree_com[robot.body_id] - d.xpos[robot.body_id]), dtype=float)
+    except (AttributeError, TypeError, ValueError):
+        return np.zeros(3)
+
+
 @dataclass(frozen=True)
 class BodyState:
-    """The measured (or planned) body state at time t (s): CoM position and velocity, orientation, ω (world)."""
+    """The measured (or planned) body state at time t (s): CoM position and velocity, orientation, ω (world).
+
+    p_world is the CoM (see BodyModel.p_body_com for the trunk origin's offset)."""
 
     t: float
     p_world: np.ndarray
@@ -341,18 +365,13 @@ class CentroidalProblem:
         if np.all(np.isfinite(R)) and (np.linalg.norm(R.T @ R - np.eye(3)) > 1e-3 or np.linalg.det(R) < 0.0):
             out.append("initial.R_world_body: not a rotation matrix")
         m = self.model
-        if not (m.mass_kg > 0.0 and math.isfinite(m.mass_kg)):
-            out.append(f"model.mass_kg: must be positive, got {m.mass_kg}")
-        if not np.all(np.isfinite(m.inertia_body)) or np.any(
-            np.linalg.eigvalsh(0.5 * (m.inertia_body + m.inertia_body.T)) <= 0
-        ):
-            out.append("model.inertia_body: must be symmetric positive definite")
-        if not (0.0 <= m.leg_length_min_m < m.leg_length_max_m):
-            out.append(
-                f"model.leg_length_min_m/max_m: need 0 <= min < max, got {m.leg_length_min_m}, {m.leg_length_max_m}"
-            )
-        if not (m.hip_x_range_m[0] < m.hip_x_range_m[1]):
-            out.append(f"model.hip_x_range_m: need lo < hi, got {m.hip_x_range_m}")
+        if _checked_models.get(id(m)) is not m:
+            out.extend(_validate_model(m))
+        out.extend(self._validate_rest())
+        return out
+
+    def _validate_rest(self) -> list[str]:
+        out: list[str] = []
         if not (self.mu > 0.0 and math.isfinite(self.mu)):
             out.append(f"mu: must be positive, got {self.mu}")
         if not (0.0 <= self.fz_min_N <= self.fz_max_N and math.isfinite(self.fz_max_N)):
@@ -396,6 +415,37 @@ class CentroidalProblem:
         return out
 
     def _validate_phases(self) -> list[str]:
+        # Fast path: every phase's numbers checked at once; the detailed pass only runs when something is off.
+        ph = self.phases
+        if not ph:
+            return []
+        try:
+            a = np.array(
+                [(p.leg, p.t_touchdown, p.t_liftoff, *p.touchdown_window_s, *p.liftoff_window_s, p.adjust_radius_m,
+                  *p.p_world_foot) for p in ph],
+                dtype=float,
+            )  # fmt: skip
+        except (TypeError, ValueError):
+            return self._validate_phases_detailed()
+        if a.ndim == 2 and a.shape[1] == 11 and not any(p.region_xy is not None for p in ph):
+            legs = a[:, 0]
+            ok = (
+                np.all(np.isin(legs, (0, 1, 2, 3)))
+                and np.all(np.isfinite(a[:, 1]))
+                and not np.any(np.isnan(a[:, 2]))
+                and np.all(a[:, 1] < a[:, 2])
+                and np.all(np.isfinite(a[:, 3:]))
+                and np.all(a[:, 3:8] >= 0.0)
+            )
+            if ok:
+                order = np.lexsort((a[:, 1], legs))
+                b = a[order]
+                same = b[1:, 0] == b[:-1, 0]
+                if not np.any(same & (b[:-1, 2] + b[:-1, 6] > b[1:, 1] - b[1:, 3] + 1e-9)):
+                    return []
+        return self._validate_phases_detailed()
+
+    def _validate_phases_detailed(self) -> list[str]:
         out: list[str] = []
         by_leg: dict[int, list[tuple[int, ContactPhase]]] = {}
         for j, ph in enumerate(self.phases):
@@ -438,6 +488,30 @@ class CentroidalProblem:
                         f"of phases[{ja}] (latest liftoff {end_a:.3f} s)"
                     )
         return out
+
+
+_checked_models: dict[int, BodyModel] = {}  # models found valid (frozen: checked once, by identity)
+
+
+def _validate_model(m: BodyModel) -> list[str]:
+    out: list[str] = []
+    if not (m.mass_kg > 0.0 and math.isfinite(m.mass_kg)):
+        out.append(f"model.mass_kg: must be positive, got {m.mass_kg}")
+    if not np.all(np.isfinite(m.inertia_body)) or np.any(
+        np.linalg.eigvalsh(0.5 * (m.inertia_body + m.inertia_body.T)) <= 0
+    ):
+        out.append("model.inertia_body: must be symmetric positive definite")
+    if not (0.0 <= m.leg_length_min_m < m.leg_length_max_m):
+        out.append(
+            f"model.leg_length_min_m/max_m: need 0 <= min < max, got {m.leg_length_min_m}, {m.leg_length_max_m}"
+        )
+    if not (m.hip_x_range_m[0] < m.hip_x_range_m[1]):
+        out.append(f"model.hip_x_range_m: need lo < hi, got {m.hip_x_range_m}")
+    if not (np.all(np.isfinite(m.p_body_hip)) and np.all(np.isfinite(m.foot_offset_body_xy))):
+        out.append("model.p_body_hip / foot_offset_body_xy: must be finite")
+    if not out and len(_checked_models) < 64:
+        _checked_models[id(m)] = m
+    return out
 
 
 def _polygon_problem(poly: np.ndarray) -> str:

@@ -20,12 +20,10 @@ def reference_forces(solver: CentroidalSolver, tol: float = 1e-9) -> tuple[np.nd
     snap = solver.last_snapshot
     if snap is None:
         raise RuntimeError("reference_forces: the solver has not solved anything yet")
-    L = solver.L
-    P = sp.csc_matrix((np.asarray(snap["Px"])[L.P_order], L.P.indices, L.P.indptr), shape=L.P.shape)
-    A = sp.csc_matrix((np.asarray(snap["Ax"])[L.A_order], L.A.indices, L.A.indptr), shape=L.A.shape).tocsr()
-    l = np.asarray(snap["l"])
-    u = np.asarray(snap["u"])
-    q = np.asarray(snap["q"])
+    L = snap.layout
+    P = sp.csc_matrix((snap.P_x[L.P_order], L.P.indices, L.P.indptr), shape=L.P.shape)
+    A = sp.csc_matrix((snap.A_x[L.A_order], L.A.indices, L.A.indptr), shape=L.A.shape).tocsr()
+    l, u, q = snap.l, snap.u, snap.q
     eq = np.abs(u - l) <= 1e-12
     up = ~eq & (u < _BIG)
     lo = ~eq & (l > -_BIG)
@@ -41,5 +39,4 @@ def reference_forces(solver: CentroidalSolver, tol: float = 1e-9) -> tuple[np.nd
     st.max_iter = 200
     res = clarabel.DefaultSolver(sp.triu(P).tocsc(), q, A_all, b, cones, st).solve()
     x = np.asarray(res.x)
-    N = int(snap["N"])  # type: ignore[call-overload]
-    return x[L.i_f[:N]] * float(snap["Fs"]), str(res.status)  # type: ignore[arg-type]
+    return x[L.i_f[: snap.N]] * snap.force_scale, str(res.status)

@@ -84,13 +84,14 @@ class Scenario:
             )
         if contact_measured is not None and p_world_foot_measured is not None:
             phases = reconcile_contacts(phases, state.t, contact_measured, p_world_foot_measured)
-        grid = make_time_grid(
-            state.t,
-            phase_event_times(phases),
-            state.t + self.horizon_s,
-            self.base_dt,
-            max_knots=self.max_knots,
+        end = state.t + self.horizon_s
+        # Only the phases that can touch the horizon (windows included) go into the problem.
+        phases = tuple(
+            p
+            for p in phases
+            if p.t_liftoff + p.liftoff_window_s[1] > state.t and p.t_touchdown - p.touchdown_window_s[0] < end
         )
+        grid = make_time_grid(state.t, phase_event_times(phases), end, self.base_dt, max_knots=self.max_knots)
         targets = BodyTargets.from_keyframes(grid, state, self.keyframes, self.running_weight)
         return CentroidalProblem(
             t_knots=grid,
@@ -106,13 +107,17 @@ class Scenario:
         )
 
 
-def _pose(x: float, y: float, z: float, roll_deg: float = 0.0, pitch_deg: float = 0.0, yaw_deg: float = 0.0):
+def _pose(model: BodyModel, x: float, y: float, z: float, roll_deg: float = 0.0, pitch_deg: float = 0.0,
+          yaw_deg: float = 0.0) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Returns the CoM position and orientation of a trunk pose (x, y, z m; roll, pitch, yaw degrees)."""
     R = _so3.rpy_to_R(np.radians([roll_deg, pitch_deg, yaw_deg]))
-    return np.array([x, y, z]), R
+    return np.array([x, y, z]) + R @ model.p_body_com, R
 
 
-def _start(z: float = 0.52, vz: float = 0.0) -> BodyState:
-    return BodyState(0.0, np.array([0.0, 0.0, z]), np.array([0.0, 0.0, vz]), np.eye(3), np.zeros(3))
+def _start(model: BodyModel, z: float = 0.52, vz: float = 0.0) -> BodyState:
+    """Returns the state of a level trunk at height z (m) over the origin, falling at vz m/s."""
+    p, R = _pose(model, 0.0, 0.0, z)
+    return BodyState(0.0, p, np.array([0.0, 0.0, vz]), R, np.zeros(3))
 
 
 def standing(model: BodyModel | None = None) -> Scenario:
@@ -120,9 +125,9 @@ def standing(model: BodyModel | None = None) -> Scenario:
     model = model or default_model()
     feet = nominal_feet()
     phases = tuple(ContactPhase(i, -1.0, math.inf, feet[i]) for i in range(4))
-    p1, R1 = _pose(0.03, 0.02, 0.46, 0.0, 10.0, 8.0)
-    p2, R2 = _pose(0.0, 0.0, 0.52)
-    return Scenario("standing", model, _start(), phases, ((0.6, p1, R1, 200.0), (1.4, p2, R2, 200.0)), 2.0)
+    p1, R1 = _pose(model, 0.03, 0.02, 0.46, 0.0, 10.0, 8.0)
+    p2, R2 = _pose(model, 0.0, 0.0, 0.52)
+    return Scenario("standing", model, _start(model), phases, ((0.6, p1, R1, 200.0), (1.4, p2, R2, 200.0)), 2.0)
 
 
 def trot(
@@ -151,8 +156,8 @@ def trot(
             at = feet[i] + [vx * (min(t, duration_s) + 0.5 * half), 0.0, 0.0]
             phases.append(ContactPhase(i, t, t + half, at, adjust_radius_m=adjust_radius_m))
             t += 2 * half
-    p, R = _pose(vx * duration_s, 0.0, 0.52)
-    return Scenario("trot", model, _start(), tuple(phases), ((duration_s, p, R, 20.0),), duration_s)
+    p, R = _pose(model, vx * duration_s, 0.0, 0.52)
+    return Scenario("trot", model, _start(model), tuple(phases), ((duration_s, p, R, 20.0),), duration_s)
 
 
 def jump(model: BodyModel | None = None) -> Scenario:
@@ -165,11 +170,11 @@ def jump(model: BodyModel | None = None) -> Scenario:
         phases.append(ContactPhase(i, -1.0, t_off, feet[i]))
         phases.append(ContactPhase(i, t_land, math.inf, feet[i], adjust_radius_m=0.05))
     kf = (
-        (0.2, *_pose(0.0, 0.0, 0.47), 50.0),
-        (0.45, *_pose(0.0, 0.0, 0.60), 300.0),
-        (1.2, *_pose(0.0, 0.0, 0.52), 100.0),
+        (0.2, *_pose(model, 0.0, 0.0, 0.47), 50.0),
+        (0.45, *_pose(model, 0.0, 0.0, 0.60), 300.0),
+        (1.2, *_pose(model, 0.0, 0.0, 0.52), 100.0),
     )
-    return Scenario("jump", model, _start(), tuple(phases), kf, 1.6)
+    return Scenario("jump", model, _start(model), tuple(phases), kf, 1.6)
 
 
 def three_leg(model: BodyModel | None = None, leg: int = 0) -> Scenario:
@@ -186,11 +191,11 @@ def three_leg(model: BodyModel | None = None, leg: int = 0) -> Scenario:
     others = feet[[j for j in range(4) if j != leg]]
     cx, cy = others[:, :2].mean(axis=0) * 0.8
     kf = (
-        (0.45, *_pose(cx, cy, 0.50), 50.0),
-        (1.7, *_pose(cx, cy, 0.50), 50.0),
-        (2.3, *_pose(0.0, 0.0, 0.52), 100.0),
+        (0.45, *_pose(model, cx, cy, 0.50), 50.0),
+        (1.7, *_pose(model, cx, cy, 0.50), 50.0),
+        (2.3, *_pose(model, 0.0, 0.0, 0.52), 100.0),
     )
-    return Scenario("three_leg", model, _start(), tuple(phases), kf, 2.5, running_weight=10.0)
+    return Scenario("three_leg", model, _start(model), tuple(phases), kf, 2.5, running_weight=10.0)
 
 
 def drop(
@@ -212,8 +217,8 @@ def drop(
         ContactPhase(i, t_touchdown, math.inf, feet[i], touchdown_window_s=(early_s, late_s))
         for i in range(4)
     )
-    p, R = _pose(0.0, 0.0, 0.52)
-    return Scenario("drop", model, _start(z0, vz0), phases, ((0.8, p, R, 100.0),), 1.5, running_weight=20.0)
+    p, R = _pose(model, 0.0, 0.0, 0.52)
+    return Scenario("drop", model, _start(model, z0, vz0), phases, ((0.8, p, R, 100.0),), 1.5, running_weight=20.0)
 
 
 SCENARIOS: dict[str, Callable[..., Scenario]] = {

@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import osqp
@@ -49,6 +50,8 @@ class CentroidalParams:
     """Solver settings.
 
     max_knots: the QP's size (knot times, so max_knots − 1 intervals); bigger problems fail, smaller are padded.
+    size_fractions: smaller QPs set up beside it (fractions of max_knots); a tick uses the smallest that fits,
+    so a short problem does not pay for padding.
     max_adjustable_per_leg: foothold variables per leg (later adjustable touchdowns keep their nominal place).
     max_polygon_edges: rows reserved per foothold region. max_cut_rounds: re-solves per tick after adding
     tangent-plane cuts. leg_length_tol_m / cone_tol: violations below these (m; fraction of μ f_n) need no cut;
@@ -57,12 +60,15 @@ class CentroidalParams:
     linearization_error_threshold_m: the integrated solution must stay this close (position m + orientation rad ×
     error_length_m) for ``ok``. time_budget_ms: a tick over it is not ``ok`` and adds no more cuts.
     timing_adjustment: let touchdown/liftoff times move within their windows.
-    eps_abs / eps_rel / max_iter / rho / polish: OSQP settings. Polishing is off by default: with the
-    degenerate active sets of this problem (pyramid faces, cone cuts, fixed contact variables) it mostly fails and
-    costs a second factorization; tolerances of 1e-6 instead keep forces well under a newton of the optimum.
+    eps_abs / eps_rel / max_iter / rho / polish: OSQP settings. ADMM alone at 1e-4 can leave contact forces tens
+    of newtons off the optimum (the forces' cost is tiny beside the tracking terms, so ADMM is slow along the
+    force-distribution directions); polishing (a KKT solve on the guessed active set) makes them exact, and the
+    rows are written so that active sets are not degenerate (a foot in the air has exactly three active rows).
+    When polishing still fails, ADMM goes on from where it stopped to eps_fallback.
     """
 
     max_knots: int = 24
+    size_fractions: tuple[float, ...] = (0.65, 0.8)
     max_adjustable_per_leg: int = 2
     max_polygon_edges: int = 8
     max_cut_rounds: int = 3
@@ -74,8 +80,9 @@ class CentroidalParams:
     error_length_m: float = 0.35
     time_budget_ms: float = 10.0
     timing_adjustment: bool = True
-    eps_abs: float = 1e-6
-    eps_rel: float = 1e-6
+    eps_abs: float = 3e-5
+    eps_rel: float = 3e-5
+    eps_fallback: float = 1e-7
     max_iter: int = 4000
     rho: float = 0.1
     polish: bool = True
@@ -188,6 +195,22 @@ def _failure(status: str, message: str, t0: float, qp_ms: float = 0.0) -> Centro
     )
 
 
+@dataclass(frozen=True)
+class QPSnapshot:
+    """The last QP exactly as solved (values in the layout's COO order), for reference solves and debugging."""
+
+    P_x: np.ndarray
+    A_x: np.ndarray
+    q: np.ndarray
+    l: np.ndarray
+    u: np.ndarray
+    K: int
+    N: int
+    force_scale: float
+    layout: Layout
+    x: np.ndarray | None
+
+
 @dataclass
 class _Previous:
     """The last solution, kept as the next tick's linearization point and warm start."""
@@ -231,6 +254,72 @@ class _Tick:
     cost_const: float = 0.0
 
 
+def _interval_average(t_old: np.ndarray, x_old: np.ndarray, t_new: np.ndarray) -> np.ndarray:
+    """Returns piecewise-constant values x_old (one per old interval) averaged over each new interval (clamped)."""
+    shape = x_old.shape[1:]
+    flat = x_old.reshape(x_old.shape[0], -1)
+    cum = np.zeros((t_old.size, flat.shape[1]))
+    np.cumsum(flat * np.diff(t_old)[:, None], axis=0, out=cum[1:])
+    tc = np.clip(t_new, t_old[0], t_old[-1])
+    j = np.clip(np.searchsorted(t_old, tc, side="right") - 1, 0, t_old.size - 2)
+    integ = cum[j] + (tc - t_old[j])[:, None] * flat[j]  # ∫ x from t_old[0] to tc
+    span = np.diff(tc)
+    avg = np.diff(integ, axis=0) / np.maximum(span, 1e-12)[:, None]
+    # New intervals past the old horizon hold the last value.
+    past = span < 1e-12
+    if past.any():
+        mids = 0.5 * (t_new[:-1] + t_new[1:])
+        jk = np.clip(np.searchsorted(t_old, mids, side="right") - 1, 0, flat.shape[0] - 1)
+        avg[past] = flat[jk[past]]
+    part = (span > 1e-12) & (span < np.diff(t_new) - 1e-12)
+    if part.any():  # partly past the old horizon: the rest at the last value
+        dtn = np.diff(t_new)[part]
+        avg[part] = (avg[part] * span[part, None] + flat[-1] * (dtn - span[part])[:, None]) / dtn[:, None]
+    return avg.reshape((t_new.size - 1, *shape))
+
+
+class _Instance:
+    """One QP of a fixed size: layout, OSQP workspace (set up once), value buffers and cut state."""
+
+    def __init__(self, n_knots: int, p: CentroidalParams) -> None:
+        self.L = L = Layout(n_knots, p.max_adjustable_per_leg, p.max_polygon_edges)
+        self.Ax = np.zeros(L.A_nnz)
+        self.Px = np.zeros(L.P_nnz)
+        self.q = np.zeros(L.n)
+        self.l = np.full(L.m, -INF)
+        self.u = np.full(L.m, INF)
+        self.fr = np.zeros((L.N, N_LEGS, 8, 3))
+        self.kin = (np.zeros((L.K - 1, N_LEGS, 2, 3)), np.zeros((L.K - 1, N_LEGS, 2, 3)))
+        self.kd = np.zeros((L.K - 1, N_LEGS, 2, L.S, 2))
+        self.cone_dir = np.zeros((L.N, N_LEGS, 2, 2))  # two remembered faces per interval and leg
+        self.pyr_dir = np.zeros((L.N, N_LEGS, 2))
+        self.cone_on = np.zeros((L.N, N_LEGS, 2), dtype=bool)
+        self.len_dir = np.zeros((L.K - 1, N_LEGS, 3))
+        self.len_on = np.zeros((L.K - 1, N_LEGS), dtype=bool)
+        self.air = np.ones((L.N, N_LEGS), dtype=bool)
+        # Blocks whose values never change are written once here; a tick writes the rest.
+        for name, val in (("init", 1.0), ("pp1", 1.0), ("pp0", -1.0), ("vv1", 1.0), ("vv0", -1.0), ("tt1", 1.0),
+                          ("ww1", 1.0), ("cb", 1.0), ("mo1", 1.0), ("mo0", -1.0), ("db", 1.0)):  # fmt: skip
+            sl, shape = L.A_blocks[name]
+            self.Ax[sl] = val
+        self.qp = osqp.OSQP()
+        self.qp.setup(
+            L.P,
+            np.zeros(L.n),
+            L.A,
+            self.l,
+            self.u,
+            verbose=False,
+            eps_abs=p.eps_abs,
+            eps_rel=p.eps_rel,
+            max_iter=p.max_iter,
+            polishing=p.polish,
+            warm_starting=True,
+            rho=p.rho,
+            check_termination=5,
+        )
+
+
 class CentroidalSolver:
     """Builds the QP once; ``solve(problem)`` runs one real-time iteration and returns a CentroidalSolution.
 
@@ -243,41 +332,22 @@ class CentroidalSolver:
         if p.max_knots < 3:
             raise ValueError(f"CentroidalParams.max_knots must be >= 3, got {p.max_knots}")
         self.default_model = BodyModel.from_robot(robot) if robot is not None else None  # type: ignore[arg-type]
-        self.L = Layout(p.max_knots, p.max_adjustable_per_leg, p.max_polygon_edges)
-        L = self.L
-        self._Ax = np.zeros(L.A_nnz)
-        self._Px = np.zeros(L.P_nnz)
-        self._q = np.zeros(L.n)
-        self._l = np.full(L.m, -INF)
-        self._u = np.full(L.m, INF)
-        self._fr = np.zeros((L.N, N_LEGS, 8, 3))
-        self._kin = (np.zeros((L.K - 1, N_LEGS, 2, 3)), np.zeros((L.K - 1, N_LEGS, 2, 3)))
-        self._kd = np.zeros((L.K - 1, N_LEGS, 2, L.S, 2))
-        self._cone_dir = np.zeros((L.N, N_LEGS, 2, 2))  # two remembered faces per interval and leg
-        self._pyr_dir = np.zeros((L.N, N_LEGS, 2))
-        self._len_dir = np.zeros((L.K - 1, N_LEGS, 3))
-        self._len_on = np.zeros((L.K - 1, N_LEGS), dtype=bool)
-        self._cone_on = np.zeros((L.N, N_LEGS, 2), dtype=bool)
-        self._air = np.ones((L.N, N_LEGS), dtype=bool)
+        sizes = sorted({max(3, math.ceil(p.max_knots * f - 1e-9)) for f in p.size_fractions} | {p.max_knots})
+        self._instances = [_Instance(k, p) for k in sizes]
+        self._bind(self._instances[-1])
         self._prev: _Previous | None = None
-        self.last_snapshot: dict[str, object] | None = None
-        self.last_info: list[object] = []
-        self._qp = osqp.OSQP()
-        self._qp.setup(
-            L.P,
-            np.zeros(L.n),
-            L.A,
-            self._l,
-            self._u,
-            verbose=False,
-            eps_abs=p.eps_abs,
-            eps_rel=p.eps_rel,
-            max_iter=p.max_iter,
-            polishing=p.polish,
-            warm_starting=True,
-            rho=p.rho,
-            check_termination=5,
-        )
+        self.last_snapshot: QPSnapshot | None = None
+        self.last_info: list[Any] = []
+
+    def _bind(self, inst: _Instance) -> None:
+        """Points the tick's working arrays at one QP instance (the smallest that fits the problem)."""
+        self._inst = inst
+        self.L = inst.L
+        self._qp = inst.qp
+        self._Ax, self._Px, self._q, self._l, self._u = inst.Ax, inst.Px, inst.q, inst.l, inst.u
+        self._fr, self._kin, self._kd = inst.fr, inst.kin, inst.kd
+        self._cone_dir, self._pyr_dir, self._cone_on = inst.cone_dir, inst.pyr_dir, inst.cone_on
+        self._len_dir, self._len_on, self._air = inst.len_dir, inst.len_on, inst.air
 
     # ----------------------------------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -301,6 +371,7 @@ class CentroidalSolver:
             )
         p = self.params
         sch = build_schedule(problem, p.max_adjustable_per_leg, p.max_polygon_edges, p.timing_adjustment)
+        self._bind(next(i for i in self._instances if i.L.K >= problem.n_knots))
         if isinstance(sch, str):
             return _failure("invalid_problem", sch, t0)
         try:
@@ -328,17 +399,21 @@ class CentroidalSolver:
             c = sch.c_lo.copy()
             d_prev: dict[str, np.ndarray] = {}
         else:
+            # The previous plan read the way its model runs: constant acceleration within a step (p quadratic,
+            # v and ω linear), geodesic orientation, and forces averaged over each new interval.
             j = np.clip(np.searchsorted(P.t, t, side="right") - 1, 0, P.t.size - 2)
-            a = np.clip((t - P.t[j]) / np.maximum(P.t[j + 1] - P.t[j], 1e-12), 0.0, 1.0)
+            h = np.maximum(P.t[j + 1] - P.t[j], 1e-12)
+            tau = np.clip(t - P.t[j], 0.0, h)
+            a = tau / h
             ac = a[:, None]
-            p = (1 - ac) * P.p[j] + ac * P.p[j + 1]
+            acc = (P.v[j + 1] - P.v[j]) / h[:, None]
+            p = P.p[j] + tau[:, None] * P.v[j] + 0.5 * (tau * tau)[:, None] * acc
             v = (1 - ac) * P.v[j] + ac * P.v[j + 1]
             w = (1 - ac) * P.w[j] + ac * P.w[j + 1]
             R = _so3.interpolate(P.R[j], P.R[j + 1], a)
-            tm = 0.5 * (t[:-1] + t[1:])
-            jk = np.clip(np.searchsorted(P.t, tm, side="right") - 1, 0, P.f.shape[0] - 1)
-            f = P.f[jk].copy()
-            c = P.c[jk].copy()
+            fc = _interval_average(P.t, np.concatenate([P.f.reshape(-1, 12), P.c], axis=1), t)
+            f = fc[:, :12].reshape(N, N_LEGS, 3)
+            c = fc[:, 12:]
             d_prev = P.d_by_key
         s0 = pr.initial
         p[0], v[0], R[0], w[0] = s0.p_world, s0.v_world, s0.R_world_body, s0.omega_world
@@ -352,7 +427,8 @@ class CentroidalSolver:
         for i in range(N_LEGS):
             for sl in sch.slots[i]:
                 if sl.var >= 0 and sl.phase.key in d_prev:
-                    d[i, sl.var] = np.clip(d_prev[sl.phase.key], -sl.box, sl.box)
+                    dx, dy = d_prev[sl.phase.key].tolist()
+                    d[i, sl.var] = (min(max(dx, -sl.box), sl.box), min(max(dy, -sl.box), sl.box))
         # Pad to the layout's size: repeated last knot, zero-length intervals with no feet.
         Kmax, Nmax = L.K, L.N
         pad = Kmax - K
@@ -399,19 +475,14 @@ class CentroidalSolver:
         hv = tk.var >= 0
         d_int[hv] = tk.d[np.nonzero(hv)[1], tk.var[hv]]
         lz = linearize(tk.p, tk.v, tk.R, tk.w, tk.f, p_feet, d_int, dt, pr.model.inertia_body, g)
-        put("init", 1.0)
-        put("pp1", 1.0)
-        put("pp0", -1.0)
         put("pv0", -dt[:, None])
         put("pf", (-0.5 * dt * dt * Fs / m)[:, None, None])
-        put("vv1", 1.0)
-        put("vv0", -1.0)
         put("vf", (-dt * Fs / m)[:, None, None])
-        put("tt1", 1.0)
         put("tt0", -lz.Jth)
         put("tw0", -0.5 * lz.Jw)
         put("tw1", -0.5 * lz.Jw)
-        put("ww1", 1.0)
+        put("tv0", -lz.Rv)
+        put("tf", -np.transpose(lz.Rf, (0, 2, 1, 3)) * Fs)
         dtc = dt[:, None, None]
         put("ww0", -(_EYE3 + dtc * lz.G_w))
         put("wt0", -dtc * lz.G_th)
@@ -444,11 +515,11 @@ class CentroidalSolver:
         legs = np.arange(N_LEGS)[None, :]
         has = tk.slot >= 0
         n = np.where(has[..., None], sch.nrm[legs, np.maximum(tk.slot, 0)], np.array([0.0, 0.0, 1.0]))
-        t1 = np.cross(n, np.array([0.0, 1.0, 0.0]))
+        t1 = _so3.cross(n, np.array([0.0, 1.0, 0.0]))
         bad = np.linalg.norm(t1, axis=-1) < 1e-6
-        t1[bad] = np.cross(n[bad], np.array([1.0, 0.0, 0.0]))
+        t1[bad] = _so3.cross(n[bad], np.array([1.0, 0.0, 0.0]))
         t1 /= np.linalg.norm(t1, axis=-1, keepdims=True)
-        t2 = np.cross(n, t1)
+        t2 = _so3.cross(n, t1)
         tk.t1, tk.t2, tk.n = t1, t2, n
         # The pyramid is turned about the normal so that one face faces the linearization point's tangential
         # force: there it is exact, and the cuts only have to handle the force turning within the tick.
@@ -462,9 +533,6 @@ class CentroidalSolver:
         frc[..., 0] = -pr.fz_max_N / tk.Fs
         frc[..., 1] = -pr.fz_min_N / tk.Fs
         self._put("frc", frc)
-        self._put("cb", 1.0)
-        self._put("mo1", 1.0)
-        self._put("mo0", -1.0)
         l, u = self._l, self._u
         rf = L.r_fric
         c_lo = np.zeros((L.N, N_LEGS))
@@ -595,7 +663,6 @@ class CentroidalSolver:
                 ne = sl.poly_a.shape[0]
                 dp[i, sl.var, :ne] = sl.poly_a
                 u[r_f[i, sl.var, 2 : 2 + ne]] = sl.poly_b
-        self._put("db", 1.0)
         self._put("dp", dp)
 
     def _fill_cost(self, tk: _Tick) -> None:
@@ -643,35 +710,32 @@ class CentroidalSolver:
         Hdd = np.zeros((N_LEGS, L.S, 2))
         q_d = np.zeros((N_LEGS, L.S, 2))
         if w.hip_over_foot > 0.0:
-            st = np.zeros((Kmax, N_LEGS), dtype=bool)
-            st[1:K] = sch.stance_knot[1:]
+            # Dense over (knot, leg), weighted by 0 where the leg is not surely down: no scatter needed.
+            legs = np.arange(N_LEGS)[None, :]
+            wk = np.zeros((Kmax, N_LEGS))
+            wk[1:K] = np.where(sch.stance_knot[1:], w.hip_over_foot * h[1:K, None], 0.0)
             ks = np.zeros((Kmax, N_LEGS), dtype=np.int64)
             ks[1:K] = np.maximum(sch.knot_slot[1:], 0)
-            kk, ii = np.nonzero(st)
-            if kk.size:
-                hb = np.einsum("nij,nj->ni", tk.R[kk], model.p_body_hip[ii])
-                off = np.einsum("nij,nj->ni", tk.R[kk][:, :2, :2], model.foot_offset_body_xy[ii])
-                foot = sch.nom[ii, ks[kk, ii]]  # a touchdown that may move adds its shift d below
-                J = np.zeros((kk.size, 2, 6))
-                J[:, 0, 0] = 1.0
-                J[:, 1, 1] = 1.0
-                J[:, :, 3:] = -_so3.hat(hb)[:, :2, :]
-                r0 = hb[:, :2] - foot[:, :2] + off
-                wk = w.hip_over_foot * h[kk]
-                np.add.at(H, kk, 2.0 * wk[:, None, None] * np.swapaxes(J, 1, 2) @ J)
-                g_ = 2.0 * wk[:, None] * np.einsum("nji,nj->ni", J, r0)
-                np.add.at(q_p, kk, g_[:, :3])
-                np.add.at(q_t, kk, g_[:, 3:])
-                hip_const = float(np.sum(wk * np.sum(r0 * r0, axis=1)))
-                # r = J z + r0 − d (d in xy): cross terms −2w Jᵀ, d·d terms 2w, linear −2w r0.
-                kv = sch.var[ii, ks[kk, ii]]
-                mv = kv >= 0
-                if mv.any():
-                    km, im, vm = kk[mv], ii[mv], kv[mv]
-                    wm = 2.0 * wk[mv]
-                    np.add.at(Hpd, (km, slice(None), im, vm), -wm[:, None, None] * np.swapaxes(J[mv], 1, 2))
-                    np.add.at(Hdd, (im, vm), wm[:, None])
-                    np.add.at(q_d, (im, vm), -wm[:, None] * r0[mv])
+            hb = np.einsum("kij,lj->kli", tk.R, model.p_body_hip)
+            off = np.einsum("kij,lj->kli", tk.R[:, :2, :2], model.foot_offset_body_xy)
+            foot = sch.nom[legs, ks]  # a touchdown that may move adds its shift d below
+            J = np.zeros((Kmax, N_LEGS, 2, 6))
+            J[..., 0, 0] = 1.0
+            J[..., 1, 1] = 1.0
+            J[..., :, 3:] = -_so3.hat(hb)[..., :2, :]
+            r0 = hb[..., :2] - foot[..., :2] + off
+            H += 2.0 * np.einsum("kl,klai,klaj->kij", wk, J, J)
+            g_ = 2.0 * np.einsum("kl,klai,kla->ki", wk, J, r0)
+            q_p += g_[:, :3]
+            q_t += g_[:, 3:]
+            hip_const = float(np.sum(wk * np.sum(r0 * r0, axis=-1)))
+            # r = J z + r0 − d (d in xy): cross terms −2w Jᵀ, d·d terms 2w, linear −2w r0.
+            kv = sch.var[legs, ks]
+            onehot = ((kv[..., None] == np.arange(L.S)) & (wk > 0.0)[..., None]).astype(float)  # (K,4,S)
+            won = wk[..., None] * onehot
+            Hpd -= 2.0 * np.einsum("kls,klai->kilsa", won, J)
+            Hdd += 2.0 * won.sum(axis=0)[..., None]
+            q_d -= 2.0 * np.einsum("kls,kla->lsa", won, r0)
         # Custom objectives: linear rewards on the CoM over their windows.
         tkn = np.full(Kmax, np.inf)
         tkn[:K] = pr.t_knots
@@ -731,11 +795,12 @@ class CentroidalSolver:
         tq = time.perf_counter()
         self._qp.update(q=self._q, l=self._l, u=self._u, Px=self._Px[L.P_order], Ax=self._Ax[L.A_order])
         self._qp.warm_start(x=x_ws)
-        res = self._qp.solve(raise_error=False)
+        res = self._run_qp()
         t_qp = (time.perf_counter() - tq) * 1e3
         self.last_info = [res.info]
         rounds = n_cuts = 0
         len_viol = cone_viol = 0.0
+        sol: dict[str, np.ndarray] = {}
         while int(res.info.status_val) in (1, 2):
             sol = self._unpack(res.x, tk)
             len_viol, cone_viol, new_len, new_cone = self._violations(sol, tk)
@@ -750,27 +815,44 @@ class CentroidalSolver:
             tq = time.perf_counter()
             self._qp.update(l=self._l, u=self._u, Ax=self._Ax[L.A_order])
             self._qp.warm_start(x=res.x)
-            res = self._qp.solve(raise_error=False)
+            res = self._run_qp()
             t_qp += (time.perf_counter() - tq) * 1e3
             self.last_info.append(res.info)
-        self.last_snapshot = {
-            "l": self._l.copy(),
-            "u": self._u.copy(),
-            "q": self._q.copy(),
-            "Ax": self._Ax.copy(),
-            "Px": self._Px.copy(),
-            "K": tk.K,
-            "N": tk.N,
-            "Fs": tk.Fs,
-            "x": None if res.x is None else np.array(res.x),
-        }
-        qp_iter = sum(int(i.iter) for i in self.last_info)
+        self.last_snapshot = QPSnapshot(
+            self._Px.copy(),
+            self._Ax.copy(),
+            self._q.copy(),
+            self._l.copy(),
+            self._u.copy(),
+            tk.K,
+            tk.N,
+            tk.Fs,
+            self.L,
+            None if res.x is None else np.array(res.x),
+        )
+        qp_iter = int(sum(int(i.iter) for i in self.last_info))
         status_val = int(res.info.status_val)
         if status_val not in (1, 2):
             self._prev = None
             name = _STATUS_NAMES.get(status_val, "solver_error")
             return _failure(name, f"OSQP: {res.info.status}", t0, t_qp)
-        return self._finish(tk, res, t0, t_qp, qp_iter, rounds, n_cuts, len_viol, cone_viol)
+        return self._finish(tk, res, sol, t0, t_qp, qp_iter, rounds, n_cuts, len_viol, cone_viol)
+
+    def _run_qp(self) -> Any:
+        """Solves the QP as it stands; when polishing fails (a degenerate active set), goes on to the tight
+        tolerance from where ADMM stopped, so the forces are accurate either way."""
+        p = self.params
+        res = self._qp.solve(raise_error=False)
+        if (
+            p.polish
+            and int(res.info.status_val) == 1
+            and int(res.info.status_polish) != 1
+            and p.eps_fallback < p.eps_abs
+        ):
+            self._qp.update_settings(eps_abs=p.eps_fallback, eps_rel=p.eps_fallback, polishing=False)
+            res = self._qp.solve(raise_error=False)
+            self._qp.update_settings(eps_abs=p.eps_abs, eps_rel=p.eps_rel, polishing=True)
+        return res
 
     # ----------------------------------------------------------------------------------------------------------
     def _unpack(self, x: np.ndarray, tk: _Tick) -> dict[str, np.ndarray]:
@@ -828,7 +910,9 @@ class CentroidalSolver:
         ftn = np.linalg.norm(ft, axis=-1)
         # Relative to the cone's radius, and never for less than cone_tol_N of excess (lightly loaded feet).
         excess = ftn - pr.mu * fn
-        cone_rel = np.where(excess > prm.cone_tol_N, excess / np.maximum(pr.mu * np.maximum(fn, pr.fz_min_N), 1e-9), 0.0)
+        cone_rel = np.where(
+            excess > prm.cone_tol_N, excess / np.maximum(pr.mu * np.maximum(fn, pr.fz_min_N), 1e-9), 0.0
+        )
         new_cone = np.zeros(self._cone_dir.shape[:2], dtype=bool)
         new_cone[:N] = (cone_rel > prm.cone_tol) & (ftn > 1e-9)
         if new_cone.any():
@@ -850,7 +934,8 @@ class CentroidalSolver:
     def _finish(
         self,
         tk: _Tick,
-        res: object,
+        res: Any,
+        sol: dict[str, np.ndarray],
         t0: float,
         t_qp: float,
         qp_iter: int,
@@ -861,7 +946,6 @@ class CentroidalSolver:
     ) -> CentroidalSolution:
         prm, pr, sch, N = self.params, tk.pr, tk.sch, tk.N
         model = pr.model
-        sol = self._unpack(res.x, tk)  # type: ignore[attr-defined]
         t = pr.t_knots
         # Integrated solution: the QP's forces through the nonlinear discrete dynamics.
         P_i, V_i, R_i, W_i = integrate_plan(pr.initial, sol["f"], sol["p_feet"], t, model, pr.gravity)

@@ -10,6 +10,14 @@ from planning.swing.params import SwingParams
 from planning.swing.planner import SwingPlan
 
 _G_WORLD = np.array([0.0, 0.0, -9.81])  # m/s²
+_DEFAULT = SwingParams()
+_DAMP_IK = 1e-4 * np.eye(3)
+_DAMP_VEL = 1e-6 * np.eye(3)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b for 3-vectors (np.cross costs ~20 µs of axis bookkeeping per call)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def swing_joint_command(
@@ -33,7 +41,7 @@ def swing_joint_command(
     from q instead. qd_des = J(q_des)⁻¹ v_body (damped); tau_ff = J(q)ᵀ m (a_body − g_body), the force that
     accelerates the lower leg's effective mass m along the plan and holds it against gravity.
     """
-    pr = params or SwingParams()
+    pr = params or _DEFAULT
     q = np.asarray(q, dtype=float)
     R = np.asarray(R_world_body, dtype=float)
     p_w, v_w, a_w = plan.sample(t)
@@ -42,7 +50,7 @@ def swing_joint_command(
     p_body = R.T @ rel
     v_rel = v_w - np.asarray(v_world_body, dtype=float)
     if w_world_body is not None:
-        v_rel = v_rel - np.cross(np.asarray(w_world_body, dtype=float), rel)
+        v_rel = v_rel - _cross(np.asarray(w_world_body, dtype=float), rel)
     v_body = R.T @ v_rel
     a_body = R.T @ (a_w - _G_WORLD)
     try:
@@ -50,9 +58,9 @@ def swing_joint_command(
     except ReachError:
         J = robot.jacobian_leg(leg, q)
         err = p_body - robot.fk_leg(leg, q)
-        q_des = q + np.linalg.solve(J.T @ J + 1e-4 * np.eye(3), J.T @ err)
+        q_des = q + np.linalg.solve(J.T @ J + _DAMP_IK, J.T @ err)
         q_des = np.clip(q_des, robot.q_min[leg], robot.q_max[leg])
     J_des = robot.jacobian_leg(leg, q_des)
-    qd_des = np.linalg.solve(J_des.T @ J_des + 1e-6 * np.eye(3), J_des.T @ v_body)
+    qd_des = np.linalg.solve(J_des.T @ J_des + _DAMP_VEL, J_des.T @ v_body)
     tau_ff = robot.jacobian_leg(leg, q).T @ (pr.foot_effective_mass_kg * a_body)
     return q_des, qd_des, tau_ff

@@ -48,6 +48,7 @@ class SwingParams:
         0.30  # the most aggressive policy's top, above max(lift-off, touchdown) height
     )
     hip_clearance_m: float = 0.02  # the foot stays this far below (hip z − min leg length)
+    apex_tolerance_m: float = 0.005  # a replan may lift the swing's apex by at most this over its first plan's
 
     # Vertical family, gentlest first; the most aggressive policy (full limits, max_swing_height_m) is appended.
     vertical_family: tuple[VerticalLevel, ...] = field(default_factory=_default_family)

@@ -152,6 +152,10 @@ class SwingPlanner:
         self._trip: list[TripEvent | None] = [None] * 4
         self._shank_cache: list[tuple[np.ndarray, np.ndarray] | None] = [None] * 4
         self._z_liftoff: list[float | None] = [None] * 4  # lift-off height of the current swing, m
+        # top of the first plan of the current swing, m: replans may change the vertical policy (a measured
+        # velocity a hair above a gentle policy's limit makes it infeasible), but never raise the apex, or a foot
+        # replanned every 3 ms climbs policy by policy and lands late
+        self._z_top: list[float | None] = [None] * 4
         self._last_t: list[float] = [-np.inf] * 4  # when each leg was last planned, s
         self._side = np.sign(robot.p_body_hip[:, 1])
 
@@ -167,6 +171,7 @@ class SwingPlanner:
         self._trip = [None] * 4
         self._shank_cache = [None] * 4
         self._z_liftoff = [None] * 4
+        self._z_top = [None] * 4
         self._last_t = [-np.inf] * 4
 
     def _forget(self, leg: int) -> None:
@@ -174,6 +179,7 @@ class SwingPlanner:
         self._last_plan[leg] = None
         self._trip[leg] = None
         self._z_liftoff[leg] = None
+        self._z_top[leg] = None
 
     # ---- the tick -----------------------------------------------------------------------------------------
     def plan(
@@ -228,6 +234,8 @@ class SwingPlanner:
                 plan = self._replan_earlier(t_now, req, by_leg[blame], plan, ground, stance, body, planned)
             planned[req.leg] = plan
         for leg, p in planned.items():
+            if self._z_top[leg] is None and p.vertical_policy != "LateTouchdown":
+                self._z_top[leg] = float(np.max(p.positions(np.linspace(t_now, p.t_touchdown, 12))[:, 2]))
             self._last_plan[leg] = p
             self._previous[leg] = p.horizontal_policy
         return planned
@@ -351,6 +359,9 @@ class SwingPlanner:
             blocked=blocked_keepouts(p0, p1, keepouts),
         )
         z_ceiling = float(hips[:, 2].min()) - self.robot.min_leg_length_m - pr.hip_clearance_m
+        z_top = self._z_top[leg]
+        if z_top is not None and self._trip[leg] is None:
+            z_ceiling = min(z_ceiling, z_top + pr.apex_tolerance_m)
         agg = self.family[-1]
         z0, vz0, z1 = float(req.p_world_foot[2]), float(req.v_world_foot[2]), float(req.p_touchdown[2])
         z_ref = self._z_liftoff[leg]

@@ -66,7 +66,9 @@ class ValidationAnswer(BaseModel):
     failures: list[dict[str, Any]]
 
 
-@router.get("", response_model=list[ManeuverSummary], summary="The library: shipped (read-only) and user maneuvers")
+@router.get(
+    "", response_model=list[ManeuverSummary], summary="The library: shipped (read-only) and user maneuvers"
+)
 def list_maneuvers(store: StoreDep) -> list[dict[str, Any]]:
     return store.list()
 
@@ -115,7 +117,9 @@ def _wants_yaml(request: Request, fmt: str | None) -> bool:
                 "application/json": {"schema": {"$ref": "#/components/schemas/Maneuver"}},
                 "application/yaml": {"schema": {"type": "string"}},
             },
-            "headers": {"ETag": {"schema": {"type": "string"}, "description": "send back in If-Match to replace"}},
+            "headers": {
+                "ETag": {"schema": {"type": "string"}, "description": "send back in If-Match to replace"}
+            },
         }
     },
 )
@@ -129,7 +133,9 @@ def get_maneuver(
 ) -> Response:
     stored = store.get(check_name(name))
     headers = {"ETag": stored.etag, "X-Footfall-Source": stored.source, "Cache-Control": "no-cache"}
-    if if_none_match is not None and stored.etag in [t.strip().removeprefix("W/") for t in if_none_match.split(",")]:
+    if if_none_match is not None and stored.etag in [
+        t.strip().removeprefix("W/") for t in if_none_match.split(",")
+    ]:
         return Response(status_code=304, headers=headers)
     if _wants_yaml(request, format):
         if download:
@@ -141,8 +147,12 @@ def get_maneuver(
         raise ApiError(422, f"the stored file of {name!r} does not parse: {e.problems[0]}",
                        problems_to_fields(e.problems)) from None  # fmt: skip
     if not _json_safe(data):
-        raise field_error(422, "format", f"the file of {name!r} holds values JSON cannot carry; use ?format=yaml")
-    return Response(json.dumps(data, default=str, allow_nan=False), media_type="application/json", headers=headers)
+        raise field_error(
+            422, "format", f"the file of {name!r} holds values JSON cannot carry; use ?format=yaml"
+        )
+    return Response(
+        json.dumps(data, default=str, allow_nan=False), media_type="application/json", headers=headers
+    )
 
 
 def _json_safe(data: Any) -> bool:
@@ -158,8 +168,11 @@ def _json_safe(data: Any) -> bool:
     openapi_extra=MANEUVER_BODY,
     response_model=ManeuverSaved,
     dependencies=[WriteAccess],
-    responses={201: {"description": "created"}, 409: {"description": "changed since read (If-Match)"},
-               428: {"description": "If-Match required to replace"}},  # fmt: skip
+    responses={
+        201: {"description": "created"},
+        409: {"description": "changed since read (If-Match)"},
+        428: {"description": "If-Match required to replace"},
+    },  # fmt: skip
     summary="Create or replace a user maneuver (validated; shipped maneuvers are read-only)",
 )
 async def put_maneuver(

@@ -52,8 +52,9 @@ def list_sessions(sessions: SessionsDep) -> list[dict[str, Any]]:
 
 @router.get("/{session_id}", summary="Same as /state")
 @router.get("/{session_id}/state", summary="Pose, joints, contacts, status (crashes are reported here)")
-def session_state(session_id: SessionId, sessions: SessionsDep) -> dict[str, Any]:
-    return sessions.get(session_id).state()
+async def session_state(session_id: SessionId, sessions: SessionsDep) -> Response:
+    # async and pre-encoded: many clients poll this, and it must not slow the sessions stepping beside it
+    return Response(sessions.get(session_id).state_json(), media_type="application/json")
 
 
 @router.get(
@@ -114,7 +115,9 @@ async def session_maneuver(
     return s.state()
 
 
-@router.post("/{session_id}/push", dependencies=[WriteAccess], summary="Push the body now (force N, duration s)")
+@router.post(
+    "/{session_id}/push", dependencies=[WriteAccess], summary="Push the body now (force N, duration s)"
+)
 def session_push(session_id: SessionId, body: SessionPushIn, sessions: SessionsDep) -> dict[str, Any]:
     s = sessions.get(session_id)
     s.push((body.force[0], body.force[1], body.force[2]), body.duration)
@@ -135,7 +138,9 @@ async def session_reset(
 
 
 @router.post("/{session_id}/control", dependencies=[WriteAccess], summary="Play, pause, restart; speed")
-async def session_control(session_id: SessionId, body: SessionControlIn, sessions: SessionsDep) -> dict[str, Any]:
+async def session_control(
+    session_id: SessionId, body: SessionControlIn, sessions: SessionsDep
+) -> dict[str, Any]:
     s = sessions.get(session_id)
     if body.speed is not None:
         s.set_speed(body.speed)

@@ -48,7 +48,9 @@ def _pushes(items: list[PushIn | str]) -> list[tuple[float, tuple[float, float, 
     dependencies=[WriteAccess],
     summary="Queue a headless run of a maneuver (library name or inline) or a walk; answers 202 with an id",
 )
-async def create_simulation(body: SimulationCreate, services: ServicesDep, pool: SimulationsDep) -> JSONResponse:
+async def create_simulation(
+    body: SimulationCreate, services: ServicesDep, pool: SimulationsDep
+) -> JSONResponse:
     if body.walk is not None:
         if walk_runner() is None:
             raise field_error(409, "walk", "steering not available in this build yet; run a maneuver instead")
@@ -83,7 +85,9 @@ def list_simulations(pool: SimulationsDep) -> list[dict[str, Any]]:
     return [{k: v for k, v in j.public().items() if k != "report"} for j in pool.list()]
 
 
-@router.get("/{job_id}", response_model=SimulationPublic, summary="Status, progress and (once done) the run report")
+@router.get(
+    "/{job_id}", response_model=SimulationPublic, summary="Status, progress and (once done) the run report"
+)
 def get_simulation(job_id: JobId, pool: SimulationsDep) -> dict[str, Any]:
     found = pool.get(job_id)
     if found is None:

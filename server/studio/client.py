@@ -61,6 +61,9 @@ class StudioClient:
 
     def stop(self) -> None:
         self._stop.set()
+        thread = getattr(self, "_thread", None)
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(1.0)  # let the render loop finish its frame before the session goes away
         if self.session is not None:
             try:
                 self.services.sessions.delete(self.session.id)
@@ -168,7 +171,8 @@ class StudioClient:
         with tabs.add_tab("Plots"):
             self._build_plots()
         self._bind_playback()
-        self.editor.open("bow") or self.editor.new_document()
+        if not self.editor.open("bow"):
+            self.editor.new_document()
 
     def _bind_playback(self) -> None:
         ed = self.editor
@@ -220,7 +224,9 @@ class StudioClient:
             self.sl_vx = gui.add_slider("vx (m/s)", -1.0, 1.0, 0.05, 0.0)
             self.sl_vy = gui.add_slider("vy (m/s)", -0.5, 0.5, 0.05, 0.0)
             self.sl_yaw = gui.add_slider("yaw rate (rad/s)", -1.5, 1.5, 0.05, 0.0)
-            self.dd_gait = gui.add_dropdown("gait", ("trot", "walk", "pace", "bound", "pronk"), initial_value="trot")
+            self.dd_gait = gui.add_dropdown(
+                "gait", ("trot", "walk", "pace", "bound", "pronk"), initial_value="trot"
+            )
             btn_send = gui.add_button("Send command")
             btn_stop = gui.add_button("Stop")
 
@@ -281,7 +287,9 @@ class StudioClient:
                 break
             cmd.on_trigger(lambda _e, h=handle, s=step: nudge(h, s))
         try:
-            gui.add_command("stop", hotkey="X", description="zero the velocity command").on_trigger(lambda _e: stop())
+            gui.add_command("stop", hotkey="X", description="zero the velocity command").on_trigger(
+                lambda _e: stop()
+            )
         except Exception:  # noqa: BLE001
             pass
 
@@ -318,9 +326,9 @@ class StudioClient:
         self.plot_vel = gui.add_uplot(
             data=(np.array([0.0, 1.0]), z, z, z, z),
             series=(up.Series(label="t (s)"), up.Series(label="vx", stroke="#4cc9f0", width=1.5),
-                    up.Series(label="vx ref", stroke="#4cc9f0", dash=[4, 4], width=1.0),
+                    up.Series(label="vx ref", stroke="#4cc9f0", dash=(4.0, 4.0), width=1.0),
                     up.Series(label="vy", stroke="#e4572e", width=1.5),
-                    up.Series(label="vy ref", stroke="#e4572e", dash=[4, 4], width=1.0)),
+                    up.Series(label="vy ref", stroke="#e4572e", dash=(4.0, 4.0), width=1.0)),
             title="Velocity tracking (m/s)", aspect=1.6,
         )  # fmt: skip
 

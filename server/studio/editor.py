@@ -14,6 +14,7 @@ import copy
 import json
 import re
 import threading
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -27,7 +28,13 @@ from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
 
 FORMAT = "footfall/maneuver@1"
 WEIGHT_NAMES = ("force", "pose", "touchdown_time", "touchdown_position", "hip_over_foot")
-WEIGHT_DEFAULTS = {"force": 1.0e-4, "pose": 1.0, "touchdown_time": 1.0, "touchdown_position": 10.0, "hip_over_foot": 0.1}
+WEIGHT_DEFAULTS = {
+    "force": 1.0e-4,
+    "pose": 1.0,
+    "touchdown_time": 1.0,
+    "touchdown_position": 10.0,
+    "hip_over_foot": 0.1,
+}
 GAITS = ("trot", "walk", "pace", "bound", "pronk")
 OBJECTIVES = ("maximize_height", "lean", "minimize_torque")
 TARGET_MODES = ("at", "offset", "in place")
@@ -118,7 +125,9 @@ class ManeuverEditor:
     # ================================================================================================================
     # document
     # ================================================================================================================
-    def load_document(self, data: dict[str, Any], *, name: str | None, source: str | None, etag: str | None) -> None:
+    def load_document(
+        self, data: dict[str, Any], *, name: str | None, source: str | None, etag: str | None
+    ) -> None:
         """Replaces the edited document (a parsed file) and rebuilds the panel's items."""
         data = json.loads(json.dumps(data, default=str))
         with self.lock:
@@ -199,7 +208,9 @@ class ManeuverEditor:
         self.md_header = gui.add_markdown("*no maneuver open*")
         with gui.add_folder("Library"):
             names = [e["name"] for e in self.services.store.list()] or ["stand"]
-            self.dd_library = gui.add_dropdown("Maneuver", names, initial_value="bow" if "bow" in names else names[0])
+            self.dd_library = gui.add_dropdown(
+                "Maneuver", names, initial_value="bow" if "bow" in names else names[0]
+            )
             self.btn_open = gui.add_button("Open", icon=None)
             self.btn_new = gui.add_button("New")
         with gui.add_folder("Maneuver"):
@@ -214,7 +225,9 @@ class ManeuverEditor:
         self.fd_gaits = gui.add_folder("Gaits", expand_by_default=False)
         with gui.add_folder("Weights", expand_by_default=False):
             self.num_weights = {
-                w: gui.add_number(w, WEIGHT_DEFAULTS[w], min=0.0, max=1e6, step=1e-4 if w == "force" else 0.01)
+                w: gui.add_number(
+                    w, WEIGHT_DEFAULTS[w], min=0.0, max=1e6, step=1e-4 if w == "force" else 0.01
+                )
                 for w in WEIGHT_NAMES
             }
         self.fd_objectives = gui.add_folder("Objectives", expand_by_default=False)
@@ -296,7 +309,9 @@ class ManeuverEditor:
         @self.btn_download.on_click
         def _(_: Any) -> None:
             name = str(self.meta.get("name") or "maneuver")
-            self.client.send_file_download(f"{name}.yaml", self.yaml_text().encode("utf-8"), save_immediately=True)
+            self.client.send_file_download(
+                f"{name}.yaml", self.yaml_text().encode("utf-8"), save_immediately=True
+            )
 
     def _write_static_fields(self) -> None:
         self._suspend = True
@@ -344,11 +359,14 @@ class ManeuverEditor:
         return out
 
     def _clear_items(self) -> None:
-        for h in [*(ui.folder for ui in self.item_ui.values()), *self._holder_items]:
-            try:
-                h.remove()
-            except Exception:  # noqa: BLE001 - already gone (with its parent, or with the client)
-                pass
+        folders = {id(ui.folder): ui.folder for ui in self.item_ui.values()}  # a step's two events share one
+        with warnings.catch_warnings():  # a step folder goes with its leg folder; removing both is harmless
+            warnings.simplefilter("ignore")
+            for h in [*folders.values(), *self._holder_items]:
+                try:
+                    h.remove()
+                except Exception:  # noqa: BLE001 - already gone (with the client)
+                    pass
         self.item_ui.clear()
         self._holder_items.clear()
 
@@ -408,7 +426,13 @@ class ManeuverEditor:
             if td is not None:
                 h["td_t"] = gui.add_number("touchdown t (s)", float(td["t"]), min=0.0, max=60.0, step=0.01)
                 h["td_t"].on_update(lambda e, it=td: self._set(it, "t", float(e.target.value)))
-                mode = "at" if td.get("at") is not None else "offset" if td.get("offset") is not None else "in place"
+                mode = (
+                    "at"
+                    if td.get("at") is not None
+                    else "offset"
+                    if td.get("offset") is not None
+                    else "in place"
+                )
                 h["mode"] = gui.add_dropdown("target", TARGET_MODES, initial_value=mode)
                 vec = td.get("at") or td.get("offset") or [0.0, 0.0, 0.0]
                 vec = [float(v) for v in vec] + [0.0] * (3 - len(vec))
@@ -425,7 +449,9 @@ class ManeuverEditor:
                 h["vec"].on_update(lambda e, it=td, hh=h: self._set_target_vec(it, e.target.value, hh))
                 h["adj_t"].on_update(lambda e, it=td: self._set_adjust(it, "time", float(e.target.value)))
                 h["adj_r"].on_update(lambda e, it=td: self._set_adjust(it, "radius", float(e.target.value)))
-                h["normal"].on_update(lambda e, it=td: self._set(it, "normal", [_r(v) for v in e.target.value]))
+                h["normal"].on_update(
+                    lambda e, it=td: self._set(it, "normal", [_r(v) for v in e.target.value])
+                )
                 gui.add_button("Move target in 3D").on_click(lambda _e, it=td: self.select(id(it)))
             gui.add_button("Delete", color="red").on_click(lambda _e, a=lo, b=td: self.delete_items(a, b))
         ui = ItemUi(f, md, label, h)
@@ -447,8 +473,12 @@ class ManeuverEditor:
                 "w": gui.add_number("weight", float(kf.get("weight", 1.0)), min=0.0, max=1e4, step=0.1),
             }  # fmt: skip
             h["t"].on_update(lambda e, it=kf: self._set(it, "t", float(e.target.value)))
-            h["pos"].on_update(lambda e, it=kf: self._set(it, "position", [_r(v) for v in e.target.value], marker=True))
-            h["rpy"].on_update(lambda e, it=kf: self._set(it, "rpy", [_r(v, 2) for v in e.target.value], marker=True))
+            h["pos"].on_update(
+                lambda e, it=kf: self._set(it, "position", [_r(v) for v in e.target.value], marker=True)
+            )
+            h["rpy"].on_update(
+                lambda e, it=kf: self._set(it, "rpy", [_r(v, 2) for v in e.target.value], marker=True)
+            )
             h["w"].on_update(lambda e, it=kf: self._set(it, "weight", float(e.target.value)))
             gui.add_button("Move in 3D").on_click(lambda _e, it=kf: self.select(id(it)))
             gui.add_button("Delete", color="red").on_click(lambda _e, it=kf: self.delete_items(it))
@@ -496,7 +526,7 @@ class ManeuverEditor:
             h["w"].on_update(lambda e, it=o: self._set(it, "weight", float(e.target.value)))
             h["dir"].on_update(lambda e, it=o: self._set(it, "direction", [_r(v, 3) for v in e.target.value]))
             gui.add_button("Delete", color="red").on_click(lambda _e, it=o: self.delete_items(it))
-        self.item_ui[id(o)] = ItemUi(f, md, kind, h)
+        self.item_ui[id(o)] = ItemUi(f, md, str(kind), h)
 
     # ---- edits ------------------------------------------------------------------------------------------------
     def _set(self, item: dict[str, Any], key: str, value: Any, marker: bool = False) -> None:
@@ -583,7 +613,9 @@ class ManeuverEditor:
         t0 = min(t, max(0.0, d - 0.5))
         with self.lock:
             self.events.append({"t": _r(t0, 3), "leg": leg, "type": "liftoff"})
-            self.events.append({"t": _r(t0 + 0.35, 3), "leg": leg, "type": "touchdown", "offset": [0.1, 0.0, 0.0]})
+            self.events.append(
+                {"t": _r(t0 + 0.35, 3), "leg": leg, "type": "touchdown", "offset": [0.1, 0.0, 0.0]}
+            )
         self._changed(structural=True)
 
     def add_keyframe(self) -> None:
@@ -605,7 +637,9 @@ class ManeuverEditor:
     def add_objective(self) -> None:
         t = self._scrub_t()
         with self.lock:
-            self.objectives.append({"type": "maximize_height", "t": [_r(t, 2), _r(t + 0.2, 2)], "weight": 1.0})
+            self.objectives.append(
+                {"type": "maximize_height", "t": [_r(t, 2), _r(t + 0.2, 2)], "weight": 1.0}
+            )
         self._changed(structural=True)
 
     def delete_items(self, *items: dict[str, Any] | None) -> None:
@@ -708,7 +742,9 @@ class ManeuverEditor:
         n_f = sum(1 for p in all_ps if p.severity == "failure")
         n_w = len(all_ps) - n_f
         lines = [f"**{'✔ valid' if n_f == 0 else '✖ invalid'}** — {n_f} failures, {n_w} warnings"]
-        lines += [f"- {'✖' if p.severity == 'failure' else '⚠'} `{p.path or 'file'}`: {p.message}" for p in general]
+        lines += [
+            f"- {'✖' if p.severity == 'failure' else '⚠'} `{p.path or 'file'}`: {p.message}" for p in general
+        ]
         try:
             self.md_validation.content = "\n".join(lines)
         except Exception:  # noqa: BLE001
@@ -742,7 +778,10 @@ class ManeuverEditor:
                             bars.append(Bar(LEG_ROWS[sw.leg], sw.t_liftoff, sw.t_touchdown, False))
             for kf in self.keyframes:
                 marks.append(Mark("body", float(kf.get("t", 0.0)), self._severity(id(kf))))
-            gaits = [(float(g.get("from", 0.0)), float(g.get("to", 0.0)), str(g.get("gait", ""))) for g in self.gaits]
+            gaits = [
+                (float(g.get("from", 0.0)), float(g.get("to", 0.0)), str(g.get("gait", "")))
+                for g in self.gaits
+            ]
         try:
             self.html_timeline.content = timeline_svg(d, bars, marks, gaits, self._scrub_t())
         except Exception:  # noqa: BLE001
@@ -779,7 +818,9 @@ class ManeuverEditor:
                 return np.asarray(p, dtype=float), np.degrees(np.asarray(rpy, dtype=float))
             except Exception:  # noqa: BLE001
                 pass
-        return np.array([0.0, 0.0, float(getattr(self.services.robot, "standing_height_m", 0.52))]), np.zeros(3)
+        return np.array([0.0, 0.0, float(getattr(self.services.robot, "standing_height_m", 0.52))]), np.zeros(
+            3
+        )
 
     def refresh_markers(self) -> None:
         """Redraws the touchdown targets, keyframe ghosts and gait footholds (3D, world frame)."""
@@ -801,13 +842,15 @@ class ManeuverEditor:
             for item_id in list(self.markers):
                 if item_id not in wanted:
                     self.markers.pop(item_id).remove()
-            for item_id, (kind, p, q, leg) in wanted.items():
+            for item_id, (kind, p, q_or_none, leg) in wanted.items():
                 h = self.markers.get(item_id)
                 sev = self._severity(item_id)
                 if kind == "td":
                     color = (255, 59, 48) if sev == "failure" else _hex_rgb(LEG_COLORS.get(leg, "#cccccc"))
                     if h is None:
-                        h = sc.add_icosphere(f"/edit/targets/{item_id}", radius=0.035, color=color, subdivisions=2)
+                        h = sc.add_icosphere(
+                            f"/edit/targets/{item_id}", radius=0.035, color=color, subdivisions=2
+                        )
                         h.on_click(lambda _e, i=item_id: self.select(i))
                         self.markers[item_id] = h
                     h.color = color
@@ -821,7 +864,7 @@ class ManeuverEditor:
                         self.markers[item_id] = h
                     h.color = color
                     h.position = p
-                    h.wxyz = q
+                    h.wxyz = q_or_none
             # gait footholds (not editable here: edit the gait segment)
             sched = getattr(self.result, "schedule", None)
             pts = []
@@ -881,7 +924,9 @@ class ManeuverEditor:
             item = self._item_by_id(item_id)
             marker = self.markers.get(item_id)
             if item is None or marker is None:
-                self.notify("Cannot move", "this target has no position yet (fix the problems first)", "yellow")
+                self.notify(
+                    "Cannot move", "this target has no position yet (fix the problems first)", "yellow"
+                )
                 return
             self._drop_gizmo()
             is_kf = item in self.keyframes
@@ -927,7 +972,7 @@ class ManeuverEditor:
                 else:
                     mode = "at" if item.get("at") is not None else "offset"
                     ui.handles["mode"].value = mode
-                    ui.handles["vec"].value = tuple(item.get("at") or item.get("offset"))
+                    ui.handles["vec"].value = tuple(item.get("at") or item.get("offset") or (0.0, 0.0, 0.0))
                     ui.handles["vec"].disabled = False
             finally:
                 self._suspend = False

@@ -8,7 +8,14 @@ from typing import Any
 
 import numpy as np
 
-DEFAULT_ON = {"contact_forces", "body_path", "step_plan", "capture_point", "swing_trajectories", "body_target"}
+DEFAULT_ON = {
+    "contact_forces",
+    "body_path",
+    "step_plan",
+    "capture_point",
+    "swing_trajectories",
+    "body_target",
+}
 
 
 def overlay_geometry(entry: dict[str, Any]) -> tuple[str, np.ndarray] | None:
@@ -43,7 +50,9 @@ def _color(entry: dict[str, Any]) -> tuple[int, int, int]:
 class OverlayView:
     """Draws the overlays of a plan dict under `root`; `enabled` says which names are shown."""
 
-    def __init__(self, scene: Any, root: str = "/overlays", on_new: Callable[[str], None] | None = None) -> None:
+    def __init__(
+        self, scene: Any, root: str = "/overlays", on_new: Callable[[str], None] | None = None
+    ) -> None:
         self.scene = scene
         self.root = root
         self.enabled: dict[str, bool] = {}
@@ -80,7 +89,9 @@ class OverlayView:
                     node, points=arr, colors=color, point_size=0.04, point_shape="circle"
                 )
             else:
-                self.handles[name] = self.scene.add_line_segments(node, points=arr, colors=color, thickness=0.012)
+                self.handles[name] = self.scene.add_line_segments(
+                    node, points=arr, colors=color, thickness=0.012
+                )
         for name, h in self.handles.items():
             if name not in overlays:
                 h.visible = False

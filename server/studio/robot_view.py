@@ -19,7 +19,9 @@ def _rgb(rgba: tuple[float, float, float, float]) -> tuple[int, int, int]:
     return (int(round(rgba[0] * 255)), int(round(rgba[1] * 255)), int(round(rgba[2] * 255)))
 
 
-def capsule_mesh(radius: float, half_length: float, segments: int = 16, rings: int = 6) -> tuple[np.ndarray, np.ndarray]:
+def capsule_mesh(
+    radius: float, half_length: float, segments: int = 16, rings: int = 6
+) -> tuple[np.ndarray, np.ndarray]:
     """Returns (vertices (V,3), faces (F,3)) of a capsule along z: a cylinder of 2·half_length with hemispherical
     caps of `radius` (MuJoCo's capsule size convention), m."""
     phis = np.linspace(0.0, 2.0 * np.pi, segments, endpoint=False)
@@ -59,7 +61,9 @@ def hfield_mesh(z: np.ndarray, half_x: float, half_y: float) -> tuple[np.ndarray
     return verts, faces
 
 
-def add_geom(scene: Any, name: str, g: GeomVisual, *, color: tuple[int, int, int] | None = None) -> Any | None:
+def add_geom(
+    scene: Any, name: str, g: GeomVisual, *, color: tuple[int, int, int] | None = None
+) -> Any | None:
     """Adds one geom at its pose (relative to the node's parent); returns the handle (None for kinds not drawn)."""
     rgb = color or _rgb(g.rgba)
     opacity = None if g.rgba[3] >= 0.999 else float(g.rgba[3])

@@ -62,7 +62,9 @@ def timeline_svg(
     for row in rows:
         yy = y(row)
         out.append(f'<text x="2" y="{yy + 12:.1f}" fill="#c8ccd4">{row}</text>')
-        out.append(f'<line x1="{LEFT}" x2="{LEFT + inner}" y1="{yy + 9:.1f}" y2="{yy + 9:.1f}" stroke="#444b57"/>')
+        out.append(
+            f'<line x1="{LEFT}" x2="{LEFT + inner}" y1="{yy + 9:.1f}" y2="{yy + 9:.1f}" stroke="#444b57"/>'
+        )
     for b in bars:
         color = LEG_COLORS.get(b.leg, "#888")
         stroke = {"failure": "#ff3b30", "warning": "#ffcc00"}.get(b.severity or "", "none")
@@ -90,6 +92,8 @@ def timeline_svg(
         k += 1
     if scrub_t is not None:
         xs = x(scrub_t)
-        out.append(f'<line x1="{xs:.1f}" x2="{xs:.1f}" y1="{TOP - 4}" y2="{ya}" stroke="#4cc9f0" stroke-width="2"/>')
+        out.append(
+            f'<line x1="{xs:.1f}" x2="{xs:.1f}" y1="{TOP - 4}" y2="{ya}" stroke="#4cc9f0" stroke-width="2"/>'
+        )
     out.append("</svg>")
     return "".join(out)

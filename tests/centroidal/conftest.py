@@ -43,7 +43,9 @@ def check_solution(sol: CentroidalSolution, pr: CentroidalProblem, tol_n: float 
     assert np.all(fz[stance & sol.in_contact] >= pr.fz_min_N - tol_n), "stance foot below fz_min"
     assert np.all(fz <= pr.fz_max_N + tol_n)
     # The pyramid refined by cuts: within a couple of percent of the cone.
-    assert np.all(ft <= pr.mu * fz * 1.03 + tol_n), f"friction cone: max ratio {np.max(ft / np.maximum(fz, 1e-9))}"
+    assert np.all(ft <= pr.mu * fz * 1.03 + tol_n), (
+        f"friction cone: max ratio {np.max(ft / np.maximum(fz, 1e-9))}"
+    )
     for k, i, dist in _leg_lengths(sol, pr):
         assert pr.model.leg_length_min_m - 0.006 <= dist <= pr.model.leg_length_max_m + 0.006, (k, i, dist)
     assert sol.linearization_error < 0.02

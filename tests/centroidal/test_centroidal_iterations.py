@@ -24,7 +24,9 @@ from planning.centroidal.timegrid import make_time_grid
 PARAMS = CentroidalParams(time_budget_ms=1e3)
 
 
-def _stand_problem(model, state, targets_p=(0.0, 0.0, 0.52), R_t=None, horizon=1.0, mu=0.6, weights=None, **kw):
+def _stand_problem(
+    model, state, targets_p=(0.0, 0.0, 0.52), R_t=None, horizon=1.0, mu=0.6, weights=None, **kw
+):
     feet = nominal_feet()
     phases = tuple(ContactPhase(i, -1.0, math.inf, feet[i]) for i in range(4))
     t = make_time_grid(state.t, [], state.t + horizon)
@@ -77,7 +79,7 @@ def test_closed_loop_first_solutions_converge(model):
     sc = replace(standing(model), start=_perturbed_state())
     log = run(sc, CentroidalSolver(PARAMS), duration_s=0.1, tick_s=0.02)
     errs = [s.linearization_error for s in log.solutions[:4]]
-    assert errs[1] < 0.3 * errs[0] and errs[3] < 0.3 * errs[0]
+    assert errs[1] < 0.2 * errs[0] and errs[2] < 0.6 * errs[1] and errs[3] < 0.6 * errs[2]
     assert not log.solutions[0].ok or errs[0] < PARAMS.linearization_error_threshold_m
     assert all(s.ok for s in log.solutions[1:])
 
@@ -104,9 +106,11 @@ def test_friction_pyramid_is_refined_toward_the_cone(model):
     pr = _stand_problem(model, st, targets_p=(0.06, 0.06, 0.52), horizon=0.4, mu=0.3)
 
     def worst(sol):
+        """The largest excess over the cone, as a fraction of μ f_n, among excesses above cone_tol_N."""
         f = sol.f_world
-        loaded = f[..., 2] > 30.0
-        return float(np.max(np.linalg.norm(f[..., :2], axis=-1)[loaded] / f[..., 2][loaded] / pr.mu))
+        excess = np.linalg.norm(f[..., :2], axis=-1) - pr.mu * f[..., 2]
+        big = excess > PARAMS.cone_tol_N
+        return float(np.max(excess[big] / (pr.mu * f[..., 2][big]), initial=0.0)) + 1.0
 
     coarse = CentroidalSolver(replace(PARAMS, max_cut_rounds=0))
     fine = CentroidalSolver(PARAMS)
@@ -147,14 +151,17 @@ def test_timing_adjustment_lowers_the_cost_clearly(model):
 
 
 def test_touchdown_places_stay_in_their_sets(model):
-    """A sideways push: the solver moves the next touchdowns, within their radius or polygon."""
+    """The body is asked to move sideways over fixed nominal footholds: the solver moves the touchdowns toward
+    it (hip over foot), within their radius or polygon."""
     sc = trot(model, adjust_radius_m=0.05)
+    sc = replace(sc, weights=replace(sc.weights, hip_over_foot=200.0, touchdown_position=10.0))
     region = np.array([[0.25, -0.25], [0.40, -0.25], [0.40, -0.12], [0.25, -0.12]])  # FR's only legal area
     phases = tuple(
         replace(p, region_xy=region) if (p.leg == 1 and p.t_touchdown > 0.0) else p for p in sc.phases
     )
-    sc = replace(sc, phases=phases)
-    st = replace(sc.start, v_world=np.array([0.0, 0.4, 0.0]))
+    kf = ((1.5, np.array([0.0, 0.3, 0.52]), np.eye(3), 50.0),)
+    sc = replace(sc, phases=phases, keyframes=kf)
+    st = replace(sc.start, t=0.3, v_world=np.array([0.0, 0.2, 0.0]))
     pr = sc.problem_at(st)
     solver = CentroidalSolver(PARAMS)
     for _ in range(3):
@@ -202,16 +209,27 @@ def _resized(pr, n):
     [
         (lambda p: replace(p, fz_min_N=700.0), "fz_min_N"),
         (lambda p: replace(p, mu=-0.1), "mu"),
-        (lambda p: replace(p, initial=replace(p.initial, p_world=np.array([np.nan, 0.0, 0.5]))), "initial.p_world"),
-        (lambda p: replace(p, initial=replace(p.initial, R_world_body=2.0 * np.eye(3))), "initial.R_world_body"),
+        (
+            lambda p: replace(p, initial=replace(p.initial, p_world=np.array([np.nan, 0.0, 0.5]))),
+            "initial.p_world",
+        ),
+        (
+            lambda p: replace(p, initial=replace(p.initial, R_world_body=2.0 * np.eye(3))),
+            "initial.R_world_body",
+        ),
         (lambda p: replace(p, t_knots=p.t_knots[::-1]), "t_knots"),
         (lambda p: _resized(p, 40), "t_knots"),
         (lambda p: replace(p, phases=p.phases + (ContactPhase(0, 0.2, 0.5, np.zeros(3)),)), "phases"),
         (lambda p: replace(p, objectives=(Objective("fly", 0.0, 1.0, 1.0),)), "objectives[0].kind"),  # type: ignore[arg-type]
         (
             lambda p: replace(
-                p, phases=(replace(p.phases[0], t_touchdown=0.3, region_xy=np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]])),)
-                + p.phases[1:]
+                p,
+                phases=(
+                    replace(
+                        p.phases[0], t_touchdown=0.3, region_xy=np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]])
+                    ),
+                )
+                + p.phases[1:],
             ),
             "region_xy",
         ),
@@ -228,7 +246,9 @@ def test_contradictory_problems_fail_with_a_reason(model, change, field):
 def test_an_infeasible_problem_fails_without_an_exception(model):
     # Fifty newtons of minimum load on each foot while the body must stay in the air: no way to satisfy both.
     st = BodyState(0.0, np.array([0.0, 0.0, 0.52]), np.zeros(3), np.eye(3), np.zeros(3))
-    pr = _stand_problem(model, st, fz_min_N=200.0, fz_max_N=210.0)  # 4 × 200 N > the weight, and no way to sink
+    pr = _stand_problem(
+        model, st, fz_min_N=200.0, fz_max_N=210.0
+    )  # 4 × 200 N > the weight, and no way to sink
     solver = CentroidalSolver(PARAMS)
     sol = solver.solve(pr)
     assert sol.ok or sol.status in ("infeasible", "linearization_error", "cuts_unsatisfied")

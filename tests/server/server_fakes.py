@@ -9,7 +9,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-
 from fastapi.testclient import TestClient
 
 from server.app import create_app
@@ -62,11 +61,18 @@ class FakeSim:
         return 0.1
 
     def state_dict(self) -> dict[str, Any]:
-        return {"t": round(self.t, 4), "body": {"position": [0.1 * self.t, 0.0, 0.52], "velocity": [0.1, 0.0, 0.0]},
-                "fell": False, "failure_reason": None}
+        return {
+            "t": round(self.t, 4),
+            "body": {"position": [0.1 * self.t, 0.0, 0.52], "velocity": [0.1, 0.0, 0.0]},
+            "fell": False,
+            "failure_reason": None,
+        }
 
     def plan_dict(self) -> dict[str, Any]:
-        return {"t": self.t, "overlays": {"body_path": {"kind": "polyline", "points": [[0, 0, 0.52], [0.1, 0, 0.52]]}}}
+        return {
+            "t": self.t,
+            "overlays": {"body_path": {"kind": "polyline", "points": [[0, 0, 0.52], [0.1, 0, 0.52]]}},
+        }
 
     def report(self, wall_s: float) -> dict[str, Any]:
         return {"maneuver": getattr(self.maneuver, "name", "?"), "duration_s": self.t, "success": True}
@@ -82,8 +88,13 @@ def fake_runner(job: dict[str, Any]) -> dict[str, Any]:
             progress(0.1 * (k + 1), 0.3, 1.0)
         time.sleep(0.05)
     name = job["maneuver"]["name"]
-    return {"maneuver": name, "terrain": job["terrain"], "success": True, "pushes": job["pushes"],
-            "duration_s": 0.3}
+    return {
+        "maneuver": name,
+        "terrain": job["terrain"],
+        "success": True,
+        "pushes": job["pushes"],
+        "duration_s": 0.3,
+    }
 
 
 def failing_runner(job: dict[str, Any]) -> dict[str, Any]:

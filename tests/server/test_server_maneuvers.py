@@ -53,7 +53,15 @@ def test_get_json_yaml_download_and_etag(client: TestClient) -> None:
 
 @pytest.mark.parametrize(
     "name,status",
-    [("nope", 404), ("Bow", 422), ("...", 422), ("bow.yaml", 422), ("a--b", 422), ("x" * 65, 422), ("%2e%2e", 422)],
+    [
+        ("nope", 404),
+        ("Bow", 422),
+        ("...", 422),
+        ("bow.yaml", 422),
+        ("a--b", 422),
+        ("x" * 65, 422),
+        ("%2e%2e", 422),
+    ],
 )
 def test_get_bad_or_unknown_names(client: TestClient, name: str, status: int) -> None:
     r = client.get(f"/maneuvers/{name}")
@@ -70,7 +78,9 @@ def test_path_tricks_do_not_reach_outside(client: TestClient, user_dir: Path, bo
 
 
 # ---- writing ------------------------------------------------------------------------------------------------------
-def test_create_replace_with_etag_and_conflict(client: TestClient, user_dir: Path, bow: dict[str, Any]) -> None:
+def test_create_replace_with_etag_and_conflict(
+    client: TestClient, user_dir: Path, bow: dict[str, Any]
+) -> None:
     doc = _mine(bow)
     r = client.put("/maneuvers/my-bow", json=doc)
     assert r.status_code == 201, r.text
@@ -102,7 +112,11 @@ def test_create_replace_with_etag_and_conflict(client: TestClient, user_dir: Pat
 
 
 def test_yaml_body_is_stored_as_sent(client: TestClient, user_dir: Path) -> None:
-    text = (Path(__file__).resolve().parents[2] / "maneuvers" / "bow.yaml").read_text().replace("name: bow", "name: y")
+    text = (
+        (Path(__file__).resolve().parents[2] / "maneuvers" / "bow.yaml")
+        .read_text()
+        .replace("name: bow", "name: y")
+    )
     text = "# my notes survive\n" + text
     r = client.put("/maneuvers/y", content=text, headers={"Content-Type": "application/yaml"})
     assert r.status_code == 201, r.text
@@ -159,7 +173,9 @@ def _bad_bodies(bow: dict[str, Any]) -> list[tuple[str, Any, str]]:
     ]
 
 
-def test_invalid_maneuvers_are_refused_with_the_field(client: TestClient, user_dir: Path, bow: dict[str, Any]) -> None:
+def test_invalid_maneuvers_are_refused_with_the_field(
+    client: TestClient, user_dir: Path, bow: dict[str, Any]
+) -> None:
     for label, body, field in _bad_bodies(bow):
         r = client.put("/maneuvers/my-bow", json=body)
         assert r.status_code == 422, (label, r.status_code, r.text)
@@ -187,7 +203,9 @@ def test_malformed_bodies(client: TestClient, user_dir: Path, settings: Any) -> 
     assert files_in(user_dir) in ([], [".lock"])
 
 
-def test_oversize_body_without_content_length_is_refused(client: TestClient, user_dir: Path, settings: Any) -> None:
+def test_oversize_body_without_content_length_is_refused(
+    client: TestClient, user_dir: Path, settings: Any
+) -> None:
     def chunks() -> Any:
         for _ in range(settings.max_body_bytes // 1000 + 2):
             yield b" " * 1000
@@ -210,7 +228,12 @@ def test_validate_answers_warnings_and_failures(client: TestClient, bow: dict[st
     assert body["failures"][0]["reason"]
     shape = client.post("/maneuvers/validate", json={"format": "footfall/maneuver@1"})
     assert shape.status_code == 200 and {f["field"] for f in shape.json()["failures"]} >= {"name", "duration"}
-    assert client.post("/maneuvers/validate", content=b"{", headers={"Content-Type": "application/json"}).status_code == 422
+    assert (
+        client.post(
+            "/maneuvers/validate", content=b"{", headers={"Content-Type": "application/json"}
+        ).status_code
+        == 422
+    )
 
 
 def test_validate_accepts_yaml_and_reports_lines(client: TestClient) -> None:

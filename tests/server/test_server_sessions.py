@@ -32,7 +32,9 @@ def test_session_lifecycle(client: TestClient) -> None:
     assert any(s["id"] == sid for s in client.get("/sessions").json())
     st = client.get(f"/sessions/{sid}/state").json()
     assert st["status"] == "running" and st["maneuver"] == "stand" and st["terrain"] == "flat"
-    assert wait_for(lambda: client.get(f"/sessions/{sid}/state").json()["t"] > 0.1), "the session does not step"
+    assert wait_for(lambda: client.get(f"/sessions/{sid}/state").json()["t"] > 0.1), (
+        "the session does not step"
+    )
     plan = client.get(f"/sessions/{sid}/plan").json()
     assert plan["overlays"]["body_path"]["kind"] == "polyline"
     assert client.delete(f"/sessions/{sid}").status_code == 204
@@ -144,7 +146,9 @@ def test_idle_sessions_are_reaped(client: TestClient) -> None:
     services = client.app.state.services  # type: ignore[attr-defined]
     sid = _new(client)
     s = services.sessions.get(sid)
-    s.last_access -= services.settings.session_idle_s + 1.0  # as if nobody had looked for longer than the limit
+    s.last_access -= (
+        services.settings.session_idle_s + 1.0
+    )  # as if nobody had looked for longer than the limit
     # (asking for its state would touch it, so watch the manager instead)
     assert wait_for(lambda: sid not in [x.id for x in services.sessions.list_sessions()])
     assert client.get(f"/sessions/{sid}/state").status_code == 404

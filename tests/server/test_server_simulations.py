@@ -103,7 +103,10 @@ def slow_client(settings: Settings) -> Iterator[TestClient]:
 
 
 def test_the_queue_is_bounded(slow_client: TestClient, settings: Settings) -> None:
-    answers = [slow_client.post("/simulations", json={"maneuver": "stand"}) for _ in range(settings.max_queued_simulations + 3)]
+    answers = [
+        slow_client.post("/simulations", json={"maneuver": "stand"})
+        for _ in range(settings.max_queued_simulations + 3)
+    ]
     codes = [a.status_code for a in answers]
     assert 429 in codes and codes[0] == 202
     refused = next(a for a in answers if a.status_code == 429)

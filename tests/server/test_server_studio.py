@@ -36,7 +36,9 @@ class FakeBrowser:
     """Speaks just enough of viser's protocol to count as a connected tab (a camera message), then drains."""
 
     def __init__(self, port: int) -> None:
-        self.ws = connect(f"ws://127.0.0.1:{port}", subprotocols=[f"viser-v{viser.__version__}"], max_size=None)
+        self.ws = connect(
+            f"ws://127.0.0.1:{port}", subprotocols=[f"viser-v{viser.__version__}"], max_size=None
+        )
         cam = {"type": "ViewerCameraMessage", "wxyz": [1, 0, 0, 0], "position": [2, -2, 1.2], "fov": 1.0,
                "near": 0.01, "far": 100.0, "image_height": 600, "image_width": 800, "look_at": [0, 0, 0.3],
                "up_direction": [0, 0, 1]}  # fmt: skip
@@ -74,7 +76,9 @@ def studio_app(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[TestC
 def tab(studio_app: tuple[TestClient, Any]) -> Iterator[Any]:
     client, services = studio_app
     browser = FakeBrowser(services.studio.port)
-    assert wait_for(lambda: client.get("/studio").json()["clients"] == 1), "the studio did not register the tab"
+    assert wait_for(lambda: client.get("/studio").json()["clients"] == 1), (
+        "the studio did not register the tab"
+    )
     studio_client = next(iter(services.studio.clients.values()))
     assert wait_for(lambda: studio_client.session is not None and hasattr(studio_client, "editor"))
     yield studio_client
@@ -87,9 +91,9 @@ def test_a_tab_gets_a_live_robot_at_30_fps(studio_app: tuple[TestClient, Any], t
     sid = tab.session.id
     sessions = {s["id"]: s for s in client.get("/sessions").json()}
     assert sessions[sid]["origin"] == "studio"
-    assert wait_for(lambda: client.get("/studio").json()["fps"].get(str(tab.client.client_id), 0) >= 30, 5.0), (
-        client.get("/studio").json()
-    )
+    assert wait_for(
+        lambda: client.get("/studio").json()["fps"].get(str(tab.client.client_id), 0) >= 30, 5.0
+    ), client.get("/studio").json()
     assert tab.view is not None and len(tab.view.bodies) >= 13  # trunk + 4 × (hip, upper, lower)
 
 
@@ -115,14 +119,19 @@ def test_open_edit_validate_and_preview(studio_app: tuple[TestClient, Any], tab:
     off = tab.world_offset()
     q = np.array([np.cos(np.radians(5)), 0.0, np.sin(np.radians(5)), 0.0])  # 10° pitch
     ed._commit_drag(kf, np.array([0.05, 0.0, 0.47]) + off, q, True)
-    assert kf["position"] == pytest.approx([0.05, 0.0, 0.47]) and kf["rpy"][1] == pytest.approx(10.0, abs=0.05)
+    assert kf["position"] == pytest.approx([0.05, 0.0, 0.47]) and kf["rpy"][1] == pytest.approx(
+        10.0, abs=0.05
+    )
     # preview runs it on the live session
     before = np.array(client.get(f"/sessions/{tab.session.id}/state").json()["body"]["rpy_deg"])
     ed.sl_speed.value = 2.0
     ed.preview()
     assert client.get(f"/sessions/{tab.session.id}/state").json()["maneuver"] == "bow"
     assert wait_for(
-        lambda: abs(client.get(f"/sessions/{tab.session.id}/state").json()["body"]["rpy_deg"][1] - before[1]) > 5.0,
+        lambda: (
+            abs(client.get(f"/sessions/{tab.session.id}/state").json()["body"]["rpy_deg"][1] - before[1])
+            > 5.0
+        ),
         8.0,
     ), "the robot did not pitch during the bow preview"
 
@@ -163,8 +172,11 @@ def test_landing_preview_request_is_picked_up(studio_app: tuple[TestClient, Any]
     assert client.post("/studio/preview", json={"maneuver": "crouch"}).status_code == 202
     browser = FakeBrowser(services.studio.port)
     try:
+
         def crouching() -> bool:
-            return any(s["maneuver"] == "crouch" and s["origin"] == "studio" for s in client.get("/sessions").json())
+            return any(
+                s["maneuver"] == "crouch" and s["origin"] == "studio" for s in client.get("/sessions").json()
+            )
 
         assert wait_for(crouching), client.get("/sessions").json()
     finally:
@@ -173,9 +185,15 @@ def test_landing_preview_request_is_picked_up(studio_app: tuple[TestClient, Any]
 
 # ---- pure pieces ------------------------------------------------------------------------------------------------------
 def test_overlay_geometry_is_generic() -> None:
-    kind, arr = overlay_geometry({"kind": "polyline", "points": [[0, 0, 0], [1, 0, 0], [1, 1, 0]]}) or ("", None)
+    kind, arr = overlay_geometry({"kind": "polyline", "points": [[0, 0, 0], [1, 0, 0], [1, 1, 0]]}) or (
+        "",
+        None,
+    )
     assert kind == "segments" and arr.shape == (2, 2, 3)
-    kind, arr = overlay_geometry({"kind": "segments", "points": [[0, 0, 0], [0, 0, 1], [1, 0, 0]]}) or ("", None)
+    kind, arr = overlay_geometry({"kind": "segments", "points": [[0, 0, 0], [0, 0, 1], [1, 0, 0]]}) or (
+        "",
+        None,
+    )
     assert arr.shape == (1, 2, 3)
     assert overlay_geometry({"kind": "points", "points": [[0, 0, float("nan")]]}) is None
     assert overlay_geometry({"kind": "nonsense", "points": [[0, 0, 0]]}) is None
@@ -188,5 +206,7 @@ def test_meshes_and_timeline() -> None:
     assert f.max() < len(v)
     v, f = hfield_mesh(np.zeros((3, 4)), 1.0, 0.5)
     assert v.shape == (12, 3) and f.shape == (12, 3) and v[:, 0].max() == 1.0 and v[:, 1].min() == -0.5
-    svg = timeline_svg(4.0, [Bar("RL", 0.8, 1.4, True, "failure")], [Mark("body", 2.0)], [(1.0, 3.0, "trot")], 1.2)
+    svg = timeline_svg(
+        4.0, [Bar("RL", 0.8, 1.4, True, "failure")], [Mark("body", 2.0)], [(1.0, 3.0, "trot")], 1.2
+    )
     assert svg.startswith("<svg") and "#ff3b30" in svg and "trot" in svg and svg.count("<rect") >= 2

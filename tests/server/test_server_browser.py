@@ -1,0 +1,155 @@
+"""The studio in a real browser: Debian's Chromium, headless, driven by Playwright.
+
+Opens the studio, loads `bow` from the library, presses Preview, and checks through the REST API that the tab's
+live robot runs bow and its pose changed, that the studio sends ≥ 30 frames per second, and that the page shows
+no error. Leaves a screenshot in artifacts/. Without /usr/bin/chromium (or Playwright) the test fails and says so.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+CHROMIUM = "/usr/bin/chromium"
+ARTIFACTS = Path(__file__).resolve().parents[2] / "artifacts"
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+ERROR_WORDS = ("Studio error", "Not valid", "Preview failed", "No live robot", "Cannot open", "crashed")
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.fixture(scope="module")
+def server() -> Iterator[dict[str, Any]]:
+    """`footfall serve` with the studio, in a subprocess on free ports, with a throwaway data directory."""
+    port, viewer = _free_port(), _free_port()
+    env = {**os.environ, "FOOTFALL_DATA_DIR": tempfile.mkdtemp(prefix="footfall-browser-")}
+    code = "import sys; from server.app import serve; serve('127.0.0.1', int(sys.argv[1]), int(sys.argv[2]))"
+    log = tempfile.NamedTemporaryFile("w+", prefix="footfall-serve-", suffix=".log", delete=False)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, str(port), str(viewer)], env=env, stdout=log, stderr=log
+    )
+    api = f"http://127.0.0.1:{port}"
+    try:
+        end = time.monotonic() + 60
+        while True:
+            assert proc.poll() is None, f"footfall serve exited: {Path(log.name).read_text()[-2000:]}"
+            try:
+                if httpx.get(f"{api}/studio", timeout=1).json().get("enabled"):
+                    break
+            except httpx.HTTPError:
+                pass
+            assert time.monotonic() < end, "footfall serve did not come up"
+            time.sleep(0.2)
+        yield {
+            "api": api,
+            "studio": f"http://127.0.0.1:{httpx.get(f'{api}/studio').json()['port']}/",
+            "log": log.name,
+        }
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+def _studio_session(api: str) -> str | None:
+    sessions = httpx.get(f"{api}/studio", timeout=5).json().get("sessions", {})
+    ids = [s for s in sessions.values() if s]
+    return ids[0] if ids else None
+
+
+@pytest.mark.browser
+def test_studio_loads_bow_and_previews_it(server: dict[str, Any], tmp_path: Path) -> None:
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"Debian's chromium is not installed at {CHROMIUM} (apt-get install chromium); "
+                    "the studio's browser test needs it")  # fmt: skip
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.fail("the Python package `playwright` is not installed (pip install playwright)")
+
+    api = server["api"]
+    problems: list[str] = []
+    ARTIFACTS.mkdir(exist_ok=True)
+    with sync_playwright() as pw:
+        ctx = pw.chromium.launch_persistent_context(
+            str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True,
+            viewport={"width": 1400, "height": 900},
+        )  # fmt: skip
+        try:
+            page = ctx.pages[0] if ctx.pages else ctx.new_page()
+            page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
+            page.on(
+                "console",
+                lambda m: problems.append(f"console {m.type}: {m.text}") if m.type == "error" else None,
+            )
+            page.goto(server["studio"], wait_until="domcontentloaded")
+
+            # the tab connects and gets its own live robot
+            page.get_by_role("button", name="Preview").wait_for(timeout=30_000)
+            end = time.monotonic() + 20
+            while (sid := _studio_session(api)) is None:
+                assert time.monotonic() < end, "the studio tab got no live session"
+                time.sleep(0.2)
+
+            # load bow from the library (another maneuver first, so that loading bow is seen to happen)
+            picker = page.get_by_label("Maneuver", exact=True)
+            for name in ("crouch", "bow"):
+                picker.click()
+                page.get_by_role("option", name=name, exact=True).click()
+                page.get_by_role("button", name="Open", exact=True).click()
+                page.get_by_text(f"{name} · shipped").first.wait_for(timeout=10_000)
+
+            before = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()
+            page.get_by_role("button", name="Preview").click()
+            end = time.monotonic() + 20
+            while True:
+                st = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()
+                if st["maneuver"] == "bow" and st["t"] > 2.5:
+                    break
+                assert time.monotonic() < end, f"the preview did not run: {st}"
+                time.sleep(0.25)
+            page.screenshot(path=str(ARTIFACTS / "studio-bow-preview.png"))
+
+            after = st
+            pitch_change = abs(after["body"]["rpy_deg"][1] - before["body"]["rpy_deg"][1])
+            moved = max(
+                abs(a - b) for a, b in zip(after["body"]["position"], before["body"]["position"], strict=True)
+            )
+            assert pitch_change > 5.0 or moved > 0.03, (before["body"], after["body"])
+            assert after["status"] == "running" and not after["fell"], after
+
+            info = httpx.get(f"{api}/studio", timeout=5).json()
+            assert max(info["fps"].values()) >= 30.0, info
+
+            text = page.inner_text("body")
+            shown = [w for w in ERROR_WORDS if w in text]
+            assert not shown, f"the page shows an error: {shown}"
+            assert not problems, problems
+        finally:
+            ctx.close()
