@@ -58,7 +58,9 @@ class HandlerParams:
     min_stance_s: float = 0.08  # a foot that just landed stays down at least this long
     touchdown_lead_s: float = 0.02  # swing trajectories aim to land this much before the planned time
     touchdown_depth_m: float = 0.0  # ... and this far below the planned contact point (the swing planner counts depth as terrain collision)
-    max_touchdown_shift_s: float = 0.1  # a replanned touchdown may move by at most this much in time mid-swing
+    max_touchdown_shift_s: float = (
+        0.1  # a replanned touchdown may move by at most this much in time mid-swing
+    )
     mu: float = 0.6
 
 
@@ -66,7 +68,10 @@ class Handler:
     """Leg phases, swing planning and the torques of one robot."""
 
     def __init__(
-        self, robot: RobotModel, swing_planner: SwingPlanner | None = None, params: HandlerParams | None = None
+        self,
+        robot: RobotModel,
+        swing_planner: SwingPlanner | None = None,
+        params: HandlerParams | None = None,
     ) -> None:
         self.robot = robot
         self.params = params or HandlerParams()
@@ -101,7 +106,11 @@ class Handler:
             ph = self.phase[leg]
             sw = plan.swing_at(leg, t)
             if ph == Phase.STANCE:
-                if sw is not None and t < sw.t_touchdown and t - self.t_landed[leg] >= self.params.min_stance_s:
+                if (
+                    sw is not None
+                    and t < sw.t_touchdown
+                    and t - self.t_landed[leg] >= self.params.min_stance_s
+                ):
                     # measured state wins: while another foot is late, lifting this one would leave the body
                     # on fewer feet than planned; wait for the late foot (briefly)
                     late = bool(np.any(self.phase == Phase.LATE))
@@ -172,7 +181,9 @@ class Handler:
             reqs.append(SwingRequest(i, p, s.v_world_foot[i], target, t_td))
         stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == Phase.STANCE}
         v = s.v_world_body if v_body_des is None else v_body_des
-        body = BodyMotion(s.t, s.p_world_body.copy(), s.R_world_body.copy(), v.copy(), float(s.omega_world[2]))
+        body = BodyMotion(
+            s.t, s.p_world_body.copy(), s.R_world_body.copy(), v.copy(), float(s.omega_world[2])
+        )
         kwargs = {} if self.ground is None else {"ground": self.ground}
         self.plans.update(self.swing_planner.plan(s.t, reqs, stance_feet_world=stance, body=body, **kwargs))
 
@@ -200,9 +211,19 @@ class Handler:
                 self.tau[leg] = s.tau_bias[leg] - self.kd * s.qd[leg]
                 continue
             q_des, qd_des, tau_ff = swing_joint_command(
-                self.robot, leg, s.q[leg], s.qd[leg], plan, s.t, s.R_world_body, s.p_world_body, s.v_world_body,
+                self.robot,
+                leg,
+                s.q[leg],
+                s.qd[leg],
+                plan,
+                s.t,
+                s.R_world_body,
+                s.p_world_body,
+                s.v_world_body,
                 s.omega_world,
             )
-            self.tau[leg] = self.kp * (q_des - s.q[leg]) + self.kd * (qd_des - s.qd[leg]) + tau_ff + s.tau_bias[leg]
+            self.tau[leg] = (
+                self.kp * (q_des - s.q[leg]) + self.kd * (qd_des - s.qd[leg]) + tau_ff + s.tau_bias[leg]
+            )
         np.clip(self.tau, -self.robot.tau_max, self.robot.tau_max, out=self.tau)
         return self.tau

@@ -78,17 +78,18 @@ class BodyModel:
 
     @classmethod
     def from_robot(
-        cls, robot: RobotModel, reach_margin: float = 0.95, min_length_m: float = 0.25
+        cls, robot: RobotModel, reach_margin: float = 0.95, min_fraction: float = 0.4
     ) -> BodyModel:
         """Returns the body model of a RobotModel: its mass, composite inertia, hips and leg reach.
 
         The robot's leg lengths are sagittal (hip-flexion joint to foot); the abduction offset is added back to
         get hip-to-foot distances. reach_margin scales the maximum so the knee stays off its singular stretch;
-        min_length_m keeps the foot out from under the hip (at least the robot's own minimum).
+        the minimum is min_fraction of that maximum (at least the robot's own), which keeps the knee from folding
+        the foot up under the hip.
         """
         a = float(np.max(np.abs(robot.abd_offset))) if hasattr(robot, "abd_offset") else 0.0
         lmax = math.hypot(float(robot.max_leg_length_m), a) * reach_margin
-        lmin = max(math.hypot(float(robot.min_leg_length_m), a), min_length_m)
+        lmin = max(math.hypot(float(robot.min_leg_length_m), a), min_fraction * lmax)
         com = _com_offset_body(robot)
         return cls(
             mass_kg=float(robot.mass_kg),

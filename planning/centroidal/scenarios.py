@@ -127,7 +127,9 @@ def standing(model: BodyModel | None = None) -> Scenario:
     phases = tuple(ContactPhase(i, -1.0, math.inf, feet[i]) for i in range(4))
     p1, R1 = _pose(model, 0.03, 0.02, 0.46, 0.0, 10.0, 8.0)
     p2, R2 = _pose(model, 0.0, 0.0, 0.52)
-    return Scenario("standing", model, _start(model), phases, ((0.6, p1, R1, 200.0), (1.4, p2, R2, 200.0)), 2.0)
+    return Scenario(
+        "standing", model, _start(model), phases, ((0.6, p1, R1, 200.0), (1.4, p2, R2, 200.0)), 2.0
+    )
 
 
 def trot(
@@ -218,7 +220,9 @@ def drop(
         for i in range(4)
     )
     p, R = _pose(model, 0.0, 0.0, 0.52)
-    return Scenario("drop", model, _start(model, z0, vz0), phases, ((0.8, p, R, 100.0),), 1.5, running_weight=20.0)
+    return Scenario(
+        "drop", model, _start(model, z0, vz0), phases, ((0.8, p, R, 100.0),), 1.5, running_weight=20.0
+    )
 
 
 SCENARIOS: dict[str, Callable[..., Scenario]] = {

@@ -833,7 +833,7 @@ class CentroidalSolver:
         qp_iter = int(sum(int(i.iter) for i in self.last_info))
         status_val = int(res.info.status_val)
         if status_val not in (1, 2):
-            self._prev = None
+            # No answer: the last good solution stays the linearization point for the next tick.
             name = _STATUS_NAMES.get(status_val, "solver_error")
             return _failure(name, f"OSQP: {res.info.status}", t0, t_qp)
         return self._finish(tk, res, sol, t0, t_qp, qp_iter, rounds, n_cuts, len_viol, cone_viol)

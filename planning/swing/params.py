@@ -39,8 +39,8 @@ class SwingParams:
     """Swing planner parameters (units in the names: m, s, m/s, m/s²)."""
 
     # Limits
-    v_max_xy_mps: float = 3.0  # per heading axis
-    a_max_xy_mps2: float = 40.0  # per heading axis
+    v_max_xy_mps: float = 4.0  # per heading axis
+    a_max_xy_mps2: float = 80.0  # per heading axis
     v_max_up_mps: float = 2.0
     v_max_down_mps: float = 1.5
     a_max_z_mps2: float = 40.0
@@ -48,7 +48,9 @@ class SwingParams:
         0.30  # the most aggressive policy's top, above max(lift-off, touchdown) height
     )
     hip_clearance_m: float = 0.02  # the foot stays this far below (hip z − min leg length)
-    apex_tolerance_m: float = 0.005  # a replan may lift the swing's apex by at most this over its first plan's
+    apex_tolerance_m: float = (
+        0.005  # a replan may lift the swing's apex by at most this over its first plan's
+    )
 
     # Vertical family, gentlest first; the most aggressive policy (full limits, max_swing_height_m) is appended.
     vertical_family: tuple[VerticalLevel, ...] = field(default_factory=_default_family)
@@ -87,7 +89,7 @@ class SwingParams:
     min_replan_horizon_s: float = 0.015  # closer to touchdown than this, keep the last plan
 
     # Special policies
-    late_descent_mps: float = 0.3  # late touchdown: descend at this speed until contact
+    late_descent_mps: float = 0.6  # late touchdown: descend at this speed until contact
     trip_lift_m: float = 0.12  # normal trip: raise the foot this much above where it tripped
     trip_response_s: float = 0.15  # a trip's immediate response lasts this long
     recent_trip_s: float = 0.6  # after that, a trip this recent still elevates the foot

@@ -31,7 +31,7 @@ def test_body_model_from_robot_is_consistent(model: BodyModel):
     assert 25.0 < model.mass_kg < 40.0
     assert np.all(np.linalg.eigvalsh(model.inertia_body) > 0.0)
     # the nominal stance is comfortably inside the leg-length limits
-    hip = model.p_body_hip + [0.0, 0.0, 0.52]
+    hip = model.p_body_hip + model.p_body_com + [0.0, 0.0, 0.52]  # trunk at the standing height
     foot = nominal_feet() + [0.0, 0.0, model.foot_radius_m]
     d = np.linalg.norm(hip - foot, axis=1)
     assert np.all((d > model.leg_length_min_m + 0.05) & (d < model.leg_length_max_m - 0.05))
