@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from planning.balance import BalanceController, BalanceParams, BodyTarget
+from planning.centroidal.problem import BodyState
+from planning.centroidal.solver import CentroidalParams, CentroidalSolution, CentroidalSolver
 from planning.handler import ContactPlan, Handler, HandlerParams
+from planning.maneuver.generator import ProblemGenerator
 from planning.robot import RobotModel
 from planning.sim.loop import Stage
 from planning.sim.world import RobotState
@@ -29,6 +33,12 @@ class ControllerParams:
 
     balance_rate_hz: float = 500.0  # phases + force distribution
     swing_rate_hz: float = 1000.0 / 3.0  # swing replanning every 3 ms
+    centroidal_rate_hz: float = 50.0  # the centroidal solver (one linearization a tick)
+    use_centroidal: bool = True  # False: the balance controller alone drives (no solver)
+    solution_max_age_s: float = 0.05  # an ok solution older than this no longer drives
+    # wall-clock budget of a solver tick (ms); over it the backup drives. None: no budget, so headless runs are
+    # deterministic whatever the machine's load; live sessions that must keep real time set one.
+    solver_time_budget_ms: float | None = None
     balance: BalanceParams = field(default_factory=BalanceParams)
     handler: HandlerParams = field(default_factory=HandlerParams)
 
@@ -46,6 +56,7 @@ class Controller:
         body_reference: BodyReferenceFn,
         params: ControllerParams | None = None,
         contact_plan: ContactPlan | None = None,
+        generator: ProblemGenerator | None = None,
     ) -> None:
         self.robot = robot
         self.params = params or ControllerParams()
@@ -59,15 +70,61 @@ class Controller:
             Stage("balance", self.params.balance_rate_hz, self._balance),
             Stage("swing", self.params.swing_rate_hz, self._swing),
         ]
+        # the centroidal solver: its solution drives when good, the balance controller (backup) otherwise
+        self.generator = generator if self.params.use_centroidal else None
+        budget = self.params.solver_time_budget_ms
+        cparams = CentroidalParams(time_budget_ms=math.inf if budget is None else budget)
+        self.solver = CentroidalSolver(cparams, robot=robot) if self.generator is not None else None
+        self.solution: CentroidalSolution | None = None
+        self.t_solution = -np.inf
+        self.fallback_ticks = 0  # balance ticks driven by the backup controller while the solver was in use
+        self.solver_ticks = 0
+        self.linearization_errors: list[float] = []
+        self.qp_ms: list[float] = []
+        self.statuses: dict[str, int] = {}
+        if self.generator is not None:
+            self.stages.insert(0, Stage("centroidal", self.params.centroidal_rate_hz, self._centroidal))
 
     @property
     def stance(self) -> np.ndarray:
         return self.handler.stance
 
+    def _centroidal(self, s: RobotState) -> None:
+        assert self.generator is not None and self.solver is not None
+        if s.t == 0.0:
+            self.handler.update_phases(s, self.contact_plan)
+        state = BodyState(s.t, s.p_world_com.copy(), s.v_world_com.copy(), s.R_world_body.copy(), s.omega_world.copy())
+        feet = s.p_world_foot - np.array([0.0, 0.0, self.robot.foot_radius_m])
+        problem = self.generator.problem_at(state, self.handler.stance.copy(), feet)
+        sol = self.solver.solve(problem)
+        self.solver_ticks += 1
+        self.statuses[sol.status] = self.statuses.get(sol.status, 0) + 1
+        self.qp_ms.append(sol.qp_ms)
+        if np.isfinite(sol.linearization_error):
+            self.linearization_errors.append(float(sol.linearization_error))
+        if sol.ok:
+            self.solution = sol
+            self.t_solution = s.t
+            # the solver may move the touchdown of a swinging foot (within its adjust window): steer the swing there
+            for td in sol.touchdowns:
+                sw = self.contact_plan.swing_at(td.leg, s.t)
+                if not td.planted and sw is not None and abs(td.t_nominal - sw.t_touchdown) < 1e-6:
+                    self.handler.set_touchdown(td.leg, td.p_world)
+
     def _balance(self, s: RobotState) -> None:
         self.handler.update_phases(s, self.contact_plan)
         self.target = self.body_reference(s.t)
-        self.f_des[:] = self.balance.contact_forces(s, self.target, self.handler.stance)
+        stance = self.handler.stance
+        sol = self.solution
+        if sol is not None and s.t - self.t_solution <= self.params.solution_max_age_s:
+            self.f_des[:] = sol.force_at(s.t)
+            self.f_des[~stance] = 0.0
+            self.balance.r_com_foot[:] = s.p_world_foot - s.p_world_com
+            self.balance.r_com_foot[:, 2] -= self.robot.foot_radius_m
+        else:
+            if self.generator is not None:
+                self.fallback_ticks += 1
+            self.f_des[:] = self.balance.contact_forces(s, self.target, stance)
 
     def _swing(self, s: RobotState) -> None:
         v = None if self.target is None else self.target.v_world_body

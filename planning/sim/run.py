@@ -13,6 +13,7 @@ from planning.balance import BodyTarget
 from planning.controller import Controller, ControllerParams
 from planning.geometry import rpy_to_R
 from planning.maneuver import BodyReference, Maneuver, build_schedule
+from planning.maneuver.generator import ProblemGenerator
 from planning.robot import RobotModel, load_robot
 from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
@@ -116,7 +117,10 @@ class ManeuverSession(_Session):
         self.body_ref = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
         z0 = float(self.scene.ground_height(0.0, 0.0))
         self._offset = np.array([0.0, 0.0, z0])
-        self.controller = Controller(self.robot, self._target, options.controller, contact_plan=self.schedule)
+        self.generator = ProblemGenerator(maneuver, self.schedule, self.body_ref, self.robot, self._offset)
+        self.controller = Controller(
+            self.robot, self._target, options.controller, contact_plan=self.schedule, generator=self.generator
+        )
         self._start_loop(self.controller.stages, self.controller.actuate)
         self._tgt = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
 
@@ -130,6 +134,22 @@ class ManeuverSession(_Session):
 
     def _duration(self) -> float:
         return float(self.maneuver.duration)
+
+    def _solver_report(self, stage_times: dict[str, Any]) -> dict[str, Any]:
+        c = self.controller
+        cen = stage_times.get("centroidal", {})
+        lin = c.linearization_errors
+        return {
+            "tick_ms_p50": cen.get("p50_ms"),
+            "tick_ms_p99": cen.get("p99_ms"),
+            "qp_ms_p50": round(float(np.median(c.qp_ms)), 4) if c.qp_ms else None,
+            "fallback_ticks": c.fallback_ticks,
+            "balance_ticks": len(next((st.times_ms for st in c.stages if st.name == "balance"), [])),
+            "solver_ticks": c.solver_ticks,
+            "statuses": dict(c.statuses),
+            "linearization_error_p50": round(float(np.median(lin)), 6) if lin else None,
+            "linearization_error_first4": [round(x, 6) for x in lin[:4]],
+        }
 
     def _velocity_rms(self) -> dict[str, float | None]:
         rec = self.recorder
@@ -190,13 +210,7 @@ class ManeuverSession(_Session):
                 "max": round(float(np.max(errs)), 4) if errs else None,
             },
             "velocity_tracking_rms": self._velocity_rms(),
-            "solver": {
-                "tick_ms_p50": stage_times.get("balance", {}).get("p50_ms"),
-                "tick_ms_p99": stage_times.get("balance", {}).get("p99_ms"),
-                "qp_ms_p50": None,
-                "fallback_ticks": 0,
-                "linearization_error_p50": None,
-            },
+            "solver": self._solver_report(stage_times),
         }
 
 

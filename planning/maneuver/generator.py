@@ -1,0 +1,203 @@
+"""Problem generator (dynamic-planning-controller seed): a stateless maneuver + the measured state → the stateful,
+solver-facing centroidal problem, regenerated every tick with a horizon that slides as the maneuver advances.
+
+The maneuver's swings become per-leg stance phases (with their adjust windows); its body reference is sampled at the
+knots of a time grid that is fine near now, coarse further out and has a boundary at every event; the measured
+contacts win over the plan (a late or an early touchdown is taken into the problem). A passive maneuver (tracks
+``[body]`` only) running beside the active one is a *hint*: it replaces the active body targets over its own time
+span, since both drive the same joints through the body, and is ignored where it has no keyframes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from planning.centroidal import _so3
+from planning.centroidal.problem import (
+    BodyModel,
+    BodyState,
+    BodyTargets,
+    CentroidalProblem,
+    ContactPhase,
+    CostWeights,
+    Objective,
+    phase_event_times,
+    reconcile_contacts,
+)
+from planning.centroidal.timegrid import make_time_grid
+from planning.geometry import rpy_to_R
+from planning.maneuver.body import BodyReference
+from planning.maneuver.expand import Schedule
+from planning.maneuver.spec import Lean, Maneuver, MaximizeHeight, Weights
+from planning.robot import RobotModel
+
+_DEFAULT_WEIGHTS = Weights()
+
+
+@dataclass(frozen=True)
+class GeneratorParams:
+    """Horizon and grid of the generated problems, and how maneuver weights map onto the solver's costs."""
+
+    horizon_s: float = 1.0  # s, how far ahead each problem looks
+    base_dt_s: float | None = 0.05  # s, the finest step (None: derived from the shortest gap between events)
+    pattern: tuple[tuple[int, int], ...] = ((4, 1), (4, 2), (4, 3))  # (count, multiple of base_dt), then last
+    max_knots: int = 24
+    running_weight: float = 20.0  # per m² (and rad²) at every knot; keyframes add their own weight × pose_scale
+    keyframe_scale: float = 100.0  # a keyframe weight of 1.0 is worth this many running weights
+    keyframe_radius_s: float = 0.06  # knots this close to a keyframe carry its weight
+    fz_min_n: float = 8.0
+    fz_max_n: float = 600.0
+
+
+class ProblemGenerator:
+    """Builds the centroidal problem of one maneuver at any time from the measured state."""
+
+    def __init__(
+        self,
+        maneuver: Maneuver,
+        schedule: Schedule,
+        body: BodyReference,
+        robot: RobotModel,
+        offset_world: np.ndarray | None = None,
+        params: GeneratorParams | None = None,
+        hint: tuple[Maneuver, BodyReference] | None = None,
+    ) -> None:
+        self.maneuver = maneuver
+        self.schedule = schedule
+        self.body = body
+        self.robot = robot
+        self.params = p = params or GeneratorParams()
+        self.offset = np.zeros(3) if offset_world is None else np.asarray(offset_world, dtype=float)
+        self.model = BodyModel.from_robot(robot)
+        self.phases = self._phases()
+        self.events = np.array(sorted({e.t for e in schedule.events()}))
+        self.key_times = np.array([k.t for k in maneuver.body])
+        self.key_weights = np.array([k.weight for k in maneuver.body])
+        w = maneuver.weights or _DEFAULT_WEIGHTS
+        d = CostWeights()
+        self.weights = CostWeights(
+            **{
+                **d.__dict__,
+                "force": d.force * w.force / _DEFAULT_WEIGHTS.force,
+                "touchdown_time": d.touchdown_time * w.touchdown_time / _DEFAULT_WEIGHTS.touchdown_time,
+                "touchdown_position": d.touchdown_position
+                * w.touchdown_position
+                / _DEFAULT_WEIGHTS.touchdown_position,
+                "hip_over_foot": d.hip_over_foot * w.hip_over_foot / _DEFAULT_WEIGHTS.hip_over_foot,
+            }
+        )
+        self.pose_scale = w.pose / _DEFAULT_WEIGHTS.pose
+        self.objectives = tuple(self._objectives())
+        self.hint = hint
+        self.base_dt = p.base_dt_s
+
+    # ---- static parts (built once) -----------------------------------------------------------------------------
+    def _phases(self) -> tuple[ContactPhase, ...]:
+        out: list[ContactPhase] = []
+        sch = self.schedule
+        for leg in range(4):
+            t_down = -1.0
+            p_down = sch.p_start_foot[leg] + self.offset
+            normal = np.array([0.0, 0.0, 1.0])
+            td_window = (0.0, 0.0)
+            radius, region = 0.0, None
+            for sw in sch.swings[leg]:
+                lo = (sw.liftoff_adjust_s, sw.liftoff_adjust_s)
+                out.append(
+                    ContactPhase(
+                        leg, t_down, sw.t_liftoff, p_down, td_window, lo, radius, region, normal,
+                        key=f"{leg}@{t_down:.4f}",
+                    )
+                )
+                t_down = sw.t_touchdown
+                p_down = sw.p_touchdown + self.offset
+                normal = np.asarray(sw.normal, dtype=float)
+                td_window = (sw.adjust.time_s, sw.adjust.time_s)
+                radius = float(sw.adjust.radius_m or 0.0)
+                region = None if sw.adjust.region_xy is None else sw.adjust.region_xy + self.offset[:2]
+            out.append(
+                ContactPhase(
+                    leg, t_down, math.inf, p_down, td_window, (0.0, 0.0), radius, region, normal,
+                    key=f"{leg}@{t_down:.4f}",
+                )
+            )
+        return tuple(out)
+
+    def _objectives(self) -> list[Objective]:
+        out = []
+        for o in self.maneuver.objectives or ():
+            if isinstance(o, MaximizeHeight):
+                out.append(Objective("maximize_height", o.t[0], o.t[1], o.weight))
+            elif isinstance(o, Lean):
+                d = o.direction
+                out.append(Objective("lean", o.t[0], o.t[1], o.weight, (float(d[0]), float(d[1]))))
+        return out
+
+    # ---- per tick --------------------------------------------------------------------------------------------
+    def trunk_target(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Returns the trunk's target (p (3,), v (3,), R (3,3), ω (3,)) at t, the hint overriding where it has keys."""
+        ref = self.body
+        if self.hint is not None:
+            hint_m, hint_ref = self.hint
+            if hint_m.body and hint_m.body[0].t - 0.5 <= t <= hint_m.body[-1].t + 0.5:
+                ref = hint_ref
+        p, v, rpy, omega = ref.sample(t)
+        return p + self.offset, v, rpy_to_R(rpy), omega
+
+    def problem_at(
+        self,
+        state: BodyState,
+        contact_measured: np.ndarray | None = None,
+        p_world_foot_measured: np.ndarray | None = None,
+    ) -> CentroidalProblem:
+        """Returns the problem for the tick at state.t (CoM state); measured contacts (4,) and points win."""
+        pr = self.params
+        t = state.t
+        phases = self.phases
+        if contact_measured is not None and p_world_foot_measured is not None:
+            phases = reconcile_contacts(phases, t, contact_measured, p_world_foot_measured)
+        end = t + pr.horizon_s
+        phases = tuple(
+            p
+            for p in phases
+            if p.t_liftoff + p.liftoff_window_s[1] > t and p.t_touchdown - p.touchdown_window_s[0] < end
+        )
+        grid = make_time_grid(t, phase_event_times(phases), end, self.base_dt, pr.pattern, pr.max_knots)
+        return CentroidalProblem(
+            t_knots=grid,
+            initial=state,
+            phases=phases,
+            targets=self.targets(grid),
+            model=self.model,
+            mu=self.maneuver.friction,
+            fz_min_N=pr.fz_min_n,
+            fz_max_N=pr.fz_max_n,
+            weights=self.weights,
+            objectives=self.objectives,
+        )
+
+    def targets(self, grid: np.ndarray) -> BodyTargets:
+        """Returns the per-knot CoM targets: the body reference sampled at the knots, weighted near keyframes."""
+        K = grid.size
+        p = np.empty((K, 3))
+        v = np.empty((K, 3))
+        R = np.empty((K, 3, 3))
+        om = np.empty((K, 3))
+        com = self.model.p_body_com
+        for j, tj in enumerate(grid):
+            pj, vj, Rj, wj = self.trunk_target(float(tj))
+            p[j] = pj + Rj @ com
+            v[j] = vj + _so3.cross(wj, Rj @ com)
+            R[j] = Rj
+            om[j] = wj
+        w = np.full(K, self.params.running_weight * self.pose_scale)
+        for tk, wk in zip(self.key_times, self.key_weights, strict=True):
+            near = np.abs(grid - tk) <= self.params.keyframe_radius_s
+            w[near] += wk * self.params.keyframe_scale * self.pose_scale
+        if K and grid[-1] >= self.maneuver.duration - 1e-9:
+            w[-1] += self.params.keyframe_scale * self.pose_scale  # the final pose
+        W = np.repeat(w[:, None], 3, axis=1)
+        return BodyTargets(p, R, W, W.copy(), v, om)
