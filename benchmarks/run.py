@@ -98,7 +98,9 @@ def run_benchmarks(
         say("bench: stance_handler")
         from planning.bench_stance import bench_force_distribution, bench_stance_handler
 
-        stages["stance_handler"] = bench_stance_handler(n=n // 4)  # the QP on every tick, beside the bare solve
+        stages["stance_handler"] = bench_stance_handler(
+            n=n // 4
+        )  # the QP on every tick, beside the bare solve
         stages["stance_handler_in_loop"] = bench_stance_handler(n=n // 4, skip_feasible=True)
         stages["force_distribution"] = bench_force_distribution(n=n // 4)
     optional = [

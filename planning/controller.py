@@ -93,7 +93,9 @@ class Controller:
         assert self.generator is not None and self.solver is not None
         if s.t == 0.0:
             self.handler.update_phases(s, self.contact_plan)
-        state = BodyState(s.t, s.p_world_com.copy(), s.v_world_com.copy(), s.R_world_body.copy(), s.omega_world.copy())
+        state = BodyState(
+            s.t, s.p_world_com.copy(), s.v_world_com.copy(), s.R_world_body.copy(), s.omega_world.copy()
+        )
         feet = s.p_world_foot - np.array([0.0, 0.0, self.robot.foot_radius_m])
         problem = self.generator.problem_at(state, self.handler.stance.copy(), feet)
         sol = self.solver.solve(problem)

@@ -289,7 +289,9 @@ class ForceDistributor:
         self._sqrt_wf = math.sqrt(p.w_force)
         self._sqrt_wt = math.sqrt(p.w_torque) / p.torque_length_m
         # horizontal force rows relative to the vertical one (walking: attitude first, foot placement steers)
-        self._h_ratio = math.sqrt(p.w_force_horizontal / p.w_force) if p.w_force_horizontal is not None else 1.0
+        self._h_ratio = (
+            math.sqrt(p.w_force_horizontal / p.w_force) if p.w_force_horizontal is not None else 1.0
+        )
 
         n_var, n_row = 3 * N_LEGS, 5 * N_LEGS
         P0, self._p_gather = dense_upper_csc(n_var)

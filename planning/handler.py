@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -184,7 +184,7 @@ class Handler:
         body = BodyMotion(
             s.t, s.p_world_body.copy(), s.R_world_body.copy(), v.copy(), float(s.omega_world[2])
         )
-        kwargs = {} if self.ground is None else {"ground": self.ground}
+        kwargs: dict[str, Any] = {} if self.ground is None else {"ground": self.ground}
         self.plans.update(self.swing_planner.plan(s.t, reqs, stance_feet_world=stance, body=body, **kwargs))
 
     # ---- torques (every physics step) ---------------------------------------------------------------------------

@@ -73,7 +73,9 @@ class StanceHandlerParams:
     max_iter: int = 1000  # per attempt; bounds the time of absurd inputs (~3 ms); realistic ones take 25–500
     retry_rho: float = 1.0  # ADMM ρ of the second attempt when the first stops short
     polish: bool = False  # OSQP 1.1's polish prints to fd 1 whatever `verbose` says
-    skip_feasible: bool = True  # return a plan that already meets every limit without solving (it is the optimum)
+    skip_feasible: bool = (
+        True  # return a plan that already meets every limit without solving (it is the optimum)
+    )
 
     def __post_init__(self) -> None:
         for name in ("force_scale_n", "w_normal", "w_tangent"):
@@ -302,7 +304,13 @@ class StanceHandler:
     # ----------------------------------------------------------------------------------------------------------
 
     def _feasible_as_planned(
-        self, f_des: np.ndarray, J: np.ndarray, stance: np.ndarray, T: np.ndarray, b: np.ndarray, mu_face: float
+        self,
+        f_des: np.ndarray,
+        J: np.ndarray,
+        stance: np.ndarray,
+        T: np.ndarray,
+        b: np.ndarray,
+        mu_face: float,
     ) -> bool:
         """Returns True (and writes forces and torques) when f_des on flat contacts needs no correction: every
         stance force inside the pyramid and the normal-force bounds, every torque within its limit."""

@@ -34,7 +34,7 @@ from planning.maneuver.expand import Schedule
 from planning.maneuver.spec import Lean, Maneuver, MaximizeHeight, Weights
 from planning.robot import RobotModel
 
-_DEFAULT_WEIGHTS = Weights()
+_DEFAULT_WEIGHTS = Weights.model_validate({})
 
 
 @dataclass(frozen=True)
@@ -45,7 +45,9 @@ class GeneratorParams:
     base_dt_s: float | None = 0.05  # s, the finest step (None: derived from the shortest gap between events)
     pattern: tuple[tuple[int, int], ...] = ((4, 1), (4, 2), (4, 3))  # (count, multiple of base_dt), then last
     max_knots: int = 24
-    running_weight: float = 20.0  # per m² (and rad²) at every knot; keyframes add their own weight × pose_scale
+    running_weight: float = (
+        20.0  # per m² (and rad²) at every knot; keyframes add their own weight × pose_scale
+    )
     keyframe_scale: float = 100.0  # a keyframe weight of 1.0 is worth this many running weights
     keyframe_radius_s: float = 0.06  # knots this close to a keyframe carry its weight
     fz_min_n: float = 8.0
@@ -108,7 +110,15 @@ class ProblemGenerator:
                 lo = (sw.liftoff_adjust_s, sw.liftoff_adjust_s)
                 out.append(
                     ContactPhase(
-                        leg, t_down, sw.t_liftoff, p_down, td_window, lo, radius, region, normal,
+                        leg,
+                        t_down,
+                        sw.t_liftoff,
+                        p_down,
+                        td_window,
+                        lo,
+                        radius,
+                        region,
+                        normal,
                         key=f"{leg}@{t_down:.4f}",
                     )
                 )
@@ -120,7 +130,15 @@ class ProblemGenerator:
                 region = None if sw.adjust.region_xy is None else sw.adjust.region_xy + self.offset[:2]
             out.append(
                 ContactPhase(
-                    leg, t_down, math.inf, p_down, td_window, (0.0, 0.0), radius, region, normal,
+                    leg,
+                    t_down,
+                    math.inf,
+                    p_down,
+                    td_window,
+                    (0.0, 0.0),
+                    radius,
+                    region,
+                    normal,
                     key=f"{leg}@{t_down:.4f}",
                 )
             )

@@ -285,10 +285,11 @@ class WalkSession(_Session):
         reason = self.loop.failure_reason
         if c.goal is not None:
             d = s.p_world_body[:2] - np.asarray(c.goal)
-            pos_err: float | None = float(np.linalg.norm(d))
-            ok = pos_err <= POSITION_TOLERANCE_M
+            dist = float(np.linalg.norm(d))
+            pos_err: float | None = dist
+            ok = dist <= POSITION_TOLERANCE_M
             if reason is None and not ok:
-                reason = f"ended {pos_err:.2f} m from the goal {list(c.goal)}"
+                reason = f"ended {dist:.2f} m from the goal {list(c.goal)}"
         else:
             pos_err, ok = None, True
         success = not fell and ok
