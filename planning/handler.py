@@ -90,6 +90,7 @@ class Handler:
         self.kd = np.array(p.kd_swing)
         self.tau = np.zeros((4, 3))
         self.touchdown_overrides: dict[int, np.ndarray] = {}  # solver-adjusted touchdown places by leg
+        self.waypoints: list[np.ndarray | None] = [None] * 4  # (K,4) [t, x, y, z] of each leg's current swing
         self.ground = None
         self._initialized = False
 
@@ -124,7 +125,9 @@ class Handler:
                         self.t_touchdown[leg] = sw.t_touchdown
                         self.p_touchdown[leg] = sw.p_touchdown
                 frac = (t - self.t_liftoff[leg]) / max(self.t_touchdown[leg] - self.t_liftoff[leg], 1e-3)
-                if s.contact[leg] and frac >= self.params.early_touchdown_fraction:
+                wp = self.waypoints[leg]
+                waypoints_left = wp is not None and bool(np.any(wp[:, 0] > t))
+                if s.contact[leg] and frac >= self.params.early_touchdown_fraction and not waypoints_left:
                     self._land(leg, s)
                 elif t >= self.t_touchdown[leg]:
                     if s.contact[leg]:
@@ -140,6 +143,7 @@ class Handler:
         self.t_liftoff[leg] = s.t
         self.t_touchdown[leg] = sw.t_touchdown
         self.p_touchdown[leg] = self.touchdown_overrides.get(leg, sw.p_touchdown)
+        self.waypoints[leg] = getattr(sw, "waypoints", None)
         self.plans.pop(leg, None)
 
     def _land(self, leg: int, s: RobotState) -> None:
@@ -174,9 +178,16 @@ class Handler:
             # time has no room for replanning from measured states. A touchdown time in the past selects the
             # planner's late-touchdown policy (descend until contact).
             t_td = float(self.t_touchdown[i])
-            if self.phase[i] == Phase.SWING and t_td - self.params.touchdown_lead_s > s.t + 0.01:
-                t_td -= self.params.touchdown_lead_s
             target = self.p_touchdown[i].copy()
+            wp = self.waypoints[i]
+            ahead = None if wp is None else np.flatnonzero(wp[:, 0] > s.t + 0.005)
+            if ahead is not None and ahead.size and self.phase[i] == Phase.SWING:
+                t_td, target = (
+                    float(wp[ahead[0], 0]),
+                    wp[ahead[0], 1:4].copy(),
+                )  # on the way: the next waypoint
+            elif self.phase[i] == Phase.SWING and t_td - self.params.touchdown_lead_s > s.t + 0.01:
+                t_td -= self.params.touchdown_lead_s
             target[2] -= self.params.touchdown_depth_m
             reqs.append(SwingRequest(i, p, s.v_world_foot[i], target, t_td))
         stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == Phase.STANCE}

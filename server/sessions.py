@@ -31,7 +31,7 @@ log = logging.getLogger("footfall.sessions")
 
 Mode = Literal["steer", "maneuver"]
 Status = Literal["running", "paused", "crashed", "stopped"]
-MAX_LAG_S = 0.25  # a session further behind the wall clock than this drops the difference (and counts it)
+MAX_LAG_S = 0.5  # a session further behind the wall clock than this drops the difference (and counts it), s
 PUBLISH_PERIOD_S = 1.0 / 60.0  # snapshots for readers, s
 FRAME_PERIOD_S = 1.0 / 30.0  # recorded body poses for the exported preview, s
 MAX_FRAMES = 30 * 120  # two minutes of recording

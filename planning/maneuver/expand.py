@@ -75,6 +75,7 @@ class Swing:
     height_m: float | None  # swing apex height; None: the swing planner's default
     liftoff_path: str  # where it came from in the file: "events[2]" or "gaits[0]"
     touchdown_path: str
+    waypoints: np.ndarray | None = None  # (K,4) [t, x, y, z]: points the foot passes through, maneuver frame
 
     @property
     def duration_s(self) -> float:
@@ -302,6 +303,13 @@ def _target(land: _Land, p_liftoff: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return p, _unit(ev.normal)
 
 
+def _waypoints(land: _Land) -> np.ndarray | None:
+    ev = land.event
+    if ev is None or not ev.waypoints:
+        return None
+    return np.array(ev.waypoints, dtype=float).reshape(-1, 4)
+
+
 def _unit(v: tuple[float, float, float]) -> np.ndarray:
     n = np.asarray(v, dtype=float)
     norm = float(np.linalg.norm(n))
@@ -366,7 +374,20 @@ def build_schedule(maneuver: Maneuver, robot: RobotModel) -> Schedule:
             continue
         p_td, normal = _target(item, o.p)
         swings[leg].append(
-            Swing(leg, o.t, t, o.p, p_td, normal, item.adjust, o.adjust_s, item.height_m, o.path, item.path)
+            Swing(
+                leg,
+                o.t,
+                t,
+                o.p,
+                p_td,
+                normal,
+                item.adjust,
+                o.adjust_s,
+                item.height_m,
+                o.path,
+                item.path,
+                _waypoints(item),
+            )
         )
         p_foot[leg] = p_td
         open_[leg] = None

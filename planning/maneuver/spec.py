@@ -70,6 +70,7 @@ def _time_or_interval(value: Any) -> Any:
 
 Vec2 = Annotated[tuple[Real, Real], _vector(2, "[x, y]")]
 Vec3 = Annotated[tuple[Real, Real, Real], _vector(3, "[x, y, z]")]
+Waypoint = Annotated[tuple[Real, Real, Real, Real], _vector(4, "[t, x, y, z]")]
 Rpy = Annotated[tuple[Real, Real, Real], _vector(3, "[roll, pitch, yaw] in degrees")]
 Step = Annotated[tuple[Real, Real, Real], _vector(3, "[dx, dy, dyaw_deg]")]
 Offset = Annotated[tuple[Real, Real, Real], BeforeValidator(_vector_2_or_3)]
@@ -132,6 +133,12 @@ class Touchdown(_Model):
     )
     normal: Vec3 = Field((0.0, 0.0, 1.0), description="contact normal (need not be vertical)")
     adjust: Adjust | None = None
+    waypoints: tuple[Waypoint, ...] | None = Field(
+        None,
+        max_length=32,
+        description="points [t, x, y, z] (s; maneuver frame, m) the swinging foot passes through on its way, "
+        "pausing at each: a wave, a reach, a gesture",
+    )
 
     @model_validator(mode="after")
     def _at_or_offset(self) -> Touchdown:

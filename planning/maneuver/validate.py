@@ -549,6 +549,37 @@ def check_swing_durations(ctx: Context) -> Iterator[Problem]:
             )
 
 
+def check_waypoints(ctx: Context) -> Iterator[Problem]:
+    """Failure: swing waypoints out of time order, outside their swing, or out of the leg's reach."""
+    s = ctx.schedule
+    if s is None:
+        return
+    for sw in s.all_swings():
+        if sw.waypoints is None:
+            continue
+        t_prev = sw.t_liftoff
+        for k, (t, x, y, z) in enumerate(sw.waypoints):
+            path = f"{sw.touchdown_path}.waypoints[{k}]"
+            if not (t_prev < t < sw.t_touchdown):
+                yield _fail(
+                    path,
+                    f"waypoint at {_s(t)} must come after {_s(round(t_prev, 6))} and before the touchdown of "
+                    f"{LEGS[sw.leg]} at {_s(sw.t_touchdown)}",
+                )
+                break
+            t_prev = t
+            body = ctx.body
+            if body is None or ctx.robot is None:
+                continue
+            p_body, _, rpy, _ = body.sample(float(t))
+            R = rotation_from_rpy(rpy)
+            foot = ctx.foot_center(np.array([x, y, z]), np.array([0.0, 0.0, 1.0]))
+            try:
+                ctx.robot.ik_leg(sw.leg, R.T @ (foot - p_body))
+            except ValueError as e:  # ReachError
+                yield _fail(path, f"the foot cannot reach it: {e}")
+
+
 def _dynamic_windows(m: Maneuver) -> list[tuple[float, float]]:
     """Returns the time windows where the maneuver says it means to be dynamic: gaits and jumps."""
     out = [(g.from_, g.to) for g in m.gaits]
@@ -648,6 +679,7 @@ RULES: list[Rule] = [
     check_start_keyframe,
     check_touchdown_reach,
     check_swing_durations,
+    check_waypoints,
     check_support_feet,
     check_tracks,
     check_objectives,

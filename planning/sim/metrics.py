@@ -39,6 +39,9 @@ class Recorder:
     v_body: list[np.ndarray] = field(default_factory=list)
     yaw_rate: list[float] = field(default_factory=list)
     max_foot_slip_m: float = 0.0  # largest horizontal slide of a foot in contact from where it touched down
+    airborne_s: float = 0.0  # total time with no foot on the ground (flight)
+    max_body_height_m: float = 0.0
+    _t_prev: float = 0.0
     _prev_contact: np.ndarray = field(default_factory=lambda: np.ones(4, dtype=bool))
     _anchor: np.ndarray | None = None
     _next_sample: float = 0.0
@@ -46,6 +49,11 @@ class Recorder:
     def __call__(self, s: RobotState) -> None:
         if self._anchor is None:
             self._anchor = s.p_world_foot[:, :2].copy()
+        if not s.contact.any():
+            self.airborne_s += s.t - self._t_prev
+        self._t_prev = s.t
+        if s.p_world_body[2] > self.max_body_height_m:
+            self.max_body_height_m = float(s.p_world_body[2])
         rising = s.contact & ~self._prev_contact
         if rising.any():
             for leg in np.flatnonzero(rising):

@@ -14,7 +14,7 @@ from planning.controller import Controller, ControllerParams
 from planning.geometry import rpy_to_R
 from planning.maneuver import BodyReference, Maneuver, build_schedule
 from planning.maneuver.generator import ProblemGenerator
-from planning.robot import RobotModel, load_robot
+from planning.robot import LEGS, RobotModel, load_robot
 from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
 from planning.sim.world import Push, RobotState, World
@@ -37,6 +37,66 @@ class RunOptions:
     controller: ControllerParams = field(default_factory=ControllerParams)
 
 
+@dataclass(frozen=True)
+class _WorldSwing:
+    leg: int
+    t_liftoff: float
+    t_touchdown: float
+    p_touchdown: np.ndarray
+    waypoints: np.ndarray | None
+
+
+class _WorldPlan:
+    """A maneuver's schedule seen in the world: the maneuver frame sits on the ground under the start pose."""
+
+    def __init__(self, schedule: Any, offset: np.ndarray) -> None:
+        self.schedule = schedule
+        self.offset = offset
+        self._cache: dict[int, _WorldSwing] = {}
+
+    def swing_at(self, leg: int, t: float) -> _WorldSwing | None:
+        sw = self.schedule.swing_at(leg, t)
+        if sw is None:
+            return None
+        w = self._cache.get(id(sw))
+        if w is None:
+            wp = None
+            if sw.waypoints is not None:
+                wp = sw.waypoints.copy()
+                wp[:, 1:4] += self.offset
+            w = _WorldSwing(sw.leg, sw.t_liftoff, sw.t_touchdown, sw.p_touchdown + self.offset, wp)
+            self._cache[id(sw)] = w
+        return w
+
+
+class _WaypointMonitor:
+    """Records where each swing waypoint's foot actually was at the waypoint's time."""
+
+    def __init__(self, schedule: Any, offset: np.ndarray, foot_radius_m: float) -> None:
+        self.todo = sorted(
+            (float(w[0]), sw.leg, w[1:4] + offset)
+            for sw in schedule.all_swings()
+            if sw.waypoints is not None
+            for w in sw.waypoints
+        )
+        self.r = foot_radius_m
+        self.rows: list[dict[str, Any]] = []
+
+    def __call__(self, s: RobotState) -> None:
+        while self.todo and s.t >= self.todo[0][0]:
+            t, leg, p = self.todo.pop(0)
+            actual = s.p_world_foot[leg] - (0.0, 0.0, self.r)
+            self.rows.append(
+                {
+                    "leg": LEGS[leg],
+                    "t": round(t, 4),
+                    "planned_at": np.round(p, 4).tolist(),
+                    "actual_at": np.round(actual, 4).tolist(),
+                    "error_m": round(float(np.linalg.norm(actual - p)), 4),
+                }
+            )
+
+
 class _Session:
     """What every run shares: robot, terrain, world, loop, recorder, and the report fields they give."""
 
@@ -56,9 +116,14 @@ class _Session:
         self.world.pushes = list(options.pushes)
         self.recorder = Recorder(self.robot.foot_radius_m)
 
-    def _start_loop(self, stages: list[Stage], actuate: Callable[[RobotState], np.ndarray]) -> None:
+    def _start_loop(
+        self,
+        stages: list[Stage],
+        actuate: Callable[[RobotState], np.ndarray],
+        monitors: Sequence[Callable[[RobotState], None]] = (),
+    ) -> None:
         self.stages = stages
-        self.loop = Loop(self.world, stages, actuate, monitors=[self.recorder])
+        self.loop = Loop(self.world, stages, actuate, monitors=[self.recorder, *monitors])
 
     def _duration(self) -> float:
         raise NotImplementedError
@@ -93,6 +158,8 @@ class _Session:
             "body_collisions": 0 if not self.loop.fell else 1,
             "max_horizontal_drift_m": round(drift, 4),
             "max_foot_slip_m": round(rec.max_foot_slip_m, 4),
+            "airborne_s": round(rec.airborne_s, 4),
+            "max_body_height_m": round(rec.max_body_height_m, 4),
             "pushes": [
                 {
                     "t": p.t_s,
@@ -119,9 +186,14 @@ class ManeuverSession(_Session):
         self._offset = np.array([0.0, 0.0, z0])
         self.generator = ProblemGenerator(maneuver, self.schedule, self.body_ref, self.robot, self._offset)
         self.controller = Controller(
-            self.robot, self._target, options.controller, contact_plan=self.schedule, generator=self.generator
+            self.robot,
+            self._target,
+            options.controller,
+            contact_plan=_WorldPlan(self.schedule, self._offset),
+            generator=self.generator,
         )
-        self._start_loop(self.controller.stages, self.controller.actuate)
+        self.waypoints = _WaypointMonitor(self.schedule, self._offset, self.robot.foot_radius_m)
+        self._start_loop(self.controller.stages, self.controller.actuate, [self.waypoints])
         self._tgt = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
 
     def _target(self, t: float) -> BodyTarget:
@@ -210,6 +282,7 @@ class ManeuverSession(_Session):
                 "max": round(float(np.max(errs)), 4) if errs else None,
             },
             "velocity_tracking_rms": self._velocity_rms(),
+            "waypoints": self.waypoints.rows,
             "solver": self._solver_report(stage_times),
         }
 

@@ -265,3 +265,12 @@ def test_a_crash_during_save_leaves_the_old_file(
     assert (user_dir / "my-bow.yaml").read_bytes() == before
     assert files_in(user_dir) == [".lock", "my-bow.yaml"]  # no temporary left behind
     assert json.loads(json.dumps(client.get("/maneuvers/my-bow").json()))["title"] == bow["title"]
+
+
+def test_landing_page_links_studio_docs_and_library(client: TestClient) -> None:
+    r = client.get("/")
+    assert r.status_code == 200 and r.headers["content-type"].startswith("text/html")
+    assert 'href="/docs"' in r.text and 'viewerPort: "8080"' in r.text and "{{" not in r.text
+    js = client.get("/static/app.js")
+    assert js.status_code == 200 and "/studio/preview" in js.text and "/maneuvers" in js.text
+    assert [t["name"] for t in client.get("/terrains").json()][:2] == ["flat", "stairs"]
