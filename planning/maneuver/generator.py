@@ -3,9 +3,8 @@ solver-facing centroidal problem, regenerated every tick with a horizon that sli
 
 The maneuver's swings become per-leg stance phases (with their adjust windows); its body reference is sampled at the
 knots of a time grid that is fine near now, coarse further out and has a boundary at every event; the measured
-contacts win over the plan (a late or an early touchdown is taken into the problem). A passive maneuver (tracks
-``[body]`` only) running beside the active one is a *hint*: it replaces the active body targets over its own time
-span, since both drive the same joints through the body, and is ignored where it has no keyframes.
+contacts win over the plan (a late or an early touchdown is taken into the problem). Hints (passive maneuvers beside
+the active one, planning.maneuver.hints) arrive already folded into the body reference.
 """
 
 from __future__ import annotations
@@ -31,6 +30,7 @@ from planning.centroidal.timegrid import make_time_grid
 from planning.geometry import rpy_to_R
 from planning.maneuver.body import BodyReference
 from planning.maneuver.expand import Schedule
+from planning.maneuver.hints import HintedBody
 from planning.maneuver.spec import Lean, Maneuver, MaximizeHeight, Weights
 from planning.robot import RobotModel
 
@@ -61,11 +61,10 @@ class ProblemGenerator:
         self,
         maneuver: Maneuver,
         schedule: Schedule,
-        body: BodyReference,
+        body: BodyReference | HintedBody,
         robot: RobotModel,
         offset_world: np.ndarray | None = None,
         params: GeneratorParams | None = None,
-        hint: tuple[Maneuver, BodyReference] | None = None,
     ) -> None:
         self.maneuver = maneuver
         self.schedule = schedule
@@ -93,7 +92,6 @@ class ProblemGenerator:
         )
         self.pose_scale = w.pose / _DEFAULT_WEIGHTS.pose
         self.objectives = tuple(self._objectives())
-        self.hint = hint
         self.base_dt = p.base_dt_s
 
     # ---- static parts (built once) -----------------------------------------------------------------------------
@@ -156,13 +154,8 @@ class ProblemGenerator:
 
     # ---- per tick --------------------------------------------------------------------------------------------
     def trunk_target(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Returns the trunk's target (p (3,), v (3,), R (3,3), ω (3,)) at t, the hint overriding where it has keys."""
-        ref = self.body
-        if self.hint is not None:
-            hint_m, hint_ref = self.hint
-            if hint_m.body and hint_m.body[0].t - 0.5 <= t <= hint_m.body[-1].t + 0.5:
-                ref = hint_ref
-        p, v, rpy, omega = ref.sample(t)
+        """Returns the trunk's target (p (3,), v (3,), R (3,3), ω (3,)) at t (hints included)."""
+        p, v, rpy, omega = self.body.sample(t)
         return p + self.offset, v, rpy_to_R(rpy), omega
 
     def problem_at(

@@ -222,6 +222,17 @@ def _tracks(value: Any) -> Any:
     return value
 
 
+class Hint(_Model):
+    """A passive maneuver (tracks [body] only) played beside this one from time t: its body keyframes replace this
+    maneuver's body targets over their span (both drive the body), and it is ignored if this one does not drive
+    the body."""
+
+    maneuver: str = Field(
+        pattern=NAME_PATTERN, max_length=64, description="library name of a passive maneuver"
+    )
+    t: Time = Field(0.0, description="when it starts, s")
+
+
 class Maneuver(_Model):
     """A maneuver: sparse events, gait segments, body keyframes, cost weights and custom objectives."""
 
@@ -246,6 +257,7 @@ class Maneuver(_Model):
     body: tuple[Keyframe, ...] = ()
     weights: Weights = Field(default_factory=lambda: Weights.model_validate({}))
     objectives: tuple[Objective, ...] = ()
+    hints: tuple[Hint, ...] = Field((), max_length=16, description="passive maneuvers played beside this one")
 
 
 def maneuver_json_schema() -> dict[str, Any]:

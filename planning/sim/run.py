@@ -14,6 +14,7 @@ from planning.controller import Controller, ControllerParams
 from planning.geometry import rpy_to_R
 from planning.maneuver import BodyReference, Maneuver, build_schedule
 from planning.maneuver.generator import ProblemGenerator
+from planning.maneuver.hints import HintedBody, load_hints
 from planning.robot import LEGS, RobotModel, load_robot
 from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
@@ -181,7 +182,8 @@ class ManeuverSession(_Session):
         self.maneuver = maneuver
         self._setup(options, robot)
         self.schedule = build_schedule(maneuver, self.robot)
-        self.body_ref = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
+        base = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
+        self.body_ref = HintedBody(base, load_hints(maneuver, self.robot), maneuver)
         z0 = float(self.scene.ground_height(0.0, 0.0))
         self._offset = np.array([0.0, 0.0, z0])
         self.generator = ProblemGenerator(maneuver, self.schedule, self.body_ref, self.robot, self._offset)
