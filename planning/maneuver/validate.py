@@ -580,6 +580,23 @@ def check_waypoints(ctx: Context) -> Iterator[Problem]:
                 yield _fail(path, f"the foot cannot reach it: {e}")
 
 
+def check_hints(ctx: Context) -> Iterator[Problem]:
+    """Failure: a hint that is not a passive library maneuver or runs past the end; warning: one that is ignored."""
+    m = ctx.maneuver
+    if not m.hints or ctx.robot is None:
+        return
+    from planning.maneuver.hints import load_hints
+
+    try:
+        load_hints(m, ctx.robot)
+    except ManeuverError as e:
+        for p in e.problems:
+            yield _fail(p.path, p.message)
+        return
+    if "body" not in m.tracks:
+        yield _warn("hints", "this maneuver does not drive the body, so its hints are ignored")
+
+
 def _dynamic_windows(m: Maneuver) -> list[tuple[float, float]]:
     """Returns the time windows where the maneuver says it means to be dynamic: gaits and jumps."""
     out = [(g.from_, g.to) for g in m.gaits]
@@ -680,6 +697,7 @@ RULES: list[Rule] = [
     check_touchdown_reach,
     check_swing_durations,
     check_waypoints,
+    check_hints,
     check_support_feet,
     check_tracks,
     check_objectives,
