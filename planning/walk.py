@@ -7,7 +7,9 @@ the swing foot lands. The body reference follows the filtered command.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -18,6 +20,7 @@ from planning.robot import RobotModel
 from planning.sim.loop import Stage
 from planning.sim.world import RobotState
 from planning.steps import SteeringCommand, StepPlanner, StepPlannerParams, WalkState
+from planning.steps.gait import get_gait
 from planning.steps.select import Selection
 
 
@@ -86,7 +89,7 @@ class WalkController:
         self.robot = robot
         self.params = p = params or WalkParams()
         self.planner = StepPlanner(robot, p.steps, gait="stand", weights=weights)
-        self.planner.walk_gait = __import__("planning.steps.gait", fromlist=["get_gait"]).get_gait(gait)
+        self.planner.walk_gait = get_gait(gait)
         self.gait = gait
         self.reference_only = reference_only
         self.plan = StepPathPlan()
@@ -94,6 +97,11 @@ class WalkController:
         self.balance = BalanceController(robot, p.balance)
         self.command = SteeringCommand()
         self.goal: np.ndarray | None = None
+        # Terrain hooks (terrain-aware walking sets them): maps for step screening and foothold heights; a
+        # command source that overrides steering (e.g. following a body path to a goal); the body height.
+        self.maps: Any = None
+        self.command_source: Callable[[RobotState], SteeringCommand] | None = None
+        self.foothold_filter: Callable[[RobotState, Selection], Selection] | None = None
         self.f_des = np.zeros((4, 3))
         self.height = robot.standing_height_m
         self.target = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
@@ -148,13 +156,20 @@ class WalkController:
         )
 
     def _step_plan(self, s: RobotState) -> None:
-        cmd = self._goal_command(s) if self.goal is not None else self.command
-        if self.planner.clock.gait.is_stand and self.planner._stopped is False and cmd == SteeringCommand():
-            pass
-        sel = self.planner.tick(cmd, self._walk_state(s))
+        if self.command_source is not None:
+            cmd = self.command_source(s)
+        elif self.goal is not None:
+            cmd = self._goal_command(s)
+        else:
+            cmd = self.command
+        if self.maps is not None:
+            self.handler.ground = self.maps.height_at
+        sel = self.planner.tick(cmd, self._walk_state(s), self.maps)
         if self.reference_only:
             ref = sel.candidates[0]
             sel = Selection(ref, 0.0, sel.scores, 0, sel.candidates, sel.xi_td, sel.xi_td_reference, True, 1)
+        if self.foothold_filter is not None:
+            sel = self.foothold_filter(s, sel)
         self.plan.update(sel)
 
     def _balance(self, s: RobotState) -> None:
