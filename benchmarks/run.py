@@ -45,6 +45,36 @@ def bench_closed_loop_stand(duration_s: float = 5.0) -> dict[str, Any]:
     return {"rtf": rep["timing"]["rtf"], "success": rep["success"], "stages": rep["stages"]}
 
 
+def bench_maneuver(name: str) -> dict[str, Any]:
+    """Runs a shipped maneuver headless; returns its report's headline numbers."""
+    from planning.maneuver import find_maneuver, load_maneuver
+    from planning.sim.run import RunOptions, run_maneuver
+
+    rep = run_maneuver(load_maneuver(find_maneuver(name)), RunOptions())
+    return {
+        "success": rep["success"],
+        "rtf": rep["timing"]["rtf"],
+        "final_pose_error": rep["final_pose_error"],
+        "foot_placement_error_m": rep["foot_placement_error_m"],
+        "fallback_ticks": rep["solver"]["fallback_ticks"],
+        "solver_tick_ms_p50": rep["solver"]["tick_ms_p50"],
+        "airborne_s": rep["airborne_s"],
+    }
+
+
+def bench_walk(vx: float, vy: float, yaw_rate: float, duration_s: float = 8.0, **kw: Any) -> dict[str, Any]:
+    """Trots on flat ground at a command; returns tracking (mean, RMS), success and the real-time factor."""
+    from planning.sim.run import RunOptions, WalkCommand, run_walk
+
+    rep = run_walk(WalkCommand(vx, vy, yaw_rate, **kw), RunOptions(duration_s=duration_s))
+    return {
+        "success": rep["success"],
+        "mean_velocity": rep["mean_velocity"],
+        "velocity_tracking_rms": rep["velocity_tracking_rms"],
+        "rtf": rep["timing"]["rtf"],
+    }
+
+
 def stand_survives(impulse_ns: float, duration_s: float = 0.1, direction: str = "lateral") -> bool:
     """Returns whether `stand` survives a push of impulse_ns N·s (over duration_s) without a fall or a step."""
     from planning.maneuver import find_maneuver, load_maneuver
@@ -103,25 +133,26 @@ def run_benchmarks(
         )  # the QP on every tick, beside the bare solve
         stages["stance_handler_in_loop"] = bench_stance_handler(n=n // 4, skip_feasible=True)
         stages["force_distribution"] = bench_force_distribution(n=n // 4)
-    optional = [
-        ("swing_select", "planning.swing.bench", "bench_swing_select"),
-        ("step_selection_25", "planning.steps.bench", "bench_step_selection_25"),
-        ("step_selection_100", "planning.steps.bench", "bench_step_selection_100"),
-        ("step_qp", "planning.terrain.bench", "bench_step_qp"),
-        ("centroidal_tick", "planning.centroidal.bench", "bench_centroidal_tick"),
-        ("perception", "planning.terrain.bench", "bench_perception"),
+    optional: list[tuple[str, str, str, dict[str, Any]]] = [
+        ("swing_select", "planning.swing.bench", "bench_swing_select", {"calls": 100 if quick else 300}),
+        ("step_selection_25", "planning.steps.bench", "bench_step_selection", {"n_candidates": 25}),
+        ("step_selection_100", "planning.steps.bench", "bench_step_selection", {"n_candidates": 100}),
+        ("step_qp", "planning.terrain.bench", "bench_step_qp", {"n": 100 if quick else 300}),
+        ("centroidal_tick", "planning.centroidal.bench", "bench_centroidal_tick", {"n_ticks": 60 if quick else 300}),
+        ("perception", "planning.terrain.bench", "bench_perception", {"n": 10 if quick else 60}),
     ]
-    for name, module, fn_name in optional:
+    for name, module, fn_name, kwargs in optional:
         fn = _optional(module, fn_name)
         if fn is not None and want(name):
             say(f"bench: {name}")
-            stages[name] = fn()
+            stages[name] = fn(**kwargs)
     out: dict[str, Any] = {"stages": stages, "closed_loop": {}, "robustness": {}}
     if want("closed_loop"):
-        say("bench: closed loop (stand)")
+        say("bench: closed loop (stand, a maneuver, a trot)")
         stand = bench_closed_loop_stand(2.0 if quick else 5.0)
         out["closed_loop"]["stand_rtf"] = stand["rtf"]
-        out["closed_loop"]["stand_stages"] = stand["stages"]
+        out["closed_loop"]["maneuver_rtf"] = bench_maneuver("trot-in-place")["rtf"]
+        out["closed_loop"]["trot_flat_rtf"] = bench_walk(0.5, 0.0, 0.0, 3.0 if quick else 8.0)["rtf"]
     if want("robustness") and not quick:
         say("bench: largest lateral impulse survived standing (bisection)")
         out["robustness"]["stand_max_lateral_impulse_ns"] = max_stand_impulse()
