@@ -7,6 +7,7 @@ the swing foot lands. The body reference follows the filtered command.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -14,12 +15,15 @@ from typing import Any
 import numpy as np
 
 from planning.balance import BalanceController, BalanceParams, BodyTarget
+from planning.centroidal.problem import BodyState
+from planning.centroidal.solver import CentroidalParams, CentroidalSolution, CentroidalSolver
 from planning.geometry import yaw_R
 from planning.handler import Handler, HandlerParams
 from planning.robot import RobotModel
 from planning.sim.loop import Stage
 from planning.sim.world import RobotState
 from planning.steps import SteeringCommand, StepPlanner, StepPlannerParams, WalkState
+from planning.steps.centroidal import StepPathProblems
 from planning.steps.gait import get_gait
 from planning.steps.select import Selection
 
@@ -64,6 +68,9 @@ class WalkParams:
     """Rates and gains of steering mode."""
 
     step_rate_hz: float = 100.0  # step path replanning
+    centroidal_rate_hz: float = 50.0  # the centroidal solver on the selected path's contact schedule
+    use_centroidal: bool = False  # True: the centroidal solver turns the plan into forces (see README: slower, tracks worse)
+    solution_max_age_s: float = 0.05
     balance_rate_hz: float = 500.0
     swing_rate_hz: float = 1000.0 / 3.0
     goal_gain: float = 0.8  # 1/s, goal distance → speed command
@@ -108,11 +115,22 @@ class WalkController:
         self._p_des: np.ndarray | None = None
         self._yaw_des = 0.0
         self._t_last = 0.0
+        self.problems = StepPathProblems(robot)
+        self.solver = CentroidalSolver(CentroidalParams(time_budget_ms=math.inf), robot=robot)
+        self.solution: CentroidalSolution | None = None
+        self.t_solution = -np.inf
+        self.fallback_ticks = 0
+        self.solver_ticks = 0
+        self.statuses: dict[str, int] = {}
+        self.qp_ms: list[float] = []
+        self.linearization_errors: list[float] = []
         self.stages = [
             Stage("step_plan", p.step_rate_hz, self._step_plan),
             Stage("balance", p.balance_rate_hz, self._balance),
             Stage("swing", p.swing_rate_hz, self._swing),
         ]
+        if p.use_centroidal:
+            self.stages.insert(1, Stage("centroidal", p.centroidal_rate_hz, self._centroidal))
 
     # ---- inputs -----------------------------------------------------------------------------------------------
     def steer(self, vx: float, vy: float, yaw_rate: float) -> None:
@@ -172,10 +190,39 @@ class WalkController:
             sel = self.foothold_filter(s, sel)
         self.plan.update(sel)
 
+    def _centroidal(self, s: RobotState) -> None:
+        sel = self.plan.selection
+        if sel is None:
+            return
+        state = BodyState(
+            s.t, s.p_world_com.copy(), s.v_world_com.copy(), s.R_world_body.copy(), s.omega_world.copy()
+        )
+        problem = self.problems.problem_at(
+            state, sel.path, self.handler.stance.copy(), self.handler.p_contact, self.height
+        )
+        sol = self.solver.solve(problem)
+        self.solver_ticks += 1
+        self.statuses[sol.status] = self.statuses.get(sol.status, 0) + 1
+        self.qp_ms.append(sol.qp_ms)
+        if np.isfinite(sol.linearization_error):
+            self.linearization_errors.append(float(sol.linearization_error))
+        if sol.ok:
+            self.solution, self.t_solution = sol, s.t
+
     def _balance(self, s: RobotState) -> None:
         self.handler.update_phases(s, self.plan)
         self._update_target(s)
-        self.f_des[:] = self.balance.contact_forces(s, self.target, self.handler.stance)
+        stance = self.handler.stance
+        sol = self.solution
+        if sol is not None and s.t - self.t_solution <= self.params.solution_max_age_s:
+            self.f_des[:] = sol.force_at(s.t)
+            self.f_des[~stance] = 0.0
+            np.subtract(s.p_world_foot, s.p_world_com, out=self.balance.r_com_foot)
+            self.balance.r_com_foot[:, 2] -= self.robot.foot_radius_m
+        else:
+            if self.params.use_centroidal:
+                self.fallback_ticks += 1
+            self.f_des[:] = self.balance.contact_forces(s, self.target, stance)
 
     def _update_target(self, s: RobotState) -> None:
         dt = s.t - self._t_last

@@ -230,11 +230,13 @@ class _Builder:
         n_top = np.array([-np.sin(pitch), 0.0, np.cos(pitch)])
         top_mid = np.array([(x[0] + x[1]) / 2, (y[0] + y[1]) / 2, (z[0] + z[1]) / 2])
         c = top_mid - thickness / 2 * n_top
-        # MuJoCo's euler rotates about y by a positive angle taking +x toward -z, so rising along +x is -pitch.
+        # A rotation about y by a positive angle takes +x toward -z, so rising along +x is -pitch. A quaternion, not
+        # euler: the robot's MJCF (which the scene is inserted into) may set <compiler angle="radian"/>.
+        qw, qy = np.cos(-pitch / 2), np.sin(-pitch / 2)
         self.lines.append(
             f'<geom name="{n}" type="box" pos="{c[0]:.5f} {c[1]:.5f} {c[2]:.5f}" '
             f'size="{length / 2:.5f} {(y[1] - y[0]) / 2:.5f} {thickness / 2:.5f}" '
-            f'euler="0 {-np.degrees(pitch):.6f} 0" material="{material}" {_COLLIDE}/>'
+            f'quat="{qw:.8f} 0 {qy:.8f} 0" material="{material}" {_COLLIDE}/>'
         )
         self.ground.append(_Ramp(x[0], x[1], y[0], y[1], z[0], z[1]))
 

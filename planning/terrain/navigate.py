@@ -1,0 +1,378 @@
+"""Terrain-aware walking: perception, body path, path following, step-QP footholds and body height, in the loop.
+
+``TerrainNavigator`` plugs into a ``WalkController`` through its terrain hooks and adds two stages:
+
+- ``perception`` (~10 Hz): a depth scan of the live MuJoCo data → voxels → maps, written to ``controller.maps``
+  (the step planner screens no-step cells with them, the swing planner takes its ground from them); with
+  ``use_sensor=False`` the scene's ground-truth maps (perfect perception) are used instead, re-centered on the body;
+- ``body_path`` (~2 Hz, and at once when the current path's footprint sweep hits the body-obstacle map): a body path
+  from the body to the goal, then the gait cadence overlaid on it, whose speed caps the walking speed.
+
+and sets two hooks:
+
+- ``command_source``: pure pursuit of the body path (a point ``lookahead_m`` ahead), the speed of the chosen cadence,
+  slowed where the step-obstacle map is dense around the body and near the goal, yaw turned toward the path's;
+- ``foothold_filter``: when any planned foothold lies on or near a no-step cell, the step QP refines the selected
+  step path's footholds (nominal = the capture-point selection), and the swing targets follow; otherwise the
+  selection passes unchanged. It runs at the step-plan rate (100 Hz).
+
+The body height target is lowered where the clearance map (the free height under an overhang) ahead is low.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.sim.loop import Stage
+from planning.sim.world import RobotState
+from planning.steps import SteeringCommand
+from planning.steps.select import Selection
+from planning.steps.state import StepPath, rotate_yaw
+from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
+from planning.terrain.cadence import CadenceParams, CadenceScore, choose_cadence
+from planning.terrain.maps import TerrainMaps, maps_from_scene
+from planning.terrain.perception import Perception, PerceptionParams
+from planning.terrain.scenes import TerrainScene
+from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
+
+
+@dataclass(frozen=True)
+class NavigatorParams:
+    """Terrain-aware walking (lengths m, speeds m/s, rates Hz).
+
+    use_sensor: maps from the depth sensor (True) or the scene's ground truth (False); truth_half_extent_m,
+    truth_recenter_m: size of the ground-truth map around the body and the body travel that rebuilds it;
+    perception_rate_hz, path_rate_hz: stage rates; lookahead_m: pure-pursuit lookahead on the body path;
+    yaw_gain: 1/s, path yaw error → yaw rate; max_yaw_rate_rps: rad/s; goal_gain: 1/s, goal distance → speed;
+    goal_tolerance_m: stop within this of the goal; max_speed_mps, min_speed_mps: speed range along the path;
+    dense_radius_m: disk ahead of the body whose no-step share slows the walk; dense_full: share at which the speed
+    reaches min_speed_mps; qp_trigger_m: the step QP runs when a planned foothold's step SDF is below this;
+    qp_min_time_s: a touchdown sooner than this is left as it is; standing_height_m: body height target on open
+    ground (None: the robot's); min_height_m: lowest body height target; body_top_m: body top above the body
+    center (m, with the hips); head_margin_m: wanted gap between the body top and an overhang; crouch_ahead_m:
+    how far ahead (and behind) along the heading the clearance is looked up.
+    """
+
+    use_sensor: bool = True
+    truth_half_extent_m: float = 2.5
+    truth_recenter_m: float = 0.8
+    perception_rate_hz: float = 10.0
+    path_rate_hz: float = 2.0
+    lookahead_m: float = 0.45
+    yaw_gain: float = 1.2
+    max_yaw_rate_rps: float = 0.5
+    goal_gain: float = 0.8
+    goal_tolerance_m: float = 0.06
+    max_speed_mps: float = 0.5
+    min_speed_mps: float = 0.2
+    dense_radius_m: float = 0.6
+    dense_full: float = 0.35
+    qp_trigger_m: float = 0.06
+    qp_min_time_s: float = 0.04
+    standing_height_m: float | None = None
+    min_height_m: float = 0.38
+    body_top_m: float = 0.10
+    head_margin_m: float = 0.04
+    crouch_ahead_m: float = 0.7
+    perception: PerceptionParams = field(default_factory=PerceptionParams)
+    path: BodyPathParams = field(default_factory=BodyPathParams)
+    cadence: CadenceParams | None = None  # None: from the robot
+    step_qp: StepQPParams = field(default_factory=StepQPParams)
+
+
+@dataclass
+class NavigatorStats:
+    """Counters for the run report: replans of each kind, step-QP use and its timing (ms)."""
+
+    scans: int = 0
+    body_paths: int = 0
+    invalid_paths: int = 0
+    qp_solves: int = 0
+    qp_used: int = 0
+    qp_ms: list[float] = field(default_factory=list)
+    cadences: dict[str, int] = field(default_factory=dict)
+    min_height_m: float = np.inf
+
+    def summary(self) -> dict[str, Any]:
+        ms = np.asarray(self.qp_ms) if self.qp_ms else np.zeros(1)
+        return {
+            "scans": self.scans,
+            "body_paths": self.body_paths,
+            "invalid_paths": self.invalid_paths,
+            "step_qp_solves": self.qp_solves,
+            "step_qp_used": self.qp_used,
+            "step_qp_ms_p50": round(float(np.percentile(ms, 50)), 3) if self.qp_ms else None,
+            "step_qp_ms_p99": round(float(np.percentile(ms, 99)), 3) if self.qp_ms else None,
+            "cadences": dict(self.cadences),
+            "min_body_height_target_m": None if not np.isfinite(self.min_height_m) else round(self.min_height_m, 3),
+        }
+
+
+class TerrainNavigator:
+    """Terrain-aware walking to a goal on a WalkController (see the module docstring). ``attach`` sets the hooks."""
+
+    def __init__(
+        self,
+        controller: Any,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        goal_xy: tuple[float, float],
+        scene: TerrainScene | None = None,
+        params: NavigatorParams | None = None,
+        body: str = "trunk",
+    ) -> None:
+        self.params = p = params or NavigatorParams()
+        if not np.all(np.isfinite(goal_xy)):
+            raise ValueError(f"TerrainNavigator.goal_xy: must be finite, got {goal_xy}")
+        if not p.use_sensor and scene is None:
+            raise ValueError("TerrainNavigator: use_sensor=False needs the scene (ground-truth maps)")
+        self.controller = controller
+        self.robot = controller.robot
+        self.data = data
+        self.scene = scene
+        self.goal = np.asarray(goal_xy, dtype=np.float64).reshape(2)
+        self.perception = Perception(model, body, p.perception) if p.use_sensor else None
+        self.cadence_params = p.cadence or CadenceParams.from_robot(self.robot)
+        self.qp = StepQP(p.step_qp)
+        self.standing_height = p.standing_height_m or float(self.robot.standing_height_m)
+        self.p_body_hip_xy = np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2]
+        self.maps: TerrainMaps | None = None
+        self.path: BodyPath | None = None
+        self.cadence: CadenceScore | None = None
+        self.speed_cap = p.max_speed_mps
+        self.last_plan: StepPlan | None = None
+        self.stats = NavigatorStats()
+        self._truth_center: NDArray[np.float64] | None = None
+        self._t_path = -np.inf
+
+    # ---- wiring ---------------------------------------------------------------------------------------------
+    def attach(self) -> None:
+        """Sets the controller's hooks and adds the perception and body-path stages in front of its stages."""
+        c = self.controller
+        c.command_source = self.command
+        c.foothold_filter = self.refine
+        c.set_goal(*self.goal)
+        stages = [
+            Stage("perception", self.params.perception_rate_hz, self._perceive),
+            Stage("body_path", self.params.path_rate_hz * 5, self._body_path),
+        ]
+        c.stages[:0] = stages
+
+    # ---- stages ---------------------------------------------------------------------------------------------
+    def _perceive(self, s: RobotState) -> None:
+        p = self.params
+        if self.perception is not None:
+            maps = self.perception.scan_now(self.data)
+        else:
+            xy = s.p_world_body[:2]
+            if self._truth_center is None or np.linalg.norm(xy - self._truth_center) > p.truth_recenter_m:
+                assert self.scene is not None
+                self._truth_center = xy.copy()
+                self.maps = maps_from_scene(self.scene, (float(xy[0]), float(xy[1])), p.truth_half_extent_m)
+            maps = self.maps
+        assert maps is not None
+        self.maps = maps
+        self.controller.maps = maps
+        self.stats.scans += 1
+        self._update_height(s)
+
+    def _body_path(self, s: RobotState) -> None:
+        """Replans the body path at path_rate_hz, and sooner when the current path's sweep hits an obstacle."""
+        if self.maps is None:
+            return
+        due = s.t - self._t_path >= 1.0 / self.params.path_rate_hz - 1e-9
+        if not due and self.path is not None:
+            if sweep_clearance(self.maps, self._remaining(s), self.params.path) >= 0.0:
+                return
+        self._t_path = s.t
+        self.replan(s)
+
+    def replan(self, s: RobotState) -> BodyPath:
+        """Plans the body path from the body to the goal on the current maps and chooses the cadence on it."""
+        path = plan_body_path(self.maps, s.p_world_body[:2], s.yaw, self.goal, self.params.path)
+        self.path = path
+        self.stats.body_paths += 1
+        if not path.valid:
+            self.stats.invalid_paths += 1
+        best, _ = choose_cadence(path, self.maps, self.cadence_params)
+        self.cadence = best
+        self.stats.cadences[best.cadence.name] = self.stats.cadences.get(best.cadence.name, 0) + 1
+        self.speed_cap = min(self.params.max_speed_mps, best.cadence.speed_mps)
+        return path
+
+    def _remaining(self, s: RobotState) -> BodyPath:
+        """The current path from the point nearest the body on (for the sweep check)."""
+        assert self.path is not None
+        path = self.path
+        k = int(np.argmin(np.sum((path.xy - s.p_world_body[:2]) ** 2, axis=1)))
+        k = min(k, len(path.s) - 1)
+        return BodyPath(path.xy[k:], path.yaw[k:], path.s[k:] - path.s[k], path.method, path.valid, np.inf)
+
+    # ---- body height ----------------------------------------------------------------------------------------
+    def _update_height(self, s: RobotState) -> None:
+        """Lowers the body height target under overhangs (the clearance map around and ahead of the body)."""
+        p = self.params
+        maps = self.maps
+        assert maps is not None
+        yaw = s.yaw
+        d = np.linspace(-p.crouch_ahead_m, p.crouch_ahead_m, 15)
+        lat = np.array([-0.12, 0.0, 0.12])
+        xy = s.p_world_body[:2] + rotate_yaw(yaw, np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1))
+        clear = float(np.min(maps.clearance_at(xy[..., 0], xy[..., 1])))
+        h = self.standing_height
+        if np.isfinite(clear):
+            h = min(h, clear - p.body_top_m - p.head_margin_m)
+        h = float(np.clip(h, p.min_height_m, self.standing_height))
+        self.controller.height = h
+        self.stats.min_height_m = min(self.stats.min_height_m, h)
+
+    # ---- hooks ----------------------------------------------------------------------------------------------
+    def command(self, s: RobotState) -> SteeringCommand:
+        """Gives the steering command (body frame) that follows the body path toward the goal."""
+        p = self.params
+        xy = s.p_world_body[:2]
+        d_goal = self.goal - xy
+        dist = float(np.linalg.norm(d_goal))
+        if dist < p.goal_tolerance_m:
+            return SteeringCommand()
+        speed = min(self.speed_cap, p.goal_gain * dist)
+        if self.path is None or self.path.length_m < 1e-6:
+            target = self.goal
+            yaw_des = s.yaw
+        else:
+            path = self.path
+            k = int(np.argmin(np.sum((path.xy - xy) ** 2, axis=1)))
+            s_ahead = float(path.s[k]) + p.lookahead_m
+            target_a, yaw_a = path.pose_at(s_ahead)
+            target = target_a if s_ahead < path.length_m else self.goal
+            yaw_des = float(path.yaw[k]) if dist > 0.5 else s.yaw
+            speed *= self._dense_slowdown(xy, s.yaw)
+            del yaw_a
+        d = target - xy
+        n = float(np.linalg.norm(d))
+        if n < 1e-9:
+            return SteeringCommand()
+        v_world = d / n * max(speed, 0.0)
+        v_body = rotate_yaw(-s.yaw, v_world)
+        dyaw = float((yaw_des - s.yaw + np.pi) % (2 * np.pi) - np.pi)
+        wz = float(np.clip(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
+        return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
+
+    def _dense_slowdown(self, xy: NDArray[np.float64], yaw: float) -> float:
+        """Gives a speed factor in [min/max, 1]: lower where the step-obstacle map ahead is dense."""
+        p = self.params
+        maps = self.maps
+        if maps is None:
+            return 1.0
+        r = np.linspace(-p.dense_radius_m, p.dense_radius_m, 9)
+        pts = xy + rotate_yaw(yaw, np.array([p.dense_radius_m * 0.5, 0.0])) + np.stack(np.meshgrid(r, r), -1)
+        inside = np.hypot(*np.moveaxis(pts - pts[4, 4], -1, 0)) <= p.dense_radius_m
+        share = float(np.mean(np.asarray(maps.no_step(pts[..., 0], pts[..., 1]), dtype=bool)[inside]))
+        lo = p.min_speed_mps / max(p.max_speed_mps, 1e-9)
+        return float(1.0 - (1.0 - lo) * min(share / max(p.dense_full, 1e-9), 1.0))
+
+    def refine(self, s: RobotState, sel: Selection) -> Selection:
+        """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell."""
+        maps = self.maps
+        path = sel.path
+        if maps is None or path.n_touchdowns < 4:
+            return sel
+        K = self.qp.K
+        order = np.lexsort((path.leg, path.t_touchdown))[:K]
+        if order.size < K:
+            return sel
+        xy = path.p_world_touchdown[order, :2]
+        sd = np.asarray(maps.sdf_step(xy[:, 0], xy[:, 1]), dtype=np.float64)
+        on_map = np.asarray(maps.in_map(xy[:, 0], xy[:, 1]), dtype=bool)
+        if not np.any(on_map & (sd < self.params.qp_trigger_m)):
+            return sel
+        req = self._request(s, path, order)
+        if req is None:
+            return sel
+        plan = self.qp.solve(req, maps)
+        self.last_plan = plan
+        self.stats.qp_solves += 1
+        self.stats.qp_ms.append(plan.solve_ms)
+        bad_hard = set(plan.hard_softened) - {"step_keep"}
+        if bad_hard or not np.all(np.isfinite(plan.footholds)):
+            return sel
+        p_new = path.p_world_touchdown.copy()
+        t_rel = path.t_touchdown[order] - s.t
+        for j, k in enumerate(order):
+            if t_rel[j] < self.params.qp_min_time_s:
+                continue  # about to land: too late to move
+            if plan.in_no_step[j] and sd[j] >= 0.0:
+                continue  # the QP made it worse
+            p_new[k, :2] = plan.footholds[j, :2]
+            p_new[k, 2] = float(maps.height_at(plan.footholds[j, 0], plan.footholds[j, 1]))
+        self.stats.qp_used += 1
+        refined = path.with_touchdowns(p_new, path.kind + "+qp")
+        return Selection(
+            refined,
+            sel.score,
+            sel.scores,
+            sel.index,
+            sel.candidates,
+            sel.xi_td,
+            sel.xi_td_reference,
+            sel.feasible,
+            sel.n_evaluated,
+        )
+
+    def _request(self, s: RobotState, path: StepPath, order: NDArray[np.intp]) -> StepRequest | None:
+        """Gives the step QP's request for the path's first K touchdowns (nominal = the selected footholds)."""
+        legs = path.leg[order].astype(np.intp)
+        K = legs.size
+        if any(legs[k] != legs[k - 4] for k in range(4, K)) or sorted(legs[:4].tolist()) != [0, 1, 2, 3]:
+            return None
+        t_now = s.t
+        t_td = path.t_touchdown[order] - t_now
+        t_lo = np.empty(K)
+        for j, k in enumerate(order):
+            leg = int(path.leg[k])
+            prev = [i for i in order[:j] if path.leg[i] == leg]
+            if prev:
+                t_lo[j] = path.t_liftoff[prev[-1]] - t_now
+            else:
+                lo = path.t_liftoff_now[leg]
+                t_lo[j] = -1.0 if np.isnan(lo) else min(float(lo) - t_now, float(t_td[j]) - 1e-3)
+        body = path.body
+        t_abs = path.t_touchdown[order]
+        later = np.array([t_abs[t_abs > t + 1e-6].min() if np.any(t_abs > t + 1e-6) else t + 0.2 for t in t_abs])
+        t_mid = 0.5 * (t_abs + later)
+        p_hip = body.position(t_abs) + rotate_yaw(body.yaw(t_abs), self.p_body_hip_xy[legs])
+        return StepRequest(
+            legs=legs,
+            t_liftoff=t_lo,
+            t_touchdown=np.maximum(t_td, 1e-3),
+            p_nominal=path.p_world_touchdown[order, :2].copy(),
+            p_hip=p_hip,
+            hip_height=np.full(K, float(self.controller.height)),
+            c_body=body.position(t_mid),
+            yaw_body=np.asarray(body.yaw(t_mid), dtype=np.float64),
+            p_feet=s.p_world_foot[:, :2].copy(),
+            v_feet=s.v_world_foot[:, :2].copy(),
+        )
+
+
+def attach_navigator(
+    controller: Any,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    goal_xy: tuple[float, float],
+    scene: TerrainScene | None = None,
+    params: NavigatorParams | None = None,
+) -> TerrainNavigator:
+    """Gives a TerrainNavigator attached to the controller (hooks set, stages added)."""
+    nav = TerrainNavigator(controller, model, data, goal_xy, scene, params)
+    nav.attach()
+    return nav
+
+
+CommandSource = Callable[[RobotState], SteeringCommand]
