@@ -102,6 +102,42 @@ def max_stand_impulse(lo: float = 10.0, hi: float = 60.0, tol: float = 1.0) -> f
     return round(lo, 1)
 
 
+def walk_survives_push(impulse_ns: float, capture_point_selection: bool = True) -> bool:
+    """Returns whether a 0.5 m/s trot survives a lateral push of impulse_ns N·s (0.1 s) at t = 2 s."""
+    from planning.sim.run import RunOptions, WalkCommand, run_walk
+    from planning.sim.world import Push
+
+    push = [Push(2.0, (0.0, impulse_ns / 0.1, 0.0), 0.1)]
+    rep = run_walk(
+        WalkCommand(vx=0.5, capture_point_selection=capture_point_selection),
+        RunOptions(duration_s=5.0, pushes=push),
+    )
+    return bool(rep["success"])
+
+
+def largest(survives: Callable[[float], bool], lo: float, hi: float, tol: float) -> float:
+    """Returns the largest x in [lo, hi] with survives(x), by bisection (0 when lo already fails)."""
+    if not survives(lo):
+        return 0.0
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if survives(mid) else (lo, mid)
+    return round(lo, 2)
+
+
+def fastest_trot(speeds: tuple[float, ...] = (1.0, 1.2, 1.4, 1.6, 1.8, 2.0)) -> float:
+    """Returns the highest forward command (m/s) trotted 6 s on flat ground without a fall (stops at the first)."""
+    from planning.sim.run import RunOptions, WalkCommand, run_walk
+
+    best = 0.0
+    for v in speeds:
+        rep = run_walk(WalkCommand(vx=v), RunOptions(duration_s=6.0))
+        if rep["fell"]:
+            break
+        best = v
+    return best
+
+
 def _optional(module: str, fn: str) -> Callable[..., Any] | None:
     """Returns a bench function of a stage module, or None when the stage is not in this build."""
     try:
@@ -138,7 +174,12 @@ def run_benchmarks(
         ("step_selection_25", "planning.steps.bench", "bench_step_selection", {"n_candidates": 25}),
         ("step_selection_100", "planning.steps.bench", "bench_step_selection", {"n_candidates": 100}),
         ("step_qp", "planning.terrain.bench", "bench_step_qp", {"n": 100 if quick else 300}),
-        ("centroidal_tick", "planning.centroidal.bench", "bench_centroidal_tick", {"n_ticks": 60 if quick else 300}),
+        (
+            "centroidal_tick",
+            "planning.centroidal.bench",
+            "bench_centroidal_tick",
+            {"n_ticks": 60 if quick else 300},
+        ),
         ("perception", "planning.terrain.bench", "bench_perception", {"n": 10 if quick else 60}),
     ]
     for name, module, fn_name, kwargs in optional:
@@ -153,9 +194,25 @@ def run_benchmarks(
         out["closed_loop"]["stand_rtf"] = stand["rtf"]
         out["closed_loop"]["maneuver_rtf"] = bench_maneuver("trot-in-place")["rtf"]
         out["closed_loop"]["trot_flat_rtf"] = bench_walk(0.5, 0.0, 0.0, 3.0 if quick else 8.0)["rtf"]
+    if want("tracking"):
+        say("bench: velocity tracking on flat (trot)")
+        d = 4.0 if quick else 8.0
+        out["tracking"] = {
+            "forward_0.5": bench_walk(0.5, 0.0, 0.0, d),
+            "forward_1.0": bench_walk(1.0, 0.0, 0.0, d),
+            "sideways_0.4": bench_walk(0.0, 0.4, 0.0, d),
+            "turning_1.0": bench_walk(0.0, 0.0, 1.0, d),
+        }
     if want("robustness") and not quick:
         say("bench: largest lateral impulse survived standing (bisection)")
         out["robustness"]["stand_max_lateral_impulse_ns"] = max_stand_impulse()
+        say("bench: largest lateral impulse survived trotting at 0.5 m/s, capture-point selection on and off")
+        out["robustness"]["trot_max_lateral_impulse_ns"] = largest(walk_survives_push, 20.0, 80.0, 2.0)
+        out["robustness"]["trot_max_lateral_impulse_reference_only_ns"] = largest(
+            lambda x: walk_survives_push(x, False), 20.0, 80.0, 2.0
+        )
+        say("bench: highest forward speed trotted without a fall")
+        out["robustness"]["fastest_trot_mps"] = fastest_trot()
     return out
 
 
@@ -172,6 +229,12 @@ def format_table(result: dict[str, Any]) -> str:
     for k, v in result.get("closed_loop", {}).items():
         if not isinstance(v, dict):
             lines.append(f"{'closed_loop.' + k:24s} {v}")
+    for k, v in result.get("tracking", {}).items():
+        m, r = v["mean_velocity"], v["velocity_tracking_rms"]
+        lines.append(
+            f"{'tracking.' + k:24s} mean vx {m['vx']:.3f} vy {m['vy']:.3f} wz {m['yaw_rate']:.3f}; "
+            f"RMS {r['vx']} {r['vy']} {r['yaw_rate']}; rtf {v['rtf']}"
+        )
     for k, v in result.get("robustness", {}).items():
         lines.append(f"{'robustness.' + k:24s} {v}")
     return "\n".join(lines)
