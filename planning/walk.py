@@ -69,7 +69,9 @@ class WalkParams:
 
     step_rate_hz: float = 100.0  # step path replanning
     centroidal_rate_hz: float = 50.0  # the centroidal solver on the selected path's contact schedule
-    use_centroidal: bool = False  # True: the centroidal solver turns the plan into forces (see README: slower, tracks worse)
+    use_centroidal: bool = (
+        False  # True: the centroidal solver turns the plan into forces (see README: slower, tracks worse)
+    )
     solution_max_age_s: float = 0.05
     balance_rate_hz: float = 500.0
     swing_rate_hz: float = 1000.0 / 3.0

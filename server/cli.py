@@ -186,7 +186,16 @@ def cmd_walk(a: argparse.Namespace) -> int:
     if a.duration is not None and not (0 < a.duration <= 600):
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
     _robot(a.robot)
-    cmd = WalkCommand(a.vx, a.vy, a.yaw_rate, a.gait, goal, a.weights, not a.reference_only)
+    cmd = WalkCommand(
+        a.vx,
+        a.vy,
+        a.yaw_rate,
+        a.gait,
+        goal,
+        a.weights,
+        not a.reference_only,
+        centroidal=a.solver == "centroidal",
+    )
     opts = RunOptions(
         terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
     )
@@ -283,6 +292,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--reference-only",
         action="store_true",
         help="walk the reference step path only (capture-point selection off), for comparison",
+    )
+    w.add_argument(
+        "--solver",
+        choices=("balance", "centroidal"),
+        default="balance",
+        help="what turns the step plan into contact forces: the balance QP (default) or the centroidal solver",
     )
     w.add_argument(
         "--duration", type=float, metavar="S", help="simulated seconds (default 10, 30 with --goal)"

@@ -315,6 +315,9 @@ class WalkCommand:
     goal: tuple[float, float] | None = None
     weights: str = "default"
     capture_point_selection: bool = True  # False: walk the reference step path only
+    centroidal: bool = (
+        False  # True: the centroidal solver turns the step plan into forces (balance QP otherwise)
+    )
     settle_s: float = 1.5  # velocity tracking is measured after this much time (s)
 
 
@@ -324,12 +327,13 @@ class WalkSession(_Session):
     mode = "walk"
 
     def __init__(self, command: WalkCommand, options: RunOptions, robot: RobotModel | None = None) -> None:
-        from planning.walk import WalkController
+        from planning.walk import WalkController, WalkParams
 
         self.command = command
         self._setup(options, robot)
         self.controller = WalkController(
             self.robot,
+            WalkParams(use_centroidal=command.centroidal),
             gait=command.gait,
             weights=command.weights,
             reference_only=not command.capture_point_selection,
@@ -386,6 +390,7 @@ class WalkSession(_Session):
                 "goal": c.goal,
                 "weights": c.weights,
                 "capture_point_selection": c.capture_point_selection,
+                "centroidal": c.centroidal,
             },
             "final_pose_error": {
                 "position_m": None if pos_err is None else round(pos_err, 4),

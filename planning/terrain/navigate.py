@@ -110,7 +110,9 @@ class NavigatorStats:
             "step_qp_ms_p50": round(float(np.percentile(ms, 50)), 3) if self.qp_ms else None,
             "step_qp_ms_p99": round(float(np.percentile(ms, 99)), 3) if self.qp_ms else None,
             "cadences": dict(self.cadences),
-            "min_body_height_target_m": None if not np.isfinite(self.min_height_m) else round(self.min_height_m, 3),
+            "min_body_height_target_m": None
+            if not np.isfinite(self.min_height_m)
+            else round(self.min_height_m, 3),
         }
 
 
@@ -344,7 +346,9 @@ class TerrainNavigator:
                 t_lo[j] = -1.0 if np.isnan(lo) else min(float(lo) - t_now, float(t_td[j]) - 1e-3)
         body = path.body
         t_abs = path.t_touchdown[order]
-        later = np.array([t_abs[t_abs > t + 1e-6].min() if np.any(t_abs > t + 1e-6) else t + 0.2 for t in t_abs])
+        later = np.array(
+            [t_abs[t_abs > t + 1e-6].min() if np.any(t_abs > t + 1e-6) else t + 0.2 for t in t_abs]
+        )
         t_mid = 0.5 * (t_abs + later)
         p_hip = body.position(t_abs) + rotate_yaw(body.yaw(t_abs), self.p_body_hip_xy[legs])
         return StepRequest(
