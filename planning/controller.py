@@ -111,7 +111,9 @@ class Controller:
             for td in sol.touchdowns:
                 sw = self.contact_plan.swing_at(td.leg, s.t)
                 if not td.planted and sw is not None and abs(td.t_nominal - sw.t_touchdown) < 1e-6:
-                    self.handler.set_touchdown(td.leg, td.p_world)
+                    self.handler.set_touchdown(
+                        td.leg, td.p_world, td.t if abs(td.t - td.t_nominal) > 0.005 else None
+                    )
 
     def _balance(self, s: RobotState) -> None:
         self.handler.update_phases(s, self.contact_plan)

@@ -211,7 +211,7 @@ def cmd_validate(a: argparse.Namespace) -> int:
     from planning.maneuver import validate_maneuver
 
     maneuver = _load(a.maneuver)
-    result = validate_maneuver(maneuver, _robot(a.robot))
+    result = validate_maneuver(maneuver, _robot(a.robot), dry_solve=not a.no_solve)
     for p in result.failures:
         print(f"failure: {p.located() if hasattr(p, 'located') else p}")
     for p in result.warnings:
@@ -312,6 +312,9 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="check a maneuver without simulating (warnings and failures)")
     v.add_argument("maneuver", metavar="MANEUVER", help="a library name or a .yaml path")
     v.add_argument("--robot", default="spot", help="robot description to check reach against")
+    v.add_argument(
+        "--no-solve", action="store_true", help="skip the dry solve (the centroidal solver run along the plan)"
+    )
     v.set_defaults(fn=cmd_validate)
 
     t = sub.add_parser("terrains", help="list the terrain names")

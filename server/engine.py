@@ -41,10 +41,44 @@ _GEOM_KINDS: dict[int, GeomKind] = {
 
 
 class SteeringUnavailable(Exception):
-    """The steering backend (velocity commands → gait) is not part of this build yet."""
+    """The steering backend (velocity commands → gait) is not part of this build."""
 
     def __init__(self, message: str = "steering not available") -> None:
         super().__init__(message)
+
+
+class NotSteerable(Exception):
+    """This simulation runs a maneuver; steering needs a walking one (the session switches)."""
+
+
+@dataclass(frozen=True)
+class WalkLabel:
+    """What a walking simulation shows where a maneuver would be: a name and no fixed duration."""
+
+    gait: str
+    name: str = "walk"
+    duration: float = 0.0
+
+
+def walk_command(vx: float = 0.0, vy: float = 0.0, yaw_rate: float = 0.0, gait: str = "trot") -> Any:
+    """Returns the planning stack's steering command; SteeringUnavailable when the build has no steering,
+    ValueError naming the choices for an unknown gait."""
+    try:
+        from planning.sim.run import WalkCommand
+        from planning.steps.gait import get_gait
+    except ImportError:
+        raise SteeringUnavailable() from None
+    get_gait(gait)
+    return WalkCommand(vx=vx, vy=vy, yaw_rate=yaw_rate, gait=gait)
+
+
+def steering_gaits() -> tuple[str, ...]:
+    """Returns the gaits steering mode can walk with (empty without a steering backend)."""
+    try:
+        from planning.steps.gait import GAIT_NAMES
+    except ImportError:
+        return ()
+    return tuple(g for g in GAIT_NAMES if g != "stand")
 
 
 # ---- visuals ----------------------------------------------------------------------------------------------------
@@ -144,14 +178,20 @@ class LiveSim:
     Not thread-safe: the session that owns it steps it and takes snapshots from one thread at a time.
     """
 
-    def __init__(self, maneuver: Any, terrain: str, robot: str = "spot") -> None:
-        from planning.sim.run import ManeuverSession, RunOptions
+    def __init__(self, spec: Any, terrain: str, robot: str = "spot") -> None:
+        """spec: a Maneuver to execute, or a WalkCommand (planning.sim.run) to walk steered."""
+        from planning.sim import run
 
-        self.maneuver = maneuver
         self.terrain = terrain
-        self.session = ManeuverSession(
-            maneuver, RunOptions(terrain=terrain, robot=robot), robot=_robot(robot)
-        )
+        options = run.RunOptions(terrain=terrain, robot=robot)
+        walk_cls = getattr(run, "WalkCommand", None)
+        self.walking = walk_cls is not None and isinstance(spec, walk_cls)
+        if self.walking:
+            self.maneuver: Any = WalkLabel(spec.gait)
+            self.session: Any = run.WalkSession(spec, options, robot=_robot(robot))
+        else:
+            self.maneuver = spec
+            self.session = run.ManeuverSession(spec, options, robot=_robot(robot))
         self.world = self.session.world
         self.model = self.world.model
         self.data = self.world.data
@@ -199,8 +239,13 @@ class LiveSim:
             if isinstance(times, list) and len(times) > 20_000:
                 del times[:-5_000]
         rec = getattr(self.session, "recorder", None)
-        for name in ("t", "p_body", "rpy_body", "v_body", "yaw_rate"):
+        for name in ("t", "p_body", "rpy_body", "v_body", "yaw_rate", "touchdowns"):
             lst = getattr(rec, name, None)
+            if isinstance(lst, list) and len(lst) > 30_000:
+                del lst[:-10_000]
+        ctl = getattr(self.session, "controller", None)
+        for name in ("qp_ms", "linearization_errors"):
+            lst = getattr(ctl, name, None)
             if isinstance(lst, list) and len(lst) > 30_000:
                 del lst[:-10_000]
 
@@ -211,11 +256,15 @@ class LiveSim:
         self.world.pushes.append(Push(float(self.data.time), force_n, duration_s))
 
     def steer(self, vx: float, vy: float, yaw_rate: float, gait: str) -> None:
-        """Sets a velocity command; raises SteeringUnavailable until the steering backend lands."""
-        fn = getattr(self.session, "steer", None) or getattr(self.session.controller, "steer", None)
-        if fn is None:
-            raise SteeringUnavailable()
-        fn(vx, vy, yaw_rate, gait)
+        """Sets the velocity command (m/s, m/s, rad/s) and gait of a walking simulation; NotSteerable for one
+        that runs a maneuver (the session then switches to walking); ValueError for an unknown gait."""
+        if not self.walking:
+            raise NotSteerable()
+        c = self.session.controller
+        if gait != c.gait:
+            c.set_gait(gait)
+            self.maneuver = WalkLabel(gait)
+        c.steer(vx, vy, yaw_rate)
 
     # -- reading --
     def body_poses(self) -> tuple[np.ndarray, np.ndarray]:
@@ -287,9 +336,16 @@ class LiveSim:
         ref = self.reference()
         if ref is not None:
             overlays["body_target"] = {"kind": "points", "points": [_r(ref[0])], "color": [0.1, 0.9, 0.3]}
-        steps = self._upcoming_touchdowns()
+        steps = self._upcoming_touchdowns() if not self.walking else self._walk_steps()
         if steps is not None:
-            overlays["step_plan"] = steps
+            overlays.update(steps)
+        swings = self._swing_trajectories()
+        if swings is not None:
+            overlays["swing_trajectories"] = swings
+        sol = getattr(self.session.controller, "solution", None)
+        p_sol = getattr(sol, "p_world", None)
+        if p_sol is not None and getattr(sol, "ok", False) and np.ndim(p_sol) == 2 and len(p_sol) > 1:
+            overlays["centroidal_plan"] = {"kind": "polyline", "points": _r(p_sol), "color": [0.6, 0.4, 1.0]}
         extra = getattr(self.session.controller, "plan_overlays", None)
         if callable(extra):
             try:
@@ -308,7 +364,40 @@ class LiveSim:
                 if sw.t_touchdown >= self.t:
                     pts.append(_r(np.asarray(sw.p_touchdown, dtype=float) + self.offset))
                     labels.append(f"{LEGS[sw.leg]} @ {sw.t_touchdown:.2f} s")
-        return {"kind": "points", "points": pts, "labels": labels, "color": [1.0, 0.85, 0.1]}
+        return {"step_plan": {"kind": "points", "points": pts, "labels": labels, "color": [1.0, 0.85, 0.1]}}
+
+    def _walk_steps(self) -> dict[str, Any] | None:
+        """The steering planner's selected step path and its capture points at the touchdowns."""
+        sel = getattr(getattr(self.session.controller, "plan", None), "selection", None)
+        if sel is None:
+            return None
+        out: dict[str, Any] = {}
+        p_td = np.asarray(getattr(sel.path, "p_world_touchdown", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
+        p_td = p_td[np.isfinite(p_td).all(axis=1)]
+        out["step_plan"] = {"kind": "points", "points": _r(p_td), "color": [1.0, 0.85, 0.1]}
+        xi = np.asarray(getattr(sel, "xi_td", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
+        if len(xi) and len(p_td) >= 1:
+            z = float(np.mean(p_td[:, 2]))
+            xi3 = np.column_stack([xi, np.full(len(xi), z)])
+            out["capture_point_plan"] = {"kind": "polyline", "points": _r(xi3[np.isfinite(xi3).all(axis=1)]),
+                                         "color": [0.9, 0.1, 0.6]}  # fmt: skip
+        return out
+
+    def _swing_trajectories(self) -> dict[str, Any] | None:
+        """The swing planner's current foot trajectories (16 samples each) as segments."""
+        plans = getattr(getattr(self.session.controller, "handler", None), "plans", None)
+        if not plans:
+            return None
+        segs: list[np.ndarray] = []
+        for plan in list(plans.values()):
+            try:
+                ts = np.linspace(plan.t_start, plan.t_touchdown, 16)
+                pts = np.asarray(plan.positions(ts), dtype=float)
+            except Exception:  # noqa: BLE001 - an odd plan draws nothing
+                continue
+            if pts.shape == (16, 3) and np.isfinite(pts).all():
+                segs.extend(np.stack([pts[:-1], pts[1:]], axis=1).reshape(-1, 3))
+        return {"kind": "segments", "points": _r(segs), "color": [0.3, 1.0, 0.8]} if segs else None
 
     def report(self, wall_s: float) -> dict[str, Any]:
         """Returns the run report (CONTRACT.md) of what has run so far."""
@@ -334,18 +423,23 @@ def terrain_names() -> tuple[str, ...]:
 def run_headless(job: dict[str, Any]) -> dict[str, Any]:
     """Runs one queued simulation in a worker process and returns its run report (top-level, so it pickles).
 
-    `job` holds the maneuver document, the terrain, the pushes [(t, (fx, fy, fz), duration)], the duration and
-    the robot; progress goes to the worker's progress queue when there is one.
+    `job` holds the maneuver document (or a walk command), the terrain, the pushes [(t, (fx, fy, fz), duration)],
+    the duration and the robot; progress goes to the worker's progress queue when there is one.
     """
     from planning.maneuver import parse_maneuver
     from planning.sim.run import RunOptions, run_maneuver
     from planning.sim.world import Push
     from server import simulations
 
-    maneuver = parse_maneuver(job["maneuver"])
     pushes = [Push(float(t), (float(f[0]), float(f[1]), float(f[2])), float(d)) for t, f, d in job["pushes"]]
-    opts = RunOptions(
-        terrain=job["terrain"], pushes=pushes, duration_s=job.get("duration"), robot=job["robot"]
-    )
+    opts = RunOptions(terrain=job["terrain"], pushes=pushes, duration_s=job.get("duration"), robot=job["robot"])
     progress = simulations.worker_progress(job["id"])
+    if job.get("walk") is not None:
+        from planning.sim.run import WalkCommand, run_walk
+
+        w = dict(job["walk"])
+        goal = w.pop("goal", None)
+        command = WalkCommand(**w, goal=None if goal is None else (float(goal[0]), float(goal[1])))
+        return run_walk(command, opts, progress=progress)
+    maneuver = parse_maneuver(job["maneuver"])
     return run_maneuver(maneuver, opts, progress=progress)

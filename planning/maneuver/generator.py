@@ -52,6 +52,9 @@ class GeneratorParams:
     keyframe_radius_s: float = 0.06  # knots this close to a keyframe carry its weight
     fz_min_n: float = 8.0
     fz_max_n: float = 600.0
+    # per s² of touchdown/liftoff shift at the maneuver's default weight: high enough that the solver moves an
+    # event only when the plan needs it (a shift of 30 ms costs about as much as 1 cm held for a second)
+    touchdown_time_weight: float = 1000.0
 
 
 class ProblemGenerator:
@@ -83,7 +86,9 @@ class ProblemGenerator:
             **{
                 **d.__dict__,
                 "force": d.force * w.force / _DEFAULT_WEIGHTS.force,
-                "touchdown_time": d.touchdown_time * w.touchdown_time / _DEFAULT_WEIGHTS.touchdown_time,
+                "touchdown_time": p.touchdown_time_weight
+                * w.touchdown_time
+                / _DEFAULT_WEIGHTS.touchdown_time,
                 "touchdown_position": d.touchdown_position
                 * w.touchdown_position
                 / _DEFAULT_WEIGHTS.touchdown_position,

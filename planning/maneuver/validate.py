@@ -514,7 +514,10 @@ def check_touchdown_reach(ctx: Context) -> Iterator[Problem]:
     reach = float(ctx.robot.max_leg_length_m)
     p_body_hip = np.asarray(ctx.robot.p_body_hip, dtype=float)
     worst: dict[str, tuple[float, str]] = {}
+    adjustable: set[str] = set()
     for sw in s.all_swings():
+        if sw.adjust.time_s > 0.0 or sw.adjust.radius_m or sw.adjust.region_xy is not None:
+            adjustable.add(sw.touchdown_path)
         p, _, rpy, _ = body.sample(sw.t_touchdown)
         hip = p + rotation_from_rpy(rpy) @ p_body_hip[sw.leg]
         dist = float(np.linalg.norm(ctx.foot_center(sw.p_touchdown, sw.normal) - hip))
@@ -526,7 +529,12 @@ def check_touchdown_reach(ctx: Context) -> Iterator[Problem]:
                 f"{dist:.2f} m from its hip ({ratio:.0%} of the leg's {reach:.2f} m reach)",
             )
     for path, (ratio, msg) in worst.items():
-        if ratio > 1.0:
+        if ratio > 1.0 and path in adjustable:
+            # the solver may move it (time or place) to where the body can be: the dry solve decides
+            yield _warn(
+                path, f"{msg}: out of reach at its nominal time and place; relies on its adjust window"
+            )
+        elif ratio > 1.0:
             yield _fail(path, f"{msg}: out of reach with the body where the maneuver puts it")
         else:
             yield _warn(path, f"{msg}: near the edge of reach")
@@ -715,11 +723,14 @@ def validate_maneuver(
     source: Maneuver | dict[str, Any] | str | Path,
     robot: RobotModel | None = None,
     params: Params | None = None,
+    dry_solve: bool = False,
 ) -> ValidationResult:
     """Returns the warnings and failures of a maneuver (object, dict, YAML text or file path) for a robot.
 
     Never raises for bad input: unreadable files, YAML syntax and shape errors come back as failures.
-    `robot` defaults to the shipped Spot-class model.
+    `robot` defaults to the shipped Spot-class model. dry_solve: when the rules pass, also run the centroidal
+    solver along the plan (planning.maneuver.drysolve): warnings where it moves a touchdown, failures where the
+    problem is infeasible even with every adjustment.
     """
     lines: dict[str, int] | None = None
     try:
@@ -745,5 +756,15 @@ def validate_maneuver(
         # the schedule does not build for a reason no rule names: report the builder's words
         failures = with_lines(ctx.schedule_or_problems, lines)
     warnings = [p for p in problems if p.severity == "warning"]
+    if dry_solve and not failures and ctx.schedule is not None and ctx.body is not None:
+        from planning.maneuver.drysolve import dry_solve as _dry_solve
+
+        try:
+            found = _dry_solve(maneuver, ctx.schedule, ctx.body, ctx.robot)
+        except Exception as e:  # the solver must never turn a user's file into a traceback
+            found = [_fail("", f"the dry solve could not run: {e!r}")]
+        found = with_lines(found, lines)
+        failures += [p for p in found if p.severity == "failure"]
+        warnings += [p for p in found if p.severity == "warning"]
     ok = not failures
     return ValidationResult(ok, warnings, failures, maneuver, ctx.schedule, ctx.body)

@@ -129,11 +129,15 @@ class _Session:
     def _duration(self) -> float:
         raise NotImplementedError
 
+    def _done(self) -> bool:
+        """Whether the run may end before its duration (checked every 50 ticks)."""
+        return False
+
     def run(self, progress: ProgressFn | None = None) -> dict[str, Any]:
         """Runs to the end (or a fall) and returns the run report."""
         duration = self.options.duration_s if self.options.duration_s is not None else self._duration()
         t0 = time.perf_counter()
-        self.loop.run(duration, realtime=self.options.realtime, progress=progress)
+        self.loop.run(duration, realtime=self.options.realtime, progress=progress, should_stop=self._done)
         wall = time.perf_counter() - t0
         return self.report(wall)
 
@@ -319,6 +323,11 @@ class WalkCommand:
         False  # True: the centroidal solver turns the step plan into forces (balance QP otherwise)
     )
     settle_s: float = 1.5  # velocity tracking is measured after this much time (s)
+    # Terrain-aware walking to the goal (planning.terrain.navigate): None = whenever a goal is given on a terrain
+    # other than flat. terrain_sensor: maps from the simulated depth sensor (False: the scene's ground truth).
+    terrain_aware: bool | None = None
+    terrain_sensor: bool = True
+    stop_at_goal: bool = False  # end the run once the body has held within half the goal tolerance for 1 s
 
 
 class WalkSession(_Session):
@@ -342,10 +351,41 @@ class WalkSession(_Session):
             self.controller.set_goal(*command.goal)
         else:
             self.controller.steer(command.vx, command.vy, command.yaw_rate)
-        self._start_loop(self.controller.stages, self.controller.actuate)
+        self.navigator: Any = None
+        self.collisions: Any = None
+        monitors: list[Callable[[RobotState], None]] = []
+        aware = command.terrain_aware
+        if aware is None:
+            aware = command.goal is not None and options.terrain != "flat"
+        if aware:
+            from planning.terrain.crossing import BodyCollisionMonitor
+            from planning.terrain.navigate import NavigatorParams, attach_navigator
+
+            if command.goal is None:
+                raise ValueError("WalkCommand.terrain_aware: needs a goal")
+            params = NavigatorParams(use_sensor=command.terrain_sensor)
+            self.navigator = attach_navigator(
+                self.controller, self.world.model, self.world.data, command.goal, self.scene, params
+            )
+            self.collisions = BodyCollisionMonitor(self.world)
+            monitors.append(self.collisions)
+        self._t_at_goal: float | None = None
+        self._start_loop(self.controller.stages, self.controller.actuate, monitors)
 
     def _duration(self) -> float:
         return 30.0 if self.command.goal is not None else 10.0
+
+    def _done(self) -> bool:
+        c = self.command
+        if not c.stop_at_goal or c.goal is None:
+            return False
+        s = self.loop.state
+        if float(np.linalg.norm(s.p_world_body[:2] - np.asarray(c.goal))) > POSITION_TOLERANCE_M / 2:
+            self._t_at_goal = None
+            return False
+        if self._t_at_goal is None:
+            self._t_at_goal = s.t
+        return s.t - self._t_at_goal >= 1.0
 
     def _velocity_rms(self) -> dict[str, float | None]:
         rec = self.recorder
@@ -377,6 +417,7 @@ class WalkSession(_Session):
         keep = [k for k, t in enumerate(rec.t) if t >= c.settle_s]
         mean_v = np.mean([rec.v_body[k] for k in keep], axis=0) if keep else np.full(2, np.nan)
         mean_w = float(np.mean([rec.yaw_rate[k] for k in keep])) if keep else float("nan")
+        base.update(self._terrain_report())
         return {
             "maneuver": None,
             **base,
@@ -413,6 +454,44 @@ class WalkSession(_Session):
                 "linearization_error_p50": None,
             },
         }
+
+    def _terrain_report(self) -> dict[str, Any]:
+        """Ground-truth terrain fields: no-step touchdowns, body collisions, crossed, time taken, navigator stats."""
+        from planning.terrain.crossing import no_step_touchdowns, terrain_span_x
+
+        rec = self.recorder
+        out: dict[str, Any] = {
+            "no_step_touchdowns": no_step_touchdowns(self.scene, [td.p_world for td in rec.touchdowns]),
+        }
+        x_end = terrain_span_x(self.scene)[1]
+        crossed_at = next(
+            (t for t, p in zip(rec.t, rec.p_body, strict=True) if p[0] > x_end + CROSSED_BEYOND_M), None
+        )
+        reached_at = None
+        if self.command.goal is not None:
+            goal = np.asarray(self.command.goal)
+            reached_at = next(
+                (
+                    t
+                    for t, p in zip(rec.t, rec.p_body, strict=True)
+                    if np.linalg.norm(np.asarray(p)[:2] - goal) <= POSITION_TOLERANCE_M
+                ),
+                None,
+            )
+        out["crossed"] = bool(crossed_at is not None and not self.loop.fell)
+        out["time_to_cross_s"] = None if crossed_at is None else round(float(crossed_at), 3)
+        out["time_to_goal_s"] = None if reached_at is None else round(float(reached_at), 3)
+        if self.collisions is not None:
+            out["body_collisions"] = int(self.collisions.body_collisions) + (
+                1 if self.loop.fell and self.collisions.body_collisions == 0 else 0
+            )
+            out["foot_obstacle_contacts"] = int(self.collisions.foot_on_obstacle)
+        if self.navigator is not None:
+            out["navigator"] = self.navigator.stats.summary()
+        return out
+
+
+CROSSED_BEYOND_M = 0.5  # "crossed": the body center got this far past the terrain's end (m)
 
 
 def run_walk(

@@ -21,6 +21,7 @@ The body height target is lowered where the clearance map (the free height under
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -36,7 +37,7 @@ from planning.steps.select import Selection
 from planning.steps.state import StepPath, rotate_yaw
 from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
 from planning.terrain.cadence import CadenceParams, CadenceScore, choose_cadence
-from planning.terrain.maps import TerrainMaps, maps_from_scene
+from planning.terrain.maps import TerrainMaps, _gradient, maps_from_scene, signed_distance
 from planning.terrain.perception import Perception, PerceptionParams
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
@@ -56,7 +57,8 @@ class NavigatorParams:
     qp_min_time_s: a touchdown sooner than this is left as it is; standing_height_m: body height target on open
     ground (None: the robot's); min_height_m: lowest body height target; body_top_m: body top above the body
     center (m, with the hips); head_margin_m: wanted gap between the body top and an overhang; crouch_ahead_m:
-    how far ahead (and behind) along the heading the clearance is looked up.
+    how far ahead (and behind) along the heading the clearance is looked up; shin_radius_m, shin_reach_m: the
+    stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee).
     """
 
     use_sensor: bool = True
@@ -80,6 +82,8 @@ class NavigatorParams:
     body_top_m: float = 0.10
     head_margin_m: float = 0.04
     crouch_ahead_m: float = 0.7
+    shin_radius_m: float = 0.04
+    shin_reach_m: float = 0.27
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -144,6 +148,9 @@ class TerrainNavigator:
         self.qp = StepQP(p.step_qp)
         self.standing_height = p.standing_height_m or float(self.robot.standing_height_m)
         self.p_body_hip_xy = np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2]
+        q0 = np.asarray(self.robot.q_nominal[0], dtype=np.float64)
+        foot, knee = self.robot.fk_leg(0, q0), self.robot.knee_body(0, q0)
+        self.shin_slope = float(max(foot[0] - knee[0], 1e-3) / max(knee[2] - foot[2], 1e-3))
         self.maps: TerrainMaps | None = None
         self.path: BodyPath | None = None
         self.cadence: CadenceScore | None = None
@@ -151,6 +158,7 @@ class TerrainNavigator:
         self.last_plan: StepPlan | None = None
         self.stats = NavigatorStats()
         self._truth_center: NDArray[np.float64] | None = None
+        self._truth_maps: TerrainMaps | None = None
         self._t_path = -np.inf
 
     # ---- wiring ---------------------------------------------------------------------------------------------
@@ -176,9 +184,12 @@ class TerrainNavigator:
             if self._truth_center is None or np.linalg.norm(xy - self._truth_center) > p.truth_recenter_m:
                 assert self.scene is not None
                 self._truth_center = xy.copy()
-                self.maps = maps_from_scene(self.scene, (float(xy[0]), float(xy[1])), p.truth_half_extent_m)
-            maps = self.maps
+                self._truth_maps = maps_from_scene(
+                    self.scene, (float(xy[0]), float(xy[1])), p.truth_half_extent_m, params=p.perception.maps
+                )
+            maps = self._truth_maps
         assert maps is not None
+        maps = with_shin_keepout(maps, s.yaw, self.shin_slope, p.shin_radius_m, p.shin_reach_m)
         self.maps = maps
         self.controller.maps = maps
         self.stats.scans += 1
@@ -226,7 +237,10 @@ class TerrainNavigator:
         d = np.linspace(-p.crouch_ahead_m, p.crouch_ahead_m, 15)
         lat = np.array([-0.12, 0.0, 0.12])
         xy = s.p_world_body[:2] + rotate_yaw(yaw, np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1))
-        clear = float(np.min(maps.clearance_at(xy[..., 0], xy[..., 1])))
+        # Only overhangs with room under them count: a tall box's column is a wall (a body obstacle), not a ceiling.
+        c = np.asarray(maps.clearance_at(xy[..., 0], xy[..., 1]), dtype=np.float64)
+        wall = np.asarray(maps.no_body(xy[..., 0], xy[..., 1]), dtype=bool)
+        clear = float(np.min(np.where(wall, np.inf, c)))
         h = self.standing_height
         if np.isfinite(clear):
             h = min(h, clear - p.body_top_m - p.head_margin_m)
@@ -363,6 +377,42 @@ class TerrainNavigator:
             p_feet=s.p_world_foot[:, :2].copy(),
             v_feet=s.v_world_foot[:, :2].copy(),
         )
+
+
+def shin_keepout(
+    maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float
+) -> NDArray[np.bool_]:
+    """Gives the cells (nx, ny) where a stance shin would touch the ground behind the foot (heading yaw, rad).
+
+    The shin runs from the foot up and back (against the heading) to the knee: at height z above the foot it lies
+    z·slope behind it. Ground at distance d behind a foothold, higher than the foothold by more than
+    (d - radius_m)/slope, reaches the shin (radius_m: the shin's thickness plus a margin); d up to reach_m.
+    """
+    h = maps.ground_height
+    res = maps.resolution_m
+    out = np.zeros(h.shape, dtype=bool)
+    c, s = np.cos(yaw), np.sin(yaw)
+    nx, ny = h.shape
+    ix, iy = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    for d in np.arange(res, reach_m + 1e-9, res):
+        jx = np.clip(np.rint(ix - d * c / res).astype(np.intp), 0, nx - 1)
+        jy = np.clip(np.rint(iy - d * s / res).astype(np.intp), 0, ny - 1)
+        out |= h[jx, jy] - h > max(d - radius_m, 0.0) / slope
+    return out
+
+
+def with_shin_keepout(
+    maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float
+) -> TerrainMaps:
+    """Gives the maps with the shin keep-out (see shin_keepout) added to the step obstacles (SDF recomputed)."""
+    extra = shin_keepout(maps, yaw, slope, radius_m, reach_m)
+    if not np.any(extra & ~maps.step_obstacle):
+        return maps
+    step = maps.step_obstacle | extra
+    sdf = signed_distance(step, maps.resolution_m)
+    return dataclasses.replace(
+        maps, step_obstacle=step, sdf_step_m=sdf, grad_sdf_step=_gradient(sdf, maps.resolution_m)
+    )
 
 
 def attach_navigator(
