@@ -18,7 +18,15 @@ import numpy as np
 from planning.robot import RobotModel
 from planning.sim.world import RobotState
 from planning.stance import StanceHandler
-from planning.swing import BodyMotion, SwingPlan, SwingPlanner, SwingRequest, swing_joint_command
+from planning.swing import (
+    BodyMotion,
+    SwingPlan,
+    SwingPlanner,
+    SwingRequest,
+    TripEvent,
+    classify_trip,
+    swing_joint_command,
+)
 
 
 class Phase(IntEnum):
@@ -56,6 +64,9 @@ class HandlerParams:
     early_touchdown_fraction: float = 0.5  # a contact after this fraction of the swing counts as a touchdown
     max_liftoff_delay_s: float = 0.12  # a liftoff waits at most this long for a late foot to land
     min_stance_s: float = 0.08  # a foot that just landed stays down at least this long
+    self_collision_m: float = (
+        0.05  # a swing foot center this close to another leg's shin is a self-collision trip
+    )
     touchdown_lead_s: float = 0.02  # swing trajectories aim to land this much before the planned time
     touchdown_depth_m: float = 0.0  # ... and this far below the planned contact point (the swing planner counts depth as terrain collision)
     max_touchdown_shift_s: float = (
@@ -90,7 +101,13 @@ class Handler:
         self.kd = np.array(p.kd_swing)
         self.tau = np.zeros((4, 3))
         self.touchdown_overrides: dict[int, np.ndarray] = {}  # solver-adjusted touchdown places by leg
-        self.waypoints: list[np.ndarray | None] = [None] * 4  # (K,4) [t, x, y, z] of each leg's current swing
+        self.waypoints: list[np.ndarray | None] = [None] * 4
+        self.trips: list[TripEvent | None] = [
+            None
+        ] * 4  # the last trip of each leg (the planner's response input)
+        self.trip_log: list[
+            tuple[int, TripEvent]
+        ] = []  # (leg, trip) in time order  # (K,4) [t, x, y, z] of each leg's current swing
         self.ground = None
         self._initialized = False
 
@@ -117,6 +134,8 @@ class Handler:
                     late = bool(np.any(self.phase == Phase.LATE))
                     if not late or t - sw.t_liftoff > self.params.max_liftoff_delay_s:
                         self._lift(leg, sw, s)
+            elif ph == Phase.SWING and self._tripped(leg, s):
+                pass  # a trip: the swing planner responds (elevate, stop forward motion, go around)
             elif ph == Phase.SWING:
                 if sw is not None and leg not in self.touchdown_overrides:
                     # the plan may move a touchdown while the foot is in the air (step replanning), but not into
@@ -138,6 +157,45 @@ class Handler:
                 self._land(leg, s)
         np.equal(self.phase, Phase.STANCE, out=self.stance)
 
+    def _tripped(self, leg: int, s: RobotState) -> bool:
+        """Detects a trip of a swing leg from the contacts the simulator measured (seed FIG. 16) and records it."""
+        frac = (s.t - self.t_liftoff[leg]) / max(self.t_touchdown[leg] - self.t_liftoff[leg], 1e-3)
+        foot_hit = (
+            bool(s.contact[leg])
+            and frac < self.params.early_touchdown_fraction
+            and s.t - self.t_liftoff[leg] > 0.03
+        )
+        knee_hit = bool(s.knee_contact[leg])
+        other = self._self_collision(leg, s)
+        if not (foot_hit or knee_hit or other is not None):
+            return False
+        if self.trips[leg] is not None and s.t - self.trips[leg].t_s < 0.1:
+            return False  # the same trip, still being answered
+        feet_body = (s.p_world_foot - s.p_world_body) @ s.R_world_body
+        trip = classify_trip(
+            self.robot, leg, s.t, feet_body, foot_hit=foot_hit, knee_hit=knee_hit, other_leg=other
+        )
+        if trip is None:
+            return False
+        self.trips[leg] = trip
+        self.trip_log.append((leg, trip))
+        return True
+
+    def _self_collision(self, leg: int, s: RobotState) -> int | None:
+        """Returns the other leg whose lower leg the swing foot is touching (the robot's own geoms do not collide
+        in the simulator, so this is measured geometrically), or None."""
+        p = s.p_world_foot[leg]
+        for j in range(4):
+            if j == leg:
+                continue
+            knee = s.p_world_body + s.R_world_body @ self.robot.knee_body(j, s.q[j])
+            foot = s.p_world_foot[j]
+            d = foot - knee
+            u = float(np.clip(np.dot(p - knee, d) / max(float(np.dot(d, d)), 1e-9), 0.0, 1.0))
+            if np.linalg.norm(p - (knee + u * d)) < self.params.self_collision_m:
+                return j
+        return None
+
     def _lift(self, leg: int, sw: PlannedSwing, s: RobotState) -> None:
         self.phase[leg] = Phase.SWING
         self.t_liftoff[leg] = s.t
@@ -153,6 +211,7 @@ class Handler:
         self.p_contact[leg, 2] -= self.robot.foot_radius_m
         self.plans.pop(leg, None)
         self.touchdown_overrides.pop(leg, None)
+        self.trips[leg] = None
 
     def set_touchdown(self, leg: int, p_world: np.ndarray, t: float | None = None) -> None:
         """Moves a swing leg's touchdown target (and time), e.g. to where the centroidal solver put it."""
@@ -189,7 +248,8 @@ class Handler:
             elif self.phase[i] == Phase.SWING and t_td - self.params.touchdown_lead_s > s.t + 0.01:
                 t_td -= self.params.touchdown_lead_s
             target[2] -= self.params.touchdown_depth_m
-            reqs.append(SwingRequest(i, p, s.v_world_foot[i], target, t_td))
+            trip = self.trips[i] if self.trips[i] is not None and s.t - self.trips[i].t_s < 0.02 else None
+            reqs.append(SwingRequest(i, p, s.v_world_foot[i], target, t_td, trip))
         stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == Phase.STANCE}
         v = s.v_world_body if v_body_des is None else v_body_des
         body = BodyMotion(

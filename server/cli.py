@@ -313,7 +313,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("maneuver", metavar="MANEUVER", help="a library name or a .yaml path")
     v.add_argument("--robot", default="spot", help="robot description to check reach against")
     v.add_argument(
-        "--no-solve", action="store_true", help="skip the dry solve (the centroidal solver run along the plan)"
+        "--no-solve",
+        action="store_true",
+        help="skip the dry solve (the centroidal solver run along the plan)",
     )
     v.set_defaults(fn=cmd_validate)
 

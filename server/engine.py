@@ -372,7 +372,9 @@ class LiveSim:
         if sel is None:
             return None
         out: dict[str, Any] = {}
-        p_td = np.asarray(getattr(sel.path, "p_world_touchdown", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
+        p_td = np.asarray(getattr(sel.path, "p_world_touchdown", np.zeros((0, 3))), dtype=float).reshape(
+            -1, 3
+        )
         p_td = p_td[np.isfinite(p_td).all(axis=1)]
         out["step_plan"] = {"kind": "points", "points": _r(p_td), "color": [1.0, 0.85, 0.1]}
         xi = np.asarray(getattr(sel, "xi_td", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
@@ -432,7 +434,9 @@ def run_headless(job: dict[str, Any]) -> dict[str, Any]:
     from server import simulations
 
     pushes = [Push(float(t), (float(f[0]), float(f[1]), float(f[2])), float(d)) for t, f, d in job["pushes"]]
-    opts = RunOptions(terrain=job["terrain"], pushes=pushes, duration_s=job.get("duration"), robot=job["robot"])
+    opts = RunOptions(
+        terrain=job["terrain"], pushes=pushes, duration_s=job.get("duration"), robot=job["robot"]
+    )
     progress = simulations.worker_progress(job["id"])
     if job.get("walk") is not None:
         from planning.sim.run import WalkCommand, run_walk

@@ -10,10 +10,10 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from server.engine import terrain_names
+from server.engine import steering_gaits, terrain_names
 
 TerrainName = Literal[terrain_names()]  # type: ignore[valid-type]
-GaitName = Literal["trot", "walk", "pace", "bound", "pronk"]
+SteerGait = Literal[steering_gaits() or ("trot", "walk", "pace", "bound")]  # type: ignore[valid-type]
 
 
 def _num(lo: float, hi: float, *, lo_open: bool = False) -> Any:
@@ -58,7 +58,7 @@ class WalkIn(_In):
     vx: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
     vy: _num(-1.0, 1.0) = 0.0  # type: ignore[valid-type]
     yaw_rate: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
-    gait: GaitName = "trot"
+    gait: SteerGait = "trot"  # type: ignore[valid-type]
     goal: Annotated[list[_num(-100.0, 100.0)], Field(min_length=2, max_length=2)] | None = None  # type: ignore[valid-type]
 
 
@@ -122,7 +122,7 @@ class SteerIn(_In):
     vx: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
     vy: _num(-1.0, 1.0) = 0.0  # type: ignore[valid-type]
     yaw_rate: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
-    gait: GaitName = "trot"
+    gait: SteerGait = "trot"  # type: ignore[valid-type]
 
 
 class SessionManeuverIn(_In):

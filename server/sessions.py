@@ -24,7 +24,7 @@ from typing import Any, Literal, Protocol
 
 import numpy as np
 
-from server.engine import LiveSim, SteeringUnavailable, default_maneuver
+from server.engine import LiveSim, NotSteerable, SteeringUnavailable, default_maneuver, walk_command
 from server.settings import Settings
 
 log = logging.getLogger("footfall.sessions")
@@ -85,6 +85,10 @@ class SessionCrashed(SessionError):
     status = 409
 
 
+class SessionBadInput(SessionError):
+    status = 422
+
+
 @dataclass(frozen=True)
 class PlotSample:
     """One sample for the live plots: sim time s, controller compute ms, measured and reference velocities m/s."""
@@ -141,7 +145,7 @@ class LiveSession:
         self.created = clock()
         self.last_access = self.created
         self.lock = threading.RLock()  # guards self.sim
-        self.sim: Sim = factory(default_maneuver("stand"), terrain, robot)
+        self.sim: Sim = factory(self._entry_spec(mode), terrain, robot)
         self.status: Status = "running"
         self.error: str | None = None
         self.speed = 1.0
@@ -175,6 +179,16 @@ class LiveSession:
     @property
     def alive(self) -> bool:
         return self._thread.is_alive()
+
+    @staticmethod
+    def _entry_spec(mode: Mode, gait: str = "trot") -> Any:
+        """What a session starts (or resets) with: standing for maneuvers, a zero command for steering."""
+        if mode == "steer":
+            try:
+                return walk_command(gait=gait)
+            except (SteeringUnavailable, ValueError):
+                pass  # no steering in this build: stand, and /steer answers 409
+        return default_maneuver("stand")
 
     def _maneuver_name(self) -> str:
         return str(getattr(self.sim.maneuver, "name", "stand"))
@@ -333,10 +347,12 @@ class LiveSession:
         self._replace(self.sim.maneuver)
 
     def reset(self, terrain: str | None = None) -> None:
-        """Back to standing at the origin (optionally on another terrain); clears a crash."""
+        """Back to the start at the origin (optionally on another terrain): standing, or in steer mode walking
+        with a zero command; clears a crash."""
+        gait = str(self.command["gait"]) if self.command else "trot"
         self.command = None
         self.status = "running"
-        self._replace(default_maneuver("stand"), terrain)
+        self._replace(self._entry_spec(self.mode, gait), terrain)
 
     def pause(self) -> None:
         if self.status == "running":
@@ -362,13 +378,28 @@ class LiveSession:
             self.sim.push(force_n, duration_s)
 
     def steer(self, vx: float, vy: float, yaw_rate: float, gait: str) -> None:
-        """Sets the velocity command; SessionError (409) while no steering backend exists."""
+        """Sets the velocity command (m/s, m/s, rad/s) and gait. A session running a maneuver switches to walking
+        (from the stance at the origin). SessionError 409 when the build has no steering, 422 for a bad gait."""
         self._check_live()
-        with self.lock:
-            try:
+        switch = False
+        try:
+            with self.lock:
                 self.sim.steer(vx, vy, yaw_rate, gait)
+        except SteeringUnavailable as e:
+            raise SessionError(str(e), field="steer") from None
+        except NotSteerable:
+            switch = True
+        except ValueError as e:
+            raise SessionBadInput(str(e).removeprefix("gait: "), field="gait") from None
+        if switch:
+            try:
+                spec = walk_command(vx, vy, yaw_rate, gait)
             except SteeringUnavailable as e:
                 raise SessionError(str(e), field="steer") from None
+            except ValueError as e:
+                raise SessionBadInput(str(e).removeprefix("gait: "), field="gait") from None
+            self._replace(spec)
+            self.resume()
         self.mode = "steer"
         self.command = {"vx": vx, "vy": vy, "yaw_rate": yaw_rate, "gait": gait}
 

@@ -129,6 +129,9 @@ class _Session:
     def _duration(self) -> float:
         raise NotImplementedError
 
+    def _handler(self) -> Any:
+        return self.controller.handler  # type: ignore[attr-defined]
+
     def _done(self) -> bool:
         """Whether the run may end before its duration (checked every 50 ticks)."""
         return False
@@ -174,6 +177,13 @@ class _Session:
                 }
                 for p in self.world.pushes
             ],
+            "trips": [
+                {"leg": LEGS[leg], "t": round(tr.t_s, 4), "kind": tr.kind.name.lower()}
+                for leg, tr in self._handler().trip_log
+            ],
+            "swing_collisions_per_100_steps": round(
+                100.0 * len(self._handler().trip_log) / max(len(rec.touchdowns), 1), 2
+            ),
             "stages": stage_times,
             "timing": {"wall_s": round(wall_s, 3), "rtf": round(t_end / wall_s, 3) if wall_s > 0 else None},
         }

@@ -91,7 +91,7 @@ async def session_recording(session_id: SessionId, sessions: SessionsDep) -> HTM
 @router.post(
     "/{session_id}/steer",
     dependencies=[WriteAccess],
-    summary="Velocity command (m/s, m/s, rad/s) and gait; 409 'steering not available' until steering lands",
+    summary="Velocity command (m/s, m/s, rad/s) and gait; a session running a maneuver switches to walking",
 )
 def session_steer(session_id: SessionId, body: SteerIn, sessions: SessionsDep) -> dict[str, Any]:
     s = sessions.get(session_id)

@@ -19,7 +19,7 @@ JobId = Annotated[str, Path(max_length=64, description="the id POST /simulations
 
 
 def walk_runner() -> Any:
-    """Returns the headless walk runner of the planning stack, or None while steering has not landed."""
+    """Returns the headless walk runner of the planning stack, or None in a build without steering."""
     try:
         from planning.sim import run as sim_run
     except ImportError:
@@ -51,27 +51,29 @@ def _pushes(items: list[PushIn | str]) -> list[tuple[float, tuple[float, float, 
 async def create_simulation(
     body: SimulationCreate, services: ServicesDep, pool: SimulationsDep
 ) -> JSONResponse:
-    if body.walk is not None:
-        if walk_runner() is None:
-            raise field_error(409, "walk", "steering not available in this build yet; run a maneuver instead")
-        raise field_error(409, "walk", "walks through the REST API are not wired yet")
     pushes = _pushes(body.pushes)
-    assert body.maneuver is not None
-    maneuver = await run_in_threadpool(resolve_maneuver, body.maneuver, services)
-    payload = {
-        "maneuver": maneuver.model_dump(by_alias=True, mode="json"),
+    common = {
         "terrain": body.terrain,
         "pushes": pushes,
         "duration": body.duration,
         "robot": services.settings.robot,
     }
     request: dict[str, Any] = {
-        "maneuver": maneuver.name,
-        "inline": not isinstance(body.maneuver, str),
         "terrain": body.terrain,
         "pushes": [{"t": t, "force": list(f), "duration": d} for t, f, d in pushes],
         "duration": body.duration,
     }
+    if body.walk is not None:
+        if walk_runner() is None:
+            raise field_error(409, "walk", "steering not available in this build; run a maneuver instead")
+        walk = body.walk.model_dump()
+        payload: dict[str, Any] = {"walk": walk, **common}
+        request.update({"maneuver": None, "walk": walk})
+    else:
+        assert body.maneuver is not None
+        maneuver = await run_in_threadpool(resolve_maneuver, body.maneuver, services)
+        payload = {"maneuver": maneuver.model_dump(by_alias=True, mode="json"), **common}
+        request.update({"maneuver": maneuver.name, "inline": not isinstance(body.maneuver, str)})
     job = pool.submit(request, payload)
     return JSONResponse(
         {"id": job.id, "status": job.status, "url": f"/simulations/{job.id}"},

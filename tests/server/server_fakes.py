@@ -87,7 +87,7 @@ def fake_runner(job: dict[str, Any]) -> dict[str, Any]:
         if progress is not None:
             progress(0.1 * (k + 1), 0.3, 1.0)
         time.sleep(0.05)
-    name = job["maneuver"]["name"]
+    name = job["maneuver"]["name"] if job.get("maneuver") else "walk"
     return {
         "maneuver": name,
         "terrain": job["terrain"],
@@ -103,7 +103,7 @@ def failing_runner(job: dict[str, Any]) -> dict[str, Any]:
 
 def dying_runner(job: dict[str, Any]) -> dict[str, Any]:
     """Kills its worker process, as a segfault in MuJoCo would; a second job after it must still run."""
-    if job["maneuver"]["name"] == "bow":
+    if (job.get("maneuver") or {}).get("name") == "bow":
         os._exit(3)
     return fake_runner(job)
 

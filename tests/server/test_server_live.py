@@ -55,3 +55,27 @@ def test_headless_simulation_in_a_worker(live: TestClient) -> None:
     rep = j["report"]
     assert rep["maneuver"] == "stand" and rep["duration_s"] == pytest.approx(0.6, abs=0.01)
     assert rep["pushes"][0]["force_n"] == [0.0, 40.0, 0.0] and isinstance(rep["success"], bool)
+
+
+def test_steering_walks_the_robot(live: TestClient) -> None:
+    r = live.post("/sessions", json={"terrain": "flat", "mode": "maneuver"})
+    sid = r.json()["id"]
+    try:
+        # a session running a maneuver switches to walking on the first command
+        r = live.post(f"/sessions/{sid}/steer", json={"vx": 0.4, "vy": 0.0, "yaw_rate": 0.0, "gait": "trot"})
+        assert r.status_code == 200, r.text
+        assert r.json()["mode"] == "steer" and r.json()["maneuver"] == "walk"
+        assert r.json()["command"] == {"vx": 0.4, "vy": 0.0, "yaw_rate": 0.0, "gait": "trot"}
+        x0 = live.get(f"/sessions/{sid}/state").json()["body"]["position"][0]
+        time.sleep(3.0)
+        st = live.get(f"/sessions/{sid}/state").json()
+        assert not st["fell"] and st["body"]["position"][0] - x0 > 0.3, st["body"]
+        plan = live.get(f"/sessions/{sid}/plan").json()["overlays"]
+        assert len(plan["step_plan"]["points"]) >= 2
+        bad = live.post(f"/sessions/{sid}/steer", json={"vx": 0.1, "gait": "moonwalk"})
+        assert bad.status_code == 422
+        # reset keeps steer mode: walking again from the origin with a zero command
+        st = live.post(f"/sessions/{sid}/reset").json()
+        assert st["mode"] == "steer" and abs(st["body"]["position"][0]) < 0.05
+    finally:
+        live.delete(f"/sessions/{sid}")

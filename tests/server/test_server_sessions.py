@@ -68,7 +68,7 @@ def test_start_maneuver_push_reset_control(client: TestClient) -> None:
     assert client.post(f"/sessions/{sid}/reset").status_code == 200  # no body: same terrain
 
 
-def test_steer_is_409_until_steering_lands(client: TestClient) -> None:
+def test_steer_without_a_steering_backend_is_409(client: TestClient) -> None:
     sid = _new(client, terrain="flat", mode="steer")
     r = client.post(f"/sessions/{sid}/steer", json={"vx": 0.3, "vy": 0.0, "yaw_rate": 0.1, "gait": "trot"})
     assert r.status_code == 409 and r.json()["detail"] == "steering not available"

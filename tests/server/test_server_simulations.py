@@ -36,6 +36,13 @@ def test_simulation_runs_and_reports(client: TestClient) -> None:
     assert any(s["id"] == j["id"] for s in client.get("/simulations").json())
 
 
+def test_walk_simulation(client: TestClient) -> None:
+    r = client.post("/simulations", json={"walk": {"vx": 0.3, "gait": "trot"}, "duration": 2.0})
+    assert r.status_code == 202, r.text
+    j = wait_done(client, r.json()["id"])
+    assert j["status"] == "done" and j["request"]["walk"]["vx"] == 0.3 and j["report"]["maneuver"] == "walk"
+
+
 def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
     doc = copy.deepcopy(bow)
     doc["name"] = "inline-bow"
@@ -57,7 +64,8 @@ def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
         ({"maneuver": "bow", "duration": "long"}, 422, "body.duration"),
         ({}, 422, ""),
         ({"maneuver": "bow", "walk": {"vx": 0.3}}, 422, ""),
-        ({"walk": {"vx": 0.3}}, 409, "walk"),
+        ({"walk": {"vx": 0.3, "gait": "moonwalk"}}, 422, "body.walk.gait"),
+        ({"walk": {"vx": 9.0}}, 422, "body.walk.vx"),
     ],
 )
 def test_bad_simulation_requests(client: TestClient, body: dict[str, Any], status: int, field: str) -> None:

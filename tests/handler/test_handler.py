@@ -1,0 +1,91 @@
+"""The handler: the measured state wins over the plan (late and early touchdowns), trips get the table's answer."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planning.handler import Handler, Phase
+from planning.robot import load_robot
+from planning.sim.world import RobotState
+from planning.swing import TripKind
+
+ROBOT = load_robot("spot")
+
+
+@dataclass(frozen=True)
+class _Swing:
+    leg: int
+    t_liftoff: float
+    t_touchdown: float
+    p_touchdown: np.ndarray
+
+
+class _Plan:
+    """FL swings from 0.1 s to 0.4 s, landing 5 cm ahead; everything else stands."""
+
+    def swing_at(self, leg: int, t: float) -> _Swing | None:
+        if leg == 0 and 0.1 <= t < 0.4:
+            return _Swing(0, 0.1, 0.4, np.array([0.35, 0.165, 0.0]))
+        return None
+
+
+def _state(t: float, contact: tuple[bool, bool, bool, bool], knee: bool = False) -> RobotState:
+    s = RobotState()
+    s.t = t
+    s.p_world_body[:] = (0.0, 0.0, ROBOT.standing_height_m)
+    s.q[:] = ROBOT.q_nominal
+    for i in range(4):
+        s.p_world_foot[i] = ROBOT.fk_leg(i, ROBOT.q_nominal[i]) + s.p_world_body
+        s.J_world_foot[i] = ROBOT.jacobian_leg(i, ROBOT.q_nominal[i])
+    s.contact[:] = contact
+    s.knee_contact[0] = knee
+    return s
+
+
+def test_swing_lift_late_touchdown_and_landing() -> None:
+    h = Handler(ROBOT)
+    plan = _Plan()
+    h.update_phases(_state(0.0, (True,) * 4), plan)
+    assert h.phase[0] == Phase.STANCE
+    h.update_phases(_state(0.15, (False, True, True, True)), plan)
+    assert h.phase[0] == Phase.SWING and not h.stance[0]
+    h.update_phases(_state(0.41, (False, True, True, True)), plan)
+    assert h.phase[0] == Phase.LATE and not h.stance[0]  # planned down, not down: no force on it
+    h.plan_swings(_state(0.41, (False, True, True, True)))
+    assert h.plans[0].vertical_policy == "LateTouchdown"
+    h.update_phases(_state(0.45, (True,) * 4), plan)
+    assert h.phase[0] == Phase.STANCE and h.stance[0]
+
+
+def test_early_touchdown_is_taken_late_in_the_swing_only() -> None:
+    h = Handler(ROBOT)
+    plan = _Plan()
+    h.update_phases(_state(0.12, (False, True, True, True)), plan)
+    h.update_phases(_state(0.35, (True, True, True, True)), plan)
+    assert h.phase[0] == Phase.STANCE  # 83 % through the swing: an early touchdown
+
+
+def test_a_foot_hit_early_in_the_swing_is_a_normal_trip_and_the_foot_is_lifted() -> None:
+    h = Handler(ROBOT)
+    plan = _Plan()
+    h.update_phases(_state(0.12, (False, True, True, True)), plan)
+    h.plan_swings(_state(0.12, (False, True, True, True)))
+    normal_top = float(np.max(h.plans[0].positions(np.linspace(0.12, 0.38, 30))[:, 2]))
+    hit = _state(0.2, (True, True, True, True))
+    h.update_phases(hit, plan)
+    assert h.phase[0] == Phase.SWING  # 33 % through: not a touchdown but a trip
+    assert h.trip_log and h.trip_log[-1][0] == 0 and h.trip_log[-1][1].kind == TripKind.NORMAL
+    h.plan_swings(hit)
+    tripped_top = float(np.max(h.plans[0].positions(np.linspace(0.2, 0.38, 30))[:, 2]))
+    assert h.plans[0].trip == TripKind.NORMAL
+    assert tripped_top > normal_top  # the table's answer to a normal trip: elevate
+
+
+def test_a_knee_contact_is_a_knee_trip() -> None:
+    h = Handler(ROBOT)
+    plan = _Plan()
+    h.update_phases(_state(0.12, (False, True, True, True)), plan)
+    h.update_phases(_state(0.2, (False, True, True, True), knee=True), plan)
+    assert h.trip_log[-1][1].kind == TripKind.KNEE
