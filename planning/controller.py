@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -66,6 +67,7 @@ class Controller:
         self.handler = Handler(robot, params=self.params.handler)
         self.f_des = np.zeros((4, 3))
         self.target: BodyTarget | None = None
+        self._last_state: RobotState | None = None
         self.stages = [
             Stage("balance", self.params.balance_rate_hz, self._balance),
             Stage("swing", self.params.swing_rate_hz, self._swing),
@@ -134,6 +136,24 @@ class Controller:
         v = None if self.target is None else self.target.v_world_body
         self.handler.plan_swings(s, v)
 
+    def plan_overlays(self) -> dict[str, dict[str, Any]]:
+        """Returns the studio's overlays: swing trajectories, contact forces, the solver's body plan and footholds."""
+        s = self._last_state
+        if s is None:
+            return {}
+        out = self.handler.overlays(self.f_des, s.p_world_foot)
+        sol = self.solution
+        if sol is not None and sol.p_world.shape[0] > 1:
+            out["centroidal_com"] = {
+                "kind": "polyline",
+                "points": np.round(sol.p_world, 4).tolist(),
+                "color": [0.6, 0.4, 1.0],
+            }
+            tds = [np.round(td.p_world, 4).tolist() for td in sol.touchdowns if not td.planted]
+            out["solver_footholds"] = {"kind": "points", "points": tds, "color": [0.2, 0.8, 1.0]}
+        return out
+
     def actuate(self, s: RobotState) -> np.ndarray:
         """Returns joint torques (4,3) for this physics step."""
+        self._last_state = s
         return self.handler.torques(s, self.f_des, self.balance.r_com_foot)

@@ -15,10 +15,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from planning.robot import RobotModel
+from planning.robot import LEGS, RobotModel
 from planning.sim.world import RobotState
 from planning.stance import StanceHandler
 from planning.swing import (
+    TIER_RGB,
     BodyMotion,
     SwingPlan,
     SwingPlanner,
@@ -257,6 +258,26 @@ class Handler:
         )
         kwargs: dict[str, Any] = {} if self.ground is None else {"ground": self.ground}
         self.plans.update(self.swing_planner.plan(s.t, reqs, stance_feet_world=stance, body=body, **kwargs))
+
+    # ---- what the studio shows -----------------------------------------------------------------------------------
+    def overlays(self, f_des: np.ndarray, s_foot: np.ndarray) -> dict[str, dict[str, Any]]:
+        """Returns the swing trajectories (colored by tier) and the contact force arrows as studio overlays."""
+        out: dict[str, dict[str, Any]] = {}
+        for leg, plan in list(self.plans.items()):
+            rgb = TIER_RGB[plan.tier]
+            out[f"swing_{LEGS[leg]}"] = {
+                "kind": "polyline",
+                "points": np.round(plan.points(16), 4).tolist(),
+                "color": [c / 255.0 for c in rgb],
+                "label": f"{plan.tier.name.lower()} ({plan.horizontal_policy}, {plan.vertical_policy})",
+            }
+        seg = []
+        for leg in range(4):
+            if self.stance[leg]:
+                base = s_foot[leg] - (0.0, 0.0, self.robot.foot_radius_m)
+                seg += [np.round(base, 4).tolist(), np.round(base + f_des[leg] * 0.0015, 4).tolist()]
+        out["contact_forces"] = {"kind": "segments", "points": seg, "color": [1.0, 0.3, 0.2]}
+        return out
 
     # ---- torques (every physics step) ---------------------------------------------------------------------------
     def torques(self, s: RobotState, f_des: np.ndarray, p_com_foot: np.ndarray | None = None) -> np.ndarray:

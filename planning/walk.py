@@ -114,6 +114,7 @@ class WalkController:
         self.f_des = np.zeros((4, 3))
         self.height = robot.standing_height_m
         self.target = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
+        self._last_state: RobotState | None = None
         self._p_des: np.ndarray | None = None
         self._yaw_des = 0.0
         self._t_last = 0.0
@@ -256,5 +257,55 @@ class WalkController:
     def _swing(self, s: RobotState) -> None:
         self.handler.plan_swings(s, self.target.v_world_body)
 
+    def plan_overlays(self) -> dict[str, dict[str, Any]]:
+        """Returns the studio's overlays: the chosen and the reference step paths, the other potential paths, the
+        capture points at touchdowns (chosen and reference), swing trajectories and contact forces."""
+        s = self._last_state
+        if s is None:
+            return {}
+        out = self.handler.overlays(self.f_des, s.p_world_foot)
+        sel = self.plan.selection
+        if sel is None:
+            return out
+        ground = float(np.mean(self.handler.p_contact[:, 2]))
+
+        def flat(xy: np.ndarray) -> list[list[float]]:
+            return [
+                [round(float(x), 4), round(float(y), 4), round(ground + 0.005, 4)]
+                for x, y in np.reshape(xy, (-1, 2))
+            ]
+
+        out["steps_selected"] = {
+            "kind": "points",
+            "points": np.round(sel.path.p_world_touchdown, 4).tolist(),
+            "color": [0.1, 0.9, 0.3],
+        }
+        ref = sel.candidates[0]
+        out["steps_reference"] = {
+            "kind": "points",
+            "points": np.round(ref.p_world_touchdown, 4).tolist(),
+            "color": [0.7, 0.7, 0.7],
+        }
+        others = [p for p in sel.candidates[1:12]]
+        out["steps_potential"] = {
+            "kind": "points",
+            "points": [q for p in others for q in np.round(p.p_world_touchdown, 4).tolist()],
+            "color": [0.35, 0.45, 0.6],
+        }
+        out["capture_points_selected"] = {
+            "kind": "polyline",
+            "points": flat(sel.xi_td),
+            "color": [1.0, 0.85, 0.1],
+        }
+        out["capture_points_reference"] = {
+            "kind": "polyline",
+            "points": flat(sel.xi_td_reference),
+            "color": [0.6, 0.6, 0.3],
+        }
+        if self.maps is not None and hasattr(self, "navigator_overlays"):
+            out.update(self.navigator_overlays())
+        return out
+
     def actuate(self, s: RobotState) -> np.ndarray:
+        self._last_state = s
         return self.handler.torques(s, self.f_des, self.balance.r_com_foot)
