@@ -2,6 +2,7 @@
 
 bench_perception(): one depth scan + voxel integration + map building per call, on a scene with a box standing in
 for the robot, walked forward between scans.
+bench_terrain_crossings(): terrain-aware walks to (6, 0) across each terrain in MuJoCo (slow: ~15 s of simulation each).
 bench_step_qp(): replans of the step QP (8 footholds) at 300 Hz while a trot walks the body path across a terrain's
 ground-truth maps: the feet land where the last plan put them, so replans see what a controller would give them.
 """
@@ -110,3 +111,31 @@ def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium"
         "p50_ms": p50, "p99_ms": p99, "bare_solver_p50_ms": b50, "bare_solver_p99_ms": b99, "footholds": K,
         "rounds_mean": rounds / n, "hard_softened": sum(softened.values()), "hard_softened_by_family": softened, "in_no_step": in_no_step, "terrain": terrain,
     }  # fmt: skip
+
+
+def bench_terrain_crossings(
+    terrains: tuple[str, ...] = ("slope", "rough", "clutter", "stairs", "stones", "under-table"),
+    goal_xy: tuple[float, float] = (6.0, 0.0),
+    duration_s: float = 30.0,
+    sensor: bool = True,
+) -> dict:
+    """Gives, per terrain, {"crossed", "fell", "no_step_touchdowns", "body_collisions", "time_s", "rtf",
+    "reached_goal", "failure_reason"} of a terrain-aware walk to goal_xy in MuJoCo (time_s: simulated seconds until
+    the body got past the terrain's end, None when it did not). Slow: a crossing simulates ~15 s each."""
+    from planning.sim.run import RunOptions, WalkCommand, run_walk
+
+    out: dict = {}
+    for name in terrains:
+        cmd = WalkCommand(goal=goal_xy, terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
+        r = run_walk(cmd, RunOptions(terrain=name, duration_s=duration_s))
+        out[name] = {
+            "crossed": r["crossed"],
+            "fell": r["fell"],
+            "no_step_touchdowns": r["no_step_touchdowns"],
+            "body_collisions": r["body_collisions"],
+            "time_s": r["time_to_cross_s"],
+            "rtf": r["timing"]["rtf"],
+            "reached_goal": r["success"],
+            "failure_reason": r["failure_reason"],
+        }
+    return out

@@ -29,6 +29,7 @@ from typing import Any
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from planning.sim.loop import Stage
 from planning.sim.world import RobotState
@@ -58,7 +59,7 @@ class NavigatorParams:
     ground (None: the robot's); min_height_m: lowest body height target; body_top_m: body top above the body
     center (m, with the hips); head_margin_m: wanted gap between the body top and an overhang; crouch_ahead_m:
     how far ahead (and behind) along the heading the clearance is looked up; shin_radius_m, shin_reach_m: the
-    stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee).
+    stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee); foot_margin_m: step obstacles grown by this.
     """
 
     use_sensor: bool = True
@@ -84,6 +85,7 @@ class NavigatorParams:
     crouch_ahead_m: float = 0.7
     shin_radius_m: float = 0.04
     shin_reach_m: float = 0.27
+    foot_margin_m: float = 0.03
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -177,6 +179,7 @@ class TerrainNavigator:
     # ---- stages ---------------------------------------------------------------------------------------------
     def _perceive(self, s: RobotState) -> None:
         p = self.params
+        maps: TerrainMaps | None
         if self.perception is not None:
             maps = self.perception.scan_now(self.data)
         else:
@@ -189,7 +192,7 @@ class TerrainNavigator:
                 )
             maps = self._truth_maps
         assert maps is not None
-        maps = with_shin_keepout(maps, s.yaw, self.shin_slope, p.shin_radius_m, p.shin_reach_m)
+        maps = with_keepouts(maps, s.yaw, self.shin_slope, p.shin_radius_m, p.shin_reach_m, p.foot_margin_m)
         self.maps = maps
         self.controller.maps = maps
         self.stats.scans += 1
@@ -380,13 +383,14 @@ class TerrainNavigator:
 
 
 def shin_keepout(
-    maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float
+    maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float, min_rise_m: float = 0.03
 ) -> NDArray[np.bool_]:
     """Gives the cells (nx, ny) where a stance shin would touch the ground behind the foot (heading yaw, rad).
 
     The shin runs from the foot up and back (against the heading) to the knee: at height z above the foot it lies
     z·slope behind it. Ground at distance d behind a foothold, higher than the foothold by more than
-    (d - radius_m)/slope, reaches the shin (radius_m: the shin's thickness plus a margin); d up to reach_m.
+    (d - radius_m)/slope + min_rise_m reaches the shin (radius_m: the shin thickness plus a margin; min_rise_m
+    ignores gentle slopes); d up to reach_m.
     """
     h = maps.ground_height
     res = maps.resolution_m
@@ -397,18 +401,23 @@ def shin_keepout(
     for d in np.arange(res, reach_m + 1e-9, res):
         jx = np.clip(np.rint(ix - d * c / res).astype(np.intp), 0, nx - 1)
         jy = np.clip(np.rint(iy - d * s / res).astype(np.intp), 0, ny - 1)
-        out |= h[jx, jy] - h > max(d - radius_m, 0.0) / slope
+        out |= h[jx, jy] - h > max(d - radius_m, 0.0) / slope + min_rise_m
     return out
 
 
-def with_shin_keepout(
-    maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float
+def with_keepouts(
+    maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float, foot_margin_m: float
 ) -> TerrainMaps:
-    """Gives the maps with the shin keep-out (see shin_keepout) added to the step obstacles (SDF recomputed)."""
+    """Gives the maps with the shin keep-out (see shin_keepout) added to the step obstacles and those grown by
+    foot_margin_m (the foot's radius: a foot centered just off a box still scrapes its side); SDF recomputed."""
     extra = shin_keepout(maps, yaw, slope, radius_m, reach_m)
-    if not np.any(extra & ~maps.step_obstacle):
-        return maps
     step = maps.step_obstacle | extra
+    r = int(round(foot_margin_m / maps.resolution_m))
+    if r > 0 and step.any():
+        i = np.arange(-r, r + 1)
+        step = ndimage.binary_dilation(step, structure=(i[:, None] ** 2 + i[None, :] ** 2) <= r * r)
+    if not np.any(step & ~maps.step_obstacle):
+        return maps
     sdf = signed_distance(step, maps.resolution_m)
     return dataclasses.replace(
         maps, step_obstacle=step, sdf_step_m=sdf, grad_sdf_step=_gradient(sdf, maps.resolution_m)

@@ -1,0 +1,164 @@
+"""Navigator pieces (no long simulation): keep-outs, path following, crouching, step-QP footholds, crossing checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planning.sim.run import RunOptions, WalkCommand, WalkSession
+from planning.steps.state import StepPath
+from planning.terrain.bodypath import plan_body_path
+from planning.terrain.crossing import no_step_flags, no_step_touchdowns, terrain_span_x
+from planning.terrain.maps import maps_from_grids
+from planning.terrain.navigate import NavigatorParams, TerrainNavigator, shin_keepout, with_keepouts
+from planning.terrain.scenes import build_terrain
+
+RES = 0.03
+
+
+def _grid(nx: int = 120, ny: int = 80, x0: float = -1.0, y0: float = -1.2) -> tuple[np.ndarray, np.ndarray]:
+    return x0 + np.arange(nx) * RES, y0 + np.arange(ny) * RES
+
+
+def _session(terrain: str = "flat", goal: tuple[float, float] = (3.0, 0.0)) -> WalkSession:
+    cmd = WalkCommand(goal=goal, terrain_aware=True, terrain_sensor=False)
+    return WalkSession(cmd, RunOptions(terrain=terrain, duration_s=1.0))
+
+
+def test_shin_keepout_is_behind_a_step_up_only() -> None:
+    xs, ys = _grid()
+    h = np.where(xs[:, None] >= 1.0, 0.15, 0.0) * np.ones((1, ys.size))
+    maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    keep = shin_keepout(maps, yaw=np.pi, slope=0.875, radius_m=0.04, reach_m=0.27)  # walking toward -x: down
+    col = keep[:, 40]
+    # facing -x, the shin trails toward +x: the cells just below the step (x < 1) are blocked, about 0.12 m of them
+    blocked_x = xs[col]
+    assert blocked_x.size > 0 and blocked_x.max() < 1.0
+    assert 0.09 <= 1.0 - blocked_x.min() <= 0.2
+    # facing +x (up the step), the step is ahead of the foot: nothing is blocked
+    assert not shin_keepout(maps, 0.0, 0.875, 0.04, 0.27).any()
+
+
+def test_keepouts_grow_step_obstacles_by_the_foot_margin() -> None:
+    xs, ys = _grid()
+    step = (np.abs(xs[:, None] - 0.5) < 0.05) & (np.abs(ys[None, :]) < 0.05)
+    maps = maps_from_grids((xs[0], ys[0]), RES, np.zeros(step.shape), step)
+    grown = with_keepouts(maps, 0.0, 0.875, 0.04, 0.27, foot_margin_m=0.06)
+    assert grown.step_obstacle.sum() > step.sum()
+    assert bool(grown.no_step(0.5, 0.09)) and not bool(maps.no_step(0.5, 0.09))
+    assert float(grown.sdf_step(0.5, 0.0)) < float(maps.sdf_step(0.5, 0.0))
+
+
+def test_command_follows_the_path_and_stops_at_the_goal() -> None:
+    session = _session()
+    nav: TerrainNavigator = session.navigator
+    s = session.loop.state
+    nav.path = plan_body_path(None, s.p_world_body[:2], s.yaw, nav.goal)
+    cmd = nav.command(s)
+    assert cmd.vx > 0.1 and abs(cmd.vy) < 0.05 and abs(cmd.yaw_rate) < 1e-6
+    assert cmd.vx <= nav.params.max_speed_mps + 1e-9
+    s.p_world_body[:2] = nav.goal + 0.01
+    stop = nav.command(s)
+    assert stop.vx == 0.0 and stop.vy == 0.0
+
+
+def test_command_slows_where_the_step_map_is_dense() -> None:
+    session = _session()
+    nav: TerrainNavigator = session.navigator
+    s = session.loop.state
+    xs, ys = _grid()
+    nav.path = plan_body_path(None, s.p_world_body[:2], s.yaw, nav.goal)
+    free = maps_from_grids(
+        (xs[0], ys[0]), RES, np.zeros((xs.size, ys.size)), np.zeros((xs.size, ys.size), bool)
+    )
+    dense = maps_from_grids(
+        (xs[0], ys[0]),
+        RES,
+        np.zeros((xs.size, ys.size)),
+        (np.arange(xs.size)[:, None] % 3 == 0) & (ys[None] < 9),
+    )
+    nav.maps = free
+    fast = nav.command(s).vx
+    nav.maps = dense
+    slow = nav.command(s).vx
+    assert slow < 0.8 * fast
+    assert slow >= nav.params.min_speed_mps - 1e-9
+
+
+def test_body_height_is_lowered_under_an_overhang_only() -> None:
+    session = _session()
+    nav: TerrainNavigator = session.navigator
+    s = session.loop.state
+    xs, ys = _grid()
+    maps = maps_from_grids(
+        (xs[0], ys[0]), RES, np.zeros((xs.size, ys.size)), np.zeros((xs.size, ys.size), bool)
+    )
+    nav.maps = maps
+    nav._update_height(s)
+    assert session.controller.height == pytest.approx(nav.standing_height)
+    clearance = np.where((xs[:, None] > 0.3) & (np.abs(ys[None]) < 0.7), 0.60, np.inf) * np.ones((1, ys.size))
+    nav.maps = maps_from_grids((xs[0], ys[0]), RES, maps.ground_height, maps.step_obstacle)
+    object.__setattr__(nav.maps, "clearance_m", clearance)
+    nav._update_height(s)
+    p = nav.params
+    assert session.controller.height == pytest.approx(0.60 - p.body_top_m - p.head_margin_m)
+    assert session.controller.height >= p.min_height_m
+
+
+def test_step_qp_moves_planned_footholds_off_no_step_cells() -> None:
+    session = _session()
+    c = session.controller
+    nav: TerrainNavigator = session.navigator
+    loop = session.loop
+    for _ in range(300):  # 0.6 s: standing up and starting to walk on flat maps
+        loop.step()
+    sel = c.planner.last
+    assert sel is not None and sel.path.n_touchdowns >= 8
+    # A no-step patch around every planned touchdown of the first 8 (of the unrefined selection).
+    xs, ys = _grid(nx=200, ny=100, x0=-1.0, y0=-1.5)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    step = np.zeros(X.shape, bool)
+    path: StepPath = sel.path
+    order = np.lexsort((path.leg, path.t_touchdown))[:8]
+    for p in path.p_world_touchdown[order]:
+        step |= np.hypot(X - p[0], Y - p[1]) < 0.05
+    nav.maps = maps_from_grids((xs[0], ys[0]), RES, np.zeros(X.shape), step)
+    refined = nav.refine(loop.state, sel)
+    assert refined.path.kind.endswith("+qp")
+    t_rel = path.t_touchdown[order] - loop.state.t
+    moved = [k for j, k in enumerate(order) if t_rel[j] >= nav.params.qp_min_time_s]
+    assert moved
+    new = refined.path.p_world_touchdown[moved]
+    assert not np.any(np.asarray(nav.maps.no_step(new[:, 0], new[:, 1]), dtype=bool))
+    assert np.all(np.linalg.norm(new[:, :2] - path.p_world_touchdown[moved, :2], axis=1) < 0.15)
+
+
+def test_no_step_flags_on_the_stones_ground_truth() -> None:
+    scene = build_terrain("stones")
+    x0, x1 = terrain_span_x(scene)
+    assert (x0, x1) == (1.0, 5.0)
+    # Held up over the pit (on nothing that is support), on the platform, straddling the platform's edge, and flat
+    # on the pit floor (a support surface, however unwise).
+    pts = np.array([[x0 + 0.05, 1.0, 0.0], [0.5, 0.0, 0.0], [x0, 0.0, 0.0], [x0 + 0.05, 1.0, -0.3]])
+    flags = no_step_flags(scene, pts)
+    assert flags.tolist() == [True, False, True, False]
+    assert no_step_touchdowns(scene, list(pts)) == 2
+
+
+@pytest.mark.parametrize("name", ["stairs", "stones", "clutter", "under-table", "slope", "rough"])
+def test_terrain_span_lies_between_start_and_goal(name: str) -> None:
+    x0, x1 = terrain_span_x(build_terrain(name))
+    assert 0.5 <= x0 < x1 <= 5.2
+
+
+def test_bad_goal_is_rejected_with_the_field_named() -> None:
+    session = _session()
+    with pytest.raises(ValueError, match="goal_xy"):
+        TerrainNavigator(
+            session.controller, session.world.model, session.world.data, (np.nan, 0.0), session.scene
+        )
+    with pytest.raises(ValueError, match="use_sensor"):
+        TerrainNavigator(
+            session.controller, session.world.model, session.world.data, (1.0, 0.0), None,
+            NavigatorParams(use_sensor=False),
+        )  # fmt: skip
