@@ -170,7 +170,8 @@ class Handler:
         other = self._self_collision(leg, s)
         if not (foot_hit or knee_hit or other is not None):
             return False
-        if self.trips[leg] is not None and s.t - self.trips[leg].t_s < 0.1:
+        last = self.trips[leg]
+        if last is not None and s.t - last.t_s < 0.1:
             return False  # the same trip, still being answered
         feet_body = (s.p_world_foot - s.p_world_body) @ s.R_world_body
         trip = classify_trip(
@@ -240,16 +241,15 @@ class Handler:
             t_td = float(self.t_touchdown[i])
             target = self.p_touchdown[i].copy()
             wp = self.waypoints[i]
-            ahead = None if wp is None else np.flatnonzero(wp[:, 0] > s.t + 0.005)
-            if ahead is not None and ahead.size and self.phase[i] == Phase.SWING:
-                t_td, target = (
-                    float(wp[ahead[0], 0]),
-                    wp[ahead[0], 1:4].copy(),
-                )  # on the way: the next waypoint
+            ahead = np.zeros(0, dtype=np.int64) if wp is None else np.flatnonzero(wp[:, 0] > s.t + 0.005)
+            if wp is not None and ahead.size and self.phase[i] == Phase.SWING:
+                # on the way: the next waypoint
+                t_td, target = float(wp[ahead[0], 0]), wp[ahead[0], 1:4].copy()
             elif self.phase[i] == Phase.SWING and t_td - self.params.touchdown_lead_s > s.t + 0.01:
                 t_td -= self.params.touchdown_lead_s
             target[2] -= self.params.touchdown_depth_m
-            trip = self.trips[i] if self.trips[i] is not None and s.t - self.trips[i].t_s < 0.02 else None
+            last = self.trips[i]
+            trip = last if last is not None and s.t - last.t_s < 0.02 else None
             reqs.append(SwingRequest(i, p, s.v_world_foot[i], target, t_td, trip))
         stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == Phase.STANCE}
         v = s.v_world_body if v_body_des is None else v_body_des
