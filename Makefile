@@ -21,7 +21,8 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 test: lint
-	$(BIN)/pytest -n 2 -q
+	$(BIN)/pytest -n 2 -q -m "not load"
+	$(BIN)/pytest -q -p no:xdist -m load tests/server
 
 bench: $(STAMP)
 	$(BIN)/footfall bench --json bench.json

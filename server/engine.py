@@ -336,23 +336,40 @@ class LiveSim:
         ref = self.reference()
         if ref is not None:
             overlays["body_target"] = {"kind": "points", "points": [_r(ref[0])], "color": [0.1, 0.9, 0.3]}
-        steps = self._upcoming_touchdowns() if not self.walking else self._walk_steps()
-        if steps is not None:
-            overlays.update(steps)
+        if not self.walking:
+            steps = self._upcoming_touchdowns()
+            if steps is not None:
+                overlays.update(steps)
+        extra = getattr(self.session.controller, "plan_overlays", None)
+        if callable(extra):
+            # The controller draws its own plan (swings, forces, step paths, solver plan); ours stay as fallbacks.
+            try:
+                theirs = dict(extra())
+            except Exception as e:  # noqa: BLE001 - a planner's overlay bug must not break the session's state
+                theirs = {"plan_overlays_error": {"kind": "points", "points": [], "error": repr(e)[:200]}}
+            if isinstance(theirs.get("contact_forces"), dict):
+                theirs["contact_forces"] = {
+                    **theirs["contact_forces"],
+                    "forces_n": overlays["contact_forces"]["forces_n"],
+                }
+            overlays.update(theirs)
+        else:
+            overlays.update(self._fallback_overlays())
+        return {"t": round(self.t, 4), "overlays": overlays}
+
+    def _fallback_overlays(self) -> dict[str, Any]:
+        """Overlays read off the controller's state when it does not draw its own plan."""
+        out: dict[str, Any] = {}
+        if self.walking:
+            out.update(self._walk_steps() or {})
         swings = self._swing_trajectories()
         if swings is not None:
-            overlays["swing_trajectories"] = swings
+            out["swing_trajectories"] = swings
         sol = getattr(self.session.controller, "solution", None)
         p_sol = getattr(sol, "p_world", None)
         if p_sol is not None and getattr(sol, "ok", False) and np.ndim(p_sol) == 2 and len(p_sol) > 1:
-            overlays["centroidal_plan"] = {"kind": "polyline", "points": _r(p_sol), "color": [0.6, 0.4, 1.0]}
-        extra = getattr(self.session.controller, "plan_overlays", None)
-        if callable(extra):
-            try:
-                overlays.update(extra())
-            except Exception as e:  # noqa: BLE001 - a planner's overlay bug must not break the session's state
-                overlays["plan_overlays_error"] = {"kind": "points", "points": [], "error": repr(e)[:200]}
-        return {"t": round(self.t, 4), "overlays": overlays}
+            out["centroidal_plan"] = {"kind": "polyline", "points": _r(p_sol), "color": [0.6, 0.4, 1.0]}
+        return out
 
     def _upcoming_touchdowns(self) -> dict[str, Any] | None:
         sched = getattr(self.session, "schedule", None)

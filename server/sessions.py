@@ -33,6 +33,7 @@ Mode = Literal["steer", "maneuver"]
 Status = Literal["running", "paused", "crashed", "stopped"]
 MAX_LAG_S = 0.5  # a session further behind the wall clock than this drops the difference (and counts it), s
 PUBLISH_PERIOD_S = 1.0 / 60.0  # snapshots for readers, s
+MAX_BATCH_TICKS = 8  # physics ticks stepped between two looks at the clock (16 ms of simulated time)
 FRAME_PERIOD_S = 1.0 / 30.0  # recorded body poses for the exported preview, s
 MAX_FRAMES = 30 * 120  # two minutes of recording
 PLOT_SAMPLES = 600  # ten seconds at 60 Hz
@@ -216,7 +217,8 @@ class LiveSession:
                     owed = MAX_LAG_S
                 with self.lock:
                     sim = self.sim
-                    n = int(owed / sim.dt)
+                    # Small batches, so readers get fresh snapshots at ~60 Hz even while the session catches up.
+                    n = min(int(owed / sim.dt), MAX_BATCH_TICKS)
                     try:
                         for _ in range(n):
                             sim.step()
@@ -251,10 +253,13 @@ class LiveSession:
                             self._sample_plot()
                 except Exception as e:  # noqa: BLE001
                     self._crash(e)
-            # Sleep to the next batch: ~4 ticks of 2 ms, or idle when paused/crashed (woken by commands).
+            # Sleep to the next batch (~4 ticks of 2 ms; none while catching up), or idle when paused or crashed
+            # (woken by commands).
             if running:
-                busy = time.perf_counter() - now
-                time.sleep(max(0.0, 0.008 - busy))
+                if owed < self.sim.dt:
+                    time.sleep(max(0.0, 0.008 - (time.perf_counter() - now)))
+                else:
+                    time.sleep(0)  # let readers and other sessions in
             else:
                 self._wake.wait(0.1)
                 self._wake.clear()
@@ -355,8 +360,11 @@ class LiveSession:
         self._replace(self._entry_spec(self.mode, gait), terrain)
 
     def pause(self) -> None:
+        """Stops stepping; when this returns, no batch is in flight and the state is the paused one."""
         if self.status == "running":
             self.status = "paused"
+        with self.lock:  # waits out a batch in flight
+            self.snapshot = self._take_snapshot()
         self._wake.set()
 
     def resume(self) -> None:

@@ -10,7 +10,8 @@ Rows (A x in [l, u]), in order:
   fric   N × 4 × 8   4 pyramid faces, f_n <= c fz_max, f_n >= c fz_min, two cone cuts (tangent planes)
   cbnd   N × 4       c in [c_lo, c_hi]
   mono   (N−1) × 4   c_{k+1} − c_k >= 0 (touchdown window) / <= 0 (liftoff window) / free
-  kin    (K−1) × 4 × 2  leg-length cut (tangent plane of the circle of FIG. 2E), hip line
+  kin    (K−1) × 4 × 2  leg-length cut (tangent plane of the circle of FIG. 2E), hip line; each with the contact
+                        variable of one adjacent interval (relaxed by M (1 − c) inside a timing window)
   foot   4 × S × (2 + E)  box and polygon on d
 
 The angular rows couple every interval to every foothold variable (the pattern cannot know which touchdown an
@@ -129,6 +130,10 @@ class Layout:
         A.add("kp", self.r_kin[..., None], self.i_p[1:][:, None, None, :])
         A.add("kt", self.r_kin[..., None], self.i_th[1:][:, None, None, :])
         A.add("kd", self.r_kin[..., None, None], self.i_d[None, :, None, :, :])
+        # The contact variable of the interval ending (kc0) or starting (kc1) at the knot: a row of a foot that may
+        # not be down yet (or any more) is relaxed by M (1 − c) (big-M), exact when c = 1.
+        A.add("kc0", self.r_kin, self.i_c[:, :, None])
+        A.add("kc1", self.r_kin[: N - 1], self.i_c[1:, :, None])
         A.add("db", self.r_foot[:, :, :2], self.i_d)
         A.add("dp", self.r_foot[:, :, 2:, None], self.i_d[:, :, None, :])
         self.A_blocks = A.blocks

@@ -87,6 +87,20 @@ def build_schedule(
     planted = td <= t0 + 1e-9
     e1 = np.where(planted, 0.0, e1)
     l1 = np.where(planted, 0.0, l1)
+    # A foot still in the air cannot have touched down in the past, nor can a foot already up lift off then:
+    # windows start at t0 at the earliest.
+    e1 = np.minimum(e1, np.maximum(td - t0, 0.0))
+    e2 = np.minimum(e2, np.maximum(lo - t0, 0.0))
+    # Windows of one leg's consecutive phases that overlap share the nominal gap (liftoff → touchdown) out in
+    # proportion to what each asked for, so both stay choices and the nominal timing stays one of them.
+    if leg.size > 1:
+        same = leg[1:] == leg[:-1]
+        gap = np.maximum(td[1:] - lo[:-1], 0.0)
+        ask_lo, ask_td = np.minimum(l2[:-1], gap), np.minimum(e1[1:], gap)
+        over = same & (ask_lo + ask_td > gap)
+        share = np.where(over, gap / np.maximum(ask_lo + ask_td, 1e-12), 1.0)
+        l2[:-1] = np.where(same, ask_lo * share, l2[:-1])
+        e1[1:] = np.where(same, ask_td * share, e1[1:])
     keep = ~((lo + l2 <= t0 + 1e-9) | (td - e1 >= tN - 1e-9))
     leg, td, lo, e1, l1, e2, l2, planted = (x[keep] for x in (leg, td, lo, e1, l1, e2, l2, planted))
     phases = [p for p, k in zip(phases, keep, strict=True) if k]

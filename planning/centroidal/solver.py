@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -59,7 +59,9 @@ class CentroidalParams:
     cut_margin_m: leg-length rows start active when the linearization point is this close to a limit.
     linearization_error_threshold_m: the integrated solution must stay this close (position m + orientation rad ×
     error_length_m) for ``ok``. time_budget_ms: a tick over it is not ``ok`` and adds no more cuts.
-    timing_adjustment: let touchdown/liftoff times move within their windows.
+    timing_adjustment: let touchdown/liftoff times move within their windows. window_slack_m: inside a window a
+    foot's leg-length and hip rows hold only once it is down (c = 1); with c = 0 they give way by this much (m)
+    beyond what the linearization point already needs (a big-M relaxation, M (1 − c)).
     eps_abs / eps_rel / max_iter / rho / polish: OSQP settings. ADMM alone at 1e-4 can leave contact forces tens
     of newtons off the optimum (the forces' cost is tiny beside the tracking terms, so ADMM is slow along the
     force-distribution directions); polishing (a KKT solve on the guessed active set) makes them exact, and the
@@ -80,6 +82,7 @@ class CentroidalParams:
     error_length_m: float = 0.35
     time_budget_ms: float = 10.0
     timing_adjustment: bool = True
+    window_slack_m: float = 1.0
     eps_abs: float = 3e-5
     eps_rel: float = 3e-5
     eps_fallback: float = 1e-7
@@ -211,6 +214,23 @@ class QPSnapshot:
     x: np.ndarray | None
 
 
+_C_WHOLE = 0.01  # a window's contact variable within this of 0 or 1 counts as whole
+
+
+@dataclass
+class _Run:
+    """One QP answer after its cut rounds: OSQP's result, the unpacked solution, the cut work, QP time (ms)."""
+
+    res: Any
+    sol: dict[str, np.ndarray]
+    rounds: int
+    n_cuts: int
+    len_viol: float
+    cone_viol: float
+    t_qp: float
+    snapshot: QPSnapshot | None
+
+
 @dataclass
 class _Previous:
     """The last solution, kept as the next tick's linearization point and warm start."""
@@ -297,6 +317,11 @@ class _Instance:
         self.len_dir = np.zeros((L.K - 1, N_LEGS, 3))
         self.len_on = np.zeros((L.K - 1, N_LEGS), dtype=bool)
         self.air = np.ones((L.N, N_LEGS), dtype=bool)
+        # Kinematic rows of knots whose foot may be up (timing windows): relaxed by M (1 − c) of one interval.
+        self.relax = np.zeros((L.K - 1, N_LEGS), dtype=bool)
+        self.use_next = np.zeros((L.K - 1, N_LEGS), dtype=bool)  # c of the interval starting at the knot
+        self.big_m = np.zeros((L.K - 1, N_LEGS, 2))  # per row: M, m
+        self.side = np.ones((L.K - 1, N_LEGS, 2))  # +1: the row's upper bound is kept, −1: the lower
         # Blocks whose values never change are written once here; a tick writes the rest.
         for name, val in (("init", 1.0), ("pp1", 1.0), ("pp0", -1.0), ("vv1", 1.0), ("vv0", -1.0), ("tt1", 1.0),
                           ("ww1", 1.0), ("cb", 1.0), ("mo1", 1.0), ("mo0", -1.0), ("db", 1.0)):  # fmt: skip
@@ -348,6 +373,8 @@ class CentroidalSolver:
         self._fr, self._kin, self._kd = inst.fr, inst.kin, inst.kd
         self._cone_dir, self._pyr_dir, self._cone_on = inst.cone_dir, inst.pyr_dir, inst.cone_on
         self._len_dir, self._len_on, self._air = inst.len_dir, inst.len_on, inst.air
+        self._relax, self._use_next = inst.relax, inst.use_next
+        self._big_m, self._side = inst.big_m, inst.side
 
     # ----------------------------------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -602,6 +629,7 @@ class CentroidalSolver:
         lo, hi = model.leg_length_min_m, model.leg_length_max_m
         self._len_on[:] = khas & ((dist > hi - prm.cut_margin_m) | (dist < lo + prm.cut_margin_m))
         self._len_dir[:] = vec / np.maximum(dist, 1e-9)[..., None]
+        self._relaxed_knots(tk)
         # Hip line: a_b · (Rᵀ (foot − p) − p_body_hip) in range, with Rᵀ x ≈ R̄ᵀ (x + [x̄]× θ).
         a_b = np.array([math.cos(model.hip_line_tilt_rad), 0.0, -math.sin(model.hip_line_tilt_rad)])
         a_w = Rk @ a_b
@@ -615,12 +643,52 @@ class CentroidalSolver:
         self._kin_var = kv
         kk, ii = np.nonzero(kv >= 0)
         kd[kk, ii, 1, kv[kk, ii], :] = a_w[kk] @ _E_XY
-        base = (a_b @ model.p_body_hip.T)[None, :] - np.einsum("kj,klj->kl", a_w, nom_c)
+        hip_bh = (a_b @ model.p_body_hip.T)[None, :]
+        base = hip_bh - np.einsum("kj,klj->kl", a_w, nom_c)
+        # Relaxed rows (foot maybe not down) keep the side the linearization point is nearer to, and give way by
+        # M = slack + what the linearization point already needs.
+        relax, side, big_m = self._relax, self._side, self._big_m
+        h_lo, h_hi = model.hip_x_range_m
+        off = np.einsum("kj,klj->kl", a_w, xbar) - hip_bh
+        side[..., 0] = np.where(dist >= 0.5 * (lo + hi), 1.0, -1.0)
+        side[..., 1] = np.where(off >= 0.5 * (h_lo + h_hi), 1.0, -1.0)
+        need0 = np.where(side[..., 0] > 0, dist - hi, lo - dist)
+        need1 = np.where(side[..., 1] > 0, off - h_hi, h_lo - off)
+        big_m[..., 0] = prm.window_slack_m + np.maximum(need0, 0.0)
+        big_m[..., 1] = prm.window_slack_m + np.maximum(need1, 0.0)
         r_h = L.r_kin[:, :, 1]
-        self._l[r_h] = np.where(khas, model.hip_x_range_m[0] + base, -INF)
-        self._u[r_h] = np.where(khas, model.hip_x_range_m[1] + base, INF)
+        m1 = np.where(relax, big_m[..., 1], 0.0)
+        self._l[r_h] = np.where(khas & ~(relax & (side[..., 1] > 0)), h_lo + base - m1, -INF)
+        self._u[r_h] = np.where(khas & ~(relax & (side[..., 1] < 0)), h_hi + base + m1, INF)
         self._khas = khas
         self._write_length_cuts(tk)
+
+    def _relaxed_knots(self, tk: _Tick) -> None:
+        """Marks the knots whose foot may not be down (no adjacent interval of its slot is surely in stance) and
+        picks the contact variable their rows hang on: the interval that is down whenever the other one is
+        (the later one in a touchdown window, the earlier one in a liftoff window)."""
+        sch, n = tk.sch, tk.N
+        ks = tk.knot_slot
+        sl = tk.slot
+        c_lo = np.zeros(sl.shape)
+        c_lo[:n] = sch.c_lo
+        mono = np.zeros(sl.shape, dtype=np.int64)
+        mono[: max(n - 1, 0)] = sch.mono
+        has = ks >= 0
+        prev = has & (sl == ks)  # the interval ending at the knot belongs to the knot's foot
+        nxt = np.zeros_like(prev)
+        nxt[:-1] = has[:-1] & (sl[1:] == ks[:-1])
+        sure = prev & (c_lo > 0.5)
+        sure[:-1] |= nxt[:-1] & (c_lo[1:] > 0.5)
+        self._relax[:] = has & ~sure
+        self._use_next[:] = self._relax & nxt & (~prev | (mono >= 0))
+
+    def _write_relaxation(self) -> None:
+        """Writes the M coefficients of the relaxed kinematic rows on their contact variables."""
+        coef = np.where(self._relax[..., None], self._side * self._big_m, 0.0)
+        nxt = self._use_next[..., None]
+        self._put("kc0", np.where(nxt, 0.0, coef))
+        self._put("kc1", np.where(nxt, coef, 0.0)[:-1])
 
     def _write_length_cuts(self, tk: _Tick) -> None:
         """Writes leg-length rows: u · (hip(p, θ) − foot(d)) in [min, max] along each row's direction u."""
@@ -641,8 +709,11 @@ class CentroidalSolver:
         const = np.einsum("klj,klj->kl", u_dir, tk.hbar - tk.foot_c)
         r = L.r_kin[:, :, 0]
         on = self._len_on & self._khas
-        self._l[r] = np.where(on, model.leg_length_min_m - const, -INF)
-        self._u[r] = np.where(on, model.leg_length_max_m - const, INF)
+        relax, side = self._relax, self._side[..., 0]
+        m0 = np.where(relax, self._big_m[..., 0], 0.0)
+        self._l[r] = np.where(on & ~(relax & (side > 0)), model.leg_length_min_m - const - m0, -INF)
+        self._u[r] = np.where(on & ~(relax & (side < 0)), model.leg_length_max_m - const + m0, INF)
+        self._write_relaxation()
 
     def _fill_footholds(self, tk: _Tick) -> None:
         """Writes the box and polygon rows of each foothold variable (unused ones are held at zero)."""
@@ -777,7 +848,7 @@ class CentroidalSolver:
 
     # ----------------------------------------------------------------------------------------------------------
     def _solve(self, pr: CentroidalProblem, sch: ContactSchedule, t0: float) -> CentroidalSolution:
-        prm, L = self.params, self.L
+        L = self.L
         tk = self._tick_arrays(pr, sch)
         self._fill_dynamics(tk)
         self._fill_friction(tk)
@@ -796,8 +867,59 @@ class CentroidalSolver:
         self._qp.update(q=self._q, l=self._l, u=self._u, Px=self._Px[L.P_order], Ax=self._Ax[L.A_order])
         self._qp.warm_start(x=x_ws)
         res = self._run_qp()
-        t_qp = (time.perf_counter() - tq) * 1e3
         self.last_info = [res.info]
+        t_qp = (time.perf_counter() - tq) * 1e3
+        run = None
+        if int(res.info.status_val) in (1, 2) and self._relax[: tk.K - 1].any():
+            # An answer leaning on the relaxation's give goes straight to whole schedules (cuts come there).
+            first = _Run(res, self._unpack(res.x, tk), 0, 0, 0.0, 0.0, t_qp, None)
+            run = self._snap_timing(tk, first, t0)
+        if run is None:
+            run = self._cut_rounds(tk, res, t0, t_qp)
+            if int(run.res.info.status_val) in (1, 2) and self._relax[: tk.K - 1].any():
+                run = self._snap_timing(tk, run, t0) or run
+        res, t_qp = run.res, run.t_qp
+        self.last_snapshot = run.snapshot
+        qp_iter = int(sum(int(i.iter) for i in self.last_info))
+        status_val = int(res.info.status_val)
+        if status_val not in (1, 2):
+            # No answer: the last good solution stays the linearization point for the next tick.
+            name = _STATUS_NAMES.get(status_val, "solver_error")
+            return _failure(name, f"OSQP: {res.info.status}", t0, t_qp)
+        return self._finish(tk, res, run.sol, t0, t_qp, qp_iter, run.rounds, run.n_cuts, run.len_viol,
+                            run.cone_viol)  # fmt: skip
+
+    def _leans_on_slack(self, sol: dict[str, np.ndarray], tk: _Tick) -> float:
+        """Returns how far (m) a foot the solution loads (c above _C_WHOLE) inside a timing window is out of its
+        leg-length or hip-line limits, 0 when none is: the answer leans on the big-M give of the relaxation."""
+        K, model = tk.K, tk.pr.model
+        relax = self._relax[: K - 1]
+        if not relax.any():
+            return 0.0
+        c = sol["c"]
+        c_sel = c[: K - 1].copy()
+        c_sel[: K - 2] = np.where(self._use_next[: K - 2], c[1 : K - 1], c_sel[: K - 2])
+        kk, ii = np.nonzero(relax & (c_sel > _C_WHOLE))
+        if kk.size == 0:
+            return 0.0
+        ks = np.maximum(tk.knot_slot[kk, ii], 0)
+        foot_c = sol["feet"][ii, ks] + model.foot_radius_m * tk.sch.nrm[ii, ks]
+        R = sol["R"][kk + 1]
+        rel = np.einsum("nji,nj->ni", R, foot_c - sol["p"][kk + 1]) - model.p_body_hip[ii]  # body frame
+        dist = np.linalg.norm(rel, axis=-1)
+        a_b = np.array([math.cos(model.hip_line_tilt_rad), 0.0, -math.sin(model.hip_line_tilt_rad)])
+        off = rel @ a_b
+        lo, hi = model.hip_x_range_m
+        over = np.maximum(
+            np.maximum(dist - model.leg_length_max_m, model.leg_length_min_m - dist),
+            np.maximum(off - hi, lo - off),
+        )
+        return float(max(over.max(), 0.0))
+
+    def _cut_rounds(self, tk: _Tick, res: Any, t0: float, t_qp: float) -> _Run:
+        """Adds tangent-plane cuts for the nonlinear constraints the solution violates and re-solves, a few rounds
+        at most; returns the last answer with what it took."""
+        prm, L = self.params, self.L
         rounds = n_cuts = 0
         len_viol = cone_viol = 0.0
         sol: dict[str, np.ndarray] = {}
@@ -818,25 +940,67 @@ class CentroidalSolver:
             res = self._run_qp()
             t_qp += (time.perf_counter() - tq) * 1e3
             self.last_info.append(res.info)
-        self.last_snapshot = QPSnapshot(
-            self._Px.copy(),
-            self._Ax.copy(),
-            self._q.copy(),
-            self._l.copy(),
-            self._u.copy(),
-            tk.K,
-            tk.N,
-            tk.Fs,
-            self.L,
-            None if res.x is None else np.array(res.x),
-        )
-        qp_iter = int(sum(int(i.iter) for i in self.last_info))
-        status_val = int(res.info.status_val)
-        if status_val not in (1, 2):
-            # No answer: the last good solution stays the linearization point for the next tick.
-            name = _STATUS_NAMES.get(status_val, "solver_error")
-            return _failure(name, f"OSQP: {res.info.status}", t0, t_qp)
-        return self._finish(tk, res, sol, t0, t_qp, qp_iter, rounds, n_cuts, len_viol, cone_viol)
+        snap = QPSnapshot(self._Px.copy(), self._Ax.copy(), self._q.copy(), self._l.copy(), self._u.copy(), tk.K,
+                          tk.N, tk.Fs, self.L, None if res.x is None else np.array(res.x))  # fmt: skip
+        return _Run(res, sol, rounds, n_cuts, len_viol, cone_viol, t_qp, snap)
+
+    def _snap_timing(self, tk: _Tick, run: _Run, t0: float) -> _Run | None:
+        """Makes a relaxed schedule whole where it has to be. A window's contact variable between 0 and 1 is a
+        foot pushing lightly, physically fine while the foot is within reach; but its kinematic rows give way by
+        M (1 − c), and when the answer uses that (a loaded foot out of reach), the QP is solved again with the
+        windows' contact fixed: down wherever the relaxed answer loads the foot at all, down only where it loads
+        it fully, and the nominal timing (a schedule the relaxation contains, so timing adjustment never does worse than
+        none); the cheaper answer is kept. Only bounds change: no refactorization. Returns None when the answer
+        does not lean on the give. Past the time budget no further schedule is tried once one has solved."""
+        sch, pr, L, N = tk.sch, tk.pr, self.L, tk.N
+        win = sch.c_hi > sch.c_lo
+        c = run.sol["c"]
+        lean = self._leans_on_slack(run.sol, tk)
+        if lean <= self.params.leg_length_tol_m:
+            return None
+        cands: list[np.ndarray] = []
+        for cf in (
+            np.where(win, (c > _C_WHOLE).astype(float), sch.c_lo),  # down wherever it pushes at all
+            np.where(win, (c >= 1.0 - _C_WHOLE).astype(float), sch.c_lo),  # down only where fully
+            np.where(win, pr.contact.astype(float), sch.c_lo),  # nominal timing
+        ):
+            if not any(np.array_equal(cf, x) for x in cands):
+                cands.append(cf)
+        best = None
+        x0 = np.array(run.res.x)
+        r_cb = L.r_cb[:N]
+        floor = float(run.res.info.obj_val)  # the relaxation's optimum: no whole schedule does better
+        # A schedule that does not solve mostly runs to max_iter (infeasibility is slow to detect): cap it.
+        self._qp.update_settings(max_iter=max(self.params.max_iter // 4, 50))
+        for cf in cands:
+            if best is not None and (
+                float(best.res.info.obj_val) <= floor + 1e-4 * max(1.0, abs(floor))
+                or (time.perf_counter() - t0) * 1e3 > self.params.time_budget_ms
+            ):
+                break
+            self._l[r_cb] = cf
+            self._u[r_cb] = cf
+            x_ws = x0.copy()
+            x_ws[L.i_c[:N]] = cf
+            tq = time.perf_counter()
+            self._qp.update(l=self._l, u=self._u)
+            self._qp.warm_start(x=x_ws)
+            res = self._run_qp()
+            self.last_info.append(res.info)
+            got = self._cut_rounds(tk, res, t0, run.t_qp + (time.perf_counter() - tq) * 1e3)
+            run = replace(run, t_qp=got.t_qp)
+            if int(got.res.info.status_val) not in (1, 2):
+                continue
+            if best is None or float(got.res.info.obj_val) < float(best.res.info.obj_val):
+                best = got
+        self._qp.update_settings(max_iter=self.params.max_iter)
+        if best is None:  # no whole schedule solves: the relaxed answer, out of reach, is not ``ok``
+            self._l[r_cb] = sch.c_lo
+            self._u[r_cb] = sch.c_hi
+            snap = QPSnapshot(self._Px.copy(), self._Ax.copy(), self._q.copy(), self._l.copy(), self._u.copy(),
+                              tk.K, tk.N, tk.Fs, self.L, x0)  # fmt: skip
+            return replace(run, len_viol=max(run.len_viol, lean), snapshot=snap)
+        return replace(best, t_qp=run.t_qp)
 
     def _run_qp(self) -> Any:
         """Solves the QP as it stands; when polishing fails (a degenerate active set), goes on to the tight
@@ -896,12 +1060,23 @@ class CentroidalSolver:
         vec = hip - foot_c
         dist = np.linalg.norm(vec, axis=-1)
         act = self._khas[: K - 1]
-        over = np.where(act, np.maximum(dist - model.leg_length_max_m, model.leg_length_min_m - dist), 0.0)
+        # A relaxed row (foot maybe up) allows M (1 − c) more.
+        c = sol["c"]
+        c_sel = np.ones((K - 1, N_LEGS))
+        nxt = self._use_next[: K - 1]
+        c_sel[:] = c[: K - 1]
+        c_sel[: K - 2] = np.where(nxt[: K - 2], c[1 : K - 1], c_sel[: K - 2])
+        give = np.where(self._relax[: K - 1], self._big_m[: K - 1, :, 0] * (1.0 - c_sel), 0.0)
+        too_long = dist - model.leg_length_max_m - give
+        over = np.where(act, np.maximum(too_long, model.leg_length_min_m - dist - give), 0.0)
         new_len = np.zeros_like(self._len_on)
         new_len[: K - 1] = over > prm.leg_length_tol_m
         if new_len.any():
             self._len_on |= new_len
             self._len_dir[new_len] = (vec / np.maximum(dist, 1e-9)[..., None])[new_len[: K - 1]]
+            flip = new_len[: K - 1] & self._relax[: K - 1]
+            s0 = self._side[: K - 1, :, 0]
+            s0[:] = np.where(flip, np.where(too_long > 0.0, 1.0, -1.0), s0)
         # Friction cone.
         f = sol["f"]
         t1, t2, n = tk.t1[:N], tk.t2[:N], tk.n[:N]

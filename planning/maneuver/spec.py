@@ -156,7 +156,9 @@ class Gait(_Model):
     gait: GaitName
     from_: Time = Field(alias="from", description="start time, s")
     to: Time = Field(description="end time, s (every swing lands by then)")
-    cycle: Positive = Field(description="cycle period, s")
+    cycle: Annotated[float, Field(strict=True, ge=0.1, le=10.0)] = Field(
+        description="cycle period, s (0.1 to 10: faster than 0.1 s no leg can swing, slower is not a gait)"
+    )
     duty: Annotated[float, Field(strict=True, gt=0.0, lt=1.0)] = Field(
         description="fraction of a cycle each foot is on the ground"
     )

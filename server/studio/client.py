@@ -20,7 +20,7 @@ from server.studio.robot_view import RobotView
 
 log = logging.getLogger("footfall.studio")
 
-FRAME_HZ = 45.0  # robot pose updates per second sent to the browser (≥ 30 fps)
+FRAME_HZ = 60.0  # robot pose updates per second sent to the browser (≥ 30 fps), at most the publish rate
 OVERLAY_HZ = 10.0
 PLOT_HZ = 4.0
 STATUS_HZ = 4.0
@@ -209,7 +209,7 @@ class StudioClient:
             self.client.send_file_download(f"{stem}.html", html.encode("utf-8"), save_immediately=True)
 
     def _build_drive(self) -> None:
-        from server.engine import terrain_names
+        from server.engine import steering_gaits, terrain_names
 
         gui = self.client.gui
         names = list(terrain_names())
@@ -224,8 +224,9 @@ class StudioClient:
             self.sl_vx = gui.add_slider("vx (m/s)", -1.0, 1.0, 0.05, 0.0)
             self.sl_vy = gui.add_slider("vy (m/s)", -0.5, 0.5, 0.05, 0.0)
             self.sl_yaw = gui.add_slider("yaw rate (rad/s)", -1.5, 1.5, 0.05, 0.0)
+            gaits = steering_gaits() or ("trot",)
             self.dd_gait = gui.add_dropdown(
-                "gait", ("trot", "walk", "pace", "bound", "pronk"), initial_value="trot"
+                "gait", gaits, initial_value="trot" if "trot" in gaits else gaits[0]
             )
             btn_send = gui.add_button("Send command")
             btn_stop = gui.add_button("Stop")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import json
+import logging
 import re
 import threading
 import warnings
@@ -26,6 +27,7 @@ from planning.maneuver.load import read_yaml
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
 
+log = logging.getLogger("footfall.studio")
 FORMAT = "footfall/maneuver@1"
 WEIGHT_NAMES = ("force", "pose", "touchdown_time", "touchdown_position", "hip_over_foot")
 WEIGHT_DEFAULTS = {
@@ -661,9 +663,15 @@ class ManeuverEditor:
         with self.lock:
             if self._validate_timer is not None:
                 self._validate_timer.cancel()
-            self._validate_timer = threading.Timer(delay_s, self.validate_now)
+            self._validate_timer = threading.Timer(delay_s, self._validate_quietly)
             self._validate_timer.daemon = True
             self._validate_timer.start()
+
+    def _validate_quietly(self) -> None:
+        try:
+            self.validate_now()
+        except Exception:  # noqa: BLE001 - a background check must not kill its timer thread noisily
+            log.exception("studio validation")
 
     def validate_now(self, announce: bool = False) -> Any:
         """Validates the document, shows the problems on their items; returns the result (None: shape errors)."""
@@ -883,15 +891,16 @@ class ManeuverEditor:
         off = self.world_offset()
         p, rpy = self._reference_at(t)
         sc = self.scene
-        sc.add_box("/edit/scrub/body", dimensions=TRUNK_DIMS_M, color=(76, 201, 240), opacity=0.25,
-                   position=p + off, wxyz=wxyz_from_rpy_deg(rpy))  # fmt: skip
         sched = getattr(self.result, "schedule", None)
-        if sched is not None:
+        with self.lock:  # nodes are replaced by name: one thread at a time
             try:
-                feet = np.array([sched.foot_target(i, t) for i in range(4)], dtype=np.float32) + off
-                sc.add_point_cloud("/edit/scrub/feet", points=feet, colors=(76, 201, 240), point_size=0.05,
-                                   point_shape="circle")  # fmt: skip
-            except Exception:  # noqa: BLE001
+                sc.add_box("/edit/scrub/body", dimensions=TRUNK_DIMS_M, color=(76, 201, 240), opacity=0.25,
+                           position=p + off, wxyz=wxyz_from_rpy_deg(rpy))  # fmt: skip
+                if sched is not None:
+                    feet = np.array([sched.foot_target(i, t) for i in range(4)], dtype=np.float32) + off
+                    sc.add_point_cloud("/edit/scrub/feet", points=feet, colors=(76, 201, 240), point_size=0.05,
+                                       point_shape="circle")  # fmt: skip
+            except Exception:  # noqa: BLE001 - a ghost that cannot be drawn (tab closing, odd schedule) is skipped
                 pass
 
     def set_visible(self, on: bool) -> None:

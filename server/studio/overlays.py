@@ -8,14 +8,12 @@ from typing import Any
 
 import numpy as np
 
-DEFAULT_ON = {
-    "contact_forces",
-    "body_path",
-    "step_plan",
-    "capture_point",
-    "swing_trajectories",
-    "body_target",
-}
+DEFAULT_OFF_WORDS = ("potential", "reference", "error")  # shown on request only: busy or diagnostic
+
+
+def default_on(name: str) -> bool:
+    """Returns whether an overlay is shown until toggled: all but the busy and diagnostic ones."""
+    return not any(w in name for w in DEFAULT_OFF_WORDS)
 
 
 def overlay_geometry(entry: dict[str, Any]) -> tuple[str, np.ndarray] | None:
@@ -69,7 +67,7 @@ class OverlayView:
         overlays = plan.get("overlays", {}) if isinstance(plan, dict) else {}
         for name, entry in overlays.items():
             if name not in self.enabled:
-                self.enabled[name] = name in DEFAULT_ON
+                self.enabled[name] = default_on(name)
                 if self.on_new is not None:
                     self.on_new(name)
             if not self.enabled[name] or not isinstance(entry, dict):

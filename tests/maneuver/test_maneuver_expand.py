@@ -219,7 +219,7 @@ def test_gait_after_an_explicit_step_starts_from_where_the_feet_are(mk) -> None:
 
 def test_too_many_events_are_refused_before_they_are_built(mk) -> None:
     m = parse_maneuver(
-        mk(duration=60.0, gaits=[{"gait": "pronk", "from": 0, "to": 60, "cycle": 0.05, "duty": 0.5}])
+        mk(duration=60.0, gaits=[{"gait": "pronk", "from": 0, "to": 60, "cycle": 0.1, "duty": 0.5}])
     )
     with pytest.raises(ManeuverError, match=f"at most {MAX_EVENTS}"):
         build_schedule(m, ROBOT)

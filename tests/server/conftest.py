@@ -13,23 +13,6 @@ from server_fakes import FakeSim, fake_runner, make_client
 from server.settings import Settings
 
 
-def pytest_configure(config: pytest.Config) -> None:
-    config.addinivalue_line(
-        "markers", "load: 20 clients polling a live session for 30 s (slow; only with -m load)"
-    )
-    config.addinivalue_line("markers", "browser: drives the studio in a headless Chromium (~30 s)")
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    # The load test takes half a minute and wants the machine to itself: run it only when asked for by marker.
-    if "load" in (config.option.markexpr or ""):
-        return
-    skip = pytest.mark.skip(reason="load test: run with  pytest -m load tests/server")
-    for item in items:
-        if item.get_closest_marker("load") is not None:
-            item.add_marker(skip)
-
-
 @pytest.fixture
 def settings(tmp_path: Path) -> Settings:
     return Settings(data_dir=tmp_path / "data", max_sessions=3, sim_workers=1, max_queued_simulations=4,

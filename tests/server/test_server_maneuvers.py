@@ -157,7 +157,7 @@ def _bad_bodies(bow: dict[str, Any]) -> list[tuple[str, Any, str]]:
     too_long = _mine(bow)
     too_long["duration"] = 61.0
     many_events = _mine(bow)
-    many_events["gaits"] = [{"gait": "trot", "from": 0.0, "to": 59.0, "cycle": 0.05, "duty": 0.5}]
+    many_events["gaits"] = [{"gait": "trot", "from": 0.0, "to": 59.0, "cycle": 0.1, "duty": 0.5}]
     many_events["duration"] = 60.0
     return [
         ("wrong type", wrong_type, "duration"),
