@@ -52,7 +52,9 @@ def test_walks_to_a_goal() -> None:
 def test_capture_point_selection_survives_a_push_the_reference_path_does_not() -> None:
     push = [Push(2.0, (0.0, 400.0, 0.0), 0.1)]  # 40 N·s sideways while trotting at 0.5 m/s
     with_cp = run_walk(WalkCommand(vx=0.5), RunOptions(duration_s=5.0, pushes=push))
-    reference = run_walk(WalkCommand(vx=0.5, capture_point_selection=False), RunOptions(duration_s=5.0, pushes=push))
+    reference = run_walk(
+        WalkCommand(vx=0.5, capture_point_selection=False), RunOptions(duration_s=5.0, pushes=push)
+    )
     assert with_cp["success"] and not with_cp["fell"]
     assert reference["fell"]
 
