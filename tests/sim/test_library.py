@@ -128,3 +128,11 @@ def test_shipped_maneuver_succeeds_in_mujoco(name: str) -> None:
     assert not rep["fell"]
     assert rep["solver"]["fallback_ticks"] <= 0.1 * rep["solver"]["balance_ticks"]
     CHECKS[name](rep, sess)
+
+
+def test_the_smaller_robot_runs_the_same_stack() -> None:
+    """Nothing is tied to one robot: the Go1-sized description trots in place through the same code."""
+    sess = ManeuverSession(load_maneuver(find_maneuver("trot-in-place")), RunOptions(robot="go1"))
+    rep = sess.run()
+    assert rep["success"] and rep["robot"] == "go1"
+    assert len(rep["touchdowns"]) >= 30 and rep["solver"]["fallback_ticks"] == 0
