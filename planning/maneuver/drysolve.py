@@ -51,9 +51,13 @@ def dry_solve(
     state = BodyState(0.0, p0 + R0 @ gen.model.p_body_com, v0, R0, w0)
     moved: dict[str, Problem] = {}
     failures: list[Problem] = []
+    late_until = np.full(4, -np.inf)  # a touchdown the solver moved later keeps its foot up until then
     t = 0.0
     while t < maneuver.duration - 1e-9 and len(failures) < pr.max_failures:
-        sol = solver.solve(gen.problem_at(state))
+        # the robot does what was planned: the plan's contacts, with the solver's moved touchdowns, are "measured"
+        contact = np.array([schedule.swing_at(leg, t) is None and t >= late_until[leg] for leg in range(4)])
+        feet = np.array([schedule.foot_position(leg, t) for leg in range(4)])
+        sol = solver.solve(gen.problem_at(state, contact, feet))
         if sol.status in ("infeasible", "invalid") or (not sol.ok and sol.p_world.shape[0] < 2):
             nxt = next((e for e in schedule.events() if e.t >= t - 1e-9), None)
             where = nxt.path if nxt is not None else ""
@@ -71,6 +75,8 @@ def dry_solve(
                 continue
             dt = td.t - td.t_nominal
             dp = float(np.linalg.norm(np.asarray(td.p_world)[:2] - np.asarray(td.p_world_nominal)[:2]))
+            if dt > 0.0 and td.t_nominal <= t + pr.step_s + 1e-9:
+                late_until[td.leg] = td.t
             if abs(dt) > pr.moved_time_s or dp > pr.moved_place_m:
                 moved[path] = Problem(
                     path,
