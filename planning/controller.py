@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -10,8 +9,9 @@ from typing import Any
 import numpy as np
 
 from planning.balance import BalanceController, BalanceParams, BodyTarget
+from planning.centroidal.driver import SolverDriver
 from planning.centroidal.problem import BodyState
-from planning.centroidal.solver import CentroidalParams, CentroidalSolution, CentroidalSolver
+from planning.centroidal.solver import CentroidalSolution
 from planning.handler import ContactPlan, Handler, HandlerParams
 from planning.maneuver.generator import ProblemGenerator
 from planning.robot import RobotModel
@@ -74,16 +74,11 @@ class Controller:
         ]
         # the centroidal solver: its solution drives when good, the balance controller (backup) otherwise
         self.generator = generator if self.params.use_centroidal else None
-        budget = self.params.solver_time_budget_ms
-        cparams = CentroidalParams(time_budget_ms=math.inf if budget is None else budget)
-        self.solver = CentroidalSolver(cparams, robot=robot) if self.generator is not None else None
-        self.solution: CentroidalSolution | None = None
-        self.t_solution = -np.inf
-        self.fallback_ticks = 0  # balance ticks driven by the backup controller while the solver was in use
-        self.solver_ticks = 0
-        self.linearization_errors: list[float] = []
-        self.qp_ms: list[float] = []
-        self.statuses: dict[str, int] = {}
+        self.driver = (
+            SolverDriver(robot, self.params.solver_time_budget_ms, self.params.solution_max_age_s)
+            if self.generator is not None
+            else None
+        )
         if self.generator is not None:
             self.stages.insert(0, Stage("centroidal", self.params.centroidal_rate_hz, self._centroidal))
 
@@ -92,49 +87,39 @@ class Controller:
         return self.handler.stance
 
     def _centroidal(self, s: RobotState) -> None:
-        assert self.generator is not None and self.solver is not None
+        assert self.generator is not None and self.driver is not None
         if s.t == 0.0:
             self.handler.update_phases(s, self.contact_plan)
         state = BodyState(
             s.t, s.p_world_com.copy(), s.v_world_com.copy(), s.R_world_body.copy(), s.omega_world.copy()
         )
         feet = s.p_world_foot - np.array([0.0, 0.0, self.robot.foot_radius_m])
-        problem = self.generator.problem_at(state, self.handler.stance.copy(), feet)
-        sol = self.solver.solve(problem)
-        self.solver_ticks += 1
-        self.statuses[sol.status] = self.statuses.get(sol.status, 0) + 1
-        self.qp_ms.append(sol.qp_ms)
-        if np.isfinite(sol.linearization_error):
-            self.linearization_errors.append(float(sol.linearization_error))
+        sol = self.driver.solve(self.generator.problem_at(state, self.handler.stance.copy(), feet), s.t)
         if sol.ok:
-            self.solution = sol
-            self.t_solution = s.t
             # the solver may move the touchdown of a swinging foot (within its adjust window): steer the swing there
             for td in sol.touchdowns:
                 sw = self.contact_plan.swing_at(td.leg, s.t)
                 if not td.planted and sw is not None and abs(td.t_nominal - sw.t_touchdown) < 1e-6:
-                    self.handler.set_touchdown(
-                        td.leg, td.p_world, td.t if abs(td.t - td.t_nominal) > 0.005 else None
-                    )
+                    moved = td.t if abs(td.t - td.t_nominal) > 0.005 else None
+                    self.handler.set_touchdown(td.leg, td.p_world, moved)
 
     def _balance(self, s: RobotState) -> None:
         self.handler.update_phases(s, self.contact_plan)
         self.target = self.body_reference(s.t)
         stance = self.handler.stance
-        sol = self.solution
-        if sol is not None and s.t - self.t_solution <= self.params.solution_max_age_s:
-            self.f_des[:] = sol.force_at(s.t)
-            self.f_des[~stance] = 0.0
-            self.balance.r_com_foot[:] = s.p_world_foot - s.p_world_com
+        if self.driver is not None and self.driver.forces(s.t, stance, self.f_des):
+            np.subtract(s.p_world_foot, s.p_world_com, out=self.balance.r_com_foot)
             self.balance.r_com_foot[:, 2] -= self.robot.foot_radius_m
         else:
-            if self.generator is not None:
-                self.fallback_ticks += 1
             self.f_des[:] = self.balance.contact_forces(s, self.target, stance)
 
     def _swing(self, s: RobotState) -> None:
         v = None if self.target is None else self.target.v_world_body
         self.handler.plan_swings(s, v)
+
+    @property
+    def solution(self) -> CentroidalSolution | None:
+        return None if self.driver is None else self.driver.solution
 
     def plan_overlays(self) -> dict[str, dict[str, Any]]:
         """Returns the studio's overlays: swing trajectories, contact forces, the solver's body plan and footholds."""

@@ -7,7 +7,6 @@ the swing foot lands. The body reference follows the filtered command.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -15,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from planning.balance import BalanceController, BalanceParams, BodyTarget
+from planning.centroidal.driver import SolverDriver
 from planning.centroidal.problem import BodyState
-from planning.centroidal.solver import CentroidalParams, CentroidalSolution, CentroidalSolver
 from planning.geometry import yaw_R
 from planning.handler import Handler, HandlerParams
 from planning.robot import RobotModel
@@ -119,14 +118,7 @@ class WalkController:
         self._yaw_des = 0.0
         self._t_last = 0.0
         self.problems = StepPathProblems(robot)
-        self.solver = CentroidalSolver(CentroidalParams(time_budget_ms=math.inf), robot=robot)
-        self.solution: CentroidalSolution | None = None
-        self.t_solution = -np.inf
-        self.fallback_ticks = 0
-        self.solver_ticks = 0
-        self.statuses: dict[str, int] = {}
-        self.qp_ms: list[float] = []
-        self.linearization_errors: list[float] = []
+        self.driver = SolverDriver(robot, None, p.solution_max_age_s) if p.use_centroidal else None
         self.stages = [
             Stage("step_plan", p.step_rate_hz, self._step_plan),
             Stage("balance", p.balance_rate_hz, self._balance),
@@ -195,36 +187,24 @@ class WalkController:
 
     def _centroidal(self, s: RobotState) -> None:
         sel = self.plan.selection
-        if sel is None:
+        if sel is None or self.driver is None:
             return
         state = BodyState(
             s.t, s.p_world_com.copy(), s.v_world_com.copy(), s.R_world_body.copy(), s.omega_world.copy()
         )
-        problem = self.problems.problem_at(
-            state, sel.path, self.handler.stance.copy(), self.handler.p_contact, self.height
+        stance = self.handler.stance.copy()
+        self.driver.solve(
+            self.problems.problem_at(state, sel.path, stance, self.handler.p_contact, self.height), s.t
         )
-        sol = self.solver.solve(problem)
-        self.solver_ticks += 1
-        self.statuses[sol.status] = self.statuses.get(sol.status, 0) + 1
-        self.qp_ms.append(sol.qp_ms)
-        if np.isfinite(sol.linearization_error):
-            self.linearization_errors.append(float(sol.linearization_error))
-        if sol.ok:
-            self.solution, self.t_solution = sol, s.t
 
     def _balance(self, s: RobotState) -> None:
         self.handler.update_phases(s, self.plan)
         self._update_target(s)
         stance = self.handler.stance
-        sol = self.solution
-        if sol is not None and s.t - self.t_solution <= self.params.solution_max_age_s:
-            self.f_des[:] = sol.force_at(s.t)
-            self.f_des[~stance] = 0.0
+        if self.driver is not None and self.driver.forces(s.t, stance, self.f_des):
             np.subtract(s.p_world_foot, s.p_world_com, out=self.balance.r_com_foot)
             self.balance.r_com_foot[:, 2] -= self.robot.foot_radius_m
         else:
-            if self.params.use_centroidal:
-                self.fallback_ticks += 1
             self.f_des[:] = self.balance.contact_forces(s, self.target, stance)
 
     def _update_target(self, s: RobotState) -> None:

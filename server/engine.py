@@ -243,9 +243,9 @@ class LiveSim:
             lst = getattr(rec, name, None)
             if isinstance(lst, list) and len(lst) > 30_000:
                 del lst[:-10_000]
-        ctl = getattr(self.session, "controller", None)
+        driver = getattr(getattr(self.session, "controller", None), "driver", None)
         for name in ("qp_ms", "linearization_errors"):
-            lst = getattr(ctl, name, None)
+            lst = getattr(driver, name, None)
             if isinstance(lst, list) and len(lst) > 30_000:
                 del lst[:-10_000]
 

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from planning.geometry import rpy_rates_to_omega, rpy_to_R
 from planning.maneuver.expand import Schedule, build_schedule, start_feet, support_frame
 from planning.maneuver.problems import ManeuverError, Problem
 from planning.maneuver.spec import Maneuver
@@ -38,25 +39,10 @@ def _slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     return m
 
 
-def omega_world_from_rpy(rpy: np.ndarray, rpy_dot: np.ndarray) -> np.ndarray:
-    """Returns the world-frame angular velocity (3,) rad/s of R = Rz(yaw) Ry(pitch) Rx(roll) given rpy rates."""
-    _, pitch, yaw = rpy
-    droll, dpitch, dyaw = rpy_dot
-    cy, sy, cp, sp = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
-    return np.array([cy * cp * droll - sy * dpitch, sy * cp * droll + cy * dpitch, dyaw - sp * droll])
-
-
-def rotation_from_rpy(rpy: np.ndarray) -> np.ndarray:
-    """Returns R_world_body (3,3) = Rz(yaw) Ry(pitch) Rx(roll) for rpy (3,) in radians."""
-    r, p, y = rpy
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
+# one rotation convention for the whole project: planning.geometry (re-exported here under the names this module
+# has always offered)
+omega_world_from_rpy = rpy_rates_to_omega
+rotation_from_rpy = rpy_to_R
 
 
 class BodyReference:

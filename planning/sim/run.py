@@ -224,20 +224,7 @@ class ManeuverSession(_Session):
         return float(self.maneuver.duration)
 
     def _solver_report(self, stage_times: dict[str, Any]) -> dict[str, Any]:
-        c = self.controller
-        cen = stage_times.get("centroidal", {})
-        lin = c.linearization_errors
-        return {
-            "tick_ms_p50": cen.get("p50_ms"),
-            "tick_ms_p99": cen.get("p99_ms"),
-            "qp_ms_p50": round(float(np.median(c.qp_ms)), 4) if c.qp_ms else None,
-            "fallback_ticks": c.fallback_ticks,
-            "balance_ticks": len(next((st.times_ms for st in c.stages if st.name == "balance"), [])),
-            "solver_ticks": c.solver_ticks,
-            "statuses": dict(c.statuses),
-            "linearization_error_p50": round(float(np.median(lin)), 6) if lin else None,
-            "linearization_error_first4": [round(x, 6) for x in lin[:4]],
-        }
+        return _solver_section(self.controller, stage_times)
 
     def _velocity_rms(self) -> dict[str, float | None]:
         rec = self.recorder
@@ -301,6 +288,27 @@ class ManeuverSession(_Session):
             "waypoints": self.waypoints.rows,
             "solver": self._solver_report(stage_times),
         }
+
+
+def _solver_section(controller: Any, stage_times: dict[str, Any]) -> dict[str, Any]:
+    """Returns the report's "solver" section: the centroidal solver's numbers, or the balance controller's ticks."""
+    balance = len(next((st.times_ms for st in controller.stages if st.name == "balance"), []))
+    driver = getattr(controller, "driver", None)
+    if driver is not None:
+        return driver.report(stage_times, balance)  # type: ignore[no-any-return]
+    bal = stage_times.get("balance", {})
+    return {
+        "tick_ms_p50": bal.get("p50_ms"),
+        "tick_ms_p99": bal.get("p99_ms"),
+        "qp_ms_p50": None,
+        "fallback_ticks": 0,
+        "balance_ticks": balance,
+        "solver_ticks": 0,
+        "statuses": {},
+        "linearization_error_p50": None,
+        "linearization_error_first4": [],
+        "forces_from": "balance QP (no centroidal solver in this mode)",
+    }
 
 
 def velocity_rms(err: np.ndarray) -> dict[str, float | None]:
@@ -456,13 +464,7 @@ class WalkSession(_Session):
                 "yaw_rate": round(mean_w, 4),
             },
             "steps_taken": len(rec.touchdowns),
-            "solver": {
-                "tick_ms_p50": base["stages"].get("balance", {}).get("p50_ms"),
-                "tick_ms_p99": base["stages"].get("balance", {}).get("p99_ms"),
-                "qp_ms_p50": None,
-                "fallback_ticks": 0,
-                "linearization_error_p50": None,
-            },
+            "solver": _solver_section(self.controller, base["stages"]),
         }
 
     def _terrain_report(self) -> dict[str, Any]:
