@@ -23,7 +23,7 @@ class Stage:
     rate_hz: float
     fn: Callable[[RobotState], None]
     times_ms: list[float] = field(default_factory=list)
-    decimation: int = 1
+    next_t: float = 0.0  # simulated time of its next run, s
 
 
 @dataclass(frozen=True)
@@ -66,8 +66,8 @@ class Loop:
         self.fall = fall or FallCriteria()
         self.monitors = monitors or []
         self.state = RobotState()
-        for s in stages:
-            s.decimation = max(1, round(1.0 / (s.rate_hz * world.dt)))
+        for st in stages:
+            st.next_t = world.t
         self.tick = 0
         self.fell = False
         self.fall_time: float | None = None
@@ -78,11 +78,15 @@ class Loop:
     def step(self) -> RobotState:
         """Runs one physics tick: read the state, run due stages, write torques, step physics."""
         s = self.world.read_state(self.state)
+        eps = 1e-9
         for st in self.stages:
-            if self.tick % st.decimation == 0:
+            # a stage runs at the first physics step at or after its time, so its average period is exactly its
+            # declared one (a 3 ms stage on a 2 ms step runs after 2, 4, 2, 4 ... ms)
+            if s.t + eps >= st.next_t:
                 t0 = time.perf_counter()
                 st.fn(s)
                 st.times_ms.append((time.perf_counter() - t0) * 1e3)
+                st.next_t = max(st.next_t + 1.0 / st.rate_hz, s.t + eps)
         tau = self.actuate(s)
         self.world.set_torques(tau)
         for mon in self.monitors:
