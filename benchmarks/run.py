@@ -220,12 +220,11 @@ def format_table(result: dict[str, Any]) -> str:
     """Returns the benchmark result as a plain-text table."""
     lines = [f"{'stage':24s} {'p50 ms':>9s} {'p99 ms':>9s} {'bare solver p50 ms':>19s}  notes"]
     for name, r in result["stages"].items():
-        if not isinstance(r, dict) or "p50_ms" not in r:
-            for sub, rr in (r or {}).items():
-                if isinstance(rr, dict) and "p50_ms" in rr:
-                    lines.append(_row(f"{name}.{sub}", rr))
-            continue
-        lines.append(_row(name, r))
+        if isinstance(r, dict) and "p50_ms" in r:
+            lines.append(_row(name, r))
+        for sub, rr in (r or {}).items():  # cases inside a stage (e.g. swing selection: flat, box, crossing)
+            if isinstance(rr, dict) and "p50_ms" in rr:
+                lines.append(_row(f"{name}.{sub}", rr))
     for k, v in result.get("closed_loop", {}).items():
         if not isinstance(v, dict):
             lines.append(f"{'closed_loop.' + k:24s} {v}")
