@@ -16,7 +16,7 @@ import numpy as np
 from planning.balance import BalanceController, BalanceParams, BodyTarget
 from planning.centroidal.driver import SolverDriver
 from planning.centroidal.problem import BodyState
-from planning.geometry import yaw_R
+from planning.geometry import rpy_to_R, yaw_R
 from planning.handler import Handler, HandlerParams
 from planning.robot import RobotModel
 from planning.sim.loop import Stage
@@ -104,6 +104,8 @@ class WalkController:
         self.handler = Handler(robot, params=p.handler)
         self.balance = BalanceController(robot, p.balance)
         self.command = SteeringCommand()
+        self._then_gait: str | None = None
+        self._trot_since: float | None = None
         self.goal: np.ndarray | None = None
         # Terrain hooks (terrain-aware walking sets them): maps for step screening and foothold heights; a
         # command source that overrides steering (e.g. following a body path to a goal); the body height.
@@ -112,6 +114,7 @@ class WalkController:
         self.foothold_filter: Callable[[RobotState, Selection], Selection] | None = None
         self.f_des = np.zeros((4, 3))
         self.height = robot.standing_height_m
+        self.pitch = 0.0  # body pitch target, rad (positive: nose down), e.g. along a slope or a stair
         self.target = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
         self._last_state: RobotState | None = None
         self._p_des: np.ndarray | None = None
@@ -136,8 +139,18 @@ class WalkController:
     def set_goal(self, x: float, y: float) -> None:
         self.goal = np.array([x, y], dtype=float)
 
+    # switches that go through a trot (measured: straight from a bound to a crawl the robot falls)
+    _VIA_TROT: frozenset[tuple[str, str]] = frozenset({("bound", "walk")})
+
     def set_gait(self, gait: str) -> None:
+        """Switches gait while walking (at the planner's next safe boundary); some switches go through a trot."""
+        current = self.planner.clock.gait.name
         self.gait = gait
+        if (current, gait) in self._VIA_TROT:
+            self._then_gait = gait
+            self.planner.set_gait("trot")
+            return
+        self._then_gait = None
         self.planner.set_gait(gait)
 
     def _goal_command(self, s: RobotState) -> SteeringCommand:
@@ -169,6 +182,12 @@ class WalkController:
         )
 
     def _step_plan(self, s: RobotState) -> None:
+        clock = self.planner.clock
+        if self._then_gait is not None and clock.pending is None and clock.gait.name == "trot":
+            self._trot_since = s.t if self._trot_since is None else self._trot_since
+            if s.t - self._trot_since >= clock.gait.cycle_s:  # one full trot cycle, then on to the asked gait
+                self.planner.set_gait(self._then_gait)
+                self._then_gait, self._trot_since = None, None
         if self.command_source is not None:
             cmd = self.command_source(s)
         elif self.goal is not None:
@@ -215,8 +234,8 @@ class WalkController:
             self._p_des = s.p_world_body.copy()
             self._yaw_des = s.yaw
         self._yaw_des += cmd.yaw_rate * dt
-        R = yaw_R(self._yaw_des)
-        v = R @ np.array([cmd.vx, cmd.vy, 0.0])
+        v = yaw_R(self._yaw_des) @ np.array([cmd.vx, cmd.vy, 0.0])
+        R = rpy_to_R(np.array([0.0, self.pitch, self._yaw_des])) if self.pitch else yaw_R(self._yaw_des)
         self._p_des += v * dt
         # the target leads the body by a bounded amount: it tracks velocity, not an absolute path
         lead = self._p_des[:2] - s.p_world_body[:2]

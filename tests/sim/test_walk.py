@@ -69,3 +69,19 @@ def test_stop_means_a_stable_stand() -> None:
     s = sess.loop.state
     assert not sess.loop.fell and s.contact.all()
     assert np.linalg.norm(s.v_world_body[:2]) < 0.05
+
+
+GAITS = ("trot", "walk", "pace", "bound")
+
+
+@pytest.mark.parametrize(("first", "then"), [(a, b) for a in GAITS for b in GAITS if a != b])
+def test_gaits_walk_and_switch_while_walking(first: str, then: str) -> None:
+    sess = WalkSession(WalkCommand(vx=0.3, gait=first), RunOptions(duration_s=8.0))
+    x0 = sess.loop.state.p_world_body[0]
+    for gait, seconds in ((first, 2.5), (then, 4.0)):
+        sess.controller.set_gait(gait)
+        for _ in range(int(seconds / sess.world.dt)):
+            sess.loop.step()
+        assert not sess.loop.fell, f"fell in {gait}: {sess.loop.failure_reason}"
+    assert sess.controller.planner.clock.gait.name == then
+    assert sess.loop.state.p_world_body[0] - x0 > 1.2  # it kept walking forward through the switch
