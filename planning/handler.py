@@ -188,7 +188,8 @@ class Handler:
         in the simulator, so this is measured geometrically), or None."""
         p = s.p_world_foot[leg]
         for j in range(4):
-            if j == leg:
+            # a shin reaches at most ~0.3 m from its foot horizontally: skip legs whose foot is farther than that
+            if j == leg or abs(p[0] - s.p_world_foot[j, 0]) + abs(p[1] - s.p_world_foot[j, 1]) > 0.45:
                 continue
             knee = s.p_world_body + s.R_world_body @ self.robot.knee_body(j, s.q[j])
             foot = s.p_world_foot[j]

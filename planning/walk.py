@@ -72,7 +72,7 @@ class WalkParams:
         False  # True: the centroidal solver turns the plan into forces (see README: slower, tracks worse)
     )
     solution_max_age_s: float = 0.05
-    balance_rate_hz: float = 500.0
+    balance_rate_hz: float = 250.0  # phases and force distribution (500 Hz tracked no better, measured)
     swing_rate_hz: float = 1000.0 / 3.0
     goal_gain: float = 0.8  # 1/s, goal distance → speed command
     goal_speed_mps: float = 0.5  # speed cap when walking to a goal
