@@ -266,6 +266,11 @@ class LiveSim:
             self.maneuver = WalkLabel(gait)
         c.steer(vx, vy, yaw_rate)
 
+    def set_weights(self, preset: str) -> None:
+        """Sets the step-selection weights (Qp, Qr) of a walking simulation from a preset, while it walks."""
+        if self.walking:
+            self.session.controller.planner.set_weights(preset)
+
     # -- reading --
     def body_poses(self) -> tuple[np.ndarray, np.ndarray]:
         """Returns copies of (xpos (nb,3) m, xquat (nb,4) wxyz) of the robot's bodies, world frame."""

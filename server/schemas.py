@@ -123,6 +123,9 @@ class SteerIn(_In):
     vy: _num(-1.0, 1.0) = 0.0  # type: ignore[valid-type]
     yaw_rate: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
     gait: SteerGait = "trot"  # type: ignore[valid-type]
+    weights: Literal["default", "precise_footing", "stable_body"] | None = Field(
+        None, description="step selection weights (Qp, Qr) preset; None keeps the current ones"
+    )
 
 
 class SessionManeuverIn(_In):

@@ -385,9 +385,10 @@ class LiveSession:
         with self.lock:
             self.sim.push(force_n, duration_s)
 
-    def steer(self, vx: float, vy: float, yaw_rate: float, gait: str) -> None:
-        """Sets the velocity command (m/s, m/s, rad/s) and gait. A session running a maneuver switches to walking
-        (from the stance at the origin). SessionError 409 when the build has no steering, 422 for a bad gait."""
+    def steer(self, vx: float, vy: float, yaw_rate: float, gait: str, weights: str | None = None) -> None:
+        """Sets the velocity command (m/s, m/s, rad/s), gait and (optionally) the step-selection weight preset. A
+        session running a maneuver switches to walking (from the stance at the origin). SessionError 409 when the
+        build has no steering, 422 for a bad gait."""
         self._check_live()
         switch = False
         try:
@@ -408,8 +409,15 @@ class LiveSession:
                 raise SessionBadInput(str(e).removeprefix("gait: "), field="gait") from None
             self._replace(spec)
             self.resume()
+        if weights is not None:
+            with self.lock:
+                set_weights = getattr(self.sim, "set_weights", None)
+                if callable(set_weights):
+                    set_weights(weights)
         self.mode = "steer"
         self.command = {"vx": vx, "vy": vy, "yaw_rate": yaw_rate, "gait": gait}
+        if weights is not None:
+            self.command["weights"] = weights
 
     def state(self) -> dict[str, Any]:
         """Returns the latest published state with the session's status as of now (never waits for the physics)."""

@@ -95,7 +95,7 @@ async def session_recording(session_id: SessionId, sessions: SessionsDep) -> HTM
 )
 def session_steer(session_id: SessionId, body: SteerIn, sessions: SessionsDep) -> dict[str, Any]:
     s = sessions.get(session_id)
-    s.steer(body.vx, body.vy, body.yaw_rate, body.gait)
+    s.steer(body.vx, body.vy, body.yaw_rate, body.gait, body.weights)
     return s.state()
 
 

@@ -80,6 +80,11 @@ def test_steering_walks_the_robot(live: TestClient) -> None:
         assert steps is not None and len(steps["points"]) >= 2, sorted(plan)
         bad = live.post(f"/sessions/{sid}/steer", json={"vx": 0.1, "gait": "moonwalk"})
         assert bad.status_code == 422
+        # weight presets change while walking
+        r = live.post(f"/sessions/{sid}/steer", json={"vx": 0.4, "gait": "trot", "weights": "stable_body"})
+        assert r.status_code == 200 and r.json()["command"]["weights"] == "stable_body"
+        bad = live.post(f"/sessions/{sid}/steer", json={"vx": 0.4, "weights": "heavy"})
+        assert bad.status_code == 422 and "weights" in bad.text
         # reset keeps steer mode: walking again from the origin with a zero command
         st = live.post(f"/sessions/{sid}/reset").json()
         assert st["mode"] == "steer" and abs(st["body"]["position"][0]) < 0.05
