@@ -173,6 +173,7 @@ class StudioClient:
         self._bind_playback()
         if not self.editor.open("bow"):
             self.editor.new_document()
+        self.ready = True  # every panel is built (tests and the studio's status wait for this)
 
     def _bind_playback(self) -> None:
         ed = self.editor
@@ -228,6 +229,9 @@ class StudioClient:
             self.dd_gait = gui.add_dropdown(
                 "gait", gaits, initial_value="trot" if "trot" in gaits else gaits[0]
             )
+            self.dd_weights = gui.add_dropdown(
+                "step weights", ("default", "precise_footing", "stable_body"), initial_value="default"
+            )
             btn_send = gui.add_button("Send command")
             btn_stop = gui.add_button("Stop")
 
@@ -259,7 +263,7 @@ class StudioClient:
                 return
             try:
                 self.session.steer(float(self.sl_vx.value), float(self.sl_vy.value), float(self.sl_yaw.value),
-                                   str(self.dd_gait.value))  # fmt: skip
+                                   str(self.dd_gait.value), str(self.dd_weights.value))  # fmt: skip
             except SessionError as e:
                 now = time.time()
                 if now - self._last_note > 2.0:  # key repeats must not flood the tab with notes

@@ -80,7 +80,7 @@ def tab(studio_app: tuple[TestClient, Any]) -> Iterator[Any]:
         "the studio did not register the tab"
     )
     studio_client = next(iter(services.studio.clients.values()))
-    assert wait_for(lambda: studio_client.session is not None and hasattr(studio_client, "editor"))
+    assert wait_for(lambda: studio_client.session is not None and getattr(studio_client, "ready", False))
     yield studio_client
     browser.close()
     assert wait_for(lambda: client.get("/studio").json()["clients"] == 0)
