@@ -58,8 +58,13 @@ class NavigatorParams:
     qp_min_time_s: a touchdown sooner than this is left as it is; standing_height_m: body height target on open
     ground (None: the robot's); min_height_m: lowest body height target; body_top_m: body top above the body
     center (m, with the hips); head_margin_m: wanted gap between the body top and an overhang; crouch_ahead_m:
-    how far ahead (and behind) along the heading the clearance is looked up; shin_radius_m, shin_reach_m: the
+    how far ahead (and behind) along the heading the clearance is looked up; crouch_side_m: and to either side
+    (remembered overhangs); memory_cell_m: cell of the overhang memory; shin_radius_m, shin_reach_m: the
     stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee); foot_margin_m: step obstacles grown by this.
+    max_pitch_rad, max_pitch_rate_rps: limits of the body pitch target along the ground slope (rad, rad/s);
+    slow_gait: gait the controller switches to where the step-obstacle map ahead is dense (the no-step share of
+    the dense_radius_m disk ahead above slow_gait_on), and back to its own gait once the share is below
+    slow_gait_off (one foot at a time lands more precisely and the others hold the body meanwhile).
     """
 
     use_sensor: bool = True
@@ -83,9 +88,16 @@ class NavigatorParams:
     body_top_m: float = 0.10
     head_margin_m: float = 0.04
     crouch_ahead_m: float = 0.7
+    crouch_side_m: float = 0.15
+    memory_cell_m: float = 0.05
     shin_radius_m: float = 0.04
     shin_reach_m: float = 0.27
     foot_margin_m: float = 0.03
+    max_pitch_rad: float = 0.3
+    max_pitch_rate_rps: float = 0.6
+    slow_gait: str = "walk"
+    slow_gait_on: float = 0.15
+    slow_gait_off: float = 0.05
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -104,6 +116,7 @@ class NavigatorStats:
     qp_ms: list[float] = field(default_factory=list)
     cadences: dict[str, int] = field(default_factory=dict)
     min_height_m: float = np.inf
+    gait_switches: int = 0
 
     def summary(self) -> dict[str, Any]:
         ms = np.asarray(self.qp_ms) if self.qp_ms else np.zeros(1)
@@ -116,6 +129,7 @@ class NavigatorStats:
             "step_qp_ms_p50": round(float(np.percentile(ms, 50)), 3) if self.qp_ms else None,
             "step_qp_ms_p99": round(float(np.percentile(ms, 99)), 3) if self.qp_ms else None,
             "cadences": dict(self.cadences),
+            "gait_switches": self.gait_switches,
             "min_body_height_target_m": None
             if not np.isfinite(self.min_height_m)
             else round(self.min_height_m, 3),
@@ -162,6 +176,10 @@ class TerrainNavigator:
         self._truth_center: NDArray[np.float64] | None = None
         self._truth_maps: TerrainMaps | None = None
         self._t_path = -np.inf
+        self.fast_gait = str(controller.gait)
+        # Remembered overhangs: cells (memory_cell_m grid) and their height (m, world).
+        self._ceiling_keys = np.zeros((0, 2), dtype=np.int64)
+        self._ceiling_z = np.zeros(0)
 
     # ---- wiring ---------------------------------------------------------------------------------------------
     def attach(self) -> None:
@@ -197,6 +215,46 @@ class TerrainNavigator:
         self.controller.maps = maps
         self.stats.scans += 1
         self._update_height(s)
+        self._update_pitch(s)
+        self._update_gait(s)
+
+    def _update_pitch(self, s: RobotState) -> None:
+        """Pitches the body target along the ground slope under the body's heading (nose up going uphill).
+
+        The slope is the rise from the ground behind the body to the ground ahead (around the rear and the front
+        feet), each side the highest steppable cell of a few samples (a pit between stones is no ground to stand
+        on); the target moves toward it at most max_pitch_rate_rps.
+        """
+        p = self.params
+        maps = self.maps
+        assert maps is not None
+        d = np.array([0.15, 0.3, 0.45])
+        lat = np.array([-0.165, 0.165])
+        grid = np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1).reshape(-1, 2)
+        ends = []
+        for sign in (1.0, -1.0):
+            xy = s.p_world_body[:2] + rotate_yaw(s.yaw, grid * np.array([sign, 1.0]))
+            h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+            ok = ~np.asarray(maps.no_step(xy[:, 0], xy[:, 1]), dtype=bool)
+            ends.append(float(np.max(h[ok])) if np.any(ok) else np.nan)
+        rise = ends[0] - ends[1]
+        target = 0.0 if not np.isfinite(rise) else -float(np.arctan2(rise, 2.0 * d[1]))
+        target = float(np.clip(target, -p.max_pitch_rad, p.max_pitch_rad))
+        c = self.controller
+        step = p.max_pitch_rate_rps / p.perception_rate_hz
+        c.pitch = float(c.pitch + np.clip(target - c.pitch, -step, step))
+
+    def _update_gait(self, s: RobotState) -> None:
+        """Switches the controller to the slow gait where the step-obstacle map ahead is dense, and back."""
+        p = self.params
+        share = self._dense_share(s.p_world_body[:2], s.yaw)
+        c = self.controller
+        if c.gait != p.slow_gait and share > p.slow_gait_on:
+            c.set_gait(p.slow_gait)
+            self.stats.gait_switches += 1
+        elif c.gait == p.slow_gait and share < p.slow_gait_off and p.slow_gait != self.fast_gait:
+            c.set_gait(self.fast_gait)
+            self.stats.gait_switches += 1
 
     def _body_path(self, s: RobotState) -> None:
         """Replans the body path at path_rate_hz, and sooner when the current path's sweep hits an obstacle."""
@@ -232,7 +290,12 @@ class TerrainNavigator:
 
     # ---- body height ----------------------------------------------------------------------------------------
     def _update_height(self, s: RobotState) -> None:
-        """Lowers the body height target under overhangs (the clearance map around and ahead of the body)."""
+        """Lowers the body height target under overhangs (the clearance map around and ahead of the body).
+
+        Overhangs count by their height above the ground the robot stands on (the mean foot height, or the
+        ground under the sample when higher), not above their own cell's ground: over a pit, the side of a
+        stepping stone seen from afar would otherwise look like a low ceiling.
+        """
         p = self.params
         maps = self.maps
         assert maps is not None
@@ -240,16 +303,63 @@ class TerrainNavigator:
         d = np.linspace(-p.crouch_ahead_m, p.crouch_ahead_m, 15)
         lat = np.array([-0.12, 0.0, 0.12])
         xy = s.p_world_body[:2] + rotate_yaw(yaw, np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1))
+        xy = xy.reshape(-1, 2)
         # Only overhangs with room under them count: a tall box's column is a wall (a body obstacle), not a ceiling.
-        c = np.asarray(maps.clearance_at(xy[..., 0], xy[..., 1]), dtype=np.float64)
-        wall = np.asarray(maps.no_body(xy[..., 0], xy[..., 1]), dtype=bool)
-        clear = float(np.min(np.where(wall, np.inf, c)))
+        c = np.asarray(maps.clearance_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+        wall = np.asarray(maps.no_body(xy[:, 0], xy[:, 1]), dtype=bool)
+        h_cell = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+        z_ceiling = np.where(wall, np.inf, h_cell + c)
+        z_feet = float(np.mean(s.p_world_foot[:, 2])) - float(self.robot.foot_radius_m)
+        z_ground = np.maximum(h_cell, z_feet)
+        rel = z_ceiling - z_ground
+        clear = np.where(rel >= p.perception.maps.ceiling_above_m, rel, np.inf)
+        clear_now = min(
+            float(np.min(clear)), self._remembered_clearance(s.p_world_body[:2], xy, z_ceiling, yaw, z_feet)
+        )
         h = self.standing_height
-        if np.isfinite(clear):
-            h = min(h, clear - p.body_top_m - p.head_margin_m)
+        if np.isfinite(clear_now):
+            h = min(h, clear_now - p.body_top_m - p.head_margin_m)
         h = float(np.clip(h, p.min_height_m, self.standing_height))
         self.controller.height = h
         self.stats.min_height_m = min(self.stats.min_height_m, h)
+
+    def _remembered_clearance(
+        self,
+        p_body_xy: NDArray[np.float64],
+        xy: NDArray[np.float64],
+        z_ceiling: NDArray[np.float64],
+        yaw: float,
+        z_ground: float,
+    ) -> float:
+        """Gives the lowest remembered clearance (m) above z_ground in the crouch window around the body (heading
+        yaw, rad), after adding the overhang samples at xy (M, 2) (world, m) with their heights z_ceiling (M,).
+
+        The sensor sees an overhang only from a distance (its rays leave the body at most a little above the
+        horizon), and the voxel map forgets what it no longer sees: under a table the top above the body drops out
+        of the maps. Overhangs do not come and go, so their samples are kept (on a memory_cell_m grid, the lowest
+        per cell) and looked up in the same window around the body.
+        """
+        p = self.params
+        seen = np.isfinite(z_ceiling)
+        if np.any(seen):
+            keys = np.rint(xy[seen] / p.memory_cell_m).astype(np.int64)
+            mem_k = np.concatenate([self._ceiling_keys, keys])
+            mem_z = np.concatenate([self._ceiling_z, z_ceiling[seen]])
+            order = np.lexsort((mem_z, mem_k[:, 1], mem_k[:, 0]))
+            mem_k, mem_z = mem_k[order], mem_z[order]
+            first = np.ones(len(mem_z), dtype=bool)
+            first[1:] = np.any(mem_k[1:] != mem_k[:-1], axis=1)
+            self._ceiling_keys, self._ceiling_z = mem_k[first], mem_z[first]
+        if self._ceiling_z.size == 0:
+            return np.inf
+        d_body = rotate_yaw(-yaw, self._ceiling_keys * p.memory_cell_m - p_body_xy)
+        rel = self._ceiling_z - z_ground
+        near = (
+            (np.abs(d_body[:, 0]) <= p.crouch_ahead_m)
+            & (np.abs(d_body[:, 1]) <= p.crouch_side_m)
+            & (rel >= p.perception.maps.ceiling_above_m)
+        )
+        return float(np.min(rel[near])) if np.any(near) else np.inf
 
     # ---- hooks ----------------------------------------------------------------------------------------------
     def command(self, s: RobotState) -> SteeringCommand:
@@ -283,16 +393,21 @@ class TerrainNavigator:
         wz = float(np.clip(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
         return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
 
-    def _dense_slowdown(self, xy: NDArray[np.float64], yaw: float) -> float:
-        """Gives a speed factor in [min/max, 1]: lower where the step-obstacle map ahead is dense."""
+    def _dense_share(self, xy: NDArray[np.float64], yaw: float) -> float:
+        """Gives the no-step share of the dense_radius_m disk ahead of the body (0 without maps)."""
         p = self.params
         maps = self.maps
         if maps is None:
-            return 1.0
+            return 0.0
         r = np.linspace(-p.dense_radius_m, p.dense_radius_m, 9)
         pts = xy + rotate_yaw(yaw, np.array([p.dense_radius_m * 0.5, 0.0])) + np.stack(np.meshgrid(r, r), -1)
         inside = np.hypot(*np.moveaxis(pts - pts[4, 4], -1, 0)) <= p.dense_radius_m
-        share = float(np.mean(np.asarray(maps.no_step(pts[..., 0], pts[..., 1]), dtype=bool)[inside]))
+        return float(np.mean(np.asarray(maps.no_step(pts[..., 0], pts[..., 1]), dtype=bool)[inside]))
+
+    def _dense_slowdown(self, xy: NDArray[np.float64], yaw: float) -> float:
+        """Gives a speed factor in [min/max, 1]: lower where the step-obstacle map ahead is dense."""
+        p = self.params
+        share = self._dense_share(xy, yaw)
         lo = p.min_speed_mps / max(p.max_speed_mps, 1e-9)
         return float(1.0 - (1.0 - lo) * min(share / max(p.dense_full, 1e-9), 1.0))
 

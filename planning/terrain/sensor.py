@@ -55,6 +55,9 @@ def _default_cameras() -> tuple[DepthCamera, ...]:
         DepthCamera("left", (0.0, 0.13, 0.0), 90.0, 40.0, 100.0, 60.0, 56, 40),
         DepthCamera("right", (0.0, -0.13, 0.0), -90.0, 40.0, 100.0, 60.0, 56, 40),
         DepthCamera("rear", (-0.45, 0.0, 0.0), 180.0, 40.0, 90.0, 60.0, 48, 36),
+        # A thin fan just above the horizon: the others all look down, so an overhang a little above the body
+        # (a table top to crouch under) would go unseen.
+        DepthCamera("front_up", (0.45, 0.0, 0.0), 0.0, -15.0, 100.0, 30.0, 48, 16),
     )
 
 

@@ -13,7 +13,7 @@ from planning.sim.run import RunOptions, WalkCommand, run_walk
 MAX_NO_STEP_TOUCHDOWNS = 0
 
 
-@pytest.mark.parametrize("terrain", ["slope", "rough"])
+@pytest.mark.parametrize("terrain", ["slope", "rough", "under-table"])
 def test_terrain_crossing(terrain: str) -> None:
     cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=True, stop_at_goal=True)
     r = run_walk(cmd, RunOptions(terrain=terrain, duration_s=20.0))

@@ -105,6 +105,54 @@ def test_body_height_is_lowered_under_an_overhang_only() -> None:
     assert session.controller.height >= p.min_height_m
 
 
+def test_a_remembered_overhang_keeps_the_crouch_after_it_drops_out_of_the_maps() -> None:
+    # The sensor sees a table top only from a distance; under it, the voxel map forgets it.
+    session = _session()
+    nav: TerrainNavigator = session.navigator
+    s = session.loop.state
+    xs, ys = _grid()
+    flat = np.zeros((xs.size, ys.size))
+    clearance = np.where((xs[:, None] > 0.3) & (np.abs(ys[None]) < 0.7), 0.60, np.inf) * np.ones((1, ys.size))
+    nav.maps = maps_from_grids((xs[0], ys[0]), RES, flat, np.zeros(flat.shape, bool))
+    object.__setattr__(nav.maps, "clearance_m", clearance)
+    nav._update_height(s)
+    crouched = session.controller.height
+    assert crouched < nav.standing_height - 0.05
+    nav.maps = maps_from_grids((xs[0], ys[0]), RES, flat, np.zeros(flat.shape, bool))  # no overhang seen now
+    nav._update_height(s)
+    assert session.controller.height == pytest.approx(crouched)
+
+
+def test_an_overhang_lower_than_the_feet_is_no_ceiling() -> None:
+    # Over a pit, the side of a stone seen from afar sits a little above the pit floor: not a ceiling.
+    session = _session()
+    nav: TerrainNavigator = session.navigator
+    s = session.loop.state
+    xs, ys = _grid()
+    pit = np.where(xs[:, None] > 0.3, -0.3, 0.0) * np.ones((1, ys.size))
+    clearance = np.where(xs[:, None] > 0.3, 0.32, np.inf) * np.ones((1, ys.size))  # 2 cm above the stone tops
+    nav.maps = maps_from_grids((xs[0], ys[0]), RES, pit, np.zeros(pit.shape, bool))
+    object.__setattr__(nav.maps, "clearance_m", clearance)
+    nav._update_height(s)
+    assert session.controller.height == pytest.approx(nav.standing_height)
+
+
+def test_body_pitch_target_follows_the_slope_with_a_bounded_rate() -> None:
+    session = _session()
+    nav: TerrainNavigator = session.navigator
+    s = session.loop.state
+    xs, ys = _grid()
+    slope = np.tan(np.radians(10.0))
+    h = (xs[:, None] - s.p_world_body[0]) * slope * np.ones((1, ys.size))
+    nav.maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    p = nav.params
+    nav._update_pitch(s)
+    assert session.controller.pitch == pytest.approx(-p.max_pitch_rate_rps / p.perception_rate_hz)
+    for _ in range(20):
+        nav._update_pitch(s)
+    assert session.controller.pitch == pytest.approx(-np.radians(10.0), abs=0.01)  # nose up, uphill
+
+
 def test_step_qp_moves_planned_footholds_off_no_step_cells() -> None:
     session = _session()
     c = session.controller
