@@ -224,6 +224,25 @@ def block_constraint_csc(rows_per_leg: int) -> sp.csc_matrix:
     return sp.csc_matrix((data, indices, indptr), shape=(rows_per_leg * N_LEGS, 3 * N_LEGS))
 
 
+def setup_osqp(
+    P: sp.csc_matrix,
+    A: sp.csc_matrix,
+    l: np.ndarray,
+    u: np.ndarray,
+    eps_abs: float,
+    eps_rel: float,
+    max_iter: int,
+    polish: bool,
+) -> osqp.OSQP:
+    """Returns an OSQP solver set up once (quiet, warm-started) on P, A, l, u with q = 0; ticks update it in place."""
+    solver = osqp.OSQP()
+    solver.setup(
+        P, np.zeros(P.shape[0]), A, l, u, verbose=False, eps_abs=eps_abs, eps_rel=eps_rel, max_iter=max_iter,
+        polishing=polish, warm_starting=True,
+    )  # fmt: skip
+    return solver
+
+
 def checked(name: str, value: object, shape: tuple[int, ...]) -> np.ndarray:
     """Return `value` as a float array of `shape`; raise ValueError naming the field when the shape is wrong."""
     arr = np.asarray(value, dtype=float)
@@ -305,20 +324,7 @@ class ForceDistributor:
         self._u = np.zeros(n_row)
         self._l[4::5] = 0.0
         self._u[4::5] = OSQP_INF
-        self._solver = osqp.OSQP()
-        self._solver.setup(
-            P0,
-            np.zeros(n_var),
-            A0,
-            self._l,
-            self._u,
-            verbose=False,
-            eps_abs=p.eps_abs,
-            eps_rel=p.eps_rel,
-            max_iter=p.max_iter,
-            polishing=p.polish,
-            warm_starting=True,
-        )
+        self._solver = setup_osqp(P0, A0, self._l, self._u, p.eps_abs, p.eps_rel, p.max_iter, p.polish)
 
         # Work buffers: the hot path writes into these.
         self._G = np.zeros((6, n_var))  # scaled wrench map

@@ -44,6 +44,7 @@ from planning.forces import (
     iterate_usable,
     pyramid_mu,
     pyramid_rows,
+    setup_osqp,
     solve_with_retry,
 )
 
@@ -112,20 +113,7 @@ class StanceHandler:
         A0.data[:] = self._B.ravel()
         self._l = np.full(n_row, -OSQP_INF)
         self._u = np.full(n_row, OSQP_INF)
-        self._solver = osqp.OSQP()
-        self._solver.setup(
-            P0,
-            np.zeros(n_var),
-            A0,
-            self._l,
-            self._u,
-            verbose=False,
-            eps_abs=p.eps_abs,
-            eps_rel=p.eps_rel,
-            max_iter=p.max_iter,
-            polishing=p.polish,
-            warm_starting=True,
-        )
+        self._solver = setup_osqp(P0, A0, self._l, self._u, p.eps_abs, p.eps_rel, p.max_iter, p.polish)
 
         # Work buffers; the hot path writes into these.
         self._R = np.zeros((N_LEGS, 3, 3))
