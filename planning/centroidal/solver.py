@@ -31,6 +31,10 @@ from planning.centroidal.integrate import compare, integrate_plan
 from planning.centroidal.problem import N_LEGS, BodyModel, CentroidalProblem
 
 INF = 1e30
+# The bound of a row that is switched off this tick (its A row is zeroed too). Finite, so that OSQP keeps counting
+# the row as an inequality: OSQP's step size ρ is per row kind (free, inequality, equality), and a row changing
+# kind refactors the KKT matrix on top of the refactorization the new A values already cost.
+OFF = 1e20
 _E_XY = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
 _EYE3 = np.eye(3)
 # OSQP status values (osqp.constant): 1 solved, 2 solved inaccurate, 3/4 primal infeasible, 5/6 dual infeasible,
@@ -266,6 +270,7 @@ class _Tick:
     var: np.ndarray  # (Nmax,4) foothold variable of the foot, -1 fixed or none
     feet: np.ndarray  # (4,P,3) contact points of the slots at the linearization point
     knot_slot: np.ndarray  # (Kmax-1,4) slot constraining knots 1..K-1
+    air: np.ndarray  # (Nmax,4) bool, no foot can push (c_hi = 0): the force is out of every row, and 0
     t1: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (Nmax,4,3) contact frames
     t2: np.ndarray = field(default_factory=lambda: np.zeros(0))
     n: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -478,8 +483,10 @@ class CentroidalSolver:
         feet[vi, vs] += d[vi, sch.var[vi, vs]] @ _E_XY.T
         knot_slot = np.full((Kmax - 1, N_LEGS), -1, dtype=np.int64)
         knot_slot[: K - 1] = sch.knot_slot[1:]
+        air = np.ones((Nmax, N_LEGS), dtype=bool)
+        air[:N] = sch.c_hi == 0.0
         return _Tick(pr, sch, K, N, self._force_scale(pr), dt, padk(p), padk(v), padk(R), padk(w), fb, cb, d,
-                     slot, var, feet, knot_slot)  # fmt: skip
+                     slot, var, feet, knot_slot, air)  # fmt: skip
 
     @staticmethod
     def _force_scale(pr: CentroidalProblem) -> float:
@@ -502,20 +509,23 @@ class CentroidalSolver:
         hv = tk.var >= 0
         d_int[hv] = tk.d[np.nonzero(hv)[1], tk.var[hv]]
         lz = linearize(tk.p, tk.v, tk.R, tk.w, tk.f, p_feet, d_int, dt, pr.model.inertia_body, g)
+        # A foot in the air has no force: its columns are zero (so nothing but its cost, minimal at 0, sees it).
+        down = ~tk.air
+        down_f = down[:, None, :, None]
         put("pv0", -dt[:, None])
-        put("pf", (-0.5 * dt * dt * Fs / m)[:, None, None])
-        put("vf", (-dt * Fs / m)[:, None, None])
+        put("pf", (-0.5 * dt * dt * Fs / m)[:, None, None] * down[..., None])
+        put("vf", (-dt * Fs / m)[:, None, None] * down[..., None])
         put("tt0", -lz.Jth)
         put("tw0", -0.5 * lz.Jw)
         put("tw1", -0.5 * lz.Jw)
         put("tv0", -lz.Rv)
-        put("tf", -np.transpose(lz.Rf, (0, 2, 1, 3)) * Fs)
+        put("tf", -np.transpose(lz.Rf, (0, 2, 1, 3)) * (Fs * down_f))
         dtc = dt[:, None, None]
         put("ww0", -(_EYE3 + dtc * lz.G_w))
         put("wt0", -dtc * lz.G_th)
         put("wp0", -dtc * (lz.I_inv @ lz.T_p))
         put("wv0", -dtc * (lz.I_inv @ lz.T_v))
-        wf = np.einsum("nij,nljk->nilk", lz.I_inv, lz.T_f) * (-dtc[:, :, None] * Fs)  # (N,3,4,3)
+        wf = np.einsum("nij,nljk->nilk", lz.I_inv, lz.T_f) * (-dtc[:, :, None] * Fs * down_f)  # (N,3,4,3)
         put("wf", wf)
         wd = np.zeros((L.N, 3, N_LEGS, L.S, 2))
         kk, ii = np.nonzero(hv)
@@ -554,11 +564,12 @@ class CentroidalSolver:
         nt = np.linalg.norm(ft, axis=-1, keepdims=True)
         self._pyr_dir[:] = np.where(nt > 1e-3 * tk.Fs, ft / np.maximum(nt, 1e-300), np.array([1.0, 0.0]))
         self._cone_on[:] = False
-        self._air = np.ones((L.N, N_LEGS), dtype=bool)
+        air = self._air = tk.air
         self._write_cone_rows(tk)
         frc = np.empty((L.N, N_LEGS, 2))
         frc[..., 0] = -pr.fz_max_N / tk.Fs
         frc[..., 1] = -pr.fz_min_N / tk.Fs
+        frc[air] = 0.0
         self._put("frc", frc)
         l, u = self._l, self._u
         rf = L.r_fric
@@ -566,19 +577,13 @@ class CentroidalSolver:
         c_hi = np.zeros((L.N, N_LEGS))
         c_lo[: tk.N], c_hi[: tk.N] = sch.c_lo, sch.c_hi
         # A foot that may touch: pyramid faces, c fz_min <= f_n <= c fz_max, the cone cut. A foot in the air: the
-        # same rows reduced to f = 0 without redundant active rows (f_n = 0 and two faces as equalities), which
-        # keeps the active set independent for the solver.
-        air = c_hi == 0.0
-        l[rf[:, :, 0:5]] = -INF
-        u[rf[:, :, 0:5]] = 0.0
-        l[rf[:, :, 5]] = 0.0
-        u[rf[:, :, 5]] = INF
-        for j in (0, 2):
-            l[rf[:, :, j]] = np.where(air, 0.0, -INF)
-        for j in (1, 3, 4):
-            u[rf[:, :, j]] = np.where(air, INF, 0.0)
-        u[rf[:, :, 5]] = np.where(air, 0.0, INF)
-        self._air = air
+        # rows are off (zero, bounds ±OFF) and its force out of the dynamics, so the force's own cost holds it at 0
+        # with no active row (a row set that stays independent for polishing, and rows that keep their kind).
+        air_r = air[..., None]
+        l[rf[:, :, 0:5]] = np.where(air_r, -OFF, -INF)
+        u[rf[:, :, 0:5]] = np.where(air_r, OFF, 0.0)
+        l[rf[:, :, 5]] = np.where(air, -OFF, 0.0)
+        u[rf[:, :, 5]] = np.where(air, OFF, INF)
         self._write_cut_bounds()
         l[L.r_cb] = c_lo
         u[L.r_cb] = c_hi
@@ -602,13 +607,16 @@ class CentroidalSolver:
         fr[:, :, 5] = tk.n
         fr[:, :, 6] = c[:, :, 0, :1] * tk.t1 + c[:, :, 0, 1:] * tk.t2 - mn
         fr[:, :, 7] = c[:, :, 1, :1] * tk.t1 + c[:, :, 1, 1:] * tk.t2 - mn
+        fr[self._air] = 0.0
+        fr[:, :, 6:8] *= self._cone_on[..., None]
         self._put("fr", fr)
         self._write_cut_bounds()
 
     def _write_cut_bounds(self) -> None:
         r = self.L.r_fric[:, :, 6:8]
-        self._l[r] = -INF
-        self._u[r] = np.where(self._cone_on & ~self._air[..., None], 0.0, INF)
+        on = self._cone_on & ~self._air[..., None]
+        self._l[r] = np.where(on, -INF, -OFF)
+        self._u[r] = np.where(on, 0.0, OFF)
 
     def _fill_kinematics(self, tk: _Tick) -> None:
         """Writes the hip line rows and the leg-length cut rows of knots 1..K-1."""
@@ -643,6 +651,8 @@ class CentroidalSolver:
         self._kin_var = kv
         kk, ii = np.nonzero(kv >= 0)
         kd[kk, ii, 1, kv[kk, ii], :] = a_w[kk] @ _E_XY
+        kp[~khas, 1] = 0.0  # no foot at the knot: the row is off
+        kt[~khas, 1] = 0.0
         hip_bh = (a_b @ model.p_body_hip.T)[None, :]
         base = hip_bh - np.einsum("kj,klj->kl", a_w, nom_c)
         # Relaxed rows (foot maybe not down) keep the side the linearization point is nearer to, and give way by
@@ -658,8 +668,8 @@ class CentroidalSolver:
         big_m[..., 1] = prm.window_slack_m + np.maximum(need1, 0.0)
         r_h = L.r_kin[:, :, 1]
         m1 = np.where(relax, big_m[..., 1], 0.0)
-        self._l[r_h] = np.where(khas & ~(relax & (side[..., 1] > 0)), h_lo + base - m1, -INF)
-        self._u[r_h] = np.where(khas & ~(relax & (side[..., 1] < 0)), h_hi + base + m1, INF)
+        self._l[r_h] = np.where(khas, np.where(relax & (side[..., 1] > 0), -INF, h_lo + base - m1), -OFF)
+        self._u[r_h] = np.where(khas, np.where(relax & (side[..., 1] < 0), INF, h_hi + base + m1), OFF)
         self._khas = khas
         self._write_length_cuts(tk)
 
@@ -685,7 +695,8 @@ class CentroidalSolver:
 
     def _write_relaxation(self) -> None:
         """Writes the M coefficients of the relaxed kinematic rows on their contact variables."""
-        coef = np.where(self._relax[..., None], self._side * self._big_m, 0.0)
+        on = np.stack([self._len_on & self._khas, self._khas], axis=-1)
+        coef = np.where(self._relax[..., None] & on, self._side * self._big_m, 0.0)
         nxt = self._use_next[..., None]
         self._put("kc0", np.where(nxt, 0.0, coef))
         self._put("kc1", np.where(nxt, coef, 0.0)[:-1])
@@ -703,16 +714,21 @@ class CentroidalSolver:
         kv = self._kin_var
         kk, ii = np.nonzero(kv >= 0)
         kd[kk, ii, 0, kv[kk, ii], :] = -(u_dir[kk, ii] @ _E_XY)
+        on = self._len_on & self._khas
+        kp[~on, 0] = 0.0  # rows without a cut are off
+        kt[~on, 0] = 0.0
+        kd[~on, 0] = 0.0
         self._put("kp", kp)
         self._put("kt", kt)
         self._put("kd", kd)
         const = np.einsum("klj,klj->kl", u_dir, tk.hbar - tk.foot_c)
         r = L.r_kin[:, :, 0]
-        on = self._len_on & self._khas
         relax, side = self._relax, self._side[..., 0]
         m0 = np.where(relax, self._big_m[..., 0], 0.0)
-        self._l[r] = np.where(on & ~(relax & (side > 0)), model.leg_length_min_m - const - m0, -INF)
-        self._u[r] = np.where(on & ~(relax & (side < 0)), model.leg_length_max_m - const + m0, INF)
+        self._l[r] = np.where(
+            on, np.where(relax & (side > 0), -INF, model.leg_length_min_m - const - m0), -OFF
+        )
+        self._u[r] = np.where(on, np.where(relax & (side < 0), INF, model.leg_length_max_m - const + m0), OFF)
         self._write_relaxation()
 
     def _fill_footholds(self, tk: _Tick) -> None:
@@ -1035,7 +1051,7 @@ class CentroidalSolver:
             "th": th,
             "R": _so3.exp(th) @ tk.R[:K],
             "w": x[L.i_w[:K]],
-            "f": x[L.i_f[:N]] * tk.Fs,
+            "f": x[L.i_f[:N]] * (tk.Fs * ~tk.air[:N, :, None]),
             "c": x[L.i_c[:N]],
             "d": d,
             "feet": feet,
