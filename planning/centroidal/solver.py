@@ -70,7 +70,9 @@ class CentroidalParams:
     of newtons off the optimum (the forces' cost is tiny beside the tracking terms, so ADMM is slow along the
     force-distribution directions); polishing (a KKT solve on the guessed active set) makes them exact, and the
     rows are written so that active sets are not degenerate (a foot in the air has exactly three active rows).
-    When polishing still fails, ADMM goes on from where it stopped to eps_fallback.
+    When polishing still fails, ADMM goes on from where it stopped to eps_fallback. scaling: OSQP's equilibration
+    passes, redone on every matrix update (each pass is a sweep over P and A): 4 take the same ADMM iterations
+    as OSQP's default 10 here, for about a third less update time.
     """
 
     max_knots: int = 24
@@ -93,6 +95,7 @@ class CentroidalParams:
     max_iter: int = 4000
     rho: float = 0.1
     polish: bool = True
+    scaling: int = 4
 
 
 @dataclass(frozen=True)
@@ -347,6 +350,7 @@ class _Instance:
             warm_starting=True,
             rho=p.rho,
             check_termination=5,
+            scaling=p.scaling,
         )
 
 
