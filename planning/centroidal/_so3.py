@@ -36,10 +36,18 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
+_EYE = np.eye(3)
+_DIAG = [0, 4, 8]  # of a flattened 3×3
+_SKEW_P, _SKEW_M = [7, 2, 3], [5, 6, 1]  # (R21, R02, R10) − (R12, R20, R01)
+
+
 def _coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Returns (sin θ/θ, (1-cos θ)/θ², (θ - sin θ)/θ³) with Taylor series near zero."""
     t2 = theta * theta
     small = theta < _SMALL * 100
+    if not small.any():  # the usual case: no angle near zero, no series needed
+        s = np.sin(theta)
+        return s / theta, (1.0 - np.cos(theta)) / t2, (theta - s) / (t2 * theta)
     ts = np.where(small, 1.0, theta)
     a = np.where(small, 1.0 - t2 / 6.0, np.sin(ts) / ts)
     b = np.where(small, 0.5 - t2 / 24.0, (1.0 - np.cos(ts)) / (ts * ts))
@@ -47,26 +55,48 @@ def _coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return a, b, c
 
 
+# Rows: the flattened [e_0]×, [e_1]×, [e_2]× and I, so that [u_0:3]× + u_3 I is one product u @ _HAT_EYE.
+_HAT_EYE = np.zeros((4, 9))
+_HAT_EYE[0, [5, 7]] = (-1.0, 1.0)
+_HAT_EYE[1, [2, 6]] = (1.0, -1.0)
+_HAT_EYE[2, [1, 3]] = (-1.0, 1.0)
+_HAT_EYE[3, [0, 4, 8]] = 1.0
+
+
+def _poly(w: np.ndarray, t2: np.ndarray, x: np.ndarray | float, y: np.ndarray) -> np.ndarray:
+    """Returns I + x [w]× + y [w]×² (..., 3, 3), using [w]×² = w wᵀ − |w|² I (few numpy calls: small batches)."""
+    u = np.empty(w.shape[:-1] + (4,))
+    np.multiply(np.asarray(x)[..., None], w, out=u[..., :3])
+    u[..., 3] = 1.0 - y * t2
+    out = (u @ _HAT_EYE).reshape(w.shape[:-1] + (3, 3))
+    out += (y[..., None, None] * w[..., :, None]) * w[..., None, :]
+    return out
+
+
 def exp(w: np.ndarray) -> np.ndarray:
     """Returns rotation matrices (..., 3, 3) = exp(hat(w)) for rotation vectors w (..., 3)."""
     w = np.asarray(w, dtype=float)
-    theta = np.linalg.norm(w, axis=-1)
-    a, b, _ = _coeffs(theta)
-    W = hat(w)
-    return np.eye(3) + a[..., None, None] * W + b[..., None, None] * (W @ W)
+    t2 = np.einsum("...i,...i->...", w, w)
+    theta = np.sqrt(t2)
+    if (theta >= _SMALL * 100).all():
+        a = np.sin(theta) / theta
+        b = (1.0 - np.cos(theta)) / t2
+    else:
+        a, b, _ = _coeffs(theta)
+    return _poly(w, t2, a, b)
 
 
 def log(R: np.ndarray) -> np.ndarray:
     """Returns rotation vectors (..., 3) with exp(log(R)) == R, angle in [0, π]."""
     R = np.asarray(R, dtype=float)
-    tr = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) * 0.5, -1.0, 1.0)
-    theta = np.arccos(tr)
-    v = np.stack(
-        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1
-    )
-    s = np.sin(theta)
+    flat = R.reshape(R.shape[:-2] + (9,))
+    theta = np.arccos(np.clip((flat[..., _DIAG].sum(axis=-1) - 1.0) * 0.5, -1.0, 1.0))
+    v = flat[..., _SKEW_P] - flat[..., _SKEW_M]
     small = theta < 1e-5
     near_pi = theta > np.pi - 1e-4
+    if not (small.any() or near_pi.any()):
+        return (theta / (2.0 * np.sin(theta)))[..., None] * v
+    s = np.sin(theta)
     scale = np.where(small, 0.5 + theta * theta / 12.0, theta / (2.0 * np.where(small | near_pi, 1.0, s)))
     out = scale[..., None] * v
     if np.any(near_pi):
@@ -86,24 +116,25 @@ def log(R: np.ndarray) -> np.ndarray:
 def left_jacobian(w: np.ndarray) -> np.ndarray:
     """Returns J_l(w) (..., 3, 3): exp(w + δ) ≈ exp(J_l(w) δ) exp(w)."""
     w = np.asarray(w, dtype=float)
-    theta = np.linalg.norm(w, axis=-1)
-    _, b, c = _coeffs(theta)
-    W = hat(w)
-    return np.eye(3) + b[..., None, None] * W + c[..., None, None] * (W @ W)
+    t2 = np.einsum("...i,...i->...", w, w)
+    _, b, c = _coeffs(np.sqrt(t2))
+    return _poly(w, t2, b, c)
 
 
 def left_jacobian_inv(w: np.ndarray) -> np.ndarray:
     """Returns J_l(w)^-1 (..., 3, 3): log(exp(ε) exp(w)) ≈ w + J_l(w)^-1 ε."""
     w = np.asarray(w, dtype=float)
-    theta = np.linalg.norm(w, axis=-1)
-    t2 = theta * theta
+    t2 = np.einsum("...i,...i->...", w, w)
+    theta = np.sqrt(t2)
     small = theta < 1e-4
-    ts = np.where(small, 1.0, theta)
-    d = np.where(
-        small, 1.0 / 12.0 + t2 / 720.0, 1.0 / (ts * ts) - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(ts))
-    )
-    W = hat(w)
-    return np.eye(3) - 0.5 * W + d[..., None, None] * (W @ W)
+    if small.any():
+        ts = np.where(small, 1.0, theta)
+        d = np.where(
+            small, 1.0 / 12.0 + t2 / 720.0, 1.0 / (ts * ts) - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(ts))
+        )
+    else:
+        d = 1.0 / t2 - (1.0 + np.cos(theta)) / (2.0 * theta * np.sin(theta))
+    return _poly(w, t2, -0.5, d)
 
 
 def rpy_to_R(rpy: np.ndarray) -> np.ndarray:

@@ -34,6 +34,20 @@ from planning.centroidal import _so3
 _E_XY = np.array([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])  # (3,2): a horizontal foothold shift into world
 
 
+_INVERSES: dict[bytes, np.ndarray] = {}
+
+
+def _inverse(inertia_body: np.ndarray) -> np.ndarray:
+    """Returns the inverse of a (3,3) inertia, remembered (a model's inertia is inverted once, not every tick)."""
+    key = inertia_body.tobytes()
+    inv = _INVERSES.get(key)
+    if inv is None:
+        if len(_INVERSES) > 64:
+            _INVERSES.clear()
+        inv = _INVERSES[key] = np.linalg.inv(inertia_body)
+    return inv
+
+
 def torque(p: np.ndarray, v: np.ndarray, f: np.ndarray, p_feet: np.ndarray, dt: np.ndarray, g: np.ndarray):
     """Returns (τ (N,3) N·m, ΣF (N,3) N, c (N,3) m): interval torques about the mean CoM, vectorized over N."""
     F = f.sum(axis=1)
@@ -64,7 +78,7 @@ def discrete_step(
     p1 = p + dt[:, None] * v + 0.5 * (dt * dt)[:, None] * a
     v1 = v + dt[:, None] * a
     Iw = R @ inertia_body @ np.swapaxes(R, -1, -2)
-    Iw_inv = R @ np.linalg.inv(inertia_body) @ np.swapaxes(R, -1, -2)
+    Iw_inv = R @ _inverse(inertia_body) @ np.swapaxes(R, -1, -2)
     h = _so3.cross(w, np.einsum("nij,nj->ni", Iw, w))
     w1 = w + dt[:, None] * np.einsum("nij,nj->ni", Iw_inv, tau - h)
     kappa = (dt**3 / 12.0)[:, None] * np.einsum(
@@ -123,7 +137,7 @@ def _rotate(
     """
     N = dt.size
     I = inertia_body.tolist()
-    Ii = np.linalg.inv(inertia_body).tolist()
+    Ii = _inverse(inertia_body).tolist()
     (i00, i01, i02), (i10, i11, i12), (i20, i21, i22) = I
     (j00, j01, j02), (j10, j11, j12), (j20, j21, j22) = Ii
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R0.tolist()
@@ -215,7 +229,7 @@ def rollout_continuous(
 
     The reference for how good the discrete map is; not used in the tick (too slow for the hot path).
     """
-    I_inv = np.linalg.inv(inertia_body)
+    I_inv = _inverse(inertia_body)
     N = dt.size
     P = np.empty((N + 1, 3))
     V = np.empty((N + 1, 3))
@@ -298,7 +312,7 @@ def linearize(
     wk, wk1 = w[:-1], w[1:]
     RkT = np.swapaxes(Rk, -1, -2)
     Ib = Rk @ inertia_body @ RkT
-    Ii = Rk @ np.linalg.inv(inertia_body) @ RkT
+    Ii = Rk @ _inverse(inertia_body) @ RkT
     tau, F, c = torque(p[:-1], v[:-1], f, p_feet, dt, g)
     # Rotation rows: a = dt (ω + ω⁺)/2 + κ(θ, v, f); θ⁺ = log(exp(a) exp(θ) R̄ R̄⁺ᵀ).
     c3 = (dt**3 / 12.0)[:, None, None]
@@ -313,7 +327,8 @@ def linearize(
     Jw = Ja * dt[:, None, None]
     K_th = c3 * (-_so3.hat(np.einsum("nij,nj->ni", Ii, yk)) + Ii @ _so3.hat(yk))
     Jth = Jli @ Ea + Ja @ K_th
-    Rv = -(Ja @ (c3 * (Ii @ _so3.hat(F))))
+    HF = _so3.hat(F)
+    Rv = -(Ja @ (c3 * (Ii @ HF)))
     Rf1 = Ja @ (c3 * (Ii @ _so3.hat(ubar)))  # the same for every leg: ∂(u × ΣF)/∂f_i = [u]×
     Rf = np.repeat(Rf1[:, None], f.shape[1], axis=1)
     rot_rhs = (
@@ -327,10 +342,10 @@ def linearize(
     y = tau - _so3.cross(wk, Iw)
     gbar = np.einsum("nij,nj->ni", Ii, y)
     H_w = _so3.hat(wk)
-    G_w = -Ii @ (H_w @ Ib - _so3.hat(Iw))
-    dIw_dth = -_so3.hat(Iw) + Ib @ H_w
-    G_th = -_so3.hat(gbar) + Ii @ _so3.hat(y) - Ii @ H_w @ dIw_dth
-    HF = _so3.hat(F)
+    H_Iw = _so3.hat(Iw)
+    G_w = -Ii @ (H_w @ Ib - H_Iw)
+    dIw_dth = -H_Iw + Ib @ H_w
+    G_th = -_so3.hat(gbar) + Ii @ (_so3.hat(y) - H_w @ dIw_dth)
     T_p = HF
     T_v = 0.5 * dt[:, None, None] * HF
     T_f = _so3.hat(p_feet - c[:, None, :])  # (N,4,3,3)

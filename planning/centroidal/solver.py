@@ -335,6 +335,9 @@ class _Instance:
                           ("ww1", 1.0), ("cb", 1.0), ("mo1", 1.0), ("mo0", -1.0), ("db", 1.0)):  # fmt: skip
             sl, shape = L.A_blocks[name]
             self.Ax[sl] = val
+        # Each block's values as a view of its shape: a tick writes them by broadcasting, with no copies.
+        self.A_view = {name: self.Ax[sl].reshape(shape) for name, (sl, shape) in L.A_blocks.items()}
+        self.P_view = {name: self.Px[sl].reshape(shape) for name, (sl, shape) in L.P_blocks.items()}
         self.qp = osqp.OSQP()
         self.qp.setup(
             L.P,
@@ -498,8 +501,7 @@ class CentroidalSolver:
 
     # ----------------------------------------------------------------------------------------------------------
     def _put(self, name: str, val: np.ndarray | float) -> None:
-        sl, shape = self.L.A_blocks[name]
-        self._Ax[sl] = np.broadcast_to(val, shape).ravel()
+        self._inst.A_view[name][...] = val
 
     def _fill_dynamics(self, tk: _Tick) -> None:
         """Writes the linearized discrete map (rows ``dyn``) and the initial state (rows ``init``)."""
@@ -851,12 +853,10 @@ class CentroidalSolver:
             - float(np.sum(np.minimum(sch.q_c, 0.0)))
         )
         ia, ib = L.pt_pairs
-        B = L.P_blocks
-        Px = self._Px
+        P_view = self._inst.P_view
 
         def putp(name: str, val: np.ndarray | float) -> None:
-            sl, shape = B[name]
-            Px[sl] = np.broadcast_to(val, shape).ravel()
+            P_view[name][...] = val
 
         putp("pt", H[:, ia, ib])
         putp("vv", 2.0 * wv + 1e-6)
