@@ -26,7 +26,7 @@ import osqp
 from planning.centroidal import _so3
 from planning.centroidal._layout import Layout
 from planning.centroidal._schedule import ContactSchedule, build_schedule
-from planning.centroidal.dynamics import linearize
+from planning.centroidal.dynamics import Linearization, linearize
 from planning.centroidal.integrate import compare, integrate_plan
 from planning.centroidal.problem import N_LEGS, BodyModel, CentroidalProblem
 
@@ -69,7 +69,7 @@ class CentroidalParams:
     eps_abs / eps_rel / max_iter / rho / polish: OSQP settings. ADMM alone at 1e-4 can leave contact forces tens
     of newtons off the optimum (the forces' cost is tiny beside the tracking terms, so ADMM is slow along the
     force-distribution directions); polishing (a KKT solve on the guessed active set) makes them exact, and the
-    rows are written so that active sets are not degenerate (a foot in the air has exactly three active rows).
+    rows are written so that active sets are not degenerate (a foot in the air has no active row at all).
     When polishing still fails, ADMM goes on from where it stopped to eps_fallback. scaling: OSQP's equilibration
     passes, redone on every matrix update (each pass is a sweep over P and A): 4 take the same ADMM iterations
     as OSQP's default 10 here, for about a third less update time.
@@ -306,6 +306,20 @@ def _interval_average(t_old: np.ndarray, x_old: np.ndarray, t_new: np.ndarray) -
     return avg.reshape((t_new.size - 1, *shape))
 
 
+def _pad_linearization(lz: Linearization, n_max: int) -> Linearization:
+    """Returns the linearization extended to n_max intervals by zero-length ones (dt = 0: the state carries over,
+    θ⁺ = θ and ω⁺ = ω; every other block is zero, or multiplied by dt where it is written)."""
+    n = lz.Jth.shape[0]
+    out = {}
+    for name in lz.__dataclass_fields__:
+        a = getattr(lz, name)
+        b = np.zeros((n_max, *a.shape[1:]))
+        b[:n] = a
+        out[name] = b
+    out["Jth"][n:] = _EYE3
+    return Linearization(**out)
+
+
 class _Instance:
     """One QP of a fixed size: layout, OSQP workspace (set up once), value buffers and cut state."""
 
@@ -514,7 +528,11 @@ class CentroidalSolver:
         d_int = np.zeros((L.N, N_LEGS, 2))
         hv = tk.var >= 0
         d_int[hv] = tk.d[np.nonzero(hv)[1], tk.var[hv]]
-        lz = linearize(tk.p, tk.v, tk.R, tk.w, tk.f, p_feet, d_int, dt, pr.model.inertia_body, g)
+        n, k = tk.N, tk.K
+        lz = linearize(tk.p[:k], tk.v[:k], tk.R[:k], tk.w[:k], tk.f[:n], p_feet[:n], d_int[:n], dt[:n],
+                       pr.model.inertia_body, g)  # fmt: skip
+        if n < L.N:
+            lz = _pad_linearization(lz, L.N)
         # A foot in the air has no force: its columns are zero (so nothing but its cost, minimal at 0, sees it).
         down = ~tk.air
         down_f = down[:, None, :, None]
