@@ -55,7 +55,7 @@ class CentroidalParams:
 
     max_knots: the QP's size (knot times, so max_knots − 1 intervals); bigger problems fail, smaller are padded.
     size_fractions: smaller QPs set up beside it (fractions of max_knots); a tick uses the smallest that fits,
-    so a short problem does not pay for padding.
+    so a short problem does not pay for padding (a padded knot costs about what a real one does in OSQP).
     max_adjustable_per_leg: foothold variables per leg (later adjustable touchdowns keep their nominal place).
     max_polygon_edges: rows reserved per foothold region. max_cut_rounds: re-solves per tick after adding
     tangent-plane cuts. leg_length_tol_m / cone_tol: violations below these (m; fraction of μ f_n) need no cut;
@@ -76,7 +76,7 @@ class CentroidalParams:
     """
 
     max_knots: int = 24
-    size_fractions: tuple[float, ...] = (0.65, 0.8)
+    size_fractions: tuple[float, ...] = (0.65, 0.8, 0.9, 0.95)
     max_adjustable_per_leg: int = 2
     max_polygon_edges: int = 8
     max_cut_rounds: int = 3
