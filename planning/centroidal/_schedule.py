@@ -124,18 +124,37 @@ def build_schedule(
     n_capacity = 0
     td_span = _spans(in_td)
     lo_span = _spans(in_lo)
+    # Every phase at once (a leg's phases are consecutive rows, in time order): the grid arrays. A phase's intervals
+    # may not meet an earlier phase's of the same leg.
+    n_ph = len(phases)
+    if n_ph:
+        j_all = np.arange(n_ph)
+        first = np.searchsorted(leg, leg)  # each phase's leg's first row
+        onehot = (leg[:, None] == np.arange(N_LEGS)).astype(float)  # (P,4)
+        cum = np.zeros((n_ph + 1, N))
+        np.cumsum(any_c, axis=0, out=cum[1:])
+        earlier = cum[j_all] - cum[first]  # intervals of the leg's earlier phases
+        clash = (any_c & (earlier > 0.0)).any(axis=1)
+        first_clash = int(np.argmax(clash)) if clash.any() else n_ph
+        count = any_c.T @ onehot  # (N,4)
+        slot[:] = np.where(count > 0.0, (any_c * (j_all - first)[:, None]).T @ onehot, -1.0)
+        c_lo[:] = (sure.T @ onehot) > 0.0
+        c_hi[:] = count > 0.0
+        q_c[:] = q_ph.T @ onehot
+        if N > 1:
+            # Later phases win, and within a phase its liftoff window over its touchdown window.
+            t_up = in_td[:, :-1] & in_td[:, 1:]
+            l_dn = in_lo[:, :-1] & in_lo[:, 1:]
+            val = np.where(l_dn, -1, np.where(t_up, 1, 0))
+            hit = (t_up | l_dn)[:, :, None] & (onehot > 0.0)[:, None, :]  # (P,N-1,4)
+            last = np.where(hit, j_all[:, None, None], -1).max(axis=0)  # (N-1,4)
+            mono[:] = np.where(last >= 0, val[np.maximum(last, 0), np.arange(N - 1)[:, None]], 0)
+    else:
+        first_clash = 0
     for j, ph in enumerate(phases):
         i = int(leg[j])
-        if (slot[any_c[j], i] >= 0).any():
+        if j == first_clash:
             return f"phases: leg {LEG_NAMES[i]} has overlapping contact phases at {ph.t_touchdown:.3f} s"
-        s = len(slots[i])
-        slot[any_c[j], i] = s
-        c_lo[sure[j], i] = 1.0
-        c_hi[any_c[j], i] = 1.0
-        q_c[:, i] += q_ph[j]
-        if N > 1:
-            mono[in_td[j, :-1] & in_td[j, 1:], i] = 1
-            mono[in_lo[j, :-1] & in_lo[j, 1:], i] = -1
         # Foothold shift set.
         adjustable = (not planted[j]) and ph.adjustable_place
         n_var = sum(1 for x in slots[i] if x.var >= 0)
