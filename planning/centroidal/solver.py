@@ -731,17 +731,15 @@ class CentroidalSolver:
         model = tk.pr.model
         kp, kt = self._kin
         kd = self._kd
+        on = self._len_on & self._khas
         u_dir = self._len_dir
-        kp[:, :, 0] = u_dir
-        kt[:, :, 0] = -np.einsum("klj,kljm->klm", u_dir, _so3.hat(tk.hbar))
+        u_on = u_dir * on[..., None]  # rows without a cut are off: zero
+        kp[:, :, 0] = u_on
+        kt[:, :, 0] = _so3.cross(tk.hbar, u_on)  # −uᵀ [h̄]× = (h̄ × u)ᵀ
         kd[:, :, 0] = 0.0
         kv = self._kin_var
         kk, ii = np.nonzero(kv >= 0)
-        kd[kk, ii, 0, kv[kk, ii], :] = -(u_dir[kk, ii] @ _E_XY)
-        on = self._len_on & self._khas
-        kp[~on, 0] = 0.0  # rows without a cut are off
-        kt[~on, 0] = 0.0
-        kd[~on, 0] = 0.0
+        kd[kk, ii, 0, kv[kk, ii], :] = -(u_on[kk, ii] @ _E_XY)
         self._put("kp", kp)
         self._put("kt", kt)
         self._put("kd", kd)
