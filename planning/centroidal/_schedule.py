@@ -73,7 +73,7 @@ def build_schedule(
     K = N + 1
     t0, tN = t[0], t[-1]
     tm = 0.5 * (t[:-1] + t[1:])
-    dt = np.diff(t)
+    dt = t[1:] - t[:-1]
     w_t = problem.weights.touchdown_time
     phases = sorted(problem.phases, key=lambda p: (p.leg, p.t_touchdown))
     # Per phase (P): times and windows, all phases at once.

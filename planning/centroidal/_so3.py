@@ -29,7 +29,7 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = np.asarray(b, dtype=float)
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
     out[..., 0] = a1 * b2 - a2 * b1
     out[..., 1] = a2 * b0 - a0 * b2
     out[..., 2] = a0 * b1 - a1 * b0
@@ -39,6 +39,11 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 _EYE = np.eye(3)
 _DIAG = [0, 4, 8]  # of a flattened 3×3
 _SKEW_P, _SKEW_M = [7, 2, 3], [5, 6, 1]  # (R21, R02, R10) − (R12, R20, R01)
+
+
+def norm(v: np.ndarray) -> np.ndarray:
+    """Returns |v| over the last axis; np.linalg.norm(v, axis=-1) without its per-call overhead."""
+    return np.sqrt(np.einsum("...i,...i->...", v, v))
 
 
 def _coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

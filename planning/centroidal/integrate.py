@@ -42,9 +42,9 @@ def compare(
     error_length_m: float = 0.35,
 ) -> TrajectoryError:
     """Returns the distances between trajectories a and b (K knots each)."""
-    e_p = np.linalg.norm(p_a - p_b, axis=-1)
-    e_r = np.linalg.norm(_so3.log(R_a @ np.swapaxes(R_b, -1, -2)), axis=-1)
-    e_w = np.linalg.norm(w_a - w_b, axis=-1)
+    e_p = _so3.norm(p_a - p_b)
+    e_r = _so3.norm(_so3.log(R_a @ np.swapaxes(R_b, -1, -2)))
+    e_w = _so3.norm(w_a - w_b)
     return TrajectoryError(e_p, e_r, e_w, float(np.max(e_p + error_length_m * e_r)))
 
 
@@ -67,7 +67,7 @@ def integrate_plan(
         initial.omega_world,
         f_world,
         p_world_foot,
-        np.diff(t_knots),
+        t_knots[1:] - t_knots[:-1],
         model.mass_kg,
         model.inertia_body,
         gravity,

@@ -289,21 +289,22 @@ def _interval_average(t_old: np.ndarray, x_old: np.ndarray, t_new: np.ndarray) -
     shape = x_old.shape[1:]
     flat = x_old.reshape(x_old.shape[0], -1)
     cum = np.zeros((t_old.size, flat.shape[1]))
-    np.cumsum(flat * np.diff(t_old)[:, None], axis=0, out=cum[1:])
+    np.cumsum(flat * (t_old[1:] - t_old[:-1])[:, None], axis=0, out=cum[1:])
     tc = np.clip(t_new, t_old[0], t_old[-1])
     j = np.clip(np.searchsorted(t_old, tc, side="right") - 1, 0, t_old.size - 2)
     integ = cum[j] + (tc - t_old[j])[:, None] * flat[j]  # ∫ x from t_old[0] to tc
-    span = np.diff(tc)
-    avg = np.diff(integ, axis=0) / np.maximum(span, 1e-12)[:, None]
+    span = tc[1:] - tc[:-1]
+    avg = (integ[1:] - integ[:-1]) / np.maximum(span, 1e-12)[:, None]
     # New intervals past the old horizon hold the last value.
     past = span < 1e-12
     if past.any():
         mids = 0.5 * (t_new[:-1] + t_new[1:])
         jk = np.clip(np.searchsorted(t_old, mids, side="right") - 1, 0, flat.shape[0] - 1)
         avg[past] = flat[jk[past]]
-    part = (span > 1e-12) & (span < np.diff(t_new) - 1e-12)
+    dt_new = t_new[1:] - t_new[:-1]
+    part = (span > 1e-12) & (span < dt_new - 1e-12)
     if part.any():  # partly past the old horizon: the rest at the last value
-        dtn = np.diff(t_new)[part]
+        dtn = dt_new[part]
         avg[part] = (avg[part] * span[part, None] + flat[-1] * (dtn - span[part])[:, None]) / dtn[:, None]
     return avg.reshape((t_new.size - 1, *shape))
 
@@ -493,7 +494,7 @@ class CentroidalSolver:
             return np.concatenate([x, np.repeat(x[-1:], pad, axis=0)]) if pad else x
 
         dt = np.zeros(Nmax)
-        dt[:N] = np.diff(t)
+        dt[:N] = t[1:] - t[:-1]
         fb = np.zeros((Nmax, N_LEGS, 3))
         fb[:N] = f
         cb = np.zeros((Nmax, N_LEGS))
@@ -580,15 +581,15 @@ class CentroidalSolver:
         has = tk.slot >= 0
         n = np.where(has[..., None], sch.nrm[legs, np.maximum(tk.slot, 0)], np.array([0.0, 0.0, 1.0]))
         t1 = _so3.cross(n, np.array([0.0, 1.0, 0.0]))
-        bad = np.linalg.norm(t1, axis=-1) < 1e-6
+        bad = _so3.norm(t1) < 1e-6
         t1[bad] = _so3.cross(n[bad], np.array([1.0, 0.0, 0.0]))
-        t1 /= np.linalg.norm(t1, axis=-1, keepdims=True)
+        t1 /= _so3.norm(t1)[..., None]
         t2 = _so3.cross(n, t1)
         tk.t1, tk.t2, tk.n = t1, t2, n
         # The pyramid is turned about the normal so that one face faces the linearization point's tangential
         # force: there it is exact, and the cuts only have to handle the force turning within the tick.
         ft = np.stack([np.sum(tk.f * t1, -1), np.sum(tk.f * t2, -1)], -1)
-        nt = np.linalg.norm(ft, axis=-1, keepdims=True)
+        nt = _so3.norm(ft)[..., None]
         self._pyr_dir[:] = np.where(nt > 1e-3 * tk.Fs, ft / np.maximum(nt, 1e-300), np.array([1.0, 0.0]))
         self._cone_on[:] = False
         air = self._air = tk.air
@@ -660,7 +661,7 @@ class CentroidalSolver:
         nom_c = sch.nom[legs, ksi] + model.foot_radius_m * sch.nrm[legs, ksi]
         tk.foot_c = nom_c
         vec = tk.p[1:, None, :] + tk.hbar - foot_c
-        dist = np.linalg.norm(vec, axis=-1)
+        dist = _so3.norm(vec)
         lo, hi = model.leg_length_min_m, model.leg_length_max_m
         self._len_on[:] = khas & ((dist > hi - prm.cut_margin_m) | (dist < lo + prm.cut_margin_m))
         self._len_dir[:] = vec / np.maximum(dist, 1e-9)[..., None]
@@ -945,7 +946,7 @@ class CentroidalSolver:
         foot_c = sol["feet"][ii, ks] + model.foot_radius_m * tk.sch.nrm[ii, ks]
         R = sol["R"][kk + 1]
         rel = np.einsum("nji,nj->ni", R, foot_c - sol["p"][kk + 1]) - model.p_body_hip[ii]  # body frame
-        dist = np.linalg.norm(rel, axis=-1)
+        dist = _so3.norm(rel)
         a_b = np.array([math.cos(model.hip_line_tilt_rad), 0.0, -math.sin(model.hip_line_tilt_rad)])
         off = rel @ a_b
         lo, hi = model.hip_x_range_m
@@ -1097,7 +1098,7 @@ class CentroidalSolver:
         ksi = np.maximum(tk.knot_slot[: K - 1], 0)
         foot_c = sol["feet"][legs, ksi] + model.foot_radius_m * sch.nrm[legs, ksi]
         vec = hip - foot_c
-        dist = np.linalg.norm(vec, axis=-1)
+        dist = _so3.norm(vec)
         act = self._khas[: K - 1]
         # A relaxed row (foot maybe up) allows M (1 − c) more.
         c = sol["c"]
@@ -1121,7 +1122,7 @@ class CentroidalSolver:
         t1, t2, n = tk.t1[:N], tk.t2[:N], tk.n[:N]
         fn = np.sum(f * n, -1)
         ft = np.stack([np.sum(f * t1, -1), np.sum(f * t2, -1)], -1)
-        ftn = np.linalg.norm(ft, axis=-1)
+        ftn = _so3.norm(ft)
         # Relative to the cone's radius, and never for less than cone_tol_N of excess (lightly loaded feet).
         excess = ftn - pr.mu * fn
         cone_rel = np.where(
