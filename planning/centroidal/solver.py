@@ -672,7 +672,7 @@ class CentroidalSolver:
         xbar = foot_c - tk.p[1:, None, :]
         kp, kt = self._kin
         kp[:, :, 1] = -a_w[:, None, :]
-        kt[:, :, 1] = np.einsum("kj,kljm->klm", a_w, _so3.hat(xbar))
+        kt[:, :, 1] = _so3.cross(a_w[:, None, :], xbar)  # a_wᵀ [x̄]× = (a_w × x̄)ᵀ
         kd = self._kd
         kd[:, :, 1] = 0.0
         kv = np.where(khas, sch.var[legs, ksi], -1)
