@@ -431,7 +431,7 @@ class CentroidalProblem:
         if a.ndim == 2 and a.shape[1] == 11 and not any(p.region_xy is not None for p in ph):
             legs = a[:, 0]
             ok = (
-                np.all(np.isin(legs, (0, 1, 2, 3)))
+                np.all((legs >= 0.0) & (legs <= 3.0) & (legs == np.floor(legs)))  # 0..3 (np.isin is slow)
                 and np.all(np.isfinite(a[:, 1]))
                 and not np.any(np.isnan(a[:, 2]))
                 and np.all(a[:, 1] < a[:, 2])
