@@ -169,6 +169,45 @@ class Support:
         return np.where(keep[..., None], q, edge)
 
 
+class _SupportColumns:
+    """Support polygons of (N,E) rows laid out per column in x/y components, for projecting one column at a time
+    in a sequential loop: Support.project(q, j) with the same arithmetic and less overhead.
+
+    feet: (N,E,4,2) foot xy, m; stance: (N,E,4) bool."""
+
+    def __init__(self, feet: F64, stance: np.ndarray) -> None:
+        sup = Support.of(np.swapaxes(feet, 0, 1), np.swapaxes(stance, 0, 1))  # (E,N,...)
+        self.ax, self.ay = sup.a[..., 0], sup.a[..., 1]
+        self.abx, self.aby = sup.ab[..., 0], sup.ab[..., 1]
+        self.inv_len2 = sup.inv_len2
+        self.edge_ok = sup.edge_ok
+        self.tri = [
+            (p[..., 0], p[..., 1], e[..., 0], e[..., 1])
+            for p, e in ((sup.p0, sup.e01), (sup.p1, sup.e12), (sup.p2, sup.e20))
+        ]
+        self.tri_ok = sup.tri_ok
+        self.no_stance = ~sup.any_stance
+        self.rows = np.arange(sup.a.shape[1])
+
+    def project(self, q: F64, j: int) -> F64:
+        """Returns the points (N,2) of column j's polygons nearest to q (N,2)."""
+        qx, qy = q[:, 0:1], q[:, 1:2]
+        ax, ay, abx, aby = self.ax[j], self.ay[j], self.abx[j], self.aby[j]
+        s = np.clip(((qx - ax) * abx + (qy - ay) * aby) * self.inv_len2[j], 0.0, 1.0)
+        cx = ax + s * abx
+        cy = ay + s * aby
+        dx = cx - qx
+        dy = cy - qy
+        d2 = np.where(self.edge_ok[j], dx * dx + dy * dy, np.inf)
+        k = np.argmin(d2, axis=-1)
+        edge = np.stack([cx[self.rows, k], cy[self.rows, k]], axis=-1)
+        sides = [ex[j] * (qy - py[j]) - ey[j] * (qx - px[j]) for px, py, ex, ey in self.tri]
+        c0, c1, c2 = sides
+        inside = self.tri_ok[j] & (((c0 >= 0) & (c1 >= 0) & (c2 >= 0)) | ((c0 <= 0) & (c1 <= 0) & (c2 <= 0)))
+        keep = inside.any(axis=-1) | self.no_stance[j]
+        return np.where(keep[:, None], q, edge)
+
+
 def project_to_support(q: F64, feet: F64, stance: np.ndarray) -> F64:
     """Returns the points (M,2) of the support polygons nearest to q (M,2).
 
@@ -375,7 +414,7 @@ def predict_batch(
         body = batch.body
         v_plan = body.velocity_world(ev.bounds)  # (N,E+1,2)
         xi_plan = body.position(ev.bounds) + v_plan / omega
-        support = Support.of(feet, w)
+        support = _SupportColumns(feet, w)
         u1 = cof.copy()
         xi_end = np.empty_like(cof)
         xi = np.broadcast_to(xi0, (n, 2))

@@ -32,7 +32,7 @@ import numpy as np
 
 from planning.steps.lip import PathBatch, StepPaths, sort_events, state_omega
 from planning.steps.reference import eval_map, map_height, touchdown_rank
-from planning.steps.state import F64, N_LEGS, StepMaps, StepPath, StepRobot, WalkState, rotate_yaw
+from planning.steps.state import F64, N_LEGS, StepMaps, StepPath, StepRobot, WalkState, rotate_cs, rotate_yaw
 
 
 @dataclass(frozen=True)
@@ -165,14 +165,18 @@ def _generate(
     body_td = body.position(reference.t_touchdown)
     margin = p.constraints.midline_margin_m + 0.005
 
+    # the trigonometry of each yaw array, once (rotate_cs(*cs[y], d) == rotate_yaw(y, d))
+    cs_td, cs_lo = (np.cos(yaw_td), np.sin(yaw_td)), (np.cos(yaw_lo), np.sin(yaw_lo))
+    cs_td_inv, cs_lo_inv = (np.cos(-yaw_td), np.sin(-yaw_td)), (np.cos(-yaw_lo), np.sin(-yaw_lo))
+
     def clamp(xy: F64) -> F64:
         for _ in range(2):
-            for nb, yw in ((neutral_td, yaw_td), (neutral_lo, yaw_lo)):
-                d = _heading_to_world(-yw, xy - nb)
-                xy = nb + _heading_to_world(yw, oct_.clamp(d))
-        d = _heading_to_world(-yaw_td, xy - body_td)
+            for nb, fwd, inv in ((neutral_td, cs_td, cs_td_inv), (neutral_lo, cs_lo, cs_lo_inv)):
+                d = rotate_cs(*inv, xy - nb)
+                xy = nb + rotate_cs(*fwd, oct_.clamp(d))
+        d = rotate_cs(*cs_td_inv, xy - body_td)
         d[:, 1] = side * np.maximum(side * d[:, 1], margin)
-        return body_td + _heading_to_world(yaw_td, d)
+        return body_td + rotate_cs(*cs_td, d)
 
     clamped = clamp(ref_xy)
     fam.add(clamped, "clamped")
@@ -209,32 +213,49 @@ def _generate(
     fam.add(in_place if k else ref_xy, "in_place")
     out = side[:, None] * np.array([0.0, 1.0])
     for dw, name in ((p.width_delta_m, "wide"), (-p.width_delta_m, "narrow")):
-        fam.add(neutral_mid + _heading_to_world(yaw_td, dw * out), name)
-    # Offsets of each leg's next touchdown, then footprint samples, to fill up to n.
+        fam.add(neutral_mid + rotate_cs(*cs_td, dw * out), name)
+    # Offsets of each leg's next touchdown, then footprint samples, to fill up to n (all of a kind at once).
     rest = max(n - len(fam.kind), 0)
     n_off = (rest * 3 + 4) // 5
-    dirs = np.array([[math.cos(a), math.sin(a)] for a in np.arange(8) * math.pi / 4])
-    i = 0
-    while i < n_off:
-        ring = 1 + i // 8
-        d = _heading_to_world(yaw_td, np.broadcast_to(ring * p.offset_step_m * dirs[i % 8], (k, 2)))
-        fam.add(ref_xy + first * d, "offset")
-        i += 1
+    if n_off:
+        i = np.arange(n_off)
+        off = (1 + i // 8)[:, None] * p.offset_step_m * _OFFSET_DIRS[i % 8]  # (n_off,2) heading frame
+        d = rotate_cs(*cs_td, np.broadcast_to(off[:, None, :], (n_off, k, 2)))
+        for xy in ref_xy + first * d:
+            fam.add(xy, "offset")
     n_fp = rest - n_off
-    angles = np.arange(12) * math.pi / 6
-    fracs = (0.6, 0.3, 0.9)
-    for j in range(n_fp):
-        f = fracs[(j // 12) % 3]
-        a = angles[j % 12] + (j // 36) * math.pi / 12
-        d = f * oct_.clamp(np.array([math.cos(a), math.sin(a)]) * max(oct_.rx, oct_.ry))
-        fam.add(
-            np.where(first, neutral_td + _heading_to_world(yaw_td, np.broadcast_to(d, (k, 2))), ref_xy),
-            "footprint",
-        )
+    if n_fp > 0:
+        d = _footprint_offsets(oct_, n_fp)
+        fp = neutral_td + rotate_cs(*cs_td, np.broadcast_to(d[:, None, :], (n_fp, k, 2)))
+        for xy in np.where(first, fp, ref_xy):
+            fam.add(xy, "footprint")
     if len(fam.kind) > n:
         for name in ("xy", "shift", "scale", "kind"):
             setattr(fam, name, getattr(fam, name)[:n])
     return fam
+
+
+_OFFSET_DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.arange(8) * math.pi / 4])
+_FOOTPRINT_CACHE: dict[tuple[float, float, float, int], F64] = {}
+
+
+def _footprint_offsets(oct_: Octagon, n_fp: int) -> F64:
+    """Returns the footprint samples' heading-frame offsets (n_fp,2) m from the neutral point: rings at 0.6, 0.3
+    and 0.9 of the octagon, 12 directions each, turned by 15° every third ring (cached per octagon)."""
+    key = (oct_.rx, oct_.ry, oct_.corner, n_fp)
+    d = _FOOTPRINT_CACHE.get(key)
+    if d is None:
+        angles = np.arange(12) * math.pi / 6
+        fracs = (0.6, 0.3, 0.9)
+        d = np.empty((n_fp, 2))
+        for j in range(n_fp):
+            f = fracs[(j // 12) % 3]
+            a = angles[j % 12] + (j // 36) * math.pi / 12
+            d[j] = f * oct_.clamp(np.array([math.cos(a), math.sin(a)]) * max(oct_.rx, oct_.ry))
+        if len(_FOOTPRINT_CACHE) > 64:
+            _FOOTPRINT_CACHE.clear()
+        _FOOTPRINT_CACHE[key] = d
+    return d
 
 
 _AVOID_RINGS_M = np.array([0.03, 0.06, 0.09, 0.12, 0.16, 0.20])

@@ -142,7 +142,12 @@ def standing_state(
 def rotate_yaw(yaw: F64 | float, d: F64) -> F64:
     """Returns planar vectors d (..., 2) turned by yaw (...,) rad (broadcasting)."""
     y = np.asarray(yaw, dtype=np.float64)
-    c, s = np.cos(y), np.sin(y)
+    return rotate_cs(np.cos(y), np.sin(y), d)
+
+
+def rotate_cs(c: F64, s: F64, d: F64) -> F64:
+    """Returns planar vectors d (..., 2) turned by the angle whose cosine and sine are c, s (...,) (broadcasting);
+    rotate_yaw with the trigonometry done once by the caller."""
     dx, dy = d[..., 0], d[..., 1]
     out = np.empty(np.broadcast_shapes(np.shape(dx), c.shape) + (2,))
     out[..., 0] = c * dx - s * dy
