@@ -303,6 +303,28 @@ class Events:
     p_all: F64
 
 
+_EVENT_CONSTS: dict[bytes, tuple[I64, np.ndarray, I64, I64]] = {}
+
+
+def _event_consts(leg: I64) -> tuple[I64, np.ndarray, I64, I64]:
+    """Per touchdown-leg sequence (K,): each event's leg, type (touchdown) and slot, and each leg's first
+    touchdown index (−1: none) — constant over ticks of a gait, so cached."""
+    key = leg.tobytes()
+    out = _EVENT_CONSTS.get(key)
+    if out is None:
+        k = leg.shape[0]
+        ev_leg = np.concatenate([leg, leg, np.arange(N_LEGS)])
+        ev_type = np.concatenate([np.ones(k, bool), np.zeros(k, bool), np.zeros(N_LEGS, bool)])
+        ev_slot = np.concatenate([N_LEGS + np.arange(k), N_LEGS + np.arange(k), np.arange(N_LEGS)])
+        first = np.full(N_LEGS, -1, dtype=np.int64)
+        for i in range(k - 1, -1, -1):
+            first[leg[i]] = i
+        if len(_EVENT_CONSTS) > 256:
+            _EVENT_CONSTS.clear()
+        out = _EVENT_CONSTS[key] = (ev_leg, ev_type, ev_slot, first)
+    return out
+
+
 def sort_events(batch: PathBatch, state: WalkState) -> Events:
     """Returns the sorted contact events and support segments of every path in the batch."""
     n, k = batch.t_td.shape
@@ -311,42 +333,40 @@ def sort_events(batch: PathBatch, state: WalkState) -> Events:
     e = 2 * k + N_LEGS
     lo_now = np.where(np.isnan(batch.t_lo_now), np.inf, batch.t_lo_now)
     times = np.concatenate([batch.t_td, batch.t_lo, lo_now], axis=1)  # (N,E)
-    ev_leg = np.concatenate([batch.leg, batch.leg, np.arange(N_LEGS)])
-    ev_type = np.concatenate([np.ones(k, bool), np.zeros(k, bool), np.zeros(N_LEGS, bool)])
-    ev_slot = np.concatenate([N_LEGS + np.arange(k), N_LEGS + np.arange(k), np.arange(N_LEGS)])
+    ev_leg, ev_type, ev_slot, first = _event_consts(batch.leg)
     t_end = batch.t_td.max(axis=1) if k else np.full(n, t0)
     times = np.clip(times, t0, t_end[:, None])
     order = np.argsort(times, axis=1, kind="stable")
-    ts = np.take_along_axis(times, order, axis=1)
+    rows = np.arange(n)[:, None]
+    ts = times[rows, order]
     s_leg, s_type, s_slot = ev_leg[order], ev_type[order], ev_slot[order]
     # Forward-fill, per leg, the last event so far: its type gives stance, its slot the foot's position.
     is_leg = s_leg[:, :, None] == np.arange(N_LEGS)  # (N,E,4)
     last = np.maximum.accumulate(np.where(is_leg, np.arange(e)[None, :, None], -1), axis=1)
     has = last >= 0
     lastc = np.maximum(last, 0)
-    stance_after = np.where(has, np.take_along_axis(s_type[:, :, None], lastc, axis=1), c0)
-    slot_after = np.where(has, np.take_along_axis(s_slot[:, :, None], lastc, axis=1), np.arange(N_LEGS))
-    stance_seg = np.concatenate([np.broadcast_to(c0, (n, 1, N_LEGS)), stance_after[:, :-1]], axis=1)
-    slot_seg = np.concatenate(
-        [np.broadcast_to(np.arange(N_LEGS), (n, 1, N_LEGS)), slot_after[:, :-1]], axis=1
-    )
-    pos_td = np.empty((n, k), dtype=np.int64)
+    rows3 = rows[:, :, None]
+    stance_after = np.where(has, s_type[rows3, lastc], c0)
+    slot_after = np.where(has, s_slot[rows3, lastc], np.arange(N_LEGS))
+    stance_seg = np.empty((n, e, N_LEGS), dtype=bool)
+    stance_seg[:, 0] = c0
+    stance_seg[:, 1:] = stance_after[:, :-1]
+    slot_seg = np.empty((n, e, N_LEGS), dtype=slot_after.dtype)
+    slot_seg[:, 0] = np.arange(N_LEGS)
+    slot_seg[:, 1:] = slot_after[:, :-1]
     inv = np.empty_like(order)
-    np.put_along_axis(inv, order, np.arange(e)[None, :], axis=1)
-    pos_td[:] = inv[:, :k]
+    inv[rows, order] = np.arange(e)[None, :]
+    pos_td = inv[:, :k].astype(np.int64)
     # Footholds per leg after each touchdown; legs in the air before their first touchdown count at it.
-    first = np.full(N_LEGS, -1, dtype=np.int64)
-    for i in range(k - 1, -1, -1):
-        first[batch.leg[i]] = i
     init_cp = np.where(c0 | (first < 0), np.arange(N_LEGS), N_LEGS + first)
     slot_cp = np.where(has, slot_after, init_cp)
-    slot_td = (
-        np.take_along_axis(slot_cp, pos_td[:, :, None], axis=1) if k else np.zeros((n, 0, N_LEGS), np.int64)
-    )
-    p_all = np.concatenate(
-        [np.broadcast_to(state.p_world_feet[:, :2], (n, N_LEGS, 2)), batch.p_td[:, :, :2]], 1
-    )
-    bounds = np.concatenate([np.full((n, 1), t0), ts], axis=1)
+    slot_td = slot_cp[rows, pos_td] if k else np.zeros((n, 0, N_LEGS), np.int64)
+    p_all = np.empty((n, N_LEGS + k, 2))
+    p_all[:, :N_LEGS] = state.p_world_feet[:, :2]
+    p_all[:, N_LEGS:] = batch.p_td[:, :, :2]
+    bounds = np.empty((n, e + 1))
+    bounds[:, 0] = t0
+    bounds[:, 1:] = ts
     return Events(ts, bounds, stance_seg, slot_seg, pos_td, slot_td, p_all)
 
 
