@@ -422,9 +422,10 @@ def predict_batch(
     rel = ev.bounds - t0
     a = np.exp(-omega * rel)  # (N,E+1)
     grow = 1.0 / a[:, 1:]  # exp(ω(t_e - t0))
-    da = (a[:, :-1] - a[:, 1:])[..., None]
-    xi_end = grow[..., None] * (xi0 - np.cumsum(da * cof, axis=1))  # (N,E,2)
     u0, u1 = cof, cof
+    if not (estimate == "tracking" and e):
+        da = (a[:, :-1] - a[:, 1:])[..., None]
+        xi_end = grow[..., None] * (xi0 - np.cumsum(da * cof, axis=1))  # (N,E,2)
     if estimate == "tracking" and e:
         # Sequential over segments (vectorized over paths): the CoP ramps from the CoF toward what a
         # capture-point tracking controller would command at the segment start, clamped to the support.
@@ -434,15 +435,19 @@ def predict_batch(
         body = batch.body
         v_plan = body.velocity_world(ev.bounds)  # (N,E+1,2)
         xi_plan = body.position(ev.bounds) + v_plan / omega
-        support = _SupportColumns(feet, w)
         u1 = cof.copy()
         xi_end = np.empty_like(cof)
         xi = np.broadcast_to(xi0, (n, 2))
         active = np.asarray((tau > 0.0).any(axis=0))
+        # support polygons of the segments that last (most events are clipped to the end: zero length)
+        act = np.flatnonzero(active)
+        support = _SupportColumns(feet[:, act], w[:, act])
+        col = 0
         for j in range(e):
             if active[j]:
                 d = xi - v_plan[:, j] / omega + feedback_gain * (xi - xi_plan[:, j])
-                u1[:, j] += tracking_fraction * (support.project(d, j) - cof[:, j])
+                u1[:, j] += tracking_fraction * (support.project(d, col) - cof[:, j])
+                col += 1
                 xi = cof[:, j] + (xi - cof[:, j]) * ep[:, j, None] - gp[:, j, None] * (u1[:, j] - cof[:, j])
             xi_end[:, j] = xi
     elif estimate not in ("cof", "tracking"):
