@@ -316,6 +316,7 @@ class ForceDistributor:
         P0, self._p_gather = dense_upper_csc(n_var)
         A0 = block_constraint_csc(5)
         self._R = contact_frames(None)
+        self._R_is_eye = _is_identity_frames(self._R)  # kept in step with every write to _R
         self._mu_face = pyramid_mu(0.6, p.inscribed_pyramid)
         self._rows = np.zeros((N_LEGS, 3, 5))  # constraint values, CSC order
         pyramid_rows(self._R, self._mu_face, self._rows)
@@ -407,10 +408,12 @@ class ForceDistributor:
             R_new = contact_frames(n_world_contact)
             a_changed = mu_face != self._mu_face or not np.array_equal(R_new, self._R)
             self._R[:] = R_new
+            self._R_is_eye = _is_identity_frames(self._R)
         else:
-            a_changed = mu_face != self._mu_face or not _is_identity_frames(self._R)
+            a_changed = mu_face != self._mu_face or not self._R_is_eye
             if a_changed:
                 self._R[:] = np.eye(3)
+                self._R_is_eye = True
         self._mu_face = mu_face
         if a_changed:
             pyramid_rows(self._R, mu_face, self._rows)

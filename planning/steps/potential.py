@@ -152,12 +152,13 @@ def _generate(
     t0 = body.t0
     rank = touchdown_rank(leg)
     first = (rank == 0)[:, None]
-    t_mid = reference.t_touchdown + 0.5 * _stance(reference)
+    t_lo = _liftoff_or_nominal(reference)
+    t_mid = reference.t_touchdown + 0.5 * (t_lo - reference.t_touchdown)  # mid-stance
     neutral_mid = body.neutral_points(t_mid, oct_.neutral, leg)
     yaw_td = body.yaw(reference.t_touchdown)
-    yaw_lo = body.yaw(_liftoff_or_nominal(reference))
+    yaw_lo = body.yaw(t_lo)
     neutral_td = body.neutral_points(reference.t_touchdown, oct_.neutral, leg)
-    neutral_lo = body.neutral_points(_liftoff_or_nominal(reference), oct_.neutral, leg)
+    neutral_lo = body.neutral_points(t_lo, oct_.neutral, leg)
 
     fam.add(ref_xy, "reference")
     # Clamped reference: alternate projections onto the touchdown and liftoff octagons, then off the midline.
@@ -284,10 +285,6 @@ def _avoid(xy: F64, yaw: F64, maps: StepMaps, forward: float | None) -> F64:
 
 def _liftoff_or_nominal(path: StepPath) -> F64:
     return np.where(np.isfinite(path.t_liftoff), path.t_liftoff, path.t_touchdown + _nominal_stance(path))
-
-
-def _stance(path: StepPath) -> F64:
-    return _liftoff_or_nominal(path) - path.t_touchdown
 
 
 def _nominal_stance(path: StepPath) -> F64:
