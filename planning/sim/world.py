@@ -125,6 +125,7 @@ class World:
         self.foot_site = np.array(
             [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{leg}_foot_site") for leg in LEGS]
         )
+        self._foot_site_ids = [int(i) for i in self.foot_site]
         rm = robot.model
         jn = [
             [mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_JOINT, j) for j in lg.joint_ids] for lg in robot.legs
@@ -157,6 +158,7 @@ class World:
         self.is_obstacle_geom = np.array([n.startswith("terrain_obstacle_") for n in self.geom_names])
         self.pushes: list[Push] = []
         self._jac = np.zeros((3, m.nv))
+        self._jacs = np.zeros((4, 3, m.nv))  # each foot site's Jacobian, refreshed by read_state
         self._vel6 = np.zeros(6)
         self.body_collisions = 0
         self.reset()
@@ -204,21 +206,23 @@ class World:
         # subtree linear velocity needs mj_subtreeVel; the trunk dominates the mass, so use its CoM velocity
         mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, self.body_id, self._vel6, 0)
         s.v_world_com[:] = self._vel6[3:]
-        s.q[:] = d.qpos[self.qpos_idx]
-        s.qd[:] = d.qvel[self.dof_idx]
-        s.tau_bias[:] = d.qfrc_bias[self.dof_idx]
-        for i in range(4):
-            sid = self.foot_site[i]
-            s.p_world_foot[i] = d.site_xpos[sid]
-            mujoco.mj_jacSite(m, d, self._jac, None, sid)
-            s.J_world_foot[i] = self._jac[:, self.dof_idx[i]]
-            s.v_world_foot[i] = self._jac @ d.qvel
+        qvel = d.qvel
+        np.take(d.qpos, self.qpos_idx, out=s.q)
+        np.take(qvel, self.dof_idx, out=s.qd)
+        np.take(d.qfrc_bias, self.dof_idx, out=s.tau_bias)
+        np.take(d.site_xpos, self.foot_site, axis=0, out=s.p_world_foot)
+        jacs = self._jacs
+        for i, sid in enumerate(self._foot_site_ids):
+            jac = jacs[i]
+            mujoco.mj_jacSite(m, d, jac, None, sid)
+            np.take(jac, self.dof_idx[i], axis=1, out=s.J_world_foot[i])
+            np.matmul(jac, qvel, out=s.v_world_foot[i])
         s.contact[:] = False
         s.knee_contact[:] = False
         s.bad_contact = None
         n = d.ncon
         if n:
-            geoms = d.contact.geom[:n]
+            geoms = d.contact.geom[:n].tolist()
             for g1, g2 in geoms:
                 r1, r2 = self.is_robot_geom[g1], self.is_robot_geom[g2]
                 if r1 == r2:
