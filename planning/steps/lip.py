@@ -303,13 +303,13 @@ class Events:
     p_all: F64
 
 
-_EVENT_CONSTS: dict[bytes, tuple[I64, np.ndarray, I64, I64]] = {}
+_EVENT_CONSTS: dict[tuple[str, bytes], tuple[I64, np.ndarray, I64, I64]] = {}
 
 
 def _event_consts(leg: I64) -> tuple[I64, np.ndarray, I64, I64]:
     """Per touchdown-leg sequence (K,): each event's leg, type (touchdown) and slot, and each leg's first
     touchdown index (−1: none) — constant over ticks of a gait, so cached."""
-    key = leg.tobytes()
+    key = (leg.dtype.str, leg.tobytes())
     out = _EVENT_CONSTS.get(key)
     if out is None:
         k = leg.shape[0]

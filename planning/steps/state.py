@@ -149,9 +149,10 @@ def rotate_cs(c: F64, s: F64, d: F64) -> F64:
     """Returns planar vectors d (..., 2) turned by the angle whose cosine and sine are c, s (...,) (broadcasting);
     rotate_yaw with the trigonometry done once by the caller."""
     dx, dy = d[..., 0], d[..., 1]
-    out = np.empty(np.broadcast_shapes(np.shape(dx), c.shape) + (2,))
-    out[..., 0] = c * dx - s * dy
-    out[..., 1] = s * dx + c * dy
+    x = c * dx
+    out = np.empty(x.shape + (2,))
+    np.subtract(x, s * dy, out=out[..., 0])
+    np.add(s * dx, c * dy, out=out[..., 1])
     return out
 
 
@@ -201,6 +202,9 @@ class BodyMotion:
         return self.position(t) + rotate_yaw(self.yaw(t), neutral_body[legs])
 
 
+_FIRST_CACHE: dict[tuple[str, bytes], I64] = {}  # each leg's first touchdown index, by touchdown-leg sequence
+
+
 @dataclass(frozen=True)
 class StepPath:
     """A step path: touchdowns (leg, time, place) plus the timing around them, sorted by touchdown time.
@@ -231,9 +235,16 @@ class StepPath:
             or self.p_world_touchdown.shape != (k, 3)
         ):
             raise ValueError(f"StepPath: inconsistent shapes for {k} touchdowns")
-        first = np.full(N_LEGS, -1, dtype=np.int64)
-        for i in range(k - 1, -1, -1):
-            first[self.leg[i]] = i
+        key = (self.leg.dtype.str, self.leg.tobytes())
+        first = _FIRST_CACHE.get(key)
+        if first is None:
+            first = np.full(N_LEGS, -1, dtype=np.int64)
+            for i in range(k - 1, -1, -1):
+                first[self.leg[i]] = i
+            first.flags.writeable = False  # shared by every path with these touchdown legs
+            if len(_FIRST_CACHE) > 256:
+                _FIRST_CACHE.clear()
+            _FIRST_CACHE[key] = first
         object.__setattr__(self, "_first", first)
 
     @property
