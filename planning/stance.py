@@ -44,6 +44,7 @@ from planning.forces import (
     iterate_usable,
     pyramid_mu,
     pyramid_rows,
+    qp_update,
     setup_osqp,
     solve_with_retry,
 )
@@ -252,7 +253,7 @@ class StanceHandler:
         self._B[:, :, 3:8] = self._pyr
         self._set_bounds(b, T, stance)
 
-        self._solver.update(q=self._q, l=self._l, u=self._u, Px=self._Px, Ax=self._B.ravel())
+        qp_update(self._solver, q=self._q, l=self._l, u=self._u, Px=self._Px, Ax=self._B.ravel())
         res, status, iterations = solve_with_retry(self._solver, p.retry_rho)
         relaxed_qp = False
         if status.startswith("primal infeasible"):
@@ -260,7 +261,7 @@ class StanceHandler:
             # then feasible on every leg (legs whose bias alone breaks a limit have no torque rows).
             relaxed_qp = True
             self._l[7::_ROWS] = 0.0
-            self._solver.update(l=self._l)
+            qp_update(self._solver, l=self._l)
             res, status, more = solve_with_retry(self._solver, p.retry_rho)
             iterations += more
         x = res.x
