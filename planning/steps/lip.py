@@ -374,7 +374,7 @@ def gather_xy(p_all: F64, slots: I64) -> F64:
     """Returns p_all (N,S,2) gathered at slots (N,...) → (N,...,2)."""
     n = p_all.shape[0]
     flat = slots.reshape(n, -1)
-    return np.take_along_axis(p_all, flat[:, :, None], axis=1).reshape(*slots.shape, 2)
+    return p_all[np.arange(n)[:, None], flat].reshape(*slots.shape, 2)
 
 
 @dataclass(frozen=True)
@@ -456,7 +456,7 @@ def predict_batch(
             xi_end[:, j] = xi
     elif estimate not in ("cof", "tracking"):
         raise ValueError(f"estimate: must be 'cof' or 'tracking', got {estimate!r}")
-    xi_td = np.take_along_axis(xi_end, ev.pos_td[..., None], axis=1) if k else np.zeros((n, 0, 2))
+    xi_td = xi_end[np.arange(n)[:, None], ev.pos_td] if k else np.zeros((n, 0, 2))
     x_td = v_td = None
     if with_states:
         b = 1.0 / a  # exp(ω(b_j - t0))

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planning.steps.lip import PathBatch, StepPaths, sort_events, state_omega
+from planning.steps.lip import PathBatch, StepPaths, gather_xy, sort_events, state_omega
 from planning.steps.reference import eval_map, map_height, touchdown_rank
 from planning.steps.state import F64, N_LEGS, StepMaps, StepPath, StepRobot, WalkState, rotate_cs, rotate_yaw
 
@@ -342,10 +342,9 @@ def screen_paths(
     lateral = _heading_to_world(-body.yaw(batch.t_td), xy - body.position(batch.t_td))[..., 1]
     collision = np.maximum(c.midline_margin_m - side * lateral, 0.0).sum(axis=1)
     ev = sort_events(batch, state)
-    others = np.take_along_axis(ev.p_all, ev.slot_td.reshape(n, -1)[:, :, None], axis=1).reshape(
-        n, k, N_LEGS, 2
-    )
-    dist = np.linalg.norm(others - xy[:, :, None, :], axis=-1)
+    others = gather_xy(ev.p_all, ev.slot_td)  # (N,K,4,2)
+    dd = others - xy[:, :, None, :]
+    dist = np.sqrt(np.add.reduce(dd * dd, axis=-1))  # np.linalg.norm(dd, axis=-1)
     dist = np.where(np.arange(N_LEGS)[None, None, :] == leg[None, :, None], np.inf, dist)
     collision += np.maximum(c.keep_out_m - dist, 0.0).sum(axis=(1, 2))
     # No-step map.
