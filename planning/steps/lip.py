@@ -419,46 +419,50 @@ def predict_batch(
             (idx >= 0)[..., None], np.take_along_axis(cof, np.maximum(idx, 0)[..., None], axis=1), x0
         )
     # ξ at segment ends: ξ_e = exp(ω(t_e - t0)) (ξ0 - Σ_{j≤e} (a_j - a_j+1) u_j), a_j = exp(-ω(b_j - t0)).
-    rel = ev.bounds - t0
-    a = np.exp(-omega * rel)  # (N,E+1)
-    grow = 1.0 / a[:, 1:]  # exp(ω(t_e - t0))
+    tracking = estimate == "tracking" and e > 0
+    a = np.exp(-omega * (ev.bounds - t0)) if (with_states or not tracking) else None  # (N,E+1)
     u0, u1 = cof, cof
-    if not (estimate == "tracking" and e):
+    if not tracking:
+        assert a is not None
+        grow = 1.0 / a[:, 1:]  # exp(ω(t_e - t0))
         da = (a[:, :-1] - a[:, 1:])[..., None]
         xi_end = grow[..., None] * (xi0 - np.cumsum(da * cof, axis=1))  # (N,E,2)
-    if estimate == "tracking" and e:
+    if tracking:
         # Sequential over segments (vectorized over paths): the CoP ramps from the CoF toward what a
-        # capture-point tracking controller would command at the segment start, clamped to the support.
+        # capture-point tracking controller would command at the segment start, clamped to the support. Only
+        # segments that last somewhere need a step (most events are clipped to the end: zero length); the
+        # others keep ξ and their CoF.
         tau = np.diff(ev.bounds, axis=1)
-        ep = np.exp(omega * tau)
-        gp = _g_plus(omega * tau)
+        act = np.flatnonzero((tau > 0.0).any(axis=0))
+        tau_a = tau[:, act]
+        ep = np.exp(omega * tau_a)[:, :, None]
+        gp = _g_plus(omega * tau_a)[:, :, None]
         body = batch.body
-        v_plan = body.velocity_world(ev.bounds)  # (N,E+1,2)
-        xi_plan = body.position(ev.bounds) + v_plan / omega
+        b_a = ev.bounds[:, act]  # segment starts
+        v_plan = body.velocity_world(b_a)  # (N,A,2)
+        xi_plan = body.position(b_a) + v_plan / omega
+        v_plan_w = v_plan / omega
+        support = _SupportColumns(feet[:, act], w[:, act])
         u1 = cof.copy()
         xi_end = np.empty_like(cof)
         xi = np.broadcast_to(xi0, (n, 2))
-        active = np.asarray((tau > 0.0).any(axis=0))
-        # support polygons of the segments that last (most events are clipped to the end: zero length)
-        act = np.flatnonzero(active)
-        support = _SupportColumns(feet[:, act], w[:, act])
-        v_plan_w = v_plan / omega
-        ep3, gp3 = ep[:, :, None], gp[:, :, None]
-        col = 0
-        for j, act_j in enumerate(active.tolist()):
-            if act_j:
-                cof_j = cof[:, j]
-                d = xi - v_plan_w[:, j] + feedback_gain * (xi - xi_plan[:, j])
-                u1_j = u1[:, j]
-                u1_j += tracking_fraction * (support.project(d, col) - cof_j)
-                col += 1
-                xi = cof_j + (xi - cof_j) * ep3[:, j] - gp3[:, j] * (u1_j - cof_j)
+        prev = 0
+        for col, j in enumerate(act.tolist()):
+            xi_end[:, prev:j] = xi[:, None]
+            cof_j = cof[:, j]
+            d = xi - v_plan_w[:, col] + feedback_gain * (xi - xi_plan[:, col])
+            u1_j = u1[:, j]
+            u1_j += tracking_fraction * (support.project(d, col) - cof_j)
+            xi = cof_j + (xi - cof_j) * ep[:, col] - gp[:, col] * (u1_j - cof_j)
             xi_end[:, j] = xi
+            prev = j + 1
+        xi_end[:, prev:] = xi[:, None]
     elif estimate not in ("cof", "tracking"):
         raise ValueError(f"estimate: must be 'cof' or 'tracking', got {estimate!r}")
     xi_td = xi_end[np.arange(n)[:, None], ev.pos_td] if k else np.zeros((n, 0, 2))
     x_td = v_td = None
     if with_states:
+        assert a is not None
         b = 1.0 / a  # exp(ω(b_j - t0))
         shrink = a[:, 1:]
         db = (b[:, 1:] - b[:, :-1])[..., None]
