@@ -421,18 +421,10 @@ def potential_step_paths(
         )
     )
     paths = [
-        StepPath(
-            leg=reference.leg,
-            t_touchdown=kept.t_td[j],
-            t_liftoff=kept.t_lo[j],
-            p_world_touchdown=kept.p_td[j],
-            t_liftoff_now=kept.t_lo_now[j],
-            body=reference.body,
-            kind=fam.kind[i],
-            gait=reference.gait,
-            violation=float(total[i]),
+        reference.sibling(
+            kept.t_td[j], kept.t_lo[j], kept.p_td[j], kept.t_lo_now[j], fam.kind[i], float(total[i])
         )
-        for j, i in enumerate(keep)
+        for j, i in enumerate(keep.tolist())
     ]
     return StepPaths(paths, kept)
 

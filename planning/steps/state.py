@@ -247,6 +247,33 @@ class StepPath:
             _FIRST_CACHE[key] = first
         object.__setattr__(self, "_first", first)
 
+    def sibling(
+        self,
+        t_touchdown: F64,
+        t_liftoff: F64,
+        p_world_touchdown: F64,
+        t_liftoff_now: F64,
+        kind: str,
+        violation: float,
+    ) -> StepPath:
+        """Returns a path with this one's touchdown legs, body and gait and the given timing and places, whose
+        shapes the caller guarantees ((K,), (K,), (K,3), (4,), e.g. rows of a batch stacked from this path): the
+        checks of the constructor are skipped (a replan builds dozens of these)."""
+        out = object.__new__(StepPath)
+        out.__dict__.update(
+            leg=self.leg,
+            t_touchdown=t_touchdown,
+            t_liftoff=t_liftoff,
+            p_world_touchdown=p_world_touchdown,
+            t_liftoff_now=t_liftoff_now,
+            body=self.body,
+            kind=kind,
+            gait=self.gait,
+            violation=violation,
+            _first=self._first,
+        )
+        return out
+
     @property
     def n_touchdowns(self) -> int:
         return int(self.leg.shape[0])
