@@ -36,9 +36,9 @@ class Phase(IntEnum):
     LATE = 2  # past the planned touchdown, not yet in contact: descending until contact
 
 
-# the members as plain module constants: the per-tick code compares with them thousands of times a second, and
-# an enum class attribute costs a descriptor call each time
-_STANCE, _SWING, _LATE = Phase.STANCE, Phase.SWING, Phase.LATE
+# the members' values as plain ints: the per-tick code compares numpy integers with them thousands of times a second,
+# and numpy probes an enum member's class for array protocols (EnumType.__getattr__ calls) on every comparison
+_STANCE, _SWING, _LATE = int(Phase.STANCE), int(Phase.SWING), int(Phase.LATE)
 
 
 class PlannedSwing(Protocol):

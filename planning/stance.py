@@ -310,17 +310,17 @@ class StanceHandler:
         fz = f[:, 2]
         lim = mu_face * fz
         if not (
-            np.all((fz >= p.fz_min_n)[stance])
-            and np.all((fz <= p.fz_max_n)[stance])
-            and np.all(np.abs(f[:, 0]) <= lim)
-            and np.all(np.abs(f[:, 1]) <= lim)
+            (fz >= p.fz_min_n)[stance].all()
+            and (fz <= p.fz_max_n)[stance].all()
+            and (np.abs(f[:, 0]) <= lim).all()
+            and (np.abs(f[:, 1]) <= lim).all()
         ):
             return False
         tau = self._tau
         np.einsum("lji,lj->li", J, f, out=tau)
         np.subtract(b, tau, out=tau)
         tau[~stance] = 0.0
-        return bool(np.all(np.abs(tau) <= T))
+        return bool((np.abs(tau) <= T).all())
 
     def _bias(self, tau_bias_leg: np.ndarray | None, sanitized: list[str]) -> np.ndarray:
         if tau_bias_leg is None:

@@ -257,7 +257,7 @@ class Analyzer:
         pr = self.params
         clear = zs - v.g
         pen = float(-clear.min()) if len(clear) else 0.0
-        scrape = bool(np.any(v.obstacle & (clear < pr.clearance_margin_m)))
+        scrape = bool((v.obstacle & (clear < pr.clearance_margin_m)).any())
         h_margin = math.inf
         if v.ring_g is not None:
             hit = v.ring_g > (zs - pr.clearance_margin_m)[:, None]  # (K,R)
