@@ -156,6 +156,10 @@ class World:
             mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)
         ]
         self.is_obstacle_geom = np.array([n.startswith("terrain_obstacle_") for n in self.geom_names])
+        # the same lookups as Python lists, for the per-tick contact loop (numpy scalar indexing is ~10x slower)
+        self._robot_geom_l: list[bool] = self.is_robot_geom.tolist()
+        self._foot_leg_l: list[int] = self.leg_of_foot_geom.tolist()
+        self._knee_leg_l: list[int] = self.leg_of_knee_geom.tolist()
         self.pushes: list[Push] = []
         self._jac = np.zeros((3, m.nv))
         self._jacs = np.zeros((4, 3, m.nv))  # each foot site's Jacobian, refreshed by read_state
@@ -223,19 +227,19 @@ class World:
         n = d.ncon
         if n:
             geoms = d.contact.geom[:n].tolist()
+            robot, foot_leg = self._robot_geom_l, self._foot_leg_l
             for g1, g2 in geoms:
-                r1, r2 = self.is_robot_geom[g1], self.is_robot_geom[g2]
+                r1, r2 = robot[g1], robot[g2]
                 if r1 == r2:
                     continue
                 g = g1 if r1 else g2
-                other = g2 if r1 else g1
-                leg = self.leg_of_foot_geom[g]
+                leg = foot_leg[g]
                 if leg >= 0:
-                    s.contact[leg] = True
-                    if self.is_obstacle_geom[other]:
-                        pass  # a foot on an obstacle is not a fall; the report counts it separately
+                    s.contact[leg] = (
+                        True  # (a foot on an obstacle is not a fall; the report counts it separately)
+                    )
                     continue
-                kl = self.leg_of_knee_geom[g]
+                kl = self._knee_leg_l[g]
                 if kl >= 0:
                     s.knee_contact[kl] = True
                 s.bad_contact = self.geom_names[g]

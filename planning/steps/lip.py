@@ -176,18 +176,29 @@ class _SupportColumns:
     feet: (N,E,4,2) foot xy, m; stance: (N,E,4) bool."""
 
     def __init__(self, feet: F64, stance: np.ndarray) -> None:
-        sup = Support.of(np.swapaxes(feet, 0, 1), np.swapaxes(stance, 0, 1))  # (E,N,...)
-        self.ax, self.ay = sup.a[..., 0], sup.a[..., 1]
-        self.abx, self.aby = sup.ab[..., 0], sup.ab[..., 1]
-        self.inv_len2 = sup.inv_len2
-        self.edge_ok = sup.edge_ok
+        # Support.of's arithmetic on contiguous per-component (E,N,4) arrays
+        fx = np.ascontiguousarray(np.swapaxes(feet[..., 0], 0, 1))
+        fy = np.ascontiguousarray(np.swapaxes(feet[..., 1], 0, 1))
+        st = np.ascontiguousarray(np.swapaxes(stance, 0, 1))
+        i, j = _PAIRS[:, 0], _PAIRS[:, 1]
+        self.ax, self.ay = fx[..., i], fy[..., i]
+        self.abx, self.aby = fx[..., j] - self.ax, fy[..., j] - self.ay
+        len2 = self.abx * self.abx + self.aby * self.aby
+        self.inv_len2 = np.where(len2 > 1e-12, 1.0 / np.maximum(len2, 1e-12), 0.0)
+        self.edge_ok = st[..., i] & st[..., j]
+        t0, t1, t2 = _TRIS[:, 0], _TRIS[:, 1], _TRIS[:, 2]
+        p0x, p1x, p2x = fx[..., t0], fx[..., t1], fx[..., t2]
+        p0y, p1y, p2y = fy[..., t0], fy[..., t1], fy[..., t2]
+        e01x, e01y = p1x - p0x, p1y - p0y
+        area = e01x * (p2y - p0y) - e01y * (p2x - p0x)
         self.tri = [
-            (p[..., 0], p[..., 1], e[..., 0], e[..., 1])
-            for p, e in ((sup.p0, sup.e01), (sup.p1, sup.e12), (sup.p2, sup.e20))
+            (p0x, p0y, e01x, e01y),
+            (p1x, p1y, p2x - p1x, p2y - p1y),
+            (p2x, p2y, p0x - p2x, p0y - p2y),
         ]
-        self.tri_ok = sup.tri_ok
-        self.no_stance = ~sup.any_stance
-        self.rows = np.arange(sup.a.shape[1])
+        self.tri_ok = st[..., t0] & st[..., t1] & st[..., t2] & (np.abs(area) > 1e-12)
+        self.no_stance = ~st.any(axis=-1)
+        self.rows = np.arange(fx.shape[1])
 
     def project(self, q: F64, j: int) -> F64:
         """Returns the points (N,2) of column j's polygons nearest to q (N,2)."""
