@@ -110,7 +110,7 @@ class Octagon:
         nrm = np.array([1.0 / self.rx, 1.0 / self.ry])
         excess = a @ nrm - self.corner
         a = a - np.maximum(excess, 0.0)[..., None] * nrm / (nrm @ nrm)
-        return s * np.clip(a, 0.0, [self.rx, self.ry])
+        return s * np.minimum(np.maximum(a, 0.0), [self.rx, self.ry])  # np.clip, without its overhead
 
 
 # ---- generation -----------------------------------------------------------------------------------------------------
