@@ -197,7 +197,7 @@ class _SupportColumns:
             (p2x, p2y, p0x - p2x, p0y - p2y),
         ]
         self.tri_ok = st[..., t0] & st[..., t1] & st[..., t2] & (np.abs(area) > 1e-12)
-        self.no_stance = ~st.any(axis=-1)
+        self.no_stance: np.ndarray = ~np.asarray(st.any(axis=-1))
         self.rows = np.arange(fx.shape[1])
 
     def project(self, q: F64, j: int) -> F64:
