@@ -191,11 +191,11 @@ class _SupportColumns:
         p0y, p1y, p2y = fy[..., t0], fy[..., t1], fy[..., t2]
         e01x, e01y = p1x - p0x, p1y - p0y
         area = e01x * (p2y - p0y) - e01y * (p2x - p0x)
-        self.tri = [
-            (p0x, p0y, e01x, e01y),
-            (p1x, p1y, p2x - p1x, p2y - p1y),
-            (p2x, p2y, p0x - p2x, p0y - p2y),
-        ]
+        # the three sides of every triangle stacked: (3,E,N,4) corner and edge components
+        self.tpx = np.stack([p0x, p1x, p2x])
+        self.tpy = np.stack([p0y, p1y, p2y])
+        self.tex = np.stack([e01x, p2x - p1x, p0x - p2x])
+        self.tey = np.stack([e01y, p2y - p1y, p0y - p2y])
         self.tri_ok = st[..., t0] & st[..., t1] & st[..., t2] & (np.abs(area) > 1e-12)
         self.no_stance: np.ndarray = ~np.asarray(st.any(axis=-1))
         self.rows = np.arange(fx.shape[1])
@@ -211,10 +211,12 @@ class _SupportColumns:
         dy = cy - qy
         d2 = np.where(self.edge_ok[j], dx * dx + dy * dy, np.inf)
         k = np.argmin(d2, axis=-1)
-        edge = np.stack([cx[self.rows, k], cy[self.rows, k]], axis=-1)
-        sides = [ex[j] * (qy - py[j]) - ey[j] * (qx - px[j]) for px, py, ex, ey in self.tri]
-        c0, c1, c2 = sides
-        inside = self.tri_ok[j] & (((c0 >= 0) & (c1 >= 0) & (c2 >= 0)) | ((c0 <= 0) & (c1 <= 0) & (c2 <= 0)))
+        edge = np.empty_like(q)
+        edge[:, 0] = cx[self.rows, k]
+        edge[:, 1] = cy[self.rows, k]
+        # which side of each triangle edge q is on (3,N,4); inside: on the same side of all three
+        c = self.tex[:, j] * (qy - self.tpy[:, j]) - self.tey[:, j] * (qx - self.tpx[:, j])
+        inside = self.tri_ok[j] & ((c >= 0).all(axis=0) | (c <= 0).all(axis=0))
         keep = inside.any(axis=-1) | self.no_stance[j]
         return np.where(keep[:, None], q, edge)
 
