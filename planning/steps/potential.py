@@ -290,8 +290,16 @@ def _liftoff_or_nominal(path: StepPath) -> F64:
 def _nominal_stance(path: StepPath) -> F64:
     fin = np.isfinite(path.t_liftoff)
     if fin.any():
-        return np.full(path.leg.shape[0], float(np.median(path.t_liftoff[fin] - path.t_touchdown[fin])))
+        return np.full(path.leg.shape[0], _median(path.t_liftoff[fin] - path.t_touchdown[fin]))
     return np.full(path.leg.shape[0], 0.3)
+
+
+def _median(x: F64) -> float:
+    """np.median of a non-empty finite 1-D array (the middle value, or the mean of the two middle ones), without
+    its generic-axis overhead."""
+    s = np.sort(x)
+    h = s.shape[0] // 2
+    return float(s[h]) if s.shape[0] % 2 else float((s[h - 1] + s[h]) / 2)
 
 
 # ---- screening ------------------------------------------------------------------------------------------------------
@@ -353,23 +361,20 @@ def screen_paths(
         bad = eval_map(maps.no_step, xy[..., 0], xy[..., 1]) > 0.5
         no_step = bad.sum(axis=1) * c.no_step_violation_m
     # Timing: previous liftoff and place of each touchdown's leg.
-    prev_lo = np.empty((n, k))
-    prev_xy = np.empty((n, k, 2))
+    # the same leg's previous touchdown in the path, else its stance now (lifting off at t_lo_now), else its
+    # swing now (lifted off already: the state's time)
     last = [-1] * N_LEGS
-    first_of_swing = np.zeros(k, dtype=bool)
-    for i, lg in enumerate(leg):
-        j = last[lg]
-        if j >= 0:
-            prev_lo[:, i] = batch.t_lo[:, j]
-            prev_xy[:, i] = xy[:, j]
-        elif state.contact[lg]:
-            prev_lo[:, i] = batch.t_lo_now[:, lg]
-            prev_xy[:, i] = state.p_world_feet[lg, :2]
-        else:
-            prev_lo[:, i] = state.t
-            prev_xy[:, i] = state.p_world_feet[lg, :2]
-            first_of_swing[i] = True
+    prev_j = []
+    for i, lg in enumerate(leg.tolist()):
+        prev_j.append(last[lg])
         last[lg] = i
+    j_prev = np.array(prev_j)
+    has = j_prev >= 0
+    jj = np.maximum(j_prev, 0)
+    down = state.contact[leg]
+    first_of_swing = ~has & ~down
+    prev_lo = np.where(has, batch.t_lo[:, jj], np.where(down, batch.t_lo_now[:, leg], state.t))
+    prev_xy = np.where(has[:, None], xy[:, jj], state.p_world_feet[leg, :2])
     t0 = state.t
     swing = batch.t_td - prev_lo
     min_swing = np.where(first_of_swing, c.min_time_to_touchdown_s, c.min_swing_s)
