@@ -323,5 +323,6 @@ class Handler:
             self.tau[leg] = (
                 self.kp * (q_des - s.q[leg]) + self.kd * (qd_des - s.qd[leg]) + tau_ff + s.tau_bias[leg]
             )
-        np.clip(self.tau, -self.robot.tau_max, self.robot.tau_max, out=self.tau)
+        tau_max = self.robot.tau_max
+        np.minimum(np.maximum(self.tau, -tau_max, out=self.tau), tau_max, out=self.tau)  # np.clip
         return self.tau
