@@ -40,7 +40,7 @@ class Poly1D:
         self.peak_a = peak_a
         self._tb_np: np.ndarray | None = None
         self._c_np: np.ndarray | None = None
-        self._cols: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._cols: np.ndarray | None = None  # (4,P) coefficients by power, for sampling many times at once
 
     @property
     def t_start(self) -> float:
@@ -90,7 +90,7 @@ class Poly1D:
         else:
             cols = self._cols
             if cols is None:
-                cols = self._cols = (c[:, 0].copy(), c[:, 1].copy(), c[:, 2].copy(), c[:, 3].copy())
+                cols = self._cols = np.ascontiguousarray(c.T)
             k = tb.searchsorted(ts, "right")
             k -= 1
             if k[0] < 0:  # before the start: hold the start state
@@ -98,7 +98,7 @@ class Poly1D:
                 tau = np.maximum(ts - tb[k], 0.0)
             else:
                 tau = ts - tb[k]
-            c0, c1, c2, c3 = cols[0][k], cols[1][k], cols[2][k], cols[3][k]
+            c0, c1, c2, c3 = cols.take(k, axis=1)
         if order == 0:
             return c0 + tau * (c1 + tau * (c2 + tau * c3))
         if order == 1:
