@@ -36,6 +36,11 @@ class Phase(IntEnum):
     LATE = 2  # past the planned touchdown, not yet in contact: descending until contact
 
 
+# the members' values as plain ints: the per-tick code compares numpy integers with them thousands of times a second,
+# and numpy probes an enum member's class for array protocols (EnumType.__getattr__ calls) on every comparison
+_STANCE, _SWING, _LATE = int(Phase.STANCE), int(Phase.SWING), int(Phase.LATE)
+
+
 class PlannedSwing(Protocol):
     """One planned swing of a contact plan (planning.maneuver.Swing provides it)."""
 
@@ -124,7 +129,7 @@ class Handler:
         for leg in range(4):
             ph = self.phase[leg]
             sw = plan.swing_at(leg, t)
-            if ph == Phase.STANCE:
+            if ph == _STANCE:
                 if (
                     sw is not None
                     and t < sw.t_touchdown
@@ -132,12 +137,12 @@ class Handler:
                 ):
                     # measured state wins: while another foot is late, lifting this one would leave the body
                     # on fewer feet than planned; wait for the late foot (briefly)
-                    late = bool(np.any(self.phase == Phase.LATE))
+                    late = bool(np.any(self.phase == _LATE))
                     if not late or t - sw.t_liftoff > self.params.max_liftoff_delay_s:
                         self._lift(leg, sw, s)
-            elif ph == Phase.SWING and self._tripped(leg, s):
+            elif ph == _SWING and self._tripped(leg, s):
                 pass  # a trip: the swing planner responds (elevate, stop forward motion, go around)
-            elif ph == Phase.SWING:
+            elif ph == _SWING:
                 if sw is not None and leg not in self.touchdown_overrides:
                     # the plan may move a touchdown while the foot is in the air (step replanning), but not into
                     # a later cycle: a foot that should be down by now is a late touchdown, not a new step
@@ -153,10 +158,10 @@ class Handler:
                     if s.contact[leg]:
                         self._land(leg, s)
                     else:
-                        self.phase[leg] = Phase.LATE
+                        self.phase[leg] = _LATE
             elif s.contact[leg]:  # LATE
                 self._land(leg, s)
-        np.equal(self.phase, Phase.STANCE, out=self.stance)
+        np.equal(self.phase, _STANCE, out=self.stance)
 
     def _tripped(self, leg: int, s: RobotState) -> bool:
         """Detects a trip of a swing leg from the contacts the simulator measured (seed FIG. 16) and records it."""
@@ -227,7 +232,7 @@ class Handler:
     # ---- swing planning (333 Hz) ------------------------------------------------------------------------------
     def plan_swings(self, s: RobotState, v_body_des: np.ndarray | None = None) -> None:
         """Replans every swing leg from its measured position and velocity."""
-        legs = [i for i in range(4) if self.phase[i] != Phase.STANCE]
+        legs = [i for i in range(4) if self.phase[i] != _STANCE]
         if not legs:
             self.plans.clear()
             return
@@ -243,16 +248,16 @@ class Handler:
             target = self.p_touchdown[i].copy()
             wp = self.waypoints[i]
             ahead = np.zeros(0, dtype=np.int64) if wp is None else np.flatnonzero(wp[:, 0] > s.t + 0.005)
-            if wp is not None and ahead.size and self.phase[i] == Phase.SWING:
+            if wp is not None and ahead.size and self.phase[i] == _SWING:
                 # on the way: the next waypoint
                 t_td, target = float(wp[ahead[0], 0]), wp[ahead[0], 1:4].copy()
-            elif self.phase[i] == Phase.SWING and t_td - self.params.touchdown_lead_s > s.t + 0.01:
+            elif self.phase[i] == _SWING and t_td - self.params.touchdown_lead_s > s.t + 0.01:
                 t_td -= self.params.touchdown_lead_s
             target[2] -= self.params.touchdown_depth_m
             last = self.trips[i]
             trip = last if last is not None and s.t - last.t_s < 0.02 else None
             reqs.append(SwingRequest(i, p, s.v_world_foot[i], target, t_td, trip))
-        stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == Phase.STANCE}
+        stance = {i: self.p_contact[i] for i in range(4) if self.phase[i] == _STANCE}
         v = s.v_world_body if v_body_des is None else v_body_des
         body = BodyMotion(
             s.t, s.p_world_body.copy(), s.R_world_body.copy(), v.copy(), float(s.omega_world[2])
@@ -318,5 +323,6 @@ class Handler:
             self.tau[leg] = (
                 self.kp * (q_des - s.q[leg]) + self.kd * (qd_des - s.qd[leg]) + tau_ff + s.tau_bias[leg]
             )
-        np.clip(self.tau, -self.robot.tau_max, self.robot.tau_max, out=self.tau)
+        tau_max = self.robot.tau_max
+        np.minimum(np.maximum(self.tau, -tau_max, out=self.tau), tau_max, out=self.tau)  # np.clip
         return self.tau

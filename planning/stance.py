@@ -44,6 +44,7 @@ from planning.forces import (
     iterate_usable,
     pyramid_mu,
     pyramid_rows,
+    qp_update,
     setup_osqp,
     solve_with_retry,
 )
@@ -252,7 +253,7 @@ class StanceHandler:
         self._B[:, :, 3:8] = self._pyr
         self._set_bounds(b, T, stance)
 
-        self._solver.update(q=self._q, l=self._l, u=self._u, Px=self._Px, Ax=self._B.ravel())
+        qp_update(self._solver, q=self._q, l=self._l, u=self._u, Px=self._Px, Ax=self._B.ravel())
         res, status, iterations = solve_with_retry(self._solver, p.retry_rho)
         relaxed_qp = False
         if status.startswith("primal infeasible"):
@@ -260,7 +261,7 @@ class StanceHandler:
             # then feasible on every leg (legs whose bias alone breaks a limit have no torque rows).
             relaxed_qp = True
             self._l[7::_ROWS] = 0.0
-            self._solver.update(l=self._l)
+            qp_update(self._solver, l=self._l)
             res, status, more = solve_with_retry(self._solver, p.retry_rho)
             iterations += more
         x = res.x
@@ -309,17 +310,17 @@ class StanceHandler:
         fz = f[:, 2]
         lim = mu_face * fz
         if not (
-            np.all((fz >= p.fz_min_n)[stance])
-            and np.all((fz <= p.fz_max_n)[stance])
-            and np.all(np.abs(f[:, 0]) <= lim)
-            and np.all(np.abs(f[:, 1]) <= lim)
+            (fz >= p.fz_min_n)[stance].all()
+            and (fz <= p.fz_max_n)[stance].all()
+            and (np.abs(f[:, 0]) <= lim).all()
+            and (np.abs(f[:, 1]) <= lim).all()
         ):
             return False
         tau = self._tau
         np.einsum("lji,lj->li", J, f, out=tau)
         np.subtract(b, tau, out=tau)
         tau[~stance] = 0.0
-        return bool(np.all(np.abs(tau) <= T))
+        return bool((np.abs(tau) <= T).all())
 
     def _bias(self, tau_bias_leg: np.ndarray | None, sanitized: list[str]) -> np.ndarray:
         if tau_bias_leg is None:

@@ -49,24 +49,28 @@ class Recorder:
     def __call__(self, s: RobotState) -> None:
         if self._anchor is None:
             self._anchor = s.p_world_foot[:, :2].copy()
-        if not s.contact.any():
+        contact = s.contact
+        any_contact = bool(contact.any())
+        if not any_contact:
             self.airborne_s += s.t - self._t_prev
         self._t_prev = s.t
         if s.p_world_body[2] > self.max_body_height_m:
             self.max_body_height_m = float(s.p_world_body[2])
-        rising = s.contact & ~self._prev_contact
+        prev = self._prev_contact
+        rising = contact & ~prev
         if rising.any():
             for leg in np.flatnonzero(rising):
                 p = s.p_world_foot[leg].copy()
                 p[2] -= self.foot_radius_m
                 self.touchdowns.append(Touchdown(int(leg), s.t, p))
                 self._anchor[leg] = p[:2]
-        if s.contact.any():
-            slip = np.hypot(*(s.p_world_foot[:, :2] - self._anchor).T)
-            m = float(np.max(np.where(s.contact, slip, 0.0)))
+        if any_contact:
+            d = s.p_world_foot[:, :2] - self._anchor
+            slip = np.hypot(d[:, 0], d[:, 1])
+            m = float(np.where(contact, slip, 0.0).max())
             if m > self.max_foot_slip_m:
                 self.max_foot_slip_m = m
-        self._prev_contact[:] = s.contact
+        prev[:] = contact
         if s.t + 1e-9 >= self._next_sample:
             self._next_sample += self.sample_period_s
             self.t.append(s.t)

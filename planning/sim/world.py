@@ -125,6 +125,7 @@ class World:
         self.foot_site = np.array(
             [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{leg}_foot_site") for leg in LEGS]
         )
+        self._foot_site_ids = [int(i) for i in self.foot_site]
         rm = robot.model
         jn = [
             [mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_JOINT, j) for j in lg.joint_ids] for lg in robot.legs
@@ -155,8 +156,13 @@ class World:
             mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)
         ]
         self.is_obstacle_geom = np.array([n.startswith("terrain_obstacle_") for n in self.geom_names])
+        # the same lookups as Python lists, for the per-tick contact loop (numpy scalar indexing is ~10x slower)
+        self._robot_geom_l: list[bool] = self.is_robot_geom.tolist()
+        self._foot_leg_l: list[int] = self.leg_of_foot_geom.tolist()
+        self._knee_leg_l: list[int] = self.leg_of_knee_geom.tolist()
         self.pushes: list[Push] = []
         self._jac = np.zeros((3, m.nv))
+        self._jacs = np.zeros((4, 3, m.nv))  # each foot site's Jacobian, refreshed by read_state
         self._vel6 = np.zeros(6)
         self.body_collisions = 0
         self.reset()
@@ -204,34 +210,36 @@ class World:
         # subtree linear velocity needs mj_subtreeVel; the trunk dominates the mass, so use its CoM velocity
         mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, self.body_id, self._vel6, 0)
         s.v_world_com[:] = self._vel6[3:]
-        s.q[:] = d.qpos[self.qpos_idx]
-        s.qd[:] = d.qvel[self.dof_idx]
-        s.tau_bias[:] = d.qfrc_bias[self.dof_idx]
-        for i in range(4):
-            sid = self.foot_site[i]
-            s.p_world_foot[i] = d.site_xpos[sid]
-            mujoco.mj_jacSite(m, d, self._jac, None, sid)
-            s.J_world_foot[i] = self._jac[:, self.dof_idx[i]]
-            s.v_world_foot[i] = self._jac @ d.qvel
+        qvel = d.qvel
+        np.take(d.qpos, self.qpos_idx, out=s.q)
+        np.take(qvel, self.dof_idx, out=s.qd)
+        np.take(d.qfrc_bias, self.dof_idx, out=s.tau_bias)
+        np.take(d.site_xpos, self.foot_site, axis=0, out=s.p_world_foot)
+        jacs = self._jacs
+        for i, sid in enumerate(self._foot_site_ids):
+            jac = jacs[i]
+            mujoco.mj_jacSite(m, d, jac, None, sid)
+            np.take(jac, self.dof_idx[i], axis=1, out=s.J_world_foot[i])
+            np.matmul(jac, qvel, out=s.v_world_foot[i])
         s.contact[:] = False
         s.knee_contact[:] = False
         s.bad_contact = None
         n = d.ncon
         if n:
-            geoms = d.contact.geom[:n]
+            geoms = d.contact.geom[:n].tolist()
+            robot, foot_leg = self._robot_geom_l, self._foot_leg_l
             for g1, g2 in geoms:
-                r1, r2 = self.is_robot_geom[g1], self.is_robot_geom[g2]
+                r1, r2 = robot[g1], robot[g2]
                 if r1 == r2:
                     continue
                 g = g1 if r1 else g2
-                other = g2 if r1 else g1
-                leg = self.leg_of_foot_geom[g]
+                leg = foot_leg[g]
                 if leg >= 0:
-                    s.contact[leg] = True
-                    if self.is_obstacle_geom[other]:
-                        pass  # a foot on an obstacle is not a fall; the report counts it separately
+                    s.contact[leg] = (
+                        True  # (a foot on an obstacle is not a fall; the report counts it separately)
+                    )
                     continue
-                kl = self.leg_of_knee_geom[g]
+                kl = self._knee_leg_l[g]
                 if kl >= 0:
                     s.knee_contact[kl] = True
                 s.bad_contact = self.geom_names[g]

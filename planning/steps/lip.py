@@ -169,6 +169,58 @@ class Support:
         return np.where(keep[..., None], q, edge)
 
 
+class _SupportColumns:
+    """Support polygons of (N,E) rows laid out per column in x/y components, for projecting one column at a time
+    in a sequential loop: Support.project(q, j) with the same arithmetic and less overhead.
+
+    feet: (N,E,4,2) foot xy, m; stance: (N,E,4) bool."""
+
+    def __init__(self, feet: F64, stance: np.ndarray) -> None:
+        # Support.of's arithmetic on contiguous per-component (E,N,4) arrays
+        fx = np.ascontiguousarray(np.swapaxes(feet[..., 0], 0, 1))
+        fy = np.ascontiguousarray(np.swapaxes(feet[..., 1], 0, 1))
+        st = np.ascontiguousarray(np.swapaxes(stance, 0, 1))
+        i, j = _PAIRS[:, 0], _PAIRS[:, 1]
+        self.ax, self.ay = fx[..., i], fy[..., i]
+        self.abx, self.aby = fx[..., j] - self.ax, fy[..., j] - self.ay
+        len2 = self.abx * self.abx + self.aby * self.aby
+        self.inv_len2 = np.where(len2 > 1e-12, 1.0 / np.maximum(len2, 1e-12), 0.0)
+        self.edge_ok = st[..., i] & st[..., j]
+        t0, t1, t2 = _TRIS[:, 0], _TRIS[:, 1], _TRIS[:, 2]
+        p0x, p1x, p2x = fx[..., t0], fx[..., t1], fx[..., t2]
+        p0y, p1y, p2y = fy[..., t0], fy[..., t1], fy[..., t2]
+        e01x, e01y = p1x - p0x, p1y - p0y
+        area = e01x * (p2y - p0y) - e01y * (p2x - p0x)
+        # the three sides of every triangle stacked: (3,E,N,4) corner and edge components
+        self.tpx = np.stack([p0x, p1x, p2x])
+        self.tpy = np.stack([p0y, p1y, p2y])
+        self.tex = np.stack([e01x, p2x - p1x, p0x - p2x])
+        self.tey = np.stack([e01y, p2y - p1y, p0y - p2y])
+        self.tri_ok = st[..., t0] & st[..., t1] & st[..., t2] & (np.abs(area) > 1e-12)
+        self.no_stance: np.ndarray = ~np.asarray(st.any(axis=-1))
+        self.rows = np.arange(fx.shape[1])
+
+    def project(self, q: F64, j: int) -> F64:
+        """Returns the points (N,2) of column j's polygons nearest to q (N,2)."""
+        qx, qy = q[:, 0:1], q[:, 1:2]
+        ax, ay, abx, aby = self.ax[j], self.ay[j], self.abx[j], self.aby[j]
+        s = np.minimum(np.maximum(((qx - ax) * abx + (qy - ay) * aby) * self.inv_len2[j], 0.0), 1.0)  # clip
+        cx = ax + s * abx
+        cy = ay + s * aby
+        dx = cx - qx
+        dy = cy - qy
+        d2 = np.where(self.edge_ok[j], dx * dx + dy * dy, np.inf)
+        k = np.argmin(d2, axis=-1)
+        edge = np.empty_like(q)
+        edge[:, 0] = cx[self.rows, k]
+        edge[:, 1] = cy[self.rows, k]
+        # which side of each triangle edge q is on (3,N,4); inside: on the same side of all three
+        c = self.tex[:, j] * (qy - self.tpy[:, j]) - self.tey[:, j] * (qx - self.tpx[:, j])
+        inside = self.tri_ok[j] & ((c >= 0).all(axis=0) | (c <= 0).all(axis=0))
+        keep = inside.any(axis=-1) | self.no_stance[j]
+        return np.where(keep[:, None], q, edge)
+
+
 def project_to_support(q: F64, feet: F64, stance: np.ndarray) -> F64:
     """Returns the points (M,2) of the support polygons nearest to q (M,2).
 
@@ -264,6 +316,28 @@ class Events:
     p_all: F64
 
 
+_EVENT_CONSTS: dict[tuple[str, bytes], tuple[I64, np.ndarray, I64, I64]] = {}
+
+
+def _event_consts(leg: I64) -> tuple[I64, np.ndarray, I64, I64]:
+    """Per touchdown-leg sequence (K,): each event's leg, type (touchdown) and slot, and each leg's first
+    touchdown index (−1: none) — constant over ticks of a gait, so cached."""
+    key = (leg.dtype.str, leg.tobytes())
+    out = _EVENT_CONSTS.get(key)
+    if out is None:
+        k = leg.shape[0]
+        ev_leg = np.concatenate([leg, leg, np.arange(N_LEGS)])
+        ev_type = np.concatenate([np.ones(k, bool), np.zeros(k, bool), np.zeros(N_LEGS, bool)])
+        ev_slot = np.concatenate([N_LEGS + np.arange(k), N_LEGS + np.arange(k), np.arange(N_LEGS)])
+        first = np.full(N_LEGS, -1, dtype=np.int64)
+        for i in range(k - 1, -1, -1):
+            first[leg[i]] = i
+        if len(_EVENT_CONSTS) > 256:
+            _EVENT_CONSTS.clear()
+        out = _EVENT_CONSTS[key] = (ev_leg, ev_type, ev_slot, first)
+    return out
+
+
 def sort_events(batch: PathBatch, state: WalkState) -> Events:
     """Returns the sorted contact events and support segments of every path in the batch."""
     n, k = batch.t_td.shape
@@ -272,42 +346,40 @@ def sort_events(batch: PathBatch, state: WalkState) -> Events:
     e = 2 * k + N_LEGS
     lo_now = np.where(np.isnan(batch.t_lo_now), np.inf, batch.t_lo_now)
     times = np.concatenate([batch.t_td, batch.t_lo, lo_now], axis=1)  # (N,E)
-    ev_leg = np.concatenate([batch.leg, batch.leg, np.arange(N_LEGS)])
-    ev_type = np.concatenate([np.ones(k, bool), np.zeros(k, bool), np.zeros(N_LEGS, bool)])
-    ev_slot = np.concatenate([N_LEGS + np.arange(k), N_LEGS + np.arange(k), np.arange(N_LEGS)])
+    ev_leg, ev_type, ev_slot, first = _event_consts(batch.leg)
     t_end = batch.t_td.max(axis=1) if k else np.full(n, t0)
-    times = np.clip(times, t0, t_end[:, None])
+    times = np.minimum(np.maximum(times, t0), t_end[:, None])  # np.clip, without its overhead
     order = np.argsort(times, axis=1, kind="stable")
-    ts = np.take_along_axis(times, order, axis=1)
+    rows = np.arange(n)[:, None]
+    ts = times[rows, order]
     s_leg, s_type, s_slot = ev_leg[order], ev_type[order], ev_slot[order]
     # Forward-fill, per leg, the last event so far: its type gives stance, its slot the foot's position.
     is_leg = s_leg[:, :, None] == np.arange(N_LEGS)  # (N,E,4)
     last = np.maximum.accumulate(np.where(is_leg, np.arange(e)[None, :, None], -1), axis=1)
     has = last >= 0
     lastc = np.maximum(last, 0)
-    stance_after = np.where(has, np.take_along_axis(s_type[:, :, None], lastc, axis=1), c0)
-    slot_after = np.where(has, np.take_along_axis(s_slot[:, :, None], lastc, axis=1), np.arange(N_LEGS))
-    stance_seg = np.concatenate([np.broadcast_to(c0, (n, 1, N_LEGS)), stance_after[:, :-1]], axis=1)
-    slot_seg = np.concatenate(
-        [np.broadcast_to(np.arange(N_LEGS), (n, 1, N_LEGS)), slot_after[:, :-1]], axis=1
-    )
-    pos_td = np.empty((n, k), dtype=np.int64)
+    rows3 = rows[:, :, None]
+    stance_after = np.where(has, s_type[rows3, lastc], c0)
+    slot_after = np.where(has, s_slot[rows3, lastc], np.arange(N_LEGS))
+    stance_seg = np.empty((n, e, N_LEGS), dtype=bool)
+    stance_seg[:, 0] = c0
+    stance_seg[:, 1:] = stance_after[:, :-1]
+    slot_seg = np.empty((n, e, N_LEGS), dtype=slot_after.dtype)
+    slot_seg[:, 0] = np.arange(N_LEGS)
+    slot_seg[:, 1:] = slot_after[:, :-1]
     inv = np.empty_like(order)
-    np.put_along_axis(inv, order, np.arange(e)[None, :], axis=1)
-    pos_td[:] = inv[:, :k]
+    inv[rows, order] = np.arange(e)[None, :]
+    pos_td = inv[:, :k].astype(np.int64)
     # Footholds per leg after each touchdown; legs in the air before their first touchdown count at it.
-    first = np.full(N_LEGS, -1, dtype=np.int64)
-    for i in range(k - 1, -1, -1):
-        first[batch.leg[i]] = i
     init_cp = np.where(c0 | (first < 0), np.arange(N_LEGS), N_LEGS + first)
     slot_cp = np.where(has, slot_after, init_cp)
-    slot_td = (
-        np.take_along_axis(slot_cp, pos_td[:, :, None], axis=1) if k else np.zeros((n, 0, N_LEGS), np.int64)
-    )
-    p_all = np.concatenate(
-        [np.broadcast_to(state.p_world_feet[:, :2], (n, N_LEGS, 2)), batch.p_td[:, :, :2]], 1
-    )
-    bounds = np.concatenate([np.full((n, 1), t0), ts], axis=1)
+    slot_td = slot_cp[rows, pos_td] if k else np.zeros((n, 0, N_LEGS), np.int64)
+    p_all = np.empty((n, N_LEGS + k, 2))
+    p_all[:, :N_LEGS] = state.p_world_feet[:, :2]
+    p_all[:, N_LEGS:] = batch.p_td[:, :, :2]
+    bounds = np.empty((n, e + 1))
+    bounds[:, 0] = t0
+    bounds[:, 1:] = ts
     return Events(ts, bounds, stance_seg, slot_seg, pos_td, slot_td, p_all)
 
 
@@ -315,7 +387,7 @@ def gather_xy(p_all: F64, slots: I64) -> F64:
     """Returns p_all (N,S,2) gathered at slots (N,...) → (N,...,2)."""
     n = p_all.shape[0]
     flat = slots.reshape(n, -1)
-    return np.take_along_axis(p_all, flat[:, :, None], axis=1).reshape(*slots.shape, 2)
+    return p_all[np.arange(n)[:, None], flat].reshape(*slots.shape, 2)
 
 
 @dataclass(frozen=True)
@@ -360,37 +432,50 @@ def predict_batch(
             (idx >= 0)[..., None], np.take_along_axis(cof, np.maximum(idx, 0)[..., None], axis=1), x0
         )
     # ξ at segment ends: ξ_e = exp(ω(t_e - t0)) (ξ0 - Σ_{j≤e} (a_j - a_j+1) u_j), a_j = exp(-ω(b_j - t0)).
-    rel = ev.bounds - t0
-    a = np.exp(-omega * rel)  # (N,E+1)
-    grow = 1.0 / a[:, 1:]  # exp(ω(t_e - t0))
-    da = (a[:, :-1] - a[:, 1:])[..., None]
-    xi_end = grow[..., None] * (xi0 - np.cumsum(da * cof, axis=1))  # (N,E,2)
+    tracking = estimate == "tracking" and e > 0
+    a = np.exp(-omega * (ev.bounds - t0)) if (with_states or not tracking) else None  # (N,E+1)
     u0, u1 = cof, cof
-    if estimate == "tracking" and e:
+    if not tracking:
+        assert a is not None
+        grow = 1.0 / a[:, 1:]  # exp(ω(t_e - t0))
+        da = (a[:, :-1] - a[:, 1:])[..., None]
+        xi_end = grow[..., None] * (xi0 - np.cumsum(da * cof, axis=1))  # (N,E,2)
+    if tracking:
         # Sequential over segments (vectorized over paths): the CoP ramps from the CoF toward what a
-        # capture-point tracking controller would command at the segment start, clamped to the support.
+        # capture-point tracking controller would command at the segment start, clamped to the support. Only
+        # segments that last somewhere need a step (most events are clipped to the end: zero length); the
+        # others keep ξ and their CoF.
         tau = np.diff(ev.bounds, axis=1)
-        ep = np.exp(omega * tau)
-        gp = _g_plus(omega * tau)
+        act = np.flatnonzero((tau > 0.0).any(axis=0))
+        tau_a = tau[:, act]
+        ep = np.exp(omega * tau_a)[:, :, None]
+        gp = _g_plus(omega * tau_a)[:, :, None]
         body = batch.body
-        v_plan = body.velocity_world(ev.bounds)  # (N,E+1,2)
-        xi_plan = body.position(ev.bounds) + v_plan / omega
-        support = Support.of(feet, w)
+        b_a = ev.bounds[:, act]  # segment starts
+        v_plan = body.velocity_world(b_a)  # (N,A,2)
+        xi_plan = body.position(b_a) + v_plan / omega
+        v_plan_w = v_plan / omega
+        support = _SupportColumns(feet[:, act], w[:, act])
         u1 = cof.copy()
         xi_end = np.empty_like(cof)
         xi = np.broadcast_to(xi0, (n, 2))
-        active = np.asarray((tau > 0.0).any(axis=0))
-        for j in range(e):
-            if active[j]:
-                d = xi - v_plan[:, j] / omega + feedback_gain * (xi - xi_plan[:, j])
-                u1[:, j] += tracking_fraction * (support.project(d, j) - cof[:, j])
-                xi = cof[:, j] + (xi - cof[:, j]) * ep[:, j, None] - gp[:, j, None] * (u1[:, j] - cof[:, j])
+        prev = 0
+        for col, j in enumerate(act.tolist()):
+            xi_end[:, prev:j] = xi[:, None]
+            cof_j = cof[:, j]
+            d = xi - v_plan_w[:, col] + feedback_gain * (xi - xi_plan[:, col])
+            u1_j = u1[:, j]
+            u1_j += tracking_fraction * (support.project(d, col) - cof_j)
+            xi = cof_j + (xi - cof_j) * ep[:, col] - gp[:, col] * (u1_j - cof_j)
             xi_end[:, j] = xi
+            prev = j + 1
+        xi_end[:, prev:] = xi[:, None]
     elif estimate not in ("cof", "tracking"):
         raise ValueError(f"estimate: must be 'cof' or 'tracking', got {estimate!r}")
-    xi_td = np.take_along_axis(xi_end, ev.pos_td[..., None], axis=1) if k else np.zeros((n, 0, 2))
+    xi_td = xi_end[np.arange(n)[:, None], ev.pos_td] if k else np.zeros((n, 0, 2))
     x_td = v_td = None
     if with_states:
+        assert a is not None
         b = 1.0 / a  # exp(ω(b_j - t0))
         shrink = a[:, 1:]
         db = (b[:, 1:] - b[:, :-1])[..., None]

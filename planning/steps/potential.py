@@ -30,9 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planning.steps.lip import PathBatch, StepPaths, sort_events, state_omega
+from planning.steps.lip import PathBatch, StepPaths, gather_xy, sort_events, state_omega
 from planning.steps.reference import eval_map, map_height, touchdown_rank
-from planning.steps.state import F64, N_LEGS, StepMaps, StepPath, StepRobot, WalkState, rotate_yaw
+from planning.steps.state import F64, N_LEGS, StepMaps, StepPath, StepRobot, WalkState, rotate_cs, rotate_yaw
 
 
 @dataclass(frozen=True)
@@ -110,7 +110,7 @@ class Octagon:
         nrm = np.array([1.0 / self.rx, 1.0 / self.ry])
         excess = a @ nrm - self.corner
         a = a - np.maximum(excess, 0.0)[..., None] * nrm / (nrm @ nrm)
-        return s * np.clip(a, 0.0, [self.rx, self.ry])
+        return s * np.minimum(np.maximum(a, 0.0), [self.rx, self.ry])  # np.clip, without its overhead
 
 
 # ---- generation -----------------------------------------------------------------------------------------------------
@@ -152,12 +152,13 @@ def _generate(
     t0 = body.t0
     rank = touchdown_rank(leg)
     first = (rank == 0)[:, None]
-    t_mid = reference.t_touchdown + 0.5 * _stance(reference)
+    t_lo = _liftoff_or_nominal(reference)
+    t_mid = reference.t_touchdown + 0.5 * (t_lo - reference.t_touchdown)  # mid-stance
     neutral_mid = body.neutral_points(t_mid, oct_.neutral, leg)
     yaw_td = body.yaw(reference.t_touchdown)
-    yaw_lo = body.yaw(_liftoff_or_nominal(reference))
+    yaw_lo = body.yaw(t_lo)
     neutral_td = body.neutral_points(reference.t_touchdown, oct_.neutral, leg)
-    neutral_lo = body.neutral_points(_liftoff_or_nominal(reference), oct_.neutral, leg)
+    neutral_lo = body.neutral_points(t_lo, oct_.neutral, leg)
 
     fam.add(ref_xy, "reference")
     # Clamped reference: alternate projections onto the touchdown and liftoff octagons, then off the midline.
@@ -165,14 +166,18 @@ def _generate(
     body_td = body.position(reference.t_touchdown)
     margin = p.constraints.midline_margin_m + 0.005
 
+    # the trigonometry of each yaw array, once (rotate_cs(*cs[y], d) == rotate_yaw(y, d))
+    cs_td, cs_lo = (np.cos(yaw_td), np.sin(yaw_td)), (np.cos(yaw_lo), np.sin(yaw_lo))
+    cs_td_inv, cs_lo_inv = (np.cos(-yaw_td), np.sin(-yaw_td)), (np.cos(-yaw_lo), np.sin(-yaw_lo))
+
     def clamp(xy: F64) -> F64:
         for _ in range(2):
-            for nb, yw in ((neutral_td, yaw_td), (neutral_lo, yaw_lo)):
-                d = _heading_to_world(-yw, xy - nb)
-                xy = nb + _heading_to_world(yw, oct_.clamp(d))
-        d = _heading_to_world(-yaw_td, xy - body_td)
+            for nb, fwd, inv in ((neutral_td, cs_td, cs_td_inv), (neutral_lo, cs_lo, cs_lo_inv)):
+                d = rotate_cs(*inv, xy - nb)
+                xy = nb + rotate_cs(*fwd, oct_.clamp(d))
+        d = rotate_cs(*cs_td_inv, xy - body_td)
         d[:, 1] = side * np.maximum(side * d[:, 1], margin)
-        return body_td + _heading_to_world(yaw_td, d)
+        return body_td + rotate_cs(*cs_td, d)
 
     clamped = clamp(ref_xy)
     fam.add(clamped, "clamped")
@@ -209,32 +214,49 @@ def _generate(
     fam.add(in_place if k else ref_xy, "in_place")
     out = side[:, None] * np.array([0.0, 1.0])
     for dw, name in ((p.width_delta_m, "wide"), (-p.width_delta_m, "narrow")):
-        fam.add(neutral_mid + _heading_to_world(yaw_td, dw * out), name)
-    # Offsets of each leg's next touchdown, then footprint samples, to fill up to n.
+        fam.add(neutral_mid + rotate_cs(*cs_td, dw * out), name)
+    # Offsets of each leg's next touchdown, then footprint samples, to fill up to n (all of a kind at once).
     rest = max(n - len(fam.kind), 0)
     n_off = (rest * 3 + 4) // 5
-    dirs = np.array([[math.cos(a), math.sin(a)] for a in np.arange(8) * math.pi / 4])
-    i = 0
-    while i < n_off:
-        ring = 1 + i // 8
-        d = _heading_to_world(yaw_td, np.broadcast_to(ring * p.offset_step_m * dirs[i % 8], (k, 2)))
-        fam.add(ref_xy + first * d, "offset")
-        i += 1
+    if n_off:
+        i = np.arange(n_off)
+        off = (1 + i // 8)[:, None] * p.offset_step_m * _OFFSET_DIRS[i % 8]  # (n_off,2) heading frame
+        d = rotate_cs(*cs_td, np.broadcast_to(off[:, None, :], (n_off, k, 2)))
+        for xy in ref_xy + first * d:
+            fam.add(xy, "offset")
     n_fp = rest - n_off
-    angles = np.arange(12) * math.pi / 6
-    fracs = (0.6, 0.3, 0.9)
-    for j in range(n_fp):
-        f = fracs[(j // 12) % 3]
-        a = angles[j % 12] + (j // 36) * math.pi / 12
-        d = f * oct_.clamp(np.array([math.cos(a), math.sin(a)]) * max(oct_.rx, oct_.ry))
-        fam.add(
-            np.where(first, neutral_td + _heading_to_world(yaw_td, np.broadcast_to(d, (k, 2))), ref_xy),
-            "footprint",
-        )
+    if n_fp > 0:
+        d = _footprint_offsets(oct_, n_fp)
+        fp = neutral_td + rotate_cs(*cs_td, np.broadcast_to(d[:, None, :], (n_fp, k, 2)))
+        for xy in np.where(first, fp, ref_xy):
+            fam.add(xy, "footprint")
     if len(fam.kind) > n:
         for name in ("xy", "shift", "scale", "kind"):
             setattr(fam, name, getattr(fam, name)[:n])
     return fam
+
+
+_OFFSET_DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.arange(8) * math.pi / 4])
+_FOOTPRINT_CACHE: dict[tuple[float, float, float, int], F64] = {}
+
+
+def _footprint_offsets(oct_: Octagon, n_fp: int) -> F64:
+    """Returns the footprint samples' heading-frame offsets (n_fp,2) m from the neutral point: rings at 0.6, 0.3
+    and 0.9 of the octagon, 12 directions each, turned by 15° every third ring (cached per octagon)."""
+    key = (oct_.rx, oct_.ry, oct_.corner, n_fp)
+    d = _FOOTPRINT_CACHE.get(key)
+    if d is None:
+        angles = np.arange(12) * math.pi / 6
+        fracs = (0.6, 0.3, 0.9)
+        d = np.empty((n_fp, 2))
+        for j in range(n_fp):
+            f = fracs[(j // 12) % 3]
+            a = angles[j % 12] + (j // 36) * math.pi / 12
+            d[j] = f * oct_.clamp(np.array([math.cos(a), math.sin(a)]) * max(oct_.rx, oct_.ry))
+        if len(_FOOTPRINT_CACHE) > 64:
+            _FOOTPRINT_CACHE.clear()
+        _FOOTPRINT_CACHE[key] = d
+    return d
 
 
 _AVOID_RINGS_M = np.array([0.03, 0.06, 0.09, 0.12, 0.16, 0.20])
@@ -265,15 +287,19 @@ def _liftoff_or_nominal(path: StepPath) -> F64:
     return np.where(np.isfinite(path.t_liftoff), path.t_liftoff, path.t_touchdown + _nominal_stance(path))
 
 
-def _stance(path: StepPath) -> F64:
-    return _liftoff_or_nominal(path) - path.t_touchdown
-
-
 def _nominal_stance(path: StepPath) -> F64:
     fin = np.isfinite(path.t_liftoff)
     if fin.any():
-        return np.full(path.leg.shape[0], float(np.median(path.t_liftoff[fin] - path.t_touchdown[fin])))
+        return np.full(path.leg.shape[0], _median(path.t_liftoff[fin] - path.t_touchdown[fin]))
     return np.full(path.leg.shape[0], 0.3)
+
+
+def _median(x: F64) -> float:
+    """np.median of a non-empty finite 1-D array (the middle value, or the mean of the two middle ones), without
+    its generic-axis overhead."""
+    s = np.sort(x)
+    h = s.shape[0] // 2
+    return float(s[h]) if s.shape[0] % 2 else float((s[h - 1] + s[h]) / 2)
 
 
 # ---- screening ------------------------------------------------------------------------------------------------------
@@ -324,10 +350,9 @@ def screen_paths(
     lateral = _heading_to_world(-body.yaw(batch.t_td), xy - body.position(batch.t_td))[..., 1]
     collision = np.maximum(c.midline_margin_m - side * lateral, 0.0).sum(axis=1)
     ev = sort_events(batch, state)
-    others = np.take_along_axis(ev.p_all, ev.slot_td.reshape(n, -1)[:, :, None], axis=1).reshape(
-        n, k, N_LEGS, 2
-    )
-    dist = np.linalg.norm(others - xy[:, :, None, :], axis=-1)
+    others = gather_xy(ev.p_all, ev.slot_td)  # (N,K,4,2)
+    dd = others - xy[:, :, None, :]
+    dist = np.sqrt(np.add.reduce(dd * dd, axis=-1))  # np.linalg.norm(dd, axis=-1)
     dist = np.where(np.arange(N_LEGS)[None, None, :] == leg[None, :, None], np.inf, dist)
     collision += np.maximum(c.keep_out_m - dist, 0.0).sum(axis=(1, 2))
     # No-step map.
@@ -336,23 +361,20 @@ def screen_paths(
         bad = eval_map(maps.no_step, xy[..., 0], xy[..., 1]) > 0.5
         no_step = bad.sum(axis=1) * c.no_step_violation_m
     # Timing: previous liftoff and place of each touchdown's leg.
-    prev_lo = np.empty((n, k))
-    prev_xy = np.empty((n, k, 2))
+    # the same leg's previous touchdown in the path, else its stance now (lifting off at t_lo_now), else its
+    # swing now (lifted off already: the state's time)
     last = [-1] * N_LEGS
-    first_of_swing = np.zeros(k, dtype=bool)
-    for i, lg in enumerate(leg):
-        j = last[lg]
-        if j >= 0:
-            prev_lo[:, i] = batch.t_lo[:, j]
-            prev_xy[:, i] = xy[:, j]
-        elif state.contact[lg]:
-            prev_lo[:, i] = batch.t_lo_now[:, lg]
-            prev_xy[:, i] = state.p_world_feet[lg, :2]
-        else:
-            prev_lo[:, i] = state.t
-            prev_xy[:, i] = state.p_world_feet[lg, :2]
-            first_of_swing[i] = True
+    prev_j = []
+    for i, lg in enumerate(leg.tolist()):
+        prev_j.append(last[lg])
         last[lg] = i
+    j_prev = np.array(prev_j)
+    has = j_prev >= 0
+    jj = np.maximum(j_prev, 0)
+    down = state.contact[leg]
+    first_of_swing = ~has & ~down
+    prev_lo = np.where(has, batch.t_lo[:, jj], np.where(down, batch.t_lo_now[:, leg], state.t))
+    prev_xy = np.where(has[:, None], xy[:, jj], state.p_world_feet[leg, :2])
     t0 = state.t
     swing = batch.t_td - prev_lo
     min_swing = np.where(first_of_swing, c.min_time_to_touchdown_s, c.min_swing_s)
@@ -404,18 +426,10 @@ def potential_step_paths(
         )
     )
     paths = [
-        StepPath(
-            leg=reference.leg,
-            t_touchdown=kept.t_td[j],
-            t_liftoff=kept.t_lo[j],
-            p_world_touchdown=kept.p_td[j],
-            t_liftoff_now=kept.t_lo_now[j],
-            body=reference.body,
-            kind=fam.kind[i],
-            gait=reference.gait,
-            violation=float(total[i]),
+        reference.sibling(
+            kept.t_td[j], kept.t_lo[j], kept.p_td[j], kept.t_lo_now[j], fam.kind[i], float(total[i])
         )
-        for j, i in enumerate(keep)
+        for j, i in enumerate(keep.tolist())
     ]
     return StepPaths(paths, kept)
 

@@ -142,11 +142,17 @@ def standing_state(
 def rotate_yaw(yaw: F64 | float, d: F64) -> F64:
     """Returns planar vectors d (..., 2) turned by yaw (...,) rad (broadcasting)."""
     y = np.asarray(yaw, dtype=np.float64)
-    c, s = np.cos(y), np.sin(y)
+    return rotate_cs(np.cos(y), np.sin(y), d)
+
+
+def rotate_cs(c: F64, s: F64, d: F64) -> F64:
+    """Returns planar vectors d (..., 2) turned by the angle whose cosine and sine are c, s (...,) (broadcasting);
+    rotate_yaw with the trigonometry done once by the caller."""
     dx, dy = d[..., 0], d[..., 1]
-    out = np.empty(np.broadcast_shapes(np.shape(dx), c.shape) + (2,))
-    out[..., 0] = c * dx - s * dy
-    out[..., 1] = s * dx + c * dy
+    x = c * dx
+    out = np.empty(x.shape + (2,))
+    np.subtract(x, s * dy, out=out[..., 0])
+    np.add(s * dx, c * dy, out=out[..., 1])
     return out
 
 
@@ -196,6 +202,9 @@ class BodyMotion:
         return self.position(t) + rotate_yaw(self.yaw(t), neutral_body[legs])
 
 
+_FIRST_CACHE: dict[tuple[str, bytes], I64] = {}  # each leg's first touchdown index, by touchdown-leg sequence
+
+
 @dataclass(frozen=True)
 class StepPath:
     """A step path: touchdowns (leg, time, place) plus the timing around them, sorted by touchdown time.
@@ -226,10 +235,44 @@ class StepPath:
             or self.p_world_touchdown.shape != (k, 3)
         ):
             raise ValueError(f"StepPath: inconsistent shapes for {k} touchdowns")
-        first = np.full(N_LEGS, -1, dtype=np.int64)
-        for i in range(k - 1, -1, -1):
-            first[self.leg[i]] = i
+        key = (self.leg.dtype.str, self.leg.tobytes())
+        first = _FIRST_CACHE.get(key)
+        if first is None:
+            first = np.full(N_LEGS, -1, dtype=np.int64)
+            for i in range(k - 1, -1, -1):
+                first[self.leg[i]] = i
+            first.flags.writeable = False  # shared by every path with these touchdown legs
+            if len(_FIRST_CACHE) > 256:
+                _FIRST_CACHE.clear()
+            _FIRST_CACHE[key] = first
         object.__setattr__(self, "_first", first)
+
+    def sibling(
+        self,
+        t_touchdown: F64,
+        t_liftoff: F64,
+        p_world_touchdown: F64,
+        t_liftoff_now: F64,
+        kind: str,
+        violation: float,
+    ) -> StepPath:
+        """Returns a path with this one's touchdown legs, body and gait and the given timing and places, whose
+        shapes the caller guarantees ((K,), (K,), (K,3), (4,), e.g. rows of a batch stacked from this path): the
+        checks of the constructor are skipped (a replan builds dozens of these)."""
+        out = object.__new__(StepPath)
+        out.__dict__.update(
+            leg=self.leg,
+            t_touchdown=t_touchdown,
+            t_liftoff=t_liftoff,
+            p_world_touchdown=p_world_touchdown,
+            t_liftoff_now=t_liftoff_now,
+            body=self.body,
+            kind=kind,
+            gait=self.gait,
+            violation=violation,
+            _first=self._first,
+        )
+        return out
 
     @property
     def n_touchdowns(self) -> int:

@@ -75,6 +75,7 @@ class LegProblem:
     z_gentlest: Poly1D | None = None  # the gentlest vertical policy's trajectory (filled on first use)
     zs_gentlest: np.ndarray | None = None  # (K,) its samples
     z_gentlest_ok: bool = False  # it arrives on time
+    poses: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # body pose at ts[k], by k
 
 
 @dataclass(slots=True)
@@ -141,9 +142,10 @@ def reaches(hp: HPath, c: LegCtx, params: SwingParams) -> bool:
 def _point_segment(p: np.ndarray, a: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distances (K,) from points p (K,3) to segments a→a+s (a: (K,3) or (1,3)); and the heights along s."""
     ss = float(s @ s)
-    u = np.clip(((p - a) @ s) / ss, 0.0, 1.0) if ss > 1e-12 else np.zeros(len(p))
-    closest = a + u[:, None] * s
-    return np.linalg.norm(p - closest, axis=1), u
+    # np.minimum/np.maximum and sqrt(Σ d²): what np.clip and np.linalg.norm compute, without their overhead
+    u = np.minimum(np.maximum(((p - a) @ s) / ss, 0.0), 1.0) if ss > 1e-12 else np.zeros(len(p))
+    d = p - (a + u[:, None] * s)
+    return np.sqrt(np.add.reduce(d * d, axis=1)), u
 
 
 class Analyzer:
@@ -158,6 +160,7 @@ class Analyzer:
         self.family = vertical_family(params)
         self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
         self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
+        self._knee_idx_cache: dict[int, np.ndarray] = {}
 
     # ---- geometry of one candidate ------------------------------------------------------------------------
     def world_xy(self, prob: LegProblem, hp: HPath) -> tuple[np.ndarray, np.ndarray]:
@@ -254,7 +257,7 @@ class Analyzer:
         pr = self.params
         clear = zs - v.g
         pen = float(-clear.min()) if len(clear) else 0.0
-        scrape = bool(np.any(v.obstacle & (clear < pr.clearance_margin_m)))
+        scrape = bool((v.obstacle & (clear < pr.clearance_margin_m)).any())
         h_margin = math.inf
         if v.ring_g is not None:
             hit = v.ring_g > (zs - pr.clearance_margin_m)[:, None]  # (K,R)
@@ -294,7 +297,10 @@ class Analyzer:
         near = np.zeros(len(xw), dtype=bool)
         if not others:
             return 0.0, None, near
-        p = np.column_stack((xw, yw, zs + self.r_foot))
+        p = np.empty((len(xw), 3))
+        p[:, 0] = xw
+        p[:, 1] = yw
+        np.add(zs, self.r_foot, out=p[:, 2])
         worst, blame = 0.0, None
         for o in others:
             d, _ = _point_segment(p, o.foot_center, o.shank)
@@ -328,11 +334,19 @@ class Analyzer:
                 prob.g_knee_max = float(np.max(prob.ground(px, py)))
         g_max = max(prob.g_knee_max, float(g.max()))
         terrain = float(prob.hips[:, 2].min()) - self.knee_reach - g_max < pr.knee_radius_m
-        K = len(near)
-        idx = np.unique(np.linspace(1, K - 2, pr.knee_samples).round().astype(int))
+        idx = self._knee_idx(len(near))
         if not terrain:
             idx = idx[near[idx]]
         return idx, terrain
+
+    def _knee_idx(self, K: int) -> np.ndarray:
+        """The knee_samples interior sample indices of K samples, evenly spread (cached per K; read-only)."""
+        idx = self._knee_idx_cache.get(K)
+        if idx is None:
+            idx = np.unique(np.linspace(1, K - 2, self.params.knee_samples).round().astype(int))
+            idx.flags.writeable = False
+            self._knee_idx_cache[K] = idx
+        return idx
 
     def _knees(
         self,
@@ -346,8 +360,12 @@ class Analyzer:
         if len(v.knee_idx) == 0:
             return 0.0, 0.0, None
         knees, kept = [], []
-        for k in v.knee_idx:
-            p_w, R = prob.body.pose_at(float(prob.ts[k]))
+        poses = prob.poses
+        for k in v.knee_idx.tolist():
+            pose = poses.get(k)
+            if pose is None:
+                pose = poses[k] = prob.body.pose_at(float(prob.ts[k]))
+            p_w, R = pose
             foot_c = np.array([v.xw[k], v.yw[k], zs[k] + self.r_foot])
             try:
                 q = self.robot.ik_leg(prob.leg, R.T @ (foot_c - p_w))

@@ -25,7 +25,7 @@ class Poly1D:
     is a constant-velocity tail).
     """
 
-    __slots__ = ("breaks", "coeffs", "peak_v", "peak_a", "_tb_np", "_c_np")
+    __slots__ = ("breaks", "coeffs", "peak_v", "peak_a", "_tb_np", "_c_np", "_cols")
 
     def __init__(
         self,
@@ -40,6 +40,7 @@ class Poly1D:
         self.peak_a = peak_a
         self._tb_np: np.ndarray | None = None
         self._c_np: np.ndarray | None = None
+        self._cols: np.ndarray | None = None  # (4,P) coefficients by power, for sampling many times at once
 
     @property
     def t_start(self) -> float:
@@ -87,13 +88,17 @@ class Poly1D:
             c0, c1, c2, c3 = c[0]
             tau = np.maximum(ts - tb[0], 0.0)
         else:
-            k = np.searchsorted(tb, ts, side="right") - 1
+            cols = self._cols
+            if cols is None:
+                cols = self._cols = np.ascontiguousarray(c.T)
+            k = tb.searchsorted(ts, "right")
+            k -= 1
             if k[0] < 0:  # before the start: hold the start state
                 np.maximum(k, 0, out=k)
                 tau = np.maximum(ts - tb[k], 0.0)
             else:
                 tau = ts - tb[k]
-            c0, c1, c2, c3 = c[k].T
+            c0, c1, c2, c3 = cols.take(k, axis=1)
         if order == 0:
             return c0 + tau * (c1 + tau * (c2 + tau * c3))
         if order == 1:
