@@ -16,7 +16,7 @@ import numpy as np
 from planning.robot import ReachError, RobotModel
 from planning.swing._poly import Poly1D
 from planning.swing.params import SwingParams
-from planning.swing.policies import HPath, LegCtx, vertical, vertical_family
+from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_family
 from planning.swing.types import BodyMotion, GroundHeightFn, Tier
 
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
@@ -75,6 +75,7 @@ class LegProblem:
     z_gentlest: Poly1D | None = None  # the gentlest vertical policy's trajectory (filled on first use)
     zs_gentlest: np.ndarray | None = None  # (K,) its samples
     z_gentlest_ok: bool = False  # it arrives on time
+    hold: Hold | None = None  # rise first: the foot waits in x and y until it clears the terrain ahead
 
 
 @dataclass(slots=True)
