@@ -71,7 +71,7 @@ class SwingParams:
     # the lift-off height to the touchdown by more than rise_first_above_m (a riser, a box) holds the foot's x and y until the foot is
     # rise_first_margin_m above the highest ground on the route (inf: never), closing in on it meanwhile.
     rise_first_above_m: float = 0.03
-    rise_first_margin_m: float = 0.03
+    rise_first_margin_m: float = 0.01
     rise_first_top_m: float = 0.0  # the swing's top stays this far above the clearance height after a rise
     rise_first_gap_m: float = 0.02  # while rising, the foot's front closes in on the terrain up to this gap
     rise_first_v_up_mps: float = 2.0  # a rise-first swing rises at most this fast

@@ -101,15 +101,16 @@ class NavigatorParams:
     foot_margin_m: float = 0.03
     toe_reach_m: float = 0.10
     toe_rise_m: float = 0.08
-    max_pitch_rad: float = 0.3
+    max_pitch_rad: float = 0.45
     max_pitch_rate_rps: float = 0.6
     slow_gait: str = "walk"
     slow_gait_on: float = 0.15
     slow_gait_off: float = 0.05
-    climb_gait: str | None = "crawl"
+    climb_gait: str | None = "climb"
     climb_rise_m: float = 0.08
-    climb_behind_m: float = 0.45
-    climb_ahead_m: float = 0.75
+    climb_behind_m: float = 0.8
+    climb_ahead_m: float = 1.2
+    climb_steps_per_tread: int = 1
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -281,7 +282,8 @@ class TerrainNavigator:
             want = p.climb_gait
             # one tread per step: the body moves one riser pitch per gait cycle
             g = get_gait(p.climb_gait)
-            self.climb_speed = float(np.clip(pitch / g.cycle_s, p.min_speed_mps, g.max_speed_mps))
+            speed = pitch / (g.cycle_s * p.climb_steps_per_tread)
+            self.climb_speed = float(np.clip(speed, p.min_speed_mps, g.max_speed_mps))
         elif share > p.slow_gait_on:
             want = p.slow_gait
         elif share < p.slow_gait_off:
