@@ -71,6 +71,8 @@ class NavigatorParams:
     climb_ahead_m ahead of the body has a step (a rise or a drop above climb_rise_m within two cells): stairs,
     a curb (long swings give the foot time to rise above a riser before moving on; None: never); the speed there
     is one riser pitch per gait cycle (one tread per step), within min_speed_mps and the gait's top speed.
+    hip_ground_min_m, hip_ground_max_m: the body height target follows the ground under the hips where it differs
+    from the feet's by more than the first, by at most the second (see _ground_offset; 0: never).
     """
 
     use_sensor: bool = True
@@ -111,6 +113,8 @@ class NavigatorParams:
     climb_behind_m: float = 0.8
     climb_ahead_m: float = 1.2
     climb_steps_per_tread: int = 1
+    hip_ground_min_m: float = 0.04
+    hip_ground_max_m: float = 0.15
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -375,8 +379,24 @@ class TerrainNavigator:
         if np.isfinite(clear_now):
             h = min(h, clear_now - p.body_top_m - p.head_margin_m)
         h = float(np.clip(h, p.min_height_m, self.standing_height))
-        self.controller.height = h
         self.stats.min_height_m = min(self.stats.min_height_m, h)
+        self.controller.height = h + self._ground_offset(s)
+
+    def _ground_offset(self, s: RobotState) -> float:
+        """Gives how much higher (m) the ground under the hips is than the feet (the controller holds
+        the body at its height above the mean foot): on stairs the feet trail the hips by half a step, a riser
+        lower going down and higher going up. Within ±hip_ground_max_m; 0 below hip_ground_min_m (flat, rough)."""
+        p = self.params
+        maps = self.maps
+        if maps is None or p.hip_ground_max_m <= 0.0:
+            return 0.0
+        xy = s.p_world_body[:2] + rotate_yaw(s.yaw, self.p_body_hip_xy)
+        h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+        z_feet = float(np.mean(self.controller.handler.p_contact[:, 2]))  # what the height is measured from
+        off = float(np.mean(h)) - z_feet
+        if abs(off) < p.hip_ground_min_m:
+            return 0.0
+        return float(np.clip(off, -p.hip_ground_max_m, p.hip_ground_max_m))
 
     def _remembered_clearance(
         self,
