@@ -383,9 +383,10 @@ class TerrainNavigator:
         self.controller.height = h + self._ground_offset(s)
 
     def _ground_offset(self, s: RobotState) -> float:
-        """Gives how much higher (m) the ground under the hips is than the feet (the controller holds
-        the body at its height above the mean foot): on stairs the feet trail the hips by half a step, a riser
-        lower going down and higher going up. Within ±hip_ground_max_m; 0 below hip_ground_min_m (flat, rough)."""
+        """Gives how much lower (m, ≤ 0) the ground under the hips is than the feet (the controller holds the
+        body at its height above the mean foot): going down stairs the feet trail the hips by half a step, a riser
+        higher, and the front legs would reach down at full stretch. At most hip_ground_max_m; 0 below
+        hip_ground_min_m (flat, rough). (Going up, a higher body measured so lifted the hind legs off: not used.)"""
         p = self.params
         maps = self.maps
         if maps is None or p.hip_ground_max_m <= 0.0:
@@ -396,7 +397,7 @@ class TerrainNavigator:
         off = float(np.mean(h)) - z_feet
         if abs(off) < p.hip_ground_min_m:
             return 0.0
-        return float(np.clip(off, -p.hip_ground_max_m, p.hip_ground_max_m))
+        return float(np.clip(off, -p.hip_ground_max_m, 0.0))
 
     def _remembered_clearance(
         self,
