@@ -67,9 +67,10 @@ class SwingParams:
     knee_samples: int = 6  # interior samples at which knees are computed through the leg IK (when needed)
     knee_radius_m: float = 0.04  # knee-to-terrain margin
     knee_check_radius_m: float = 0.20  # knees are checked against a leg only when the foot comes this close
-    # Rise first: terrain on the straight route (under the foot or a foot radius ahead) higher than the line from
-    # the lift-off height to the touchdown by more than rise_first_above_m (a riser, a box) holds the foot's x and y until the foot is
-    # rise_first_margin_m above the highest ground on the route (inf: never), closing in on it meanwhile.
+    # Rise first (steps up only: touchdown above the lift-off by more than rise_first_above_m): terrain on the
+    # straight route (under the foot or a foot radius ahead) higher than the line from the lift-off height to the
+    # touchdown by more than rise_first_above_m (the riser) holds the foot's x and y until the foot is
+    # rise_first_margin_m above the highest ground on the route, closing in on it meanwhile (inf: never).
     rise_first_above_m: float = 0.03
     rise_first_margin_m: float = 0.01
     rise_first_top_m: float = 0.0  # the swing's top stays this far above the clearance height after a rise

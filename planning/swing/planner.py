@@ -428,8 +428,9 @@ class SwingPlanner:
         SwingParams.rise_first_above_m), None when nothing on the route asks for it; and how far (m) the foot may
         approach that terrain meanwhile.
 
-        Terrain on the straight route from the foot to the touchdown (under the foot's center or its front) that
-        stands above the line from the lift-off height to the touchdown height (a riser, a box) must be cleared
+        On a step up (touchdown above the lift-off by more than rise_first_above_m), terrain on the straight route
+        from the foot to the touchdown (under the foot's center or its front) that stands above the line from the
+        lift-off height to the touchdown height (the riser) must be cleared
         before the foot moves over it: the foot rises rise_first_margin_m above the highest ground on the route
         first, closing in on it up to rise_first_gap_m. Replanned every tick from the measured foot, so a lagging
         leg waits longer.
@@ -438,6 +439,8 @@ class SwingPlanner:
         if not math.isfinite(pr.rise_first_above_m):
             return None, 0.0
         p0, p1 = req.p_world_foot, req.p_touchdown
+        if float(p1[2]) - z_ref <= pr.rise_first_above_m:
+            return None, 0.0  # not a step up: boxes on the way are the tiers' business
         n = 24
         u = np.linspace(0.0, 1.0, n)
         xs = p0[0] + u * (p1[0] - p0[0])
