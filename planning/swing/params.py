@@ -76,6 +76,7 @@ class SwingParams:
     rise_first_top_m: float = 0.0  # the swing's top stays this far above the clearance height after a rise
     rise_first_gap_m: float = 0.02  # while rising, the foot's front closes in on the terrain up to this gap
     rise_first_v_up_mps: float = 2.0  # a rise-first swing rises at most this fast
+    step_down_top_m: float = 0.10  # a step down (by more than rise_first_above_m) rises at most this much
 
     # Other legs
     keepout_radius_m: float = 0.07  # lower legs closer than this collide (foot center to segment foot→knee)
@@ -99,6 +100,9 @@ class SwingParams:
 
     # Special policies
     late_descent_mps: float = 0.6  # late touchdown: descend at this speed until contact
+    late_descent_gain_per_s: float = (
+        5.0  # ... plus this times the height above the touchdown (≤ v_max_down_mps)
+    )
     trip_lift_m: float = 0.12  # normal trip: raise the foot this much above where it tripped
     trip_response_s: float = 0.15  # a trip's immediate response lasts this long
     recent_trip_s: float = 0.6  # after that, a trip this recent still elevates the foot

@@ -377,6 +377,9 @@ class SwingPlanner:
         z0, vz0, z1 = float(req.p_world_foot[2]), float(req.v_world_foot[2]), float(req.p_touchdown[2])
         z_ref = self._z_liftoff[leg]
         z_ref = z0 if z_ref is None else z_ref
+        if z1 < z_ref - pr.rise_first_above_m:
+            # a step down: the swing need not rise far above the surface it leaves (the nosing is at its height)
+            z_ceiling = min(z_ceiling, max(z_ref + pr.step_down_top_m, z0))
         z_agg, z_ok = vertical(agg, t_now, z0, vz0, z1, req.t_touchdown, z_ceiling, z_ref)
         hold = None
         if not isinstance(ground, FlatGround):
@@ -600,11 +603,14 @@ class SwingPlanner:
         )
         x, _ = bbw_axis(t_now, p0[0], v0[0], p1[0], pr.v_max_xy_mps, pr.a_max_xy_mps2)
         y, _ = bbw_axis(t_now, p0[1], v0[1], p1[1], pr.v_max_xy_mps, pr.a_max_xy_mps2)
+        # high above the touchdown (a step down, a swing that rose over a riser), descend faster
+        above = max(float(req.p_world_foot[2] - req.p_touchdown[2]), 0.0)
+        descent = min(pr.late_descent_mps + pr.late_descent_gain_per_s * above, pr.v_max_down_mps)
         z = late_touchdown(
             t_now,
             float(req.p_world_foot[2]),
             float(req.v_world_foot[2]),
-            pr.late_descent_mps,
+            max(descent, pr.late_descent_mps),
             pr.a_max_z_mps2,
         )
         miss = math.hypot(p0[0] - p1[0], p0[1] - p1[1])
