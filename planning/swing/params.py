@@ -100,9 +100,10 @@ class SwingParams:
 
     # Special policies
     late_descent_mps: float = 0.6  # late touchdown: descend at this speed until contact
-    late_descent_gain_per_s: float = (
-        5.0  # ... plus this times the height above the touchdown (≤ v_max_down_mps)
-    )
+    # ... faster by late_descent_gain_per_s times the height above the touchdown beyond late_descent_above_m (a
+    # foot high above it after a step down), up to v_max_down_mps (0: a fixed speed; terrain-aware walking sets it)
+    late_descent_gain_per_s: float = 0.0
+    late_descent_above_m: float = 0.0
     trip_lift_m: float = 0.12  # normal trip: raise the foot this much above where it tripped
     trip_response_s: float = 0.15  # a trip's immediate response lasts this long
     recent_trip_s: float = 0.6  # after that, a trip this recent still elevates the foot

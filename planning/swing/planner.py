@@ -604,7 +604,7 @@ class SwingPlanner:
         x, _ = bbw_axis(t_now, p0[0], v0[0], p1[0], pr.v_max_xy_mps, pr.a_max_xy_mps2)
         y, _ = bbw_axis(t_now, p0[1], v0[1], p1[1], pr.v_max_xy_mps, pr.a_max_xy_mps2)
         # high above the touchdown (a step down, a swing that rose over a riser), descend faster
-        above = max(float(req.p_world_foot[2] - req.p_touchdown[2]), 0.0)
+        above = max(float(req.p_world_foot[2] - req.p_touchdown[2]) - pr.late_descent_above_m, 0.0)
         descent = min(pr.late_descent_mps + pr.late_descent_gain_per_s * above, pr.v_max_down_mps)
         z = late_touchdown(
             t_now,

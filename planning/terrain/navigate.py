@@ -71,6 +71,8 @@ class NavigatorParams:
     climb_ahead_m ahead of the body has a step (a rise or a drop above climb_rise_m within two cells): stairs,
     a curb (long swings give the foot time to rise above a riser before moving on; None: never); the speed there
     is one riser pitch per gait cycle (one tread per step), within min_speed_mps and the gait's top speed.
+    late_descent_gain_per_s: set on the controller's swing planner (SwingParams): a late foot high above its
+    touchdown (after a step down or a rise over a riser) descends faster, 1/s.
     hip_ground_min_m, hip_ground_max_m: the body height target follows the ground under the hips where it differs
     from the feet's by more than the first, by at most the second (see _ground_offset; 0: never).
     """
@@ -113,6 +115,7 @@ class NavigatorParams:
     climb_behind_m: float = 0.8
     climb_ahead_m: float = 1.2
     climb_steps_per_tread: int = 1
+    late_descent_gain_per_s: float = 5.0
     hip_ground_min_m: float = 0.04
     hip_ground_max_m: float = 0.15
     perception: PerceptionParams = field(default_factory=PerceptionParams)
@@ -208,6 +211,10 @@ class TerrainNavigator:
         c = self.controller
         c.command_source = self.command
         c.foothold_filter = self.refine
+        swing = c.handler.swing_planner
+        swing.params = dataclasses.replace(
+            swing.params, late_descent_gain_per_s=self.params.late_descent_gain_per_s
+        )
         c.set_goal(*self.goal)
         stages = [
             Stage("perception", self.params.perception_rate_hz, self._perceive),
@@ -245,6 +252,7 @@ class TerrainNavigator:
         self.controller.maps = maps
         self.stats.scans += 1
         self._update_height(s)
+        self.controller.height += self._ground_offset(s)
         self._update_pitch(s)
         self._update_gait(s)
 
@@ -380,7 +388,7 @@ class TerrainNavigator:
             h = min(h, clear_now - p.body_top_m - p.head_margin_m)
         h = float(np.clip(h, p.min_height_m, self.standing_height))
         self.stats.min_height_m = min(self.stats.min_height_m, h)
-        self.controller.height = h + self._ground_offset(s)
+        self.controller.height = h
 
     def _ground_offset(self, s: RobotState) -> float:
         """Gives how much lower (m, ≤ 0) the ground under the hips is than the feet (the controller holds the
