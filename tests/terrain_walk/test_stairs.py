@@ -1,4 +1,4 @@
-"""Stairs: the planning rules added for them (fast), and the closed-loop crossing in MuJoCo (slow).
+"""Stairs: the planning rules added for them (fast), and the closed-loop crossings in MuJoCo (≈40 s wall each here).
 
 Rules: the riser keep-out in front of footholds, the riser pitch that paces the climb gait, the rise-first swing
 (the foot's x and y wait until it clears a riser ahead), liftoffs that wait rather than leave one foot down.
@@ -140,18 +140,31 @@ def test_liftoffs_wait_rather_than_leave_one_foot_down() -> None:
     assert h.phase[1] == Phase.SWING and h.phase[2] == Phase.SWING
 
 
-@pytest.mark.parametrize("sensor", [False, True])
-def test_stairs_crossing(sensor: bool) -> None:
-    """Closed loop up and down the stairs to (6, 0): ground-truth maps, then the simulated sensor.
-
-    Today the robot climbs the four risers, crosses the landing and starts down, but falls on the way down (the
-    body drifts sideways and a hind leg's shin meets a nosing, ≈10 s): marked xfail until the descent holds.
-    """
+def _cross_stairs(sensor: bool) -> dict:
     cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
-    r = run_walk(cmd, RunOptions(terrain="stairs", duration_s=25.0))
-    if r["fell"]:
-        pytest.xfail(f"stairs not crossed yet: {r['failure_reason']}")
+    return run_walk(cmd, RunOptions(terrain="stairs", duration_s=20.0))
+
+
+def test_stairs_crossing_with_ground_truth_maps() -> None:
+    """Closed loop up the four risers, over the landing and down to (6, 0) on the scene's ground-truth maps
+    (≈13.6 s simulated): no fall, no body collision, crossed, at the goal, no touchdown in a no-step cell."""
+    r = _cross_stairs(sensor=False)
+    assert not r["fell"], r["failure_reason"]
     assert r["body_collisions"] == 0
-    assert r["crossed"] and r["time_to_cross_s"] is not None
+    assert r["crossed"] and r["time_to_cross_s"] is not None and r["time_to_cross_s"] < 15.0
     assert r["success"], r["failure_reason"]
-    assert r["no_step_touchdowns"] <= 2
+    assert r["no_step_touchdowns"] == 0
+    assert r["navigator"]["invalid_paths"] == 0
+
+
+@pytest.mark.xfail(
+    reason="with the sensor the hind feet land on nosings on the way down and a shin meets one", strict=False
+)
+def test_stairs_crossing_with_the_sensor() -> None:
+    """The same with the simulated depth sensor's maps: today it climbs and crosses the landing but falls on the
+    way down (≈9 s; the hind feet touch down on nosings the voxel map no longer holds under the body)."""
+    r = _cross_stairs(sensor=True)
+    assert not r["fell"], r["failure_reason"]
+    assert r["body_collisions"] == 0
+    assert r["crossed"] and r["success"], r["failure_reason"]
+    assert r["no_step_touchdowns"] == 0
