@@ -62,7 +62,8 @@ class NavigatorParams:
     how far ahead (and behind) along the heading the clearance is looked up; crouch_side_m: and to either side
     (remembered overhangs); memory_cell_m: cell of the overhang memory; shin_radius_m, shin_reach_m: the
     stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee); foot_margin_m: step obstacles grown by this.
-    toe_reach_m, toe_rise_m: the riser keep-out in front of a foothold (see riser_keepout; 0 reach: none).
+    toe_reach_m, toe_rise_m: the riser keep-out in front of a foothold (see riser_keepout; 0 reach: none);
+    drop_reach_m: the same for a drop ahead (the nosing going down).
     max_pitch_rad, max_pitch_rate_rps: limits of the body pitch target along the ground slope (rad, rad/s);
     slow_gait: gait the controller switches to where the step-obstacle map ahead is dense (the no-step share of
     the dense_radius_m disk ahead above slow_gait_on), and back to its own gait once the share is below
@@ -105,6 +106,7 @@ class NavigatorParams:
     foot_margin_m: float = 0.03
     toe_reach_m: float = 0.10
     toe_rise_m: float = 0.08
+    drop_reach_m: float = 0.05
     max_pitch_rad: float = 0.45
     max_pitch_rate_rps: float = 0.6
     slow_gait: str = "walk"
@@ -247,6 +249,7 @@ class TerrainNavigator:
             p.foot_margin_m,
             toe_reach_m=p.toe_reach_m,
             toe_rise_m=p.toe_rise_m,
+            drop_reach_m=p.drop_reach_m,
         )
         self.maps = maps
         self.controller.maps = maps
@@ -659,12 +662,15 @@ def shin_keepout(
     return out
 
 
-def riser_keepout(maps: TerrainMaps, yaw: float, reach_m: float, rise_m: float) -> NDArray[np.bool_]:
+def riser_keepout(
+    maps: TerrainMaps, yaw: float, reach_m: float, rise_m: float, drop: bool = False
+) -> NDArray[np.bool_]:
     """Gives the cells (nx, ny) with a riser ahead: ground within reach_m ahead (along the heading yaw, rad)
     higher than the cell by more than rise_m.
 
     A foot set down at the foot of a riser has no room to lift before its next swing moves forward (the swing
     clips the riser's edge), and its toe touches the riser face; the seed's no-step regions include such places.
+    drop=True: a drop ahead instead (ground lower by more than rise_m): the foot keeps off the nosing going down.
     """
     h = maps.ground_height
     res = maps.resolution_m
@@ -677,7 +683,7 @@ def riser_keepout(maps: TerrainMaps, yaw: float, reach_m: float, rise_m: float) 
     for d in np.arange(res, reach_m + 1e-9, res):
         jx = np.clip(np.rint(ix + d * c / res).astype(np.intp), 0, nx - 1)
         jy = np.clip(np.rint(iy + d * s / res).astype(np.intp), 0, ny - 1)
-        out |= h[jx, jy] - h > rise_m
+        out |= (h - h[jx, jy] if drop else h[jx, jy] - h) > rise_m
     return out
 
 
@@ -690,6 +696,7 @@ def with_keepouts(
     foot_margin_m: float,
     toe_reach_m: float = 0.0,
     toe_rise_m: float = np.inf,
+    drop_reach_m: float = 0.0,
 ) -> TerrainMaps:
     """Gives the maps with the shin keep-out (see shin_keepout) and the riser keep-out (see riser_keepout, when
     toe_reach_m > 0) added to the step obstacles and those grown by foot_margin_m (the foot's radius: a foot
@@ -697,6 +704,8 @@ def with_keepouts(
     extra = shin_keepout(maps, yaw, slope, radius_m, reach_m)
     if toe_reach_m > 0.0 and np.isfinite(toe_rise_m):
         extra |= riser_keepout(maps, yaw, toe_reach_m, toe_rise_m)
+    if drop_reach_m > 0.0 and np.isfinite(toe_rise_m):
+        extra |= riser_keepout(maps, yaw, drop_reach_m, toe_rise_m, drop=True)
     step = maps.step_obstacle | extra
     r = int(round(foot_margin_m / maps.resolution_m))
     if r > 0 and step.any():

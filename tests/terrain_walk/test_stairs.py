@@ -40,6 +40,9 @@ def test_riser_keepout_blocks_the_foot_of_a_riser_ahead_only() -> None:
     assert blocked.size > 0 and blocked.max() < 1.0 and 0.08 <= 1.0 - blocked.min() <= 0.12
     # facing -x the riser is a drop ahead: nothing is blocked; no reach: nothing either
     assert not riser_keepout(maps, yaw=np.pi, reach_m=0.10, rise_m=0.08).any()
+    # ... unless drops count: then the 0.05 m before the nosing (on top, going down) are blocked
+    drop = xs[riser_keepout(maps, yaw=np.pi, reach_m=0.05, rise_m=0.08, drop=True)[:, 40]]
+    assert drop.size > 0 and drop.min() >= 1.0 and drop.max() - 1.0 <= 0.07
     assert not riser_keepout(maps, yaw=0.0, reach_m=0.0, rise_m=0.08).any()
 
 
