@@ -70,6 +70,7 @@ class HandlerParams:
     early_touchdown_fraction: float = 0.5  # a contact after this fraction of the swing counts as a touchdown
     max_liftoff_delay_s: float = 0.12  # a liftoff waits at most this long for a late foot to land
     min_stance_s: float = 0.08  # a foot that just landed stays down at least this long
+    min_stance_legs: int = 2  # liftoffs wait (max_liftoff_delay_s at most) rather than leave fewer feet down
     self_collision_m: float = (
         0.05  # a swing foot center this close to another leg's shin is a self-collision trip
     )
@@ -126,20 +127,30 @@ class Handler:
             self.p_contact[:] = s.p_world_foot
             self.p_contact[:, 2] -= r
             self._initialized = True
+        # measured state wins: while another foot is late (or still in the air when the legs due to lift now would
+        # leave fewer than min_stance_legs down), lifting would leave the body on fewer feet than planned; wait for
+        # that foot (briefly)
+        due = []
+        for leg in range(4):
+            sw = plan.swing_at(leg, t)
+            if (
+                self.phase[leg] == _STANCE
+                and sw is not None
+                and t < sw.t_touchdown
+                and t - self.t_landed[leg] >= self.params.min_stance_s
+            ):
+                due.append((leg, sw))
+        if due:
+            late = bool(np.any(self.phase == _LATE))
+            few = int(np.sum(self.phase == _STANCE)) - len(due) < self.params.min_stance_legs
+            for leg, sw in due:
+                if not (late or few) or t - sw.t_liftoff > self.params.max_liftoff_delay_s:
+                    self._lift(leg, sw, s)
         for leg in range(4):
             ph = self.phase[leg]
             sw = plan.swing_at(leg, t)
             if ph == _STANCE:
-                if (
-                    sw is not None
-                    and t < sw.t_touchdown
-                    and t - self.t_landed[leg] >= self.params.min_stance_s
-                ):
-                    # measured state wins: while another foot is late, lifting this one would leave the body
-                    # on fewer feet than planned; wait for the late foot (briefly)
-                    late = bool(np.any(self.phase == _LATE))
-                    if not late or t - sw.t_liftoff > self.params.max_liftoff_delay_s:
-                        self._lift(leg, sw, s)
+                pass
             elif ph == _SWING and self._tripped(leg, s):
                 pass  # a trip: the swing planner responds (elevate, stop forward motion, go around)
             elif ph == _SWING:

@@ -16,7 +16,7 @@ import numpy as np
 from planning.robot import ReachError, RobotModel
 from planning.swing._poly import Poly1D
 from planning.swing.params import SwingParams
-from planning.swing.policies import HPath, LegCtx, vertical, vertical_family
+from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_family
 from planning.swing.types import BodyMotion, GroundHeightFn, Tier
 
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
@@ -76,6 +76,7 @@ class LegProblem:
     zs_gentlest: np.ndarray | None = None  # (K,) its samples
     z_gentlest_ok: bool = False  # it arrives on time
     poses: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # body pose at ts[k], by k
+    hold: Hold | None = None  # rise first: the foot waits in x and y until it clears the terrain ahead
 
 
 @dataclass(slots=True)

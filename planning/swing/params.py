@@ -67,6 +67,16 @@ class SwingParams:
     knee_samples: int = 6  # interior samples at which knees are computed through the leg IK (when needed)
     knee_radius_m: float = 0.04  # knee-to-terrain margin
     knee_check_radius_m: float = 0.20  # knees are checked against a leg only when the foot comes this close
+    # Rise first (steps up only: touchdown above the lift-off by more than rise_first_above_m): terrain on the
+    # straight route (under the foot or a foot radius ahead) higher than the line from the lift-off height to the
+    # touchdown by more than rise_first_above_m (the riser) holds the foot's x and y until the foot is
+    # rise_first_margin_m above the highest ground on the route, closing in on it meanwhile (inf: never).
+    rise_first_above_m: float = 0.03
+    rise_first_margin_m: float = 0.01
+    rise_first_top_m: float = 0.0  # the swing's top stays this far above the clearance height after a rise
+    rise_first_gap_m: float = 0.02  # while rising, the foot's front closes in on the terrain up to this gap
+    rise_first_v_up_mps: float = 2.0  # a rise-first swing rises at most this fast
+    step_down_top_m: float = 0.10  # a step down (by more than rise_first_above_m) rises at most this much
 
     # Other legs
     keepout_radius_m: float = 0.07  # lower legs closer than this collide (foot center to segment foot→knee)
@@ -90,6 +100,10 @@ class SwingParams:
 
     # Special policies
     late_descent_mps: float = 0.6  # late touchdown: descend at this speed until contact
+    # ... faster by late_descent_gain_per_s times the height above the touchdown beyond late_descent_above_m (a
+    # foot high above it after a step down), up to v_max_down_mps (0: a fixed speed; terrain-aware walking sets it)
+    late_descent_gain_per_s: float = 0.0
+    late_descent_above_m: float = 0.0
     trip_lift_m: float = 0.12  # normal trip: raise the foot this much above where it tripped
     trip_response_s: float = 0.15  # a trip's immediate response lasts this long
     recent_trip_s: float = 0.6  # after that, a trip this recent still elevates the foot

@@ -15,6 +15,7 @@ Trips (FIG. 16) switch to special policies for ``trip_response_s``; a recent nor
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -40,9 +41,11 @@ from planning.swing.policies import (
     DEFAULT_POLICY,
     HORIZONTAL_NAMES,
     HORIZONTAL_POLICIES,
+    RISE_FIRST,
     HPath,
     LegCtx,
     VerticalSpec,
+    after_hold,
     bbw_axis,
     blocked_keepouts,
     disentangle,
@@ -50,6 +53,7 @@ from planning.swing.policies import (
     knee_trip,
     late_touchdown,
     policy_order,
+    rise_first_hold,
     side_step,
     stop_forward,
     vertical,
@@ -157,6 +161,8 @@ class SwingPlanner:
         # replanned every 3 ms climbs policy by policy and lands late
         self._z_top: list[float | None] = [None] * 4
         self._last_t: list[float] = [-np.inf] * 4  # when each leg was last planned, s
+        # rise first: the highest clearance height asked for during the current swing, m (None: none asked)
+        self._z_clear: list[float | None] = [None] * 4
         self._side = np.sign(robot.p_body_hip[:, 1])
 
     @property
@@ -173,6 +179,7 @@ class SwingPlanner:
         self._z_liftoff = [None] * 4
         self._z_top = [None] * 4
         self._last_t = [-np.inf] * 4
+        self._z_clear = [None] * 4
 
     def _forget(self, leg: int) -> None:
         self._previous[leg] = None
@@ -180,6 +187,7 @@ class SwingPlanner:
         self._trip[leg] = None
         self._z_liftoff[leg] = None
         self._z_top[leg] = None
+        self._z_clear[leg] = None
 
     # ---- the tick -----------------------------------------------------------------------------------------
     def plan(
@@ -311,7 +319,10 @@ class SwingPlanner:
             return self._trip_plan(prob, req, trip, stance, planned)
         choice = self._select_horizontal(prob)
         elevated = trip is not None and trip.kind is TripKind.NORMAL
-        return self._finish(prob, req, choice, force_aggressive=elevated)
+        # a rise-first swing keeps the most aggressive vertical policy (capped just above the terrain it rises
+        # over): the hold waits for it, and a gentler one, planned from a foot still rising fast, overshoots
+        rising = self._z_clear[leg] is not None
+        return self._finish(prob, req, choice, force_aggressive=elevated or rising)
 
     def _problem(
         self,
@@ -366,7 +377,29 @@ class SwingPlanner:
         z0, vz0, z1 = float(req.p_world_foot[2]), float(req.v_world_foot[2]), float(req.p_touchdown[2])
         z_ref = self._z_liftoff[leg]
         z_ref = z0 if z_ref is None else z_ref
+        if z1 < z_ref - pr.rise_first_above_m:
+            # a step down: the swing need not rise far above the surface it leaves (the nosing is at its height)
+            z_ceiling = min(z_ceiling, max(z_ref + pr.step_down_top_m, z0))
         z_agg, z_ok = vertical(agg, t_now, z0, vz0, z1, req.t_touchdown, z_ceiling, z_ref)
+        hold = None
+        if not isinstance(ground, FlatGround):
+            z_clear, approach = self._rise_first_height(req, ground, z_ref)
+            z_rose = self._z_clear[leg]
+            if z_clear is not None:
+                z_rose = self._z_clear[leg] = z_clear if z_rose is None else max(z_rose, z_clear)
+            if z_rose is not None:
+                # the swing's top stays just above the terrain it rose over: a higher top only delays the touchdown
+                z_ceiling = min(z_ceiling, z_rose + pr.rise_first_top_m)
+                # ... and rises at a pace the leg tracks (a foot rising fast overshoots its top)
+                agg = dataclasses.replace(agg, v_up=min(agg.v_up, pr.rise_first_v_up_mps))
+                z_agg, z_ok = vertical(agg, t_now, z0, vz0, z1, req.t_touchdown, z_ceiling, z_ref)
+            if z_clear is not None:
+                t_clear = z_agg.crossing_time(z_clear)
+                p_wait = None
+                if approach > 0.0:
+                    d = req.p_touchdown[:2] - req.p_world_foot[:2]
+                    p_wait = _heading(req.p_world_foot[:2] + d * (approach / float(np.linalg.norm(d))), c, s)
+                hold = None if t_clear is None else rise_first_hold(ctx, t_clear, p_wait)
         return LegProblem(
             leg=leg,
             ctx=ctx,
@@ -388,7 +421,49 @@ class SwingPlanner:
             u_z_aggressive=undesirability_z(z_agg, agg.height_m, pr),
             z_ref=z_ref,
             z_ceiling=z_ceiling,
+            hold=hold,
         )
+
+    def _rise_first_height(
+        self, req: SwingRequest, ground: GroundHeightFn, z_ref: float
+    ) -> tuple[float | None, float]:
+        """The height (m) the foot must reach before it moves over the terrain ahead (see
+        SwingParams.rise_first_above_m), None when nothing on the route asks for it; and how far (m) the foot may
+        approach that terrain meanwhile.
+
+        On a step up (touchdown above the lift-off by more than rise_first_above_m), terrain on the straight route
+        from the foot to the touchdown (under the foot's center or its front) that stands above the line from the
+        lift-off height to the touchdown height (the riser) must be cleared
+        before the foot moves over it: the foot rises rise_first_margin_m above the highest ground on the route
+        first, closing in on it up to rise_first_gap_m. Replanned every tick from the measured foot, so a lagging
+        leg waits longer.
+        """
+        pr = self.params
+        if not math.isfinite(pr.rise_first_above_m):
+            return None, 0.0
+        p0, p1 = req.p_world_foot, req.p_touchdown
+        if float(p1[2]) - z_ref <= pr.rise_first_above_m:
+            return None, 0.0  # not a step up: boxes on the way are the tiers' business
+        n = 24
+        u = np.linspace(0.0, 1.0, n)
+        xs = p0[0] + u * (p1[0] - p0[0])
+        ys = p0[1] + u * (p1[1] - p0[1])
+        d = p1[:2] - p0[:2]
+        length = float(np.linalg.norm(d))
+        ahead = d * (float(self.robot.foot_radius_m) / max(length, 1e-9))
+        g = np.maximum(
+            np.asarray(ground(xs, ys), dtype=float),
+            np.asarray(ground(xs + ahead[0], ys + ahead[1]), dtype=float),
+        )
+        h_line = z_ref + u * (float(p1[2]) - z_ref)
+        above = np.flatnonzero(g > h_line + pr.rise_first_above_m)
+        if above.size == 0:
+            return None, 0.0
+        z_clear = float(np.max(g)) + pr.rise_first_margin_m
+        if float(p0[2]) >= z_clear:
+            return None, 0.0
+        approach = length * float(u[max(int(above[0]) - 1, 0)]) - pr.rise_first_gap_m
+        return z_clear, max(approach, 0.0)
 
     def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
         """Knee minus foot center (3,) world, through the leg IK; cached while the foot moves < 5 mm in the body."""
@@ -424,11 +499,16 @@ class SwingPlanner:
         best_v: Verdict | None = None
         default: tuple[HPath, Verdict] | None = None
         evaluations = 0
-        for i in policy_order(bool(c.blocked), prob.previous_policy):
+        hold = prob.hold
+        c_pol = c if hold is None else hold.ctx
+        previous = None if prob.previous_policy is None else prob.previous_policy.removesuffix(RISE_FIRST)
+        for i in policy_order(bool(c_pol.blocked), previous):
             name, fn = HORIZONTAL_POLICIES[i]
-            hp = fn(c)
+            hp = fn(c_pol)
             if hp is None:
                 continue
+            if hold is not None:
+                hp = after_hold(hold, hp)
             evaluations += 1
             # Simple analysis: the best tier and key this policy could reach.
             u = undesirability_h(hp, pr) + prob.u_z_aggressive
@@ -455,8 +535,10 @@ class SwingPlanner:
                 break
         if best_hp is None or best_v is None:
             if default is None:
-                hp = HORIZONTAL_POLICIES[HORIZONTAL_NAMES.index(DEFAULT_POLICY)][1](c)
+                hp = HORIZONTAL_POLICIES[HORIZONTAL_NAMES.index(DEFAULT_POLICY)][1](c_pol)
                 assert hp is not None
+                if hold is not None:
+                    hp = after_hold(hold, hp)
                 evaluations += 1
                 default = (hp, self.analyzer.analyze(prob, hp, undesirability_h(hp, pr)))
             best_hp, best_v = default
@@ -521,11 +603,14 @@ class SwingPlanner:
         )
         x, _ = bbw_axis(t_now, p0[0], v0[0], p1[0], pr.v_max_xy_mps, pr.a_max_xy_mps2)
         y, _ = bbw_axis(t_now, p0[1], v0[1], p1[1], pr.v_max_xy_mps, pr.a_max_xy_mps2)
+        # high above the touchdown (a step down, a swing that rose over a riser), descend faster
+        above = max(float(req.p_world_foot[2] - req.p_touchdown[2]) - pr.late_descent_above_m, 0.0)
+        descent = min(pr.late_descent_mps + pr.late_descent_gain_per_s * above, pr.v_max_down_mps)
         z = late_touchdown(
             t_now,
             float(req.p_world_foot[2]),
             float(req.v_world_foot[2]),
-            pr.late_descent_mps,
+            max(descent, pr.late_descent_mps),
             pr.a_max_z_mps2,
         )
         miss = math.hypot(p0[0] - p1[0], p0[1] - p1[1])

@@ -379,6 +379,85 @@ def policy_order(blocked: bool, previous: str | None) -> list[int]:
     return [HORIZONTAL_NAMES.index(n) for n in order]
 
 
+# ---- rise first (a riser or a box between lift-off and touchdown) ---------------------------------------------
+
+
+RISE_FIRST = "+RiseFirst"  # suffix of a horizontal policy's name when it follows a rise-first hold
+
+
+@dataclass(frozen=True, slots=True)
+class Hold:
+    """The start of a rise-first swing: both axes brake to rest and wait until t_go (the foot clears the
+    terrain ahead), then a horizontal policy starts from ``ctx`` (the leg's problem moved to t_go, at rest)."""
+
+    x: Poly1D
+    y: Poly1D
+    ctx: LegCtx
+
+
+def rise_first_hold(c: LegCtx, t_clear: float, p_wait: tuple[float, float] | None = None) -> Hold | None:
+    """Returns the hold that brings the foot's x and y to rest (at p_wait, the heading-frame point short of the
+    terrain to rise over, when given; where it brakes otherwise) and keeps them there until t_clear (s); None when
+    there is nothing to wait for or no time left after it."""
+    polys: list[Poly1D] = []
+    stops: list[float] = []
+    arrive = c.t0
+    builders = []
+    for i, (p, v) in enumerate(zip(c.p0, c.v0, strict=True)):
+        b = Builder(c.t0, p, v)
+        if p_wait is None:
+            b.accel(abs(v) / c.a_max, -math.copysign(c.a_max, v) if v != 0.0 else 0.0)
+        else:
+            to_rest(b, p_wait[i], c.v_max, c.a_max)
+        arrive = max(arrive, b.t)
+        builders.append(b)
+    t_go = max(t_clear, arrive)
+    if (p_wait is None and t_clear <= arrive + 1e-4) or t_go >= c.t_end:
+        return None
+    for b in builders:
+        b.accel(t_go - b.t, 0.0)
+        stops.append(b.p)
+        polys.append(b.finish(v=0.0))
+    held = LegCtx(
+        t0=t_go,
+        t_end=c.t_end,
+        p0=(stops[0], stops[1]),
+        v0=(0.0, 0.0),
+        p1=c.p1,
+        v_max=c.v_max,
+        a_max=c.a_max,
+        keepouts=c.keepouts,
+        margin=c.margin,
+        time_split_frac=c.time_split_frac,
+        blocked=blocked_keepouts((stops[0], stops[1]), c.p1, c.keepouts),
+    )
+    return Hold(polys[0], polys[1], held)
+
+
+def _join(head: Poly1D, tail: Poly1D) -> Poly1D:
+    """head's pieces up to tail's start, then tail's pieces (tail starts where and when head ends)."""
+    breaks = [b for b in head.breaks if b < tail.t_start - 1e-12]
+    coeffs = head.coeffs[: len(breaks)]
+    return Poly1D(
+        [*breaks, *tail.breaks],
+        [*coeffs, *tail.coeffs],
+        max(head.peak_v, tail.peak_v),
+        max(head.peak_a, tail.peak_a),
+    )
+
+
+def after_hold(hold: Hold, hp: HPath) -> HPath:
+    """Returns hp (planned from hold.ctx) preceded by the hold."""
+    return HPath(
+        hp.name + RISE_FIRST,
+        _join(hold.x, hp.x),
+        _join(hold.y, hp.y),
+        max(hold.x.peak_v, hold.y.peak_v, hp.peak_v),
+        max(hold.x.peak_a, hold.y.peak_a, hp.peak_a),
+        hp.t_arrive,
+    )
+
+
 # ---- trip responses (seed FIG. 16) ---------------------------------------------------------------------------
 
 

@@ -34,6 +34,7 @@ from scipy import ndimage
 from planning.sim.loop import Stage
 from planning.sim.world import RobotState
 from planning.steps import SteeringCommand
+from planning.steps.gait import get_gait
 from planning.steps.select import Selection
 from planning.steps.state import StepPath, rotate_yaw
 from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
@@ -61,10 +62,20 @@ class NavigatorParams:
     how far ahead (and behind) along the heading the clearance is looked up; crouch_side_m: and to either side
     (remembered overhangs); memory_cell_m: cell of the overhang memory; shin_radius_m, shin_reach_m: the
     stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee); foot_margin_m: step obstacles grown by this.
+    toe_reach_m, toe_rise_m: the riser keep-out in front of a foothold (see riser_keepout; 0 reach: none);
+    drop_reach_m: the same for a drop ahead (the nosing going down).
     max_pitch_rad, max_pitch_rate_rps: limits of the body pitch target along the ground slope (rad, rad/s);
     slow_gait: gait the controller switches to where the step-obstacle map ahead is dense (the no-step share of
     the dense_radius_m disk ahead above slow_gait_on), and back to its own gait once the share is below
     slow_gait_off (one foot at a time lands more precisely and the others hold the body meanwhile).
+    climb_gait: gait used, before any other, while the ground along the feet's lines from climb_behind_m behind to
+    climb_ahead_m ahead of the body has a step (a rise or a drop above climb_rise_m within two cells): stairs,
+    a curb (long swings give the foot time to rise above a riser before moving on; None: never); the speed there
+    is one riser pitch per gait cycle (one tread per step), within min_speed_mps and the gait's top speed.
+    late_descent_gain_per_s: set on the controller's swing planner (SwingParams): a late foot high above its
+    touchdown (after a step down or a rise over a riser) descends faster, 1/s.
+    hip_ground_min_m, hip_ground_max_m: the body height target follows the ground under the hips where it differs
+    from the feet's by more than the first, by at most the second (see _ground_offset; 0: never).
     """
 
     use_sensor: bool = True
@@ -93,11 +104,22 @@ class NavigatorParams:
     shin_radius_m: float = 0.04
     shin_reach_m: float = 0.27
     foot_margin_m: float = 0.03
-    max_pitch_rad: float = 0.3
+    toe_reach_m: float = 0.10
+    toe_rise_m: float = 0.08
+    drop_reach_m: float = 0.05
+    max_pitch_rad: float = 0.45
     max_pitch_rate_rps: float = 0.6
     slow_gait: str = "walk"
     slow_gait_on: float = 0.15
     slow_gait_off: float = 0.05
+    climb_gait: str | None = "climb"
+    climb_rise_m: float = 0.08
+    climb_behind_m: float = 0.8
+    climb_ahead_m: float = 1.2
+    climb_steps_per_tread: int = 1
+    late_descent_gain_per_s: float = 5.0
+    hip_ground_min_m: float = 0.04
+    hip_ground_max_m: float = 0.15
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -171,6 +193,7 @@ class TerrainNavigator:
         self.path: BodyPath | None = None
         self.cadence: CadenceScore | None = None
         self.speed_cap = p.max_speed_mps
+        self.climb_speed: float | None = None  # speed on steps (riser pitch per climb-gait cycle), m/s
         self.last_plan: StepPlan | None = None
         self.stats = NavigatorStats()
         self._truth_center: NDArray[np.float64] | None = None
@@ -180,6 +203,9 @@ class TerrainNavigator:
         # Remembered overhangs: cells (memory_cell_m grid) and their height (m, world).
         self._ceiling_keys = np.zeros((0, 2), dtype=np.int64)
         self._ceiling_z = np.zeros(0)
+        # The last refined touchdown of each swinging leg: (touchdown time s, place (3,) m); nan: none.
+        self._held_t = np.full(4, np.nan)
+        self._held_p = np.full((4, 3), np.nan)
 
     # ---- wiring ---------------------------------------------------------------------------------------------
     def attach(self) -> None:
@@ -187,6 +213,10 @@ class TerrainNavigator:
         c = self.controller
         c.command_source = self.command
         c.foothold_filter = self.refine
+        swing = c.handler.swing_planner
+        swing.params = dataclasses.replace(
+            swing.params, late_descent_gain_per_s=self.params.late_descent_gain_per_s
+        )
         c.set_goal(*self.goal)
         stages = [
             Stage("perception", self.params.perception_rate_hz, self._perceive),
@@ -210,11 +240,22 @@ class TerrainNavigator:
                 )
             maps = self._truth_maps
         assert maps is not None
-        maps = with_keepouts(maps, s.yaw, self.shin_slope, p.shin_radius_m, p.shin_reach_m, p.foot_margin_m)
+        maps = with_keepouts(
+            maps,
+            s.yaw,
+            self.shin_slope,
+            p.shin_radius_m,
+            p.shin_reach_m,
+            p.foot_margin_m,
+            toe_reach_m=p.toe_reach_m,
+            toe_rise_m=p.toe_rise_m,
+            drop_reach_m=p.drop_reach_m,
+        )
         self.maps = maps
         self.controller.maps = maps
         self.stats.scans += 1
         self._update_height(s)
+        self.controller.height += self._ground_offset(s)
         self._update_pitch(s)
         self._update_gait(s)
 
@@ -236,7 +277,7 @@ class TerrainNavigator:
             xy = s.p_world_body[:2] + rotate_yaw(s.yaw, grid * np.array([sign, 1.0]))
             h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
             ok = ~np.asarray(maps.no_step(xy[:, 0], xy[:, 1]), dtype=bool)
-            ends.append(float(np.max(h[ok])) if np.any(ok) else np.nan)
+            ends.append(float(np.mean(h[ok])) if np.any(ok) else np.nan)
         rise = ends[0] - ends[1]
         target = 0.0 if not np.isfinite(rise) else -float(np.arctan2(rise, 2.0 * d[1]))
         target = float(np.clip(target, -p.max_pitch_rad, p.max_pitch_rad))
@@ -245,16 +286,45 @@ class TerrainNavigator:
         c.pitch = float(c.pitch + np.clip(target - c.pitch, -step, step))
 
     def _update_gait(self, s: RobotState) -> None:
-        """Switches the controller to the slow gait where the step-obstacle map ahead is dense, and back."""
+        """Switches the controller to the climb gait where the ground under the feet's lines has steps, else to the
+        slow gait where the step-obstacle map ahead is dense, and back to its own gait (with hysteresis)."""
         p = self.params
         share = self._dense_share(s.p_world_body[:2], s.yaw)
         c = self.controller
-        if c.gait != p.slow_gait and share > p.slow_gait_on:
-            c.set_gait(p.slow_gait)
+        pitch = self._riser_pitch(s.p_world_body[:2], s.yaw) if p.climb_gait is not None else None
+        if pitch is not None:
+            assert p.climb_gait is not None
+            want = p.climb_gait
+            # one tread per step: the body moves one riser pitch per gait cycle
+            g = get_gait(p.climb_gait)
+            speed = pitch / (g.cycle_s * p.climb_steps_per_tread)
+            self.climb_speed = float(np.clip(speed, p.min_speed_mps, g.max_speed_mps))
+        elif share > p.slow_gait_on:
+            want = p.slow_gait
+        elif share < p.slow_gait_off:
+            want = self.fast_gait
+        else:
+            want = p.slow_gait if c.gait == p.climb_gait else c.gait
+        if pitch is None:
+            self.climb_speed = None
+        if want != c.gait:
+            c.set_gait(want)
             self.stats.gait_switches += 1
-        elif c.gait == p.slow_gait and share < p.slow_gait_off and p.slow_gait != self.fast_gait:
-            c.set_gait(self.fast_gait)
-            self.stats.gait_switches += 1
+
+    def _riser_pitch(self, xy: NDArray[np.float64], yaw: float) -> float | None:
+        """Gives the riser pitch (m, the distance between successive risers) where the ground along the left and
+        right feet's lines (climb_behind_m behind to climb_ahead_m ahead of the body, heading yaw) has steps (a rise
+        or a drop above climb_rise_m within two cells), the window's length when it has only one; None: no step."""
+        p = self.params
+        maps = self.maps
+        if maps is None:
+            return None
+        res = maps.resolution_m
+        d = np.arange(-p.climb_behind_m, p.climb_ahead_m + 1e-9, res)
+        lat = np.array([-0.165, 0.165])
+        pts = xy + rotate_yaw(yaw, np.stack(np.broadcast_arrays(d[None, :], lat[:, None]), -1))
+        h = np.asarray(maps.height_at(pts[..., 0], pts[..., 1]), dtype=np.float64)
+        return riser_pitch(h, res, p.climb_rise_m, p.climb_ahead_m + p.climb_behind_m)
 
     def _body_path(self, s: RobotState) -> None:
         """Replans the body path at path_rate_hz, and sooner when the current path's sweep hits an obstacle."""
@@ -320,8 +390,25 @@ class TerrainNavigator:
         if np.isfinite(clear_now):
             h = min(h, clear_now - p.body_top_m - p.head_margin_m)
         h = float(np.clip(h, p.min_height_m, self.standing_height))
-        self.controller.height = h
         self.stats.min_height_m = min(self.stats.min_height_m, h)
+        self.controller.height = h
+
+    def _ground_offset(self, s: RobotState) -> float:
+        """Gives how much lower (m, ≤ 0) the ground under the hips is than the feet (the controller holds the
+        body at its height above the mean foot): going down stairs the feet trail the hips by half a step, a riser
+        higher, and the front legs would reach down at full stretch. At most hip_ground_max_m; 0 below
+        hip_ground_min_m (flat, rough). (Going up, a higher body measured so lifted the hind legs off: not used.)"""
+        p = self.params
+        maps = self.maps
+        if maps is None or p.hip_ground_max_m <= 0.0:
+            return 0.0
+        xy = s.p_world_body[:2] + rotate_yaw(s.yaw, self.p_body_hip_xy)
+        h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+        z_feet = float(np.mean(self.controller.handler.p_contact[:, 2]))  # what the height is measured from
+        off = float(np.mean(h)) - z_feet
+        if abs(off) < p.hip_ground_min_m:
+            return 0.0
+        return float(np.clip(off, -p.hip_ground_max_m, 0.0))
 
     def _remembered_clearance(
         self,
@@ -381,7 +468,10 @@ class TerrainNavigator:
             target_a, yaw_a = path.pose_at(s_ahead)
             target = target_a if s_ahead < path.length_m else self.goal
             yaw_des = float(path.yaw[k]) if dist > 0.5 else s.yaw
-            speed *= self._dense_slowdown(xy, s.yaw)
+            if self.climb_speed is not None:
+                speed = min(self.climb_speed, p.goal_gain * dist)
+            else:
+                speed *= self._dense_slowdown(xy, s.yaw)
             del yaw_a
         d = target - xy
         n = float(np.linalg.norm(d))
@@ -412,7 +502,12 @@ class TerrainNavigator:
         return float(1.0 - (1.0 - lo) * min(share / max(p.dense_full, 1e-9), 1.0))
 
     def refine(self, s: RobotState, sel: Selection) -> Selection:
-        """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell."""
+        """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell.
+
+        A swinging leg whose touchdown the QP moved keeps that refined place while the QP cannot move it again
+        (too close to touchdown, or no answer): falling back to the unrefined place mid-swing would send the foot
+        back onto the no-step cell it was steered away from (a riser's foot, behind a step it already rose over).
+        """
         maps = self.maps
         path = sel.path
         if maps is None or path.n_touchdowns < 4:
@@ -425,27 +520,34 @@ class TerrainNavigator:
         sd = np.asarray(maps.sdf_step(xy[:, 0], xy[:, 1]), dtype=np.float64)
         on_map = np.asarray(maps.in_map(xy[:, 0], xy[:, 1]), dtype=bool)
         if not np.any(on_map & (sd < self.params.qp_trigger_m)):
-            return sel
-        req = self._request(s, path, order)
-        if req is None:
-            return sel
-        plan = self.qp.solve(req, maps)
-        self.last_plan = plan
-        self.stats.qp_solves += 1
-        self.stats.qp_ms.append(plan.solve_ms)
-        bad_hard = set(plan.hard_softened) - {"step_keep"}
-        if bad_hard or not np.all(np.isfinite(plan.footholds)):
+            self._held_t[:] = np.nan
             return sel
         p_new = path.p_world_touchdown.copy()
-        t_rel = path.t_touchdown[order] - s.t
-        for j, k in enumerate(order):
-            if t_rel[j] < self.params.qp_min_time_s:
-                continue  # about to land: too late to move
-            if plan.in_no_step[j] and sd[j] >= 0.0:
-                continue  # the QP made it worse
-            p_new[k, :2] = plan.footholds[j, :2]
-            p_new[k, 2] = float(maps.height_at(plan.footholds[j, 0], plan.footholds[j, 1]))
-        self.stats.qp_used += 1
+        moved = np.zeros(len(p_new), dtype=bool)
+        req = self._request(s, path, order)
+        plan = None
+        if req is not None:
+            plan = self.qp.solve(req, maps)
+            self.last_plan = plan
+            self.stats.qp_solves += 1
+            self.stats.qp_ms.append(plan.solve_ms)
+            bad_hard = set(plan.hard_softened) - {"step_keep"}
+            if bad_hard or not np.all(np.isfinite(plan.footholds)):
+                plan = None
+        if plan is not None:
+            t_rel = path.t_touchdown[order] - s.t
+            for j, k in enumerate(order):
+                if t_rel[j] < self.params.qp_min_time_s:
+                    continue  # about to land: too late to move
+                if plan.in_no_step[j] and sd[j] >= 0.0:
+                    continue  # the QP made it worse
+                p_new[k, :2] = plan.footholds[j, :2]
+                p_new[k, 2] = float(maps.height_at(plan.footholds[j, 0], plan.footholds[j, 1]))
+                moved[k] = True
+            self.stats.qp_used += 1
+        self._hold_swing_targets(path, p_new, moved)
+        if plan is None and not np.any(moved):
+            return sel
         refined = path.with_touchdowns(p_new, path.kind + "+qp")
         return Selection(
             refined,
@@ -458,6 +560,25 @@ class TerrainNavigator:
             sel.feasible,
             sel.n_evaluated,
         )
+
+    def _hold_swing_targets(
+        self, path: StepPath, p_new: NDArray[np.float64], moved: NDArray[np.bool_]
+    ) -> None:
+        """Keeps each swinging leg's last refined touchdown place where this replan did not refine it (same
+        touchdown within 0.15 s), and remembers the refined places (p_new, moved: (K,) in path order, in place)."""
+        t_td, _ = path.next_touchdowns()
+        first = {int(path.leg[i]): i for i in np.argsort(path.t_touchdown)[::-1]}
+        for leg in range(4):
+            k = first.get(leg)
+            swinging = bool(np.isnan(path.t_liftoff_now[leg]))
+            if k is None or not swinging:
+                self._held_t[leg] = np.nan
+                continue
+            if moved[k]:
+                self._held_t[leg], self._held_p[leg] = t_td[leg], p_new[k]
+            elif abs(float(self._held_t[leg]) - float(t_td[leg])) < 0.15:
+                p_new[k] = self._held_p[leg]
+                moved[k] = True
 
     def _request(self, s: RobotState, path: StepPath, order: NDArray[np.intp]) -> StepRequest | None:
         """Gives the step QP's request for the path's first K touchdowns (nominal = the selected footholds)."""
@@ -497,6 +618,27 @@ class TerrainNavigator:
         )
 
 
+def riser_pitch(h: NDArray[np.float64], res: float, rise_m: float, window_m: float) -> float | None:
+    """Gives the median distance (m) between successive risers along height profiles h (L, N) sampled every res m
+    (a riser: the height changes by more than rise_m within two samples), window_m when only one riser is seen,
+    None when none is."""
+    jump = np.abs(h[:, 2:] - h[:, :-2]) > rise_m  # (L, N-2), centered on samples 1..N-2
+    gaps: list[float] = []
+    seen = False
+    for row in jump:
+        idx = np.flatnonzero(row)
+        if idx.size == 0:
+            continue
+        seen = True
+        starts = idx[np.r_[True, np.diff(idx) > 1]]
+        ends = idx[np.r_[np.diff(idx) > 1, True]]
+        centers = 0.5 * (starts + ends) * res
+        gaps.extend(np.diff(centers).tolist())
+    if not seen:
+        return None
+    return float(np.median(gaps)) if gaps else window_m
+
+
 def shin_keepout(
     maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float, min_rise_m: float = 0.03
 ) -> NDArray[np.bool_]:
@@ -520,12 +662,50 @@ def shin_keepout(
     return out
 
 
+def riser_keepout(
+    maps: TerrainMaps, yaw: float, reach_m: float, rise_m: float, drop: bool = False
+) -> NDArray[np.bool_]:
+    """Gives the cells (nx, ny) with a riser ahead: ground within reach_m ahead (along the heading yaw, rad)
+    higher than the cell by more than rise_m.
+
+    A foot set down at the foot of a riser has no room to lift before its next swing moves forward (the swing
+    clips the riser's edge), and its toe touches the riser face; the seed's no-step regions include such places.
+    drop=True: a drop ahead instead (ground lower by more than rise_m): the foot keeps off the nosing going down.
+    """
+    h = maps.ground_height
+    res = maps.resolution_m
+    out = np.zeros(h.shape, dtype=bool)
+    if reach_m <= 0.0:
+        return out
+    c, s = np.cos(yaw), np.sin(yaw)
+    nx, ny = h.shape
+    ix, iy = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    for d in np.arange(res, reach_m + 1e-9, res):
+        jx = np.clip(np.rint(ix + d * c / res).astype(np.intp), 0, nx - 1)
+        jy = np.clip(np.rint(iy + d * s / res).astype(np.intp), 0, ny - 1)
+        out |= (h - h[jx, jy] if drop else h[jx, jy] - h) > rise_m
+    return out
+
+
 def with_keepouts(
-    maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float, foot_margin_m: float
+    maps: TerrainMaps,
+    yaw: float,
+    slope: float,
+    radius_m: float,
+    reach_m: float,
+    foot_margin_m: float,
+    toe_reach_m: float = 0.0,
+    toe_rise_m: float = np.inf,
+    drop_reach_m: float = 0.0,
 ) -> TerrainMaps:
-    """Gives the maps with the shin keep-out (see shin_keepout) added to the step obstacles and those grown by
-    foot_margin_m (the foot's radius: a foot centered just off a box still scrapes its side); SDF recomputed."""
+    """Gives the maps with the shin keep-out (see shin_keepout) and the riser keep-out (see riser_keepout, when
+    toe_reach_m > 0) added to the step obstacles and those grown by foot_margin_m (the foot's radius: a foot
+    centered just off a box still scrapes its side); SDF recomputed."""
     extra = shin_keepout(maps, yaw, slope, radius_m, reach_m)
+    if toe_reach_m > 0.0 and np.isfinite(toe_rise_m):
+        extra |= riser_keepout(maps, yaw, toe_reach_m, toe_rise_m)
+    if drop_reach_m > 0.0 and np.isfinite(toe_rise_m):
+        extra |= riser_keepout(maps, yaw, drop_reach_m, toe_rise_m, drop=True)
     step = maps.step_obstacle | extra
     r = int(round(foot_margin_m / maps.resolution_m))
     if r > 0 and step.any():

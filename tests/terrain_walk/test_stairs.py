@@ -1,0 +1,173 @@
+"""Stairs: the planning rules added for them (fast), and the closed-loop crossings in MuJoCo (≈40 s wall each here).
+
+Rules: the riser keep-out in front of footholds, the riser pitch that paces the climb gait, the rise-first swing
+(the foot's x and y wait until it clears a riser ahead), liftoffs that wait rather than leave one foot down.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planning.handler import Handler, Phase
+from planning.robot import load_robot
+from planning.sim.run import RunOptions, WalkCommand, run_walk
+from planning.sim.world import RobotState
+from planning.swing import SwingPlanner, SwingRequest
+from planning.swing.params import SwingParams
+from planning.swing.policies import RISE_FIRST
+from planning.swing.types import BodyMotion
+from planning.terrain.maps import maps_from_grids, maps_from_scene
+from planning.terrain.navigate import NavigatorParams, riser_keepout, riser_pitch, with_keepouts
+from planning.terrain.scenes import build_terrain
+
+RES = 0.03
+
+
+def _stairs_maps(x_risers: tuple[float, ...] = (1.0, 1.3, 1.6), rise: float = 0.15):
+    xs = -1.0 + np.arange(140) * RES
+    ys = -1.2 + np.arange(80) * RES
+    h1 = sum(np.where(xs >= x, rise, 0.0) for x in x_risers)
+    h = np.asarray(h1)[:, None] * np.ones((1, ys.size))
+    return xs, ys, maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+
+
+def test_riser_keepout_blocks_the_foot_of_a_riser_ahead_only() -> None:
+    xs, _, maps = _stairs_maps((1.0,))
+    up = riser_keepout(maps, yaw=0.0, reach_m=0.10, rise_m=0.08)[:, 40]
+    blocked = xs[up]
+    # facing +x: the 0.10 m in front of the riser are blocked, nothing on top of it
+    assert blocked.size > 0 and blocked.max() < 1.0 and 0.08 <= 1.0 - blocked.min() <= 0.12
+    # facing -x the riser is a drop ahead: nothing is blocked; no reach: nothing either
+    assert not riser_keepout(maps, yaw=np.pi, reach_m=0.10, rise_m=0.08).any()
+    # ... unless drops count: then the 0.05 m before the nosing (on top, going down) are blocked
+    drop = xs[riser_keepout(maps, yaw=np.pi, reach_m=0.05, rise_m=0.08, drop=True)[:, 40]]
+    assert drop.size > 0 and drop.min() >= 1.0 and drop.max() - 1.0 <= 0.07
+    assert not riser_keepout(maps, yaw=0.0, reach_m=0.0, rise_m=0.08).any()
+
+
+def test_keepouts_leave_a_free_window_inside_each_tread() -> None:
+    """On the stairs scene's maps (edges are no-step there) with the navigator's keep-outs, facing up the stairs:
+    each tread keeps a free window away from its nosing (the foot's radius and more) and from the next riser."""
+    p = NavigatorParams()
+    maps = maps_from_scene(build_terrain("stairs"), (2.0, 0.0), 1.6, params=p.perception.maps)
+    kept = with_keepouts(
+        maps, 0.0, 0.875, p.shin_radius_m, p.shin_reach_m, p.foot_margin_m, p.toe_reach_m, p.toe_rise_m
+    )
+    xs = np.arange(0.9, 2.0, 0.01)
+    free_x = xs[~np.asarray(kept.no_step(xs, np.full_like(xs, 0.165)), dtype=bool)]
+    for x0 in (1.0, 1.3, 1.6):  # treads [x0, x0 + 0.3]
+        free = free_x[(free_x > x0) & (free_x < x0 + 0.3)]
+        assert free.size >= 3, f"no free window on the tread at {x0}"
+        assert free.min() - x0 >= 0.05 and x0 + 0.3 - free.max() >= 0.08, (x0, free.min(), free.max())
+
+
+def test_riser_pitch_measures_the_tread_and_is_none_on_flat() -> None:
+    xs, _, maps = _stairs_maps()
+    d = np.arange(0.5, 2.0, RES)
+    prof = np.stack([maps.height_at(d, np.full_like(d, y)) for y in (-0.165, 0.165)])
+    assert riser_pitch(prof, RES, 0.08, 1.5) == pytest.approx(0.30, abs=0.031)
+    one = np.stack([np.where(d >= 1.0, 0.15, 0.0)] * 2)
+    assert riser_pitch(one, RES, 0.08, 1.5) == 1.5  # a single riser: the window's length
+    assert riser_pitch(np.zeros((2, d.size)), RES, 0.08, 1.5) is None
+    assert riser_pitch(0.02 * np.sin(d * 9.0)[None, :], RES, 0.08, 1.5) is None  # gentle bumps are no riser
+
+
+def _riser_ground(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    return np.where(np.asarray(x) >= 1.0, 0.15, 0.0) + 0.0 * np.asarray(y)
+
+
+def test_rise_first_swing_clears_the_riser_before_moving_over_it() -> None:
+    robot = load_robot("spot")
+    planner = SwingPlanner(robot)
+    req = SwingRequest(
+        0, np.array([0.874, 0.166, 0.0]), np.zeros(3), np.array([1.09, 0.166, 0.15]), 0.3, None
+    )
+    body = BodyMotion(0.0, np.array([0.6, 0.0, 0.6]), np.eye(3), np.array([0.3, 0.0, 0.0]), 0.0)
+    stance = {
+        1: np.array([0.6, -0.165, 0.0]),
+        2: np.array([0.0, 0.165, 0.0]),
+        3: np.array([0.0, -0.165, 0.0]),
+    }
+    plan = planner.plan(0.0, [req], _riser_ground, stance, body)[0]
+    assert plan.horizontal_policy.endswith(RISE_FIRST)
+    ts = np.linspace(0.0, 0.3, 121)
+    pts = plan.positions(ts)
+    r = robot.foot_radius_m
+    # wherever the foot's front is over the riser, its bottom is above the tread
+    over = pts[:, 0] + r >= 1.0
+    assert np.all(pts[over, 2] >= 0.15), pts[over, 2].min()
+    # it still lands on the tread on time
+    assert np.allclose(plan.positions(np.array([0.3]))[0], req.p_touchdown, atol=0.01)
+    # on flat ground (or with the rule off) the swing does not hold
+    off = SwingPlanner(robot, SwingParams(rise_first_above_m=np.inf))
+    plan_off = off.plan(0.0, [req], _riser_ground, stance, body)[0]
+    assert not plan_off.horizontal_policy.endswith(RISE_FIRST)
+
+
+class _Swing:
+    def __init__(self, leg: int, t_lo: float, t_td: float, p: np.ndarray) -> None:
+        self.leg, self.t_liftoff, self.t_touchdown, self.p_touchdown = leg, t_lo, t_td, p
+
+
+class _Plan:
+    def __init__(self, swings: dict[int, _Swing]) -> None:
+        self.swings = swings
+
+    def swing_at(self, leg: int, t: float) -> _Swing | None:
+        sw = self.swings.get(leg)
+        return sw if sw is not None and sw.t_liftoff <= t < sw.t_touchdown else None
+
+
+def test_liftoffs_wait_rather_than_leave_one_foot_down() -> None:
+    robot = load_robot("spot")
+    h = Handler(robot)
+    s = RobotState()
+    s.t = 1.0
+    s.p_world_foot = np.array(
+        [[0.3, 0.165, 0.035], [0.3, -0.165, 0.035], [-0.3, 0.165, 0.035], [-0.3, -0.165, 0.1]]
+    )
+    s.contact = np.array([True, True, True, False])
+    h._initialized = True
+    h.phase[:] = Phase.STANCE
+    h.phase[3] = Phase.SWING  # RR still in the air (its touchdown moved later)
+    h.t_touchdown[3] = 1.05
+    h.t_liftoff[3] = 0.8
+    h.t_landed[:] = 0.0
+    plan = _Plan({1: _Swing(1, 0.99, 1.3, np.zeros(3)), 2: _Swing(2, 0.99, 1.3, np.zeros(3))})
+    h.update_phases(s, plan)
+    # FR and RL are due, but lifting both would leave FL alone: they wait
+    assert h.phase[1] == Phase.STANCE and h.phase[2] == Phase.STANCE
+    s.t = 1.0 + h.params.max_liftoff_delay_s + 0.01  # ... at most max_liftoff_delay_s
+    h.update_phases(s, plan)
+    assert h.phase[1] == Phase.SWING and h.phase[2] == Phase.SWING
+
+
+def _cross_stairs(sensor: bool) -> dict:
+    cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
+    return run_walk(cmd, RunOptions(terrain="stairs", duration_s=20.0))
+
+
+def test_stairs_crossing_with_ground_truth_maps() -> None:
+    """Closed loop up the four risers, over the landing and down to (6, 0) on the scene's ground-truth maps
+    (≈13.6 s simulated): no fall, no body collision, crossed, at the goal, no touchdown in a no-step cell."""
+    r = _cross_stairs(sensor=False)
+    assert not r["fell"], r["failure_reason"]
+    assert r["body_collisions"] == 0
+    assert r["crossed"] and r["time_to_cross_s"] is not None and r["time_to_cross_s"] < 15.0
+    assert r["success"], r["failure_reason"]
+    assert r["no_step_touchdowns"] == 0
+    assert r["navigator"]["invalid_paths"] == 0
+
+
+@pytest.mark.xfail(
+    reason="with the sensor the hind feet land on nosings on the way down and a shin meets one", strict=False
+)
+def test_stairs_crossing_with_the_sensor() -> None:
+    """The same with the simulated depth sensor's maps: today it climbs and crosses the landing but falls on the
+    way down (≈9 s; the hind feet touch down on nosings the voxel map no longer holds under the body)."""
+    r = _cross_stairs(sensor=True)
+    assert not r["fell"], r["failure_reason"]
+    assert r["body_collisions"] == 0
+    assert r["crossed"] and r["success"], r["failure_reason"]
+    assert r["no_step_touchdowns"] == 0
