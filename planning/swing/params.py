@@ -51,6 +51,10 @@ class SwingParams:
     apex_tolerance_m: float = (
         0.005  # a replan may lift the swing's apex by at most this over its first plan's
     )
+    apex_free_over_obstacles: bool = (
+        True  # ... unless terrain on the way (maps) stands above the reference line
+    )
+    aggressive_accel_scale: float = 1.5  # the most aggressive vertical policy may use this times a_max_z_mps2
 
     # Vertical family, gentlest first; the most aggressive policy (full limits, max_swing_height_m) is appended.
     vertical_family: tuple[VerticalLevel, ...] = field(default_factory=_default_family)
@@ -61,8 +65,8 @@ class SwingParams:
     obstacle_step_m: float = (
         0.01  # terrain this far above the lift-off→touchdown reference line is an obstacle
     )
-    cliff_margin_m: float = 0.03  # horizontal margin to terrain above the foot; less is Cliff Scraping
-    cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.03)  # radii probed for the horizontal margin
+    cliff_margin_m: float = 0.05  # horizontal margin to terrain above the foot; less is Cliff Scraping
+    cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.035, 0.05)  # radii probed (≥ the foot radius + margin)
     samples: int = 20  # time samples of a candidate trajectory in the detailed analysis
     knee_samples: int = 6  # interior samples at which knees are computed through the leg IK (when needed)
     knee_radius_m: float = 0.04  # knee-to-terrain margin

@@ -67,6 +67,9 @@ from planning.swing.types import (
 )
 
 
+_WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
+
+
 @dataclass(frozen=True, slots=True)
 class SwingPlan:
     """A planned swing: analytic world trajectory of the foot contact point from t_start on.
@@ -360,7 +363,7 @@ class SwingPlanner:
         )
         z_ceiling = float(hips[:, 2].min()) - self.robot.min_leg_length_m - pr.hip_clearance_m
         z_top = self._z_top[leg]
-        if z_top is not None and self._trip[leg] is None:
+        if z_top is not None and self._trip[leg] is None and not self._obstacle_on_way(req, ground):
             z_ceiling = min(z_ceiling, z_top + pr.apex_tolerance_m)
         agg = self.family[-1]
         z0, vz0, z1 = float(req.p_world_foot[2]), float(req.v_world_foot[2]), float(req.p_touchdown[2])
@@ -389,6 +392,18 @@ class SwingPlanner:
             z_ref=z_ref,
             z_ceiling=z_ceiling,
         )
+
+    def _obstacle_on_way(self, req: SwingRequest, ground: GroundHeightFn) -> bool:
+        """Whether ground on the straight way from the foot to its target stands above the line between them by
+        more than obstacle_step_m (then a replan may raise the apex: the obstacle may have been seen late)."""
+        if not self.params.apex_free_over_obstacles or isinstance(ground, FlatGround):
+            return False
+        u = _WAY_SAMPLES
+        p0, p1 = req.p_world_foot, req.p_touchdown
+        xy = p0[None, :2] + u[:, None] * (p1[:2] - p0[:2])[None, :]
+        g = np.asarray(ground(xy[:, 0], xy[:, 1]), dtype=float)
+        line = float(p0[2]) + u * float(p1[2] - p0[2])
+        return bool(np.any(g > line + self.params.obstacle_step_m))
 
     def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
         """Knee minus foot center (3,) world, through the leg IK; cached while the foot moves < 5 mm in the body."""

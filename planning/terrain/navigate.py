@@ -59,8 +59,14 @@ class NavigatorParams:
     ground (None: the robot's); min_height_m: lowest body height target; body_top_m: body top above the body
     center (m, with the hips); head_margin_m: wanted gap between the body top and an overhang; crouch_ahead_m:
     how far ahead (and behind) along the heading the clearance is looked up; crouch_side_m: and to either side
-    (remembered overhangs); memory_cell_m: cell of the overhang memory; shin_radius_m, shin_reach_m: the
-    stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee); foot_margin_m: step obstacles grown by this.
+    (remembered overhangs); memory_cell_m: cell of the overhang memory; shin_radius_m, shin_reach_m, shin_min_rise_m: the
+    stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee
+    with the foot shin_foot_ahead_m ahead of its hip at the standing height: a foot landing ahead of its hip has a
+    flatter shin than at the nominal stance); foot_margin_m: step obstacles grown by this; riser_margin_m,
+    riser_height_m: cells with ground higher by more than riser_height_m within riser_margin_m are no-step too (the
+    foot sphere would scrape the side of a box or riser; a drop needs no such margin); toe_slope, toe_reach_m:
+    ahead of a foothold (along the heading, up to toe_reach_m) ground may rise at most riser_height_m plus toe_slope
+    times the distance beyond riser_margin_m (the next swing must climb over it before moving on).
     max_pitch_rad, max_pitch_rate_rps: limits of the body pitch target along the ground slope (rad, rad/s);
     slow_gait: gait the controller switches to where the step-obstacle map ahead is dense (the no-step share of
     the dense_radius_m disk ahead above slow_gait_on), and back to its own gait once the share is below
@@ -90,9 +96,15 @@ class NavigatorParams:
     crouch_ahead_m: float = 0.7
     crouch_side_m: float = 0.15
     memory_cell_m: float = 0.05
-    shin_radius_m: float = 0.04
+    shin_radius_m: float = 0.0
     shin_reach_m: float = 0.27
+    shin_foot_ahead_m: float = 0.15
+    shin_min_rise_m: float = 0.02
     foot_margin_m: float = 0.03
+    riser_margin_m: float = 0.07
+    riser_height_m: float = 0.04
+    toe_slope: float = 0.0
+    toe_reach_m: float = 0.2
     max_pitch_rad: float = 0.3
     max_pitch_rate_rps: float = 0.6
     slow_gait: str = "walk"
@@ -165,7 +177,8 @@ class TerrainNavigator:
         self.standing_height = p.standing_height_m or float(self.robot.standing_height_m)
         self.p_body_hip_xy = np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2]
         q0 = np.asarray(self.robot.q_nominal[0], dtype=np.float64)
-        foot, knee = self.robot.fk_leg(0, q0), self.robot.knee_body(0, q0)
+        foot = self.robot.fk_leg(0, q0) + np.array([p.shin_foot_ahead_m, 0.0, 0.0])
+        knee = self.robot.knee_body(0, self.robot.ik_leg(0, foot))
         self.shin_slope = float(max(foot[0] - knee[0], 1e-3) / max(knee[2] - foot[2], 1e-3))
         self.maps: TerrainMaps | None = None
         self.path: BodyPath | None = None
@@ -210,7 +223,19 @@ class TerrainNavigator:
                 )
             maps = self._truth_maps
         assert maps is not None
-        maps = with_keepouts(maps, s.yaw, self.shin_slope, p.shin_radius_m, p.shin_reach_m, p.foot_margin_m)
+        maps = with_keepouts(
+            maps,
+            s.yaw,
+            self.shin_slope,
+            p.shin_radius_m,
+            p.shin_reach_m,
+            p.foot_margin_m,
+            p.shin_min_rise_m,
+            p.riser_margin_m,
+            p.riser_height_m,
+            p.toe_slope,
+            p.toe_reach_m,
+        )
         self.maps = maps
         self.controller.maps = maps
         self.stats.scans += 1
@@ -521,11 +546,32 @@ def shin_keepout(
 
 
 def with_keepouts(
-    maps: TerrainMaps, yaw: float, slope: float, radius_m: float, reach_m: float, foot_margin_m: float
+    maps: TerrainMaps,
+    yaw: float,
+    slope: float,
+    radius_m: float,
+    reach_m: float,
+    foot_margin_m: float,
+    min_rise_m: float = 0.03,
+    riser_margin_m: float = 0.0,
+    riser_height_m: float = 0.04,
+    toe_slope: float = 0.0,
+    toe_reach_m: float = 0.0,
 ) -> TerrainMaps:
     """Gives the maps with the shin keep-out (see shin_keepout) added to the step obstacles and those grown by
-    foot_margin_m (the foot's radius: a foot centered just off a box still scrapes its side); SDF recomputed."""
-    extra = shin_keepout(maps, yaw, slope, radius_m, reach_m)
+    foot_margin_m (the foot's radius: a foot centered just off a box still scrapes its side), plus the cells with
+    ground higher by more than riser_height_m within riser_margin_m (m) (the foot sphere and its tracking error
+    beside a riser), plus the toe keep-out: ground ahead (heading yaw) within toe_reach_m rising more than
+    riser_height_m + toe_slope·(d - riser_margin_m) (shin_keepout looking forward); SDF recomputed."""
+    extra = shin_keepout(maps, yaw, slope, radius_m, reach_m, min_rise_m)
+    if riser_margin_m > 0.0:
+        h = maps.ground_height
+        rc = riser_margin_m / maps.resolution_m
+        i = np.arange(-int(rc), int(rc) + 1)
+        disk = (i[:, None] ** 2 + i[None, :] ** 2) <= rc * rc + 1e-9
+        extra |= ndimage.maximum_filter(h, footprint=disk, mode="nearest") - h > riser_height_m
+    if toe_slope > 0.0 and toe_reach_m > 0.0:
+        extra |= shin_keepout(maps, yaw + np.pi, 1.0 / toe_slope, riser_margin_m, toe_reach_m, riser_height_m)
     step = maps.step_obstacle | extra
     r = int(round(foot_margin_m / maps.resolution_m))
     if r > 0 and step.any():
