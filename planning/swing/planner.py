@@ -66,7 +66,6 @@ from planning.swing.types import (
     flat_ground,
 )
 
-
 _WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
 
 

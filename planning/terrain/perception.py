@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from planning.terrain.memory import GroundMemory
 from planning.terrain.maps import MapParams, TerrainMaps, build_maps
+from planning.terrain.memory import GroundMemory
 from planning.terrain.sensor import DepthSensor, PointCloud, SensorParams
 from planning.terrain.voxels import VoxelMap, VoxelParams
 
