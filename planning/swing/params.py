@@ -51,9 +51,13 @@ class SwingParams:
     apex_tolerance_m: float = (
         0.005  # a replan may lift the swing's apex by at most this over its first plan's
     )
-    apex_free_over_obstacles: bool = (
-        True  # ... unless terrain on the way (maps) stands above the reference line
-    )
+    # ... unless terrain on the way (maps) stands above the lift-off→touchdown line: then the apex may rise to
+    # obstacle_apex_m above the highest such terrain
+    apex_free_over_obstacles: bool = True
+    obstacle_apex_m: float = 0.08
+    # On mapped terrain (not FlatGround) the apex stays within this above the highest ground on the straight way
+    # (or the lift-off height); None: no such cap
+    terrain_apex_m: float | None = 0.10
     aggressive_accel_scale: float = 1.5  # the most aggressive vertical policy may use this times a_max_z_mps2
 
     # Vertical family, gentlest first; the most aggressive policy (full limits, max_swing_height_m) is appended.

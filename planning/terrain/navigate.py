@@ -70,7 +70,13 @@ class NavigatorParams:
     max_pitch_rad, max_pitch_rate_rps: limits of the body pitch target along the ground slope (rad, rad/s);
     slow_gait: gait the controller switches to where the step-obstacle map ahead is dense (the no-step share of
     the dense_radius_m disk ahead above slow_gait_on), and back to its own gait once the share is below
-    slow_gait_off (one foot at a time lands more precisely and the others hold the body meanwhile).
+    slow_gait_off (one foot at a time lands more precisely and the others hold the body meanwhile); stay_slow: once
+    in the slow gait, stay in it (measured on clutter: the switch back to the trot can leave three feet in the air
+    at once, and the walk is as fast as the navigator's max_speed_mps anyway); hold_jump_m, hold_radius_m,
+    hold_min_sdf_m: a swinging foot's target does not jump (by more than hold_jump_m from one step-plan tick to the
+    next) while its held target stays steppable (step SDF ≥ hold_min_sdf_m) and within hold_radius_m of the new
+    selection's (the foothold choice may flip between the sides of an obstacle; a foot chasing the flips lands late,
+    on an edge, or trips over what its swing was not planned to clear).
     """
 
     use_sensor: bool = True
@@ -110,6 +116,10 @@ class NavigatorParams:
     slow_gait: str = "walk"
     slow_gait_on: float = 0.15
     slow_gait_off: float = 0.05
+    stay_slow: bool = True
+    hold_jump_m: float = 0.04
+    hold_radius_m: float = 0.15
+    hold_min_sdf_m: float = 0.01
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -193,6 +203,9 @@ class TerrainNavigator:
         # Remembered overhangs: cells (memory_cell_m grid) and their height (m, world).
         self._ceiling_keys = np.zeros((0, 2), dtype=np.int64)
         self._ceiling_z = np.zeros(0)
+        # Held touchdown targets of the swinging legs (world, m), nan when none.
+        self._held = np.full((4, 3), np.nan)
+        self.holds = 0
 
     # ---- wiring ---------------------------------------------------------------------------------------------
     def attach(self) -> None:
@@ -277,7 +290,12 @@ class TerrainNavigator:
         if c.gait != p.slow_gait and share > p.slow_gait_on:
             c.set_gait(p.slow_gait)
             self.stats.gait_switches += 1
-        elif c.gait == p.slow_gait and share < p.slow_gait_off and p.slow_gait != self.fast_gait:
+        elif (
+            not p.stay_slow
+            and c.gait == p.slow_gait
+            and share < p.slow_gait_off
+            and p.slow_gait != self.fast_gait
+        ):
             c.set_gait(self.fast_gait)
             self.stats.gait_switches += 1
 
@@ -437,7 +455,53 @@ class TerrainNavigator:
         return float(1.0 - (1.0 - lo) * min(share / max(p.dense_full, 1e-9), 1.0))
 
     def refine(self, s: RobotState, sel: Selection) -> Selection:
-        """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell."""
+        """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell,
+        and the swinging feet's targets held against jumps (see NavigatorParams.hold_jump_m)."""
+        sel = self._refine_qp(s, sel)
+        return self._hold_swing_targets(sel)
+
+    def _hold_swing_targets(self, sel: Selection) -> Selection:
+        p = self.params
+        maps = self.maps
+        path = sel.path
+        swinging = np.isnan(path.t_liftoff_now)
+        self._held[~swinging] = np.nan
+        if maps is None or not swinging.any():
+            return sel
+        p_new: NDArray[np.float64] | None = None
+        for leg in np.flatnonzero(swinging):
+            ks = np.flatnonzero(path.leg == leg)
+            if ks.size == 0:
+                continue
+            k = int(ks[np.argmin(path.t_touchdown[ks])])
+            target = path.p_world_touchdown[k]
+            held = self._held[leg]
+            if np.isfinite(held[0]):
+                jump = float(np.hypot(*(target[:2] - held[:2])))
+                ok = float(maps.sdf_step(held[0], held[1])) >= p.hold_min_sdf_m
+                if p.hold_jump_m < jump <= p.hold_radius_m and ok:
+                    if p_new is None:
+                        p_new = path.p_world_touchdown.copy()
+                    p_new[k] = held
+                    self.holds += 1
+                    continue
+            self._held[leg] = target
+        if p_new is None:
+            return sel
+        held_path = path.with_touchdowns(p_new, path.kind + "+hold")
+        return Selection(
+            held_path,
+            sel.score,
+            sel.scores,
+            sel.index,
+            sel.candidates,
+            sel.xi_td,
+            sel.xi_td_reference,
+            sel.feasible,
+            sel.n_evaluated,
+        )
+
+    def _refine_qp(self, s: RobotState, sel: Selection) -> Selection:
         maps = self.maps
         path = sel.path
         if maps is None or path.n_touchdowns < 4:
