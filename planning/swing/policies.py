@@ -447,14 +447,13 @@ def vertical_family(params: SwingParams) -> tuple[VerticalSpec, ...]:
     levels = [*params.vertical_family, VerticalLevel(params.max_swing_height_m, 1.0, 1.0)]
     specs = []
     for i, lv in enumerate(levels):
-        last = i == len(levels) - 1
-        name = "Aggressive" if last else f"Gentle{i}"
+        name = "Aggressive" if i == len(levels) - 1 else f"Gentle{i}"
         specs.append(
             VerticalSpec(
                 name,
                 params.v_max_up_mps * lv.velocity_frac,
                 params.v_max_down_mps * lv.velocity_frac,
-                params.a_max_z_mps2 * lv.accel_frac * (params.aggressive_accel_scale if last else 1.0),
+                params.a_max_z_mps2 * lv.accel_frac,
                 min(lv.height_m, params.max_swing_height_m),
             )
         )

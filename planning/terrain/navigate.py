@@ -72,7 +72,8 @@ class NavigatorParams:
     the dense_radius_m disk ahead above slow_gait_on), and back to its own gait once the share is below
     slow_gait_off (one foot at a time lands more precisely and the others hold the body meanwhile); stay_slow: once
     in the slow gait, stay in it (measured on clutter: the switch back to the trot can leave three feet in the air
-    at once, and the walk is as fast as the navigator's max_speed_mps anyway); hold_jump_m, hold_radius_m,
+    at once, and the walk is as fast as the navigator's max_speed_mps anyway); slow_gait_speed_mps: speed cap in the slow
+    gait (its steps are one cycle long: 0.5 m steps in 0.25 s swings over boxes trip and land late); hold_jump_m, hold_radius_m,
     hold_min_sdf_m: a swinging foot's target does not jump (by more than hold_jump_m from one step-plan tick to the
     next) while its held target stays steppable (step SDF ≥ hold_min_sdf_m) and within hold_radius_m of the new
     selection's (the foothold choice may flip between the sides of an obstacle; a foot chasing the flips lands late,
@@ -117,6 +118,7 @@ class NavigatorParams:
     slow_gait_on: float = 0.15
     slow_gait_off: float = 0.05
     stay_slow: bool = True
+    slow_gait_speed_mps: float = 0.3
     hold_jump_m: float = 0.04
     hold_radius_m: float = 0.15
     hold_min_sdf_m: float = 0.01
@@ -414,6 +416,8 @@ class TerrainNavigator:
         if dist < p.goal_tolerance_m:
             return SteeringCommand()
         speed = min(self.speed_cap, p.goal_gain * dist)
+        if self.controller.gait == p.slow_gait:
+            speed = min(speed, p.slow_gait_speed_mps)
         if self.path is None or self.path.length_m < 1e-6:
             target = self.goal
             yaw_des = s.yaw
