@@ -116,6 +116,12 @@ def _summary(report: dict[str, Any]) -> str:
             f"; mean velocity vx {mv['vx']:.3f} m/s, vy {mv['vy']:.3f} m/s, yaw rate {mv['yaw_rate']:.3f} rad/s"
             f" (RMS error {rms['vx']}, {rms['vy']}, {rms['yaw_rate']})"
         )
+    if "crossed" in report:
+        line += (
+            f"; crossed {report['crossed']} (t={report['time_to_cross_s']} s), no-step touchdowns "
+            f"{report['no_step_touchdowns']}, body collisions {report['body_collisions']}, swing collisions "
+            f"{report['swing_collisions_per_100_steps']} per 100 steps"
+        )
     return line
 
 

@@ -19,6 +19,7 @@ from planning.robot import LEGS, RobotModel, load_robot
 from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
 from planning.sim.world import Push, RobotState, World
+from planning.swing.types import TripKind
 from planning.terrain.scenes import build_terrain
 
 POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
@@ -181,8 +182,13 @@ class _Session:
                 {"leg": LEGS[leg], "t": round(tr.t_s, 4), "kind": tr.kind.name.lower()}
                 for leg, tr in self._handler().trip_log
             ],
+            # Swing feet or lower legs hitting terrain before their touchdown window (trips; self-collisions,
+            # measured geometrically between the robot's own legs, are not terrain), per 100 touchdowns.
             "swing_collisions_per_100_steps": round(
-                100.0 * len(self._handler().trip_log) / max(len(rec.touchdowns), 1), 2
+                100.0
+                * sum(1 for _, tr in self._handler().trip_log if tr.kind in _TERRAIN_TRIPS)
+                / max(len(rec.touchdowns), 1),
+                2,
             ),
             "stages": stage_times,
             "timing": {"wall_s": round(wall_s, 3), "rtf": round(t_end / wall_s, 3) if wall_s > 0 else None},
@@ -503,6 +509,7 @@ class WalkSession(_Session):
         return out
 
 
+_TERRAIN_TRIPS = (TripKind.NORMAL, TripKind.KNEE)  # trips against terrain (not another leg of the robot)
 CROSSED_BEYOND_M = 0.5  # "crossed": the body center got this far past the terrain's end (m)
 
 

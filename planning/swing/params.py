@@ -25,12 +25,14 @@ class VerticalLevel:
 
 def _default_family() -> tuple[VerticalLevel, ...]:
     #            height   accel   velocity     (gentlest first; the most aggressive policy comes last, implicitly)
+    # (accelerations 14, 20, 26, 32, 40 m/s²: the most aggressive policy alone uses the full a_max_z_mps2, 60 m/s²,
+    # to rise over a box close ahead of the foot)
     return (
-        VerticalLevel(0.06, 0.35, 0.50),
-        VerticalLevel(0.08, 0.50, 0.60),
-        VerticalLevel(0.11, 0.65, 0.75),
-        VerticalLevel(0.15, 0.80, 0.85),
-        VerticalLevel(0.20, 1.00, 1.00),
+        VerticalLevel(0.06, 0.35 / 1.5, 0.50),
+        VerticalLevel(0.08, 0.50 / 1.5, 0.60),
+        VerticalLevel(0.11, 0.65 / 1.5, 0.75),
+        VerticalLevel(0.15, 0.80 / 1.5, 0.85),
+        VerticalLevel(0.20, 1.00 / 1.5, 1.00),
     )
 
 
@@ -43,7 +45,7 @@ class SwingParams:
     a_max_xy_mps2: float = 80.0  # per heading axis
     v_max_up_mps: float = 2.0
     v_max_down_mps: float = 1.5
-    a_max_z_mps2: float = 40.0
+    a_max_z_mps2: float = 60.0
     max_swing_height_m: float = (
         0.30  # the most aggressive policy's top, above max(lift-off, touchdown) height
     )
@@ -51,6 +53,13 @@ class SwingParams:
     apex_tolerance_m: float = (
         0.005  # a replan may lift the swing's apex by at most this over its first plan's
     )
+    # ... unless terrain on the way (maps) stands above the lift-off→touchdown line: then the apex may rise to
+    # obstacle_apex_m above the highest such terrain
+    apex_free_over_obstacles: bool = True
+    obstacle_apex_m: float = 0.08
+    # On mapped terrain (not FlatGround) the apex stays within this above the highest ground on the straight way
+    # (or the lift-off height); None: no such cap
+    terrain_apex_m: float | None = 0.10
 
     # Vertical family, gentlest first; the most aggressive policy (full limits, max_swing_height_m) is appended.
     vertical_family: tuple[VerticalLevel, ...] = field(default_factory=_default_family)
@@ -61,8 +70,8 @@ class SwingParams:
     obstacle_step_m: float = (
         0.01  # terrain this far above the lift-off→touchdown reference line is an obstacle
     )
-    cliff_margin_m: float = 0.03  # horizontal margin to terrain above the foot; less is Cliff Scraping
-    cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.03)  # radii probed for the horizontal margin
+    cliff_margin_m: float = 0.05  # horizontal margin to terrain above the foot; less is Cliff Scraping
+    cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.035, 0.05)  # radii probed (≥ the foot radius + margin)
     samples: int = 20  # time samples of a candidate trajectory in the detailed analysis
     knee_samples: int = 6  # interior samples at which knees are computed through the leg IK (when needed)
     knee_radius_m: float = 0.04  # knee-to-terrain margin

@@ -70,6 +70,8 @@ from planning.swing.types import (
     flat_ground,
 )
 
+_WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
+
 
 @dataclass(frozen=True, slots=True)
 class SwingPlan:
@@ -160,6 +162,7 @@ class SwingPlanner:
         # velocity a hair above a gentle policy's limit makes it infeasible), but never raise the apex, or a foot
         # replanned every 3 ms climbs policy by policy and lands late
         self._z_top: list[float | None] = [None] * 4
+        self._trip_z: dict[int, tuple[float, float]] = {}  # leg → (trip time s, foot height at the trip m)
         self._last_t: list[float] = [-np.inf] * 4  # when each leg was last planned, s
         # rise first: the highest clearance height asked for during the current swing, m (None: none asked)
         self._z_clear: list[float | None] = [None] * 4
@@ -370,9 +373,17 @@ class SwingPlanner:
             blocked=blocked_keepouts(p0, p1, keepouts),
         )
         z_ceiling = float(hips[:, 2].min()) - self.robot.min_leg_length_m - pr.hip_clearance_m
+        g_way, g_obstacle = self._ground_on_way(req, ground)
+        if pr.terrain_apex_m is not None and np.isfinite(g_way):
+            # On mapped terrain the swing rises no higher than needed over the highest ground on its way: a foot
+            # high in the air lands late.
+            z_ceiling = min(z_ceiling, max(g_way, float(req.p_world_foot[2])) + pr.terrain_apex_m)
         z_top = self._z_top[leg]
         if z_top is not None and self._trip[leg] is None:
-            z_ceiling = min(z_ceiling, z_top + pr.apex_tolerance_m)
+            # A replan keeps the first plan's apex, unless terrain on the way needs more (seen late, or the target
+            # moved behind it): then up to the clearance it needs.
+            z_cap = max(z_top + pr.apex_tolerance_m, g_obstacle + pr.obstacle_apex_m)
+            z_ceiling = min(z_ceiling, z_cap)
         agg = self.family[-1]
         z0, vz0, z1 = float(req.p_world_foot[2]), float(req.v_world_foot[2]), float(req.p_touchdown[2])
         z_ref = self._z_liftoff[leg]
@@ -464,6 +475,23 @@ class SwingPlanner:
             return None, 0.0
         approach = length * float(u[max(int(above[0]) - 1, 0)]) - pr.rise_first_gap_m
         return z_clear, max(approach, 0.0)
+
+    def _ground_on_way(self, req: SwingRequest, ground: GroundHeightFn) -> tuple[float, float]:
+        """The highest ground (m) on the straight way from the foot to its target, and the highest that stands above
+        the line between them by more than obstacle_step_m (-inf when none, or when apex_free_over_obstacles is off);
+        both -inf on flat ground."""
+        if isinstance(ground, FlatGround):
+            return -math.inf, -math.inf
+        u = _WAY_SAMPLES
+        p0, p1 = req.p_world_foot, req.p_touchdown
+        xy = p0[None, :2] + u[:, None] * (p1[:2] - p0[:2])[None, :]
+        g = np.asarray(ground(xy[:, 0], xy[:, 1]), dtype=float)
+        line = float(p0[2]) + u * float(p1[2] - p0[2])
+        above = g > line + self.params.obstacle_step_m
+        g_obstacle = (
+            float(g[above].max()) if above.any() and self.params.apex_free_over_obstacles else -math.inf
+        )
+        return float(g.max()), g_obstacle
 
     def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
         """Knee minus foot center (3,) world, through the leg IK; cached while the foot moves < 5 mm in the body."""
@@ -648,7 +676,11 @@ class SwingPlanner:
             v = self.analyzer.analyze(prob, hp, undesirability_h(hp, pr))
             z0, vz0 = float(req.p_world_foot[2]), float(req.v_world_foot[2])
             z_ceiling = float(prob.hips[:, 2].min()) - self.robot.min_leg_length_m - pr.hip_clearance_m
-            z_top = min(z0 + pr.trip_lift_m, max(z_ceiling, z0))
+            # above where it tripped (not above where it is now: replans every tick would ratchet it up)
+            z_trip = self._trip_z.get(leg)
+            if z_trip is None or z_trip[0] != trip.t_s:
+                z_trip = self._trip_z[leg] = (trip.t_s, z0)
+            z_top = min(z_trip[1] + pr.trip_lift_m, max(z_ceiling, z0))
             z = elevate(c.t0, z0, vz0, z_top, pr.v_max_up_mps, pr.a_max_z_mps2)
             return SwingPlan(
                 leg=leg,

@@ -60,14 +60,27 @@ class NavigatorParams:
     ground (None: the robot's); min_height_m: lowest body height target; body_top_m: body top above the body
     center (m, with the hips); head_margin_m: wanted gap between the body top and an overhang; crouch_ahead_m:
     how far ahead (and behind) along the heading the clearance is looked up; crouch_side_m: and to either side
-    (remembered overhangs); memory_cell_m: cell of the overhang memory; shin_radius_m, shin_reach_m: the
-    stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee); foot_margin_m: step obstacles grown by this.
-    toe_reach_m, toe_rise_m: the riser keep-out in front of a foothold (see riser_keepout; 0 reach: none);
+    (remembered overhangs); memory_cell_m: cell of the overhang memory; shin_radius_m, shin_reach_m, shin_min_rise_m: the
+    stance shin's keep-out added to the step obstacles (see shin_keepout; the slope comes from the robot's knee
+    with the foot shin_foot_ahead_m ahead of its hip at the standing height: a foot landing ahead of its hip has a
+    flatter shin than at the nominal stance); foot_margin_m: step obstacles grown by this; riser_margin_m,
+    riser_height_m: cells with ground higher by more than riser_height_m within riser_margin_m are no-step too (the
+    foot sphere would scrape the side of a box or riser; a drop needs no such margin); toe_slope, toe_reach_m:
+    ahead of a foothold (along the heading, up to toe_reach_m) ground may rise at most riser_height_m plus toe_slope
+    times the distance beyond riser_margin_m (the next swing must climb over it before moving on; 0 slope: none).
+    riser_reach_m, riser_rise_m: the riser keep-out in front of a foothold (see riser_keepout; 0 reach: none);
     drop_reach_m: the same for a drop ahead (the nosing going down).
     max_pitch_rad, max_pitch_rate_rps: limits of the body pitch target along the ground slope (rad, rad/s);
     slow_gait: gait the controller switches to where the step-obstacle map ahead is dense (the no-step share of
     the dense_radius_m disk ahead above slow_gait_on), and back to its own gait once the share is below
-    slow_gait_off (one foot at a time lands more precisely and the others hold the body meanwhile).
+    slow_gait_off (one foot at a time lands more precisely and the others hold the body meanwhile); stay_slow: once
+    in the slow gait, stay in it (measured on clutter: the switch back to the trot can leave three feet in the air
+    at once, and the walk is as fast as the navigator's max_speed_mps anyway); slow_gait_speed_mps: speed cap in the slow
+    gait (its steps are one cycle long: 0.5 m steps in 0.25 s swings over boxes trip and land late); hold_jump_m, hold_radius_m,
+    hold_min_sdf_m: a swinging foot's target does not jump (by more than hold_jump_m from one step-plan tick to the
+    next) while its held target stays steppable (step SDF ≥ hold_min_sdf_m) and within hold_radius_m of the new
+    selection's (the foothold choice may flip between the sides of an obstacle; a foot chasing the flips lands late,
+    on an edge, or trips over what its swing was not planned to clear).
     climb_gait: gait used, before any other, while the ground along the feet's lines from climb_behind_m behind to
     climb_ahead_m ahead of the body has a step (a rise or a drop above climb_rise_m within two cells): stairs,
     a curb (long swings give the foot time to rise above a riser before moving on; None: never); the speed there
@@ -101,12 +114,18 @@ class NavigatorParams:
     crouch_ahead_m: float = 0.7
     crouch_side_m: float = 0.15
     memory_cell_m: float = 0.05
-    shin_radius_m: float = 0.04
+    shin_radius_m: float = 0.0
     shin_reach_m: float = 0.27
+    shin_foot_ahead_m: float = 0.15
+    shin_min_rise_m: float = 0.02
     foot_margin_m: float = 0.03
-    toe_reach_m: float = 0.10
-    toe_rise_m: float = 0.08
+    riser_reach_m: float = 0.10
+    riser_rise_m: float = 0.08
     drop_reach_m: float = 0.05
+    riser_margin_m: float = 0.07
+    riser_height_m: float = 0.04
+    toe_slope: float = 0.0
+    toe_reach_m: float = 0.2
     max_pitch_rad: float = 0.45
     max_pitch_rate_rps: float = 0.6
     slow_gait: str = "walk"
@@ -120,6 +139,11 @@ class NavigatorParams:
     late_descent_gain_per_s: float = 5.0
     hip_ground_min_m: float = 0.04
     hip_ground_max_m: float = 0.15
+    stay_slow: bool = True
+    slow_gait_speed_mps: float = 0.3
+    hold_jump_m: float = 0.04
+    hold_radius_m: float = 0.15
+    hold_min_sdf_m: float = 0.01
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -187,7 +211,8 @@ class TerrainNavigator:
         self.standing_height = p.standing_height_m or float(self.robot.standing_height_m)
         self.p_body_hip_xy = np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2]
         q0 = np.asarray(self.robot.q_nominal[0], dtype=np.float64)
-        foot, knee = self.robot.fk_leg(0, q0), self.robot.knee_body(0, q0)
+        foot = self.robot.fk_leg(0, q0) + np.array([p.shin_foot_ahead_m, 0.0, 0.0])
+        knee = self.robot.knee_body(0, self.robot.ik_leg(0, foot))
         self.shin_slope = float(max(foot[0] - knee[0], 1e-3) / max(knee[2] - foot[2], 1e-3))
         self.maps: TerrainMaps | None = None
         self.path: BodyPath | None = None
@@ -206,6 +231,9 @@ class TerrainNavigator:
         # The last refined touchdown of each swinging leg: (touchdown time s, place (3,) m); nan: none.
         self._held_t = np.full(4, np.nan)
         self._held_p = np.full((4, 3), np.nan)
+        # Held touchdown targets of the swinging legs (world, m), nan when none.
+        self._held_swing = np.full((4, 3), np.nan)
+        self.holds = 0
 
     # ---- wiring ---------------------------------------------------------------------------------------------
     def attach(self) -> None:
@@ -247,8 +275,13 @@ class TerrainNavigator:
             p.shin_radius_m,
             p.shin_reach_m,
             p.foot_margin_m,
+            min_rise_m=p.shin_min_rise_m,
+            riser_margin_m=p.riser_margin_m,
+            riser_height_m=p.riser_height_m,
+            toe_slope=p.toe_slope,
             toe_reach_m=p.toe_reach_m,
-            toe_rise_m=p.toe_rise_m,
+            riser_reach_m=p.riser_reach_m,
+            riser_rise_m=p.riser_rise_m,
             drop_reach_m=p.drop_reach_m,
         )
         self.maps = maps
@@ -300,6 +333,8 @@ class TerrainNavigator:
             speed = pitch / (g.cycle_s * p.climb_steps_per_tread)
             self.climb_speed = float(np.clip(speed, p.min_speed_mps, g.max_speed_mps))
         elif share > p.slow_gait_on:
+            want = p.slow_gait
+        elif p.stay_slow and c.gait == p.slow_gait:
             want = p.slow_gait
         elif share < p.slow_gait_off:
             want = self.fast_gait
@@ -458,6 +493,8 @@ class TerrainNavigator:
         if dist < p.goal_tolerance_m:
             return SteeringCommand()
         speed = min(self.speed_cap, p.goal_gain * dist)
+        if self.controller.gait == p.slow_gait:
+            speed = min(speed, p.slow_gait_speed_mps)
         if self.path is None or self.path.length_m < 1e-6:
             target = self.goal
             yaw_des = s.yaw
@@ -502,7 +539,54 @@ class TerrainNavigator:
         return float(1.0 - (1.0 - lo) * min(share / max(p.dense_full, 1e-9), 1.0))
 
     def refine(self, s: RobotState, sel: Selection) -> Selection:
-        """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell.
+        """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell,
+        and the swinging feet's targets held against jumps (see NavigatorParams.hold_jump_m)."""
+        sel = self._refine_qp(s, sel)
+        return self._hold_swing_targets(sel)
+
+    def _hold_swing_targets(self, sel: Selection) -> Selection:
+        p = self.params
+        maps = self.maps
+        path = sel.path
+        swinging = np.isnan(path.t_liftoff_now)
+        self._held_swing[~swinging] = np.nan
+        if maps is None or not swinging.any():
+            return sel
+        p_new: NDArray[np.float64] | None = None
+        for leg in np.flatnonzero(swinging):
+            ks = np.flatnonzero(path.leg == leg)
+            if ks.size == 0:
+                continue
+            k = int(ks[np.argmin(path.t_touchdown[ks])])
+            target = path.p_world_touchdown[k]
+            held = self._held_swing[leg]
+            if np.isfinite(held[0]):
+                jump = float(np.hypot(*(target[:2] - held[:2])))
+                ok = float(maps.sdf_step(held[0], held[1])) >= p.hold_min_sdf_m
+                if p.hold_jump_m < jump <= p.hold_radius_m and ok:
+                    if p_new is None:
+                        p_new = path.p_world_touchdown.copy()
+                    p_new[k] = held
+                    self.holds += 1
+                    continue
+            self._held_swing[leg] = target
+        if p_new is None:
+            return sel
+        held_path = path.with_touchdowns(p_new, path.kind + "+hold")
+        return Selection(
+            held_path,
+            sel.score,
+            sel.scores,
+            sel.index,
+            sel.candidates,
+            sel.xi_td,
+            sel.xi_td_reference,
+            sel.feasible,
+            sel.n_evaluated,
+        )
+
+    def _refine_qp(self, s: RobotState, sel: Selection) -> Selection:
+        """The selection with its footholds refined by the step QP (see refine).
 
         A swinging leg whose touchdown the QP moved keeps that refined place while the QP cannot move it again
         (too close to touchdown, or no answer): falling back to the unrefined place mid-swing would send the foot
@@ -545,7 +629,7 @@ class TerrainNavigator:
                 p_new[k, 2] = float(maps.height_at(plan.footholds[j, 0], plan.footholds[j, 1]))
                 moved[k] = True
             self.stats.qp_used += 1
-        self._hold_swing_targets(path, p_new, moved)
+        self._hold_refined_targets(path, p_new, moved)
         if plan is None and not np.any(moved):
             return sel
         refined = path.with_touchdowns(p_new, path.kind + "+qp")
@@ -561,7 +645,7 @@ class TerrainNavigator:
             sel.n_evaluated,
         )
 
-    def _hold_swing_targets(
+    def _hold_refined_targets(
         self, path: StepPath, p_new: NDArray[np.float64], moved: NDArray[np.bool_]
     ) -> None:
         """Keeps each swinging leg's last refined touchdown place where this replan did not refine it (same
@@ -694,18 +778,35 @@ def with_keepouts(
     radius_m: float,
     reach_m: float,
     foot_margin_m: float,
+    min_rise_m: float = 0.03,
+    riser_margin_m: float = 0.0,
+    riser_height_m: float = 0.04,
+    toe_slope: float = 0.0,
     toe_reach_m: float = 0.0,
-    toe_rise_m: float = np.inf,
+    riser_reach_m: float = 0.0,
+    riser_rise_m: float = np.inf,
     drop_reach_m: float = 0.0,
 ) -> TerrainMaps:
-    """Gives the maps with the shin keep-out (see shin_keepout) and the riser keep-out (see riser_keepout, when
-    toe_reach_m > 0) added to the step obstacles and those grown by foot_margin_m (the foot's radius: a foot
-    centered just off a box still scrapes its side); SDF recomputed."""
-    extra = shin_keepout(maps, yaw, slope, radius_m, reach_m)
-    if toe_reach_m > 0.0 and np.isfinite(toe_rise_m):
-        extra |= riser_keepout(maps, yaw, toe_reach_m, toe_rise_m)
-    if drop_reach_m > 0.0 and np.isfinite(toe_rise_m):
-        extra |= riser_keepout(maps, yaw, drop_reach_m, toe_rise_m, drop=True)
+    """Gives the maps with the shin keep-out (see shin_keepout) added to the step obstacles and those grown by
+    foot_margin_m (the foot's radius: a foot centered just off a box still scrapes its side), plus the cells with
+    ground higher by more than riser_height_m within riser_margin_m (m) (the foot sphere and its tracking error
+    beside a riser), plus the toe keep-out: ground ahead (heading yaw) within toe_reach_m rising more than
+    riser_height_m + toe_slope·(d - riser_margin_m) (shin_keepout looking forward), plus the riser keep-out in
+    front of a foothold (see riser_keepout, when riser_reach_m > 0) and before a drop (drop_reach_m); SDF
+    recomputed."""
+    extra = shin_keepout(maps, yaw, slope, radius_m, reach_m, min_rise_m)
+    if riser_reach_m > 0.0 and np.isfinite(riser_rise_m):
+        extra |= riser_keepout(maps, yaw, riser_reach_m, riser_rise_m)
+    if drop_reach_m > 0.0 and np.isfinite(riser_rise_m):
+        extra |= riser_keepout(maps, yaw, drop_reach_m, riser_rise_m, drop=True)
+    if riser_margin_m > 0.0:
+        h = maps.ground_height
+        rc = riser_margin_m / maps.resolution_m
+        i = np.arange(-int(rc), int(rc) + 1)
+        disk = (i[:, None] ** 2 + i[None, :] ** 2) <= rc * rc + 1e-9
+        extra |= ndimage.maximum_filter(h, footprint=disk, mode="nearest") - h > riser_height_m
+    if toe_slope > 0.0 and toe_reach_m > 0.0:
+        extra |= shin_keepout(maps, yaw + np.pi, 1.0 / toe_slope, riser_margin_m, toe_reach_m, riser_height_m)
     step = maps.step_obstacle | extra
     r = int(round(foot_margin_m / maps.resolution_m))
     if r > 0 and step.any():

@@ -13,18 +13,21 @@ import mujoco
 import numpy as np
 
 from planning.terrain.maps import MapParams, TerrainMaps, build_maps
+from planning.terrain.memory import GroundMemory
 from planning.terrain.sensor import DepthSensor, PointCloud, SensorParams
 from planning.terrain.voxels import VoxelMap, VoxelParams
 
 
 @dataclass(frozen=True)
 class PerceptionParams:
-    """Perception. body_height_m: height of the sensor body above its ground, to place the map vertically (m)."""
+    """Perception. body_height_m: height of the sensor body above its ground, to place the map vertically (m);
+    remember_ground: cells a scan leaves unknown take their last observed ground height (memory.py)."""
 
     sensor: SensorParams = field(default_factory=SensorParams)
     voxels: VoxelParams = field(default_factory=VoxelParams)
     maps: MapParams = field(default_factory=MapParams)
     body_height_m: float = 0.52
+    remember_ground: bool = True
 
 
 class Perception:
@@ -36,6 +39,7 @@ class Perception:
         self.params = params or PerceptionParams()
         self.sensor = DepthSensor(model, body, self.params.sensor)
         self.voxels = VoxelMap(self.params.voxels)
+        self.memory = GroundMemory() if self.params.remember_ground else None
         self.maps: TerrainMaps | None = None
         self.last_cloud: PointCloud | None = None
         self._t_next = -np.inf
@@ -56,6 +60,8 @@ class Perception:
         ground_z = float(p_body[2] - self.params.body_height_m)
         self.voxels.integrate(cloud, (float(p_body[0]), float(p_body[1])), ground_z)
         columns = self.voxels.classify()
+        if self.memory is not None:
+            columns = self.memory.apply(columns)
         self.maps = build_maps(columns, self.params.maps, default_ground_z=ground_z, t_s=float(data.time))
         self.last_cloud = cloud
         self.timings_ms.append((time.perf_counter() - t0) * 1e3)

@@ -1,0 +1,59 @@
+"""Ground-height memory: the last observed ground height of each cell, kept while the cameras no longer see it.
+
+The voxel map decays what it no longer sees (voxels.py), so a low box that passes under the body or behind the
+cameras drops out of the maps while the hind feet still have to step over it. Terrain does not move: the memory keeps,
+per world-aligned cell (the voxel map's lattice), the last ground height observed there, and fills the cells a scan
+leaves unknown with it. A cell observed again is overwritten (observed otherwise wins at once). The memory is a dense
+grid that rolls with the voxel map's window (cells leaving the window are dropped), so it is bounded by the window.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from numpy.typing import NDArray
+
+from planning.terrain.voxels import Columns
+
+
+class GroundMemory:
+    """Last observed ground height (m, world) per cell of the columns' lattice; NaN where never observed."""
+
+    def __init__(self) -> None:
+        self._z: NDArray[np.float64] | None = None
+        self._i0 = (0, 0)  # lattice index of cell (0, 0)
+        self._res = 0.0
+
+    @property
+    def n_cells(self) -> int:
+        """How many cells hold a remembered height."""
+        return 0 if self._z is None else int(np.count_nonzero(np.isfinite(self._z)))
+
+    def apply(self, columns: Columns) -> Columns:
+        """Stores the columns' observed ground heights and gives the columns with unknown cells filled from memory."""
+        res = columns.resolution_m
+        i0 = (int(round(columns.origin_xy[0] / res)), int(round(columns.origin_xy[1] / res)))
+        g = columns.ground_z
+        if self._z is None or self._z.shape != g.shape or abs(self._res - res) > 1e-12:
+            self._z = np.full(g.shape, np.nan)
+        elif i0 != self._i0:
+            self._z = _shifted(self._z, i0[0] - self._i0[0], i0[1] - self._i0[1])
+        self._i0, self._res = i0, res
+        seen = np.isfinite(g)
+        self._z[seen] = g[seen]
+        fill = ~seen & np.isfinite(self._z)
+        if not fill.any():
+            return columns
+        return dataclasses.replace(columns, ground_z=np.where(fill, self._z, g))
+
+
+def _shifted(a: NDArray[np.float64], dx: int, dy: int) -> NDArray[np.float64]:
+    """Gives a (nx, ny) re-indexed so that new[i, j] = old[i + dx, j + dy]; NaN where old had no cell."""
+    nx, ny = a.shape
+    out = np.full(a.shape, np.nan)
+    sx0, sx1 = max(dx, 0), min(nx + dx, nx)
+    sy0, sy1 = max(dy, 0), min(ny + dy, ny)
+    if sx0 < sx1 and sy0 < sy1:
+        out[sx0 - dx : sx1 - dx, sy0 - dy : sy1 - dy] = a[sx0:sx1, sy0:sy1]
+    return out

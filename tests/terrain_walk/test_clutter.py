@@ -1,0 +1,169 @@
+"""Clutter: the rules it needs (ground memory, keep-outs around low boxes, swings over boxes, held swing targets,
+the swing-collision count) as fast unit tests, and the closed-loop crossing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planning.robot import load_robot
+from planning.sim.run import _TERRAIN_TRIPS, RunOptions, WalkCommand, run_walk
+from planning.swing import BodyMotion, Box, BoxGround, SwingParams, SwingPlanner, SwingRequest, TripKind
+from planning.terrain.maps import maps_from_grids
+from planning.terrain.memory import GroundMemory
+from planning.terrain.navigate import shin_keepout, with_keepouts
+from planning.terrain.voxels import Columns
+
+RES = 0.03
+
+
+def _columns(ground_z: np.ndarray, origin_xy: tuple[float, float]) -> Columns:
+    nx, ny = ground_z.shape
+    return Columns(origin_xy, RES, ground_z, np.zeros((nx, ny, 4), dtype=bool), 0.0, RES)
+
+
+def _box_heights(
+    nx: int = 60, ny: int = 40, x0: float = 0.0, y0: float = -0.6
+) -> tuple[np.ndarray, np.ndarray]:
+    xs = x0 + np.arange(nx) * RES
+    ys = y0 + np.arange(ny) * RES
+    box = (np.abs(xs[:, None] - 0.9) <= 0.095) & (np.abs(ys[None, :]) <= 0.095)  # cells 0.81 .. 0.99
+    return xs, np.where(box, 0.08, 0.0)
+
+
+# ---- ground memory ---------------------------------------------------------------------------------------------
+def test_memory_keeps_a_box_seen_earlier_and_drops_it_once_observed_otherwise() -> None:
+    xs, h = _box_heights()
+    mem = GroundMemory()
+    seen = mem.apply(_columns(h.copy(), (0.0, -0.6)))
+    assert np.allclose(seen.ground_z, h)
+    # The box leaves the cameras' view (under the body): its cells are unknown in the next scan.
+    blind = h.copy()
+    blind[h > 0] = np.nan
+    kept = mem.apply(_columns(blind, (0.0, -0.6)))
+    assert np.allclose(kept.ground_z, h) and mem.n_cells == h.size
+    # Observed otherwise (the box was moved away): the new observation wins at once.
+    later = mem.apply(_columns(np.zeros_like(h), (0.0, -0.6)))
+    assert np.allclose(later.ground_z, 0.0)
+
+
+def test_memory_follows_the_rolling_window_and_forgets_what_leaves_it() -> None:
+    xs, h = _box_heights()
+    mem = GroundMemory()
+    mem.apply(_columns(h.copy(), (0.0, -0.6)))
+    # The window moves 10 cells forward: the box (x ≈ 0.9) now lies at index ≈ 20, and nothing is seen this scan.
+    moved = mem.apply(_columns(np.full(h.shape, np.nan), (10 * RES, -0.6)))
+    i_box = int(round((0.9 - 10 * RES) / RES))
+    assert moved.ground_z[i_box, 20] == pytest.approx(0.08)
+    # The last 10 columns are new to the window: never observed, still unknown.
+    assert np.all(np.isnan(moved.ground_z[-10:]))
+    # Bounded: no more cells than the window holds.
+    assert mem.n_cells <= h.size
+
+
+# ---- keep-outs around a low box --------------------------------------------------------------------------------
+def test_riser_margin_keeps_the_foot_off_the_sides_of_a_low_box() -> None:
+    xs, h = _box_heights()
+    maps = maps_from_grids((0.0, -0.6), RES, h, np.zeros(h.shape, bool))
+    grown = with_keepouts(maps, 0.0, 1.6, 0.0, 0.27, 0.0, 0.02, riser_margin_m=0.07, riser_height_m=0.04)
+    # 6 cm in front of the box's side (foot radius 3.5 cm + tracking): no-step; 12 cm away: free.
+    assert bool(grown.no_step(0.81 - 0.06, 0.0)) and not bool(grown.no_step(0.81 - 0.12, 0.0))
+    # A drop needs no margin: the box top itself is not made no-step by it.
+    assert not bool(grown.no_step(0.9, 0.0))
+
+
+def test_shin_keepout_with_a_forward_foot_covers_a_low_box_behind() -> None:
+    xs, h = _box_heights()
+    maps = maps_from_grids((0.0, -0.6), RES, h, np.zeros(h.shape, bool))
+    flat_shin = shin_keepout(maps, 0.0, slope=1.6, radius_m=0.0, reach_m=0.27, min_rise_m=0.02)
+    steep_shin = shin_keepout(maps, 0.0, slope=0.9, radius_m=0.04, reach_m=0.27, min_rise_m=0.03)
+    iy = 20  # y = 0, through the box
+    ahead = xs > 0.995
+    # A foot landing ahead of its hip (flat shin) keeps farther from the box behind it than at the nominal stance.
+    far_flat = xs[ahead & flat_shin[:, iy]].max()
+    far_steep = xs[ahead & steep_shin[:, iy]].max()
+    assert far_flat > far_steep
+    assert 1.05 <= far_flat <= 1.11
+    # Nothing is blocked behind the box (the shin trails backward, away from it).
+    assert not flat_shin[xs < 0.8, iy].any()
+
+
+# ---- swings over a box -----------------------------------------------------------------------------------------
+def _planner() -> SwingPlanner:
+    return SwingPlanner(load_robot("spot"))
+
+
+def _body() -> BodyMotion:
+    return BodyMotion(0.0, np.array([0.3, -0.11, 0.52]), np.eye(3))
+
+
+def test_a_swing_over_a_box_clears_it_with_the_foot_radius() -> None:
+    planner = _planner()
+    ground = BoxGround([Box(0.12, 0.28, -0.1, 0.1, 0.08)])
+    req = SwingRequest(0, np.zeros(3), np.zeros(3), np.array([0.42, 0.0, 0.0]), 0.4)
+    plan = planner.plan(0.0, [req], ground, {}, _body())[0]
+    ts = np.linspace(0.0, 0.4, 400)
+    pts = plan.positions(ts)
+    r = planner.robot.foot_radius_m
+    # The foot sphere (center r above the contact point) stays clear of the box's top and sides.
+    near = (pts[:, 0] > 0.12 - r) & (pts[:, 0] < 0.28 + r)
+    assert np.all(pts[near, 2] >= 0.08 - 1e-6)
+    over = (pts[:, 0] >= 0.12) & (pts[:, 0] <= 0.28)
+    assert np.all(pts[over, 2] >= 0.08 + SwingParams().clearance_margin_m - 1e-6)
+
+
+def test_a_replan_raises_the_apex_for_a_box_seen_late_but_not_on_open_ground() -> None:
+    planner = _planner()
+    req = SwingRequest(0, np.zeros(3), np.zeros(3), np.array([0.42, 0.0, 0.0]), 0.4)
+    low = planner.plan(0.0, [req], BoxGround([]), {}, _body())[0]
+    z_first = float(np.max(low.positions(np.linspace(0.0, 0.4, 50))[:, 2]))
+    # 30 ms later the maps show a box on the way: the replan rises over it.
+    t = 0.03
+    p = low.positions(np.array([t]))[0]
+    v = low.derivatives(np.array([t]), 1)[0]
+    box = BoxGround([Box(0.2, 0.3, -0.1, 0.1, z_first + 0.04)])
+    req2 = SwingRequest(0, p, v, req.p_touchdown, 0.4)
+    high = planner.plan(t, [req2], box, {}, _body())[0]
+    z_second = float(np.max(high.positions(np.linspace(t, 0.4, 50))[:, 2]))
+    assert z_second > z_first + 0.04
+    # ... and on open ground the apex stays within its tolerance of the first plan's.
+    planner2 = _planner()
+    first = planner2.plan(0.0, [req], BoxGround([]), {}, _body())[0]
+    z1 = float(np.max(first.positions(np.linspace(0.0, 0.4, 50))[:, 2]))
+    again = planner2.plan(t, [SwingRequest(0, p, v, req.p_touchdown, 0.4)], BoxGround([]), {}, _body())[0]
+    assert (
+        float(np.max(again.positions(np.linspace(t, 0.4, 50))[:, 2]))
+        <= z1 + SwingParams().apex_tolerance_m + 1e-6
+    )
+
+
+def test_swing_collisions_count_terrain_trips_only() -> None:
+    assert TripKind.NORMAL in _TERRAIN_TRIPS and TripKind.KNEE in _TERRAIN_TRIPS
+    assert TripKind.SELF_CROSSED not in _TERRAIN_TRIPS and TripKind.SELF_UNCROSSED not in _TERRAIN_TRIPS
+
+
+# ---- closed loop -----------------------------------------------------------------------------------------------
+SEED = 0
+MAX_NO_STEP_TOUCHDOWNS = 4
+MAX_SWING_COLLISIONS = 1.0
+
+
+def test_clutter_crossing_with_the_sensor() -> None:
+    """Crossing toward (6, 0) on scene seed 0 (~29 s simulated): no fall, no body collision, crossed, goal reached.
+
+    With the simulated depth sensor (the product's default). No-step touchdowns: at most MAX_NO_STEP_TOUCHDOWNS
+    (measured 0; a foot bouncing on a box edge after a trip logs each re-contact). Swing collisions (trips against
+    terrain) per 100 touchdowns: measured 0.0, bound MAX_SWING_COLLISIONS. Not yet robust: other scene seeds and
+    the ground-truth maps still fall (see README, Terrain)."""
+    cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=True, stop_at_goal=True)
+    r = run_walk(cmd, RunOptions(terrain="clutter", duration_s=35.0, seed=SEED))
+    print(
+        f"clutter (sensor): crossed {r['crossed']} at {r['time_to_cross_s']} s, "
+        f"no-step {r['no_step_touchdowns']}, body collisions {r['body_collisions']}, "
+        f"swing collisions {r['swing_collisions_per_100_steps']} per 100 steps"
+    )
+    assert not r["fell"], r["failure_reason"]
+    assert r["body_collisions"] == 0
+    assert r["crossed"] and r["success"], r["failure_reason"]
+    assert r["no_step_touchdowns"] <= MAX_NO_STEP_TOUCHDOWNS
+    assert r["swing_collisions_per_100_steps"] <= MAX_SWING_COLLISIONS
