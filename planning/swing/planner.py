@@ -319,7 +319,7 @@ class SwingPlanner:
         if trip is not None and t_now - trip.t_s > max(pr.trip_response_s, pr.recent_trip_s):
             trip = self._trip[leg] = None
         if trip is not None and t_now - trip.t_s <= pr.trip_response_s:
-            return self._trip_plan(prob, req, trip, stance, planned)
+            return self._trip_plan(prob, req, trip, stance, planned, ground)
         choice = self._select_horizontal(prob)
         elevated = trip is not None and trip.kind is TripKind.NORMAL
         # a rise-first swing keeps the most aggressive vertical policy (capped just above the terrain it rises
@@ -666,8 +666,12 @@ class SwingPlanner:
         trip: TripEvent,
         stance: dict[int, np.ndarray],
         planned: dict[int, SwingPlan],
+        ground: GroundHeightFn = flat_ground,
     ) -> SwingPlan:
-        """Seed FIG. 16: normal trip → stop forward motion and elevate; knee and self-collisions → special XY."""
+        """Seed FIG. 16: normal trip → stop forward motion and elevate; knee and self-collisions → special XY.
+
+        A normal trip elevates the foot trip_lift_m above where it tripped, and at least over the highest mapped
+        ground on its way to the touchdown (the riser or box it hit) by the foot radius and clearance_margin_m."""
         pr = self.params
         c = prob.ctx
         leg = req.leg
@@ -680,7 +684,9 @@ class SwingPlanner:
             z_trip = self._trip_z.get(leg)
             if z_trip is None or z_trip[0] != trip.t_s:
                 z_trip = self._trip_z[leg] = (trip.t_s, z0)
-            z_top = min(z_trip[1] + pr.trip_lift_m, max(z_ceiling, z0))
+            g_way, _ = self._ground_on_way(req, ground)
+            z_clear = g_way + float(self.robot.foot_radius_m) + pr.clearance_margin_m
+            z_top = min(max(z_trip[1] + pr.trip_lift_m, z_clear), max(z_ceiling, z0))
             z = elevate(c.t0, z0, vz0, z_top, pr.v_max_up_mps, pr.a_max_z_mps2)
             return SwingPlan(
                 leg=leg,
