@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 
 from planning.swing import (
+    Box,
+    BoxGround,
     SwingParams,
     SwingRequest,
     Tier,
@@ -34,6 +36,26 @@ def test_normal_trip_stops_forward_motion_and_elevates(planner, standing_body):
     assert v_end[0] == pytest.approx(0.0)
     assert p_end[2] == pytest.approx(0.05 + P.trip_lift_m, abs=1e-3)  # raised and held
     assert np.all(np.diff(plan.positions(np.linspace(0.1, 0.3, 50))[:, 2]) >= -1e-12)
+
+
+def test_normal_trip_on_a_riser_elevates_over_it(planner, standing_body):
+    """A foot that stubs a riser (mapped ground on its way higher than where it tripped + trip_lift_m) rises over
+    the riser's top by the foot radius and the clearance margin, not only trip_lift_m above where it tripped."""
+    riser = BoxGround([Box(0.40, 1.0, -1.0, 1.0, 0.15)])
+    req = SwingRequest(
+        0,
+        np.array([0.35, 0.165, 0.03]),
+        np.zeros(3),
+        np.array([0.55, 0.165, 0.15]),
+        0.5,
+        TripEvent(TripKind.NORMAL, 0.1),
+    )
+    plan = planner.plan(0.1, [req], riser, STANCE, standing_body(0.1))[0]
+    assert plan.vertical_policy == "Elevate"
+    z_top = float(plan.positions(np.linspace(0.1, 0.5, 80))[:, 2].max())
+    robot_r = planner.robot.foot_radius_m
+    assert z_top >= 0.15 + robot_r + P.clearance_margin_m - 1e-6
+    assert z_top > 0.03 + P.trip_lift_m + 0.01  # more than the flat-ground response
 
 
 def test_recent_normal_trip_elevates_then_it_expires(planner, standing_body):
