@@ -213,6 +213,11 @@ def run_benchmarks(
         )
         say("bench: highest forward speed trotted without a fall")
         out["robustness"]["fastest_trot_mps"] = fastest_trot()
+    if want("terrain") and not quick:
+        say("bench: terrain crossings toward (6, 0) with the depth sensor (slow)")
+        from planning.terrain.bench import bench_terrain_crossings
+
+        out["terrain"] = bench_terrain_crossings()
     return out
 
 
@@ -236,6 +241,15 @@ def format_table(result: dict[str, Any]) -> str:
         )
     for k, v in result.get("robustness", {}).items():
         lines.append(f"{'robustness.' + k:24s} {v}")
+    for k, v in result.get("terrain", {}).items():
+        how = "crossed" if v["crossed"] else "not crossed"
+        how += f" in {v['time_s']} s" if v["time_s"] is not None else ""
+        lines.append(
+            f"{'terrain.' + k:24s} {how}; fell {v['fell']}; no-step touchdowns {v['no_step_touchdowns']}; "
+            f"body collisions {v['body_collisions']}; swing collisions per 100 steps "
+            f"{v['swing_collisions_per_100_steps']}; rtf {v['rtf']}"
+            + (f"; {v['failure_reason']}" if v["failure_reason"] else "")
+        )
     return "\n".join(lines)
 
 

@@ -119,7 +119,8 @@ def bench_terrain_crossings(
     duration_s: float = 30.0,
     sensor: bool = True,
 ) -> dict:
-    """Gives, per terrain, {"crossed", "fell", "no_step_touchdowns", "body_collisions", "time_s", "rtf",
+    """Gives, per terrain, {"crossed", "fell", "no_step_touchdowns", "body_collisions",
+    "swing_collisions_per_100_steps", "time_s", "rtf",
     "reached_goal", "failure_reason"} of a terrain-aware walk to goal_xy in MuJoCo (time_s: simulated seconds until
     the body got past the terrain's end, None when it did not). Slow: a crossing simulates ~15 s each."""
     from planning.sim.run import RunOptions, WalkCommand, run_walk
@@ -133,6 +134,7 @@ def bench_terrain_crossings(
             "fell": r["fell"],
             "no_step_touchdowns": r["no_step_touchdowns"],
             "body_collisions": r["body_collisions"],
+            "swing_collisions_per_100_steps": r["swing_collisions_per_100_steps"],
             "time_s": r["time_to_cross_s"],
             "rtf": r["timing"]["rtf"],
             "reached_goal": r["success"],
