@@ -213,6 +213,11 @@ def run_benchmarks(
         )
         say("bench: highest forward speed trotted without a fall")
         out["robustness"]["fastest_trot_mps"] = fastest_trot()
+    if want("maneuvers") and not quick:
+        say("bench: every shipped maneuver in MuJoCo")
+        from planning.maneuver import list_library
+
+        out["maneuvers"] = {e.name: bench_maneuver(e.name) for e in list_library() if not e.problems}
     if want("terrain") and not quick:
         say("bench: terrain crossings toward (6, 0) with the depth sensor (slow)")
         from planning.terrain.bench import bench_terrain_crossings
@@ -241,6 +246,13 @@ def format_table(result: dict[str, Any]) -> str:
         )
     for k, v in result.get("robustness", {}).items():
         lines.append(f"{'robustness.' + k:24s} {v}")
+    for k, v in result.get("maneuvers", {}).items():
+        pose, feet = v["final_pose_error"], v["foot_placement_error_m"]
+        lines.append(
+            f"{'maneuver.' + k:24s} success {v['success']}; final pose error {pose.get('position_m')} m "
+            f"{pose.get('yaw_rad')} rad; foot placement error median {feet.get('median')} max {feet.get('max')} m; "
+            f"fallback ticks {v['fallback_ticks']}; rtf {v['rtf']}"
+        )
     for k, v in result.get("terrain", {}).items():
         how = "crossed" if v["crossed"] else "not crossed"
         how += f" in {v['time_s']} s" if v["time_s"] is not None else ""

@@ -332,7 +332,14 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("bench", help="time every planning stage and the closed loop (p50 / p99)")
     b.add_argument("--json", metavar="FILE", help="also write the results as JSON")
     b.add_argument("--quick", action="store_true", help="fewer samples (for a smoke test)")
-    b.add_argument("--only", action="append", metavar="STAGE", help="run only this stage (repeatable)")
+    b.add_argument(
+        "--only",
+        action="append",
+        metavar="STAGE",
+        help="run only this stage (repeatable): physics_step, stance_handler, swing_select, step_selection_25, "
+        "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, maneuvers "
+        "(every shipped maneuver), terrain (every terrain crossing)",
+    )
     b.set_defaults(fn=cmd_bench)
 
     s = sub.add_parser("serve", help="REST API and browser studio")
