@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from planning.swing import Box, BoxGround, SwingParams, SwingPlanner, SwingRequest, Tier, flat_ground
-from planning.swing.policies import HORIZONTAL_POLICIES
+from planning.swing.policies import HORIZONTAL_POLICIES, after_hold
 
 P = SwingParams()
 
@@ -83,12 +83,15 @@ def test_random_swings_keep_the_invariants(
     _check_limits(plan, req, yaw)
     # At most M + N evaluations.
     assert 2 <= plan.evaluations <= planner.max_evaluations
-    # The tier order is respected: no policy would have landed in a better tier.
+    # The tier order is respected: no policy would have landed in a better tier (on a step up over terrain that
+    # must be cleared first, the candidates are the policies after the rise-first hold, as in the planner).
     prob = planner._problem(0.0, req, ground, stance, body, {}, c, s)
     tiers = []
     for _, fn in HORIZONTAL_POLICIES:
-        hp = fn(prob.ctx)
+        hp = fn(prob.ctx if prob.hold is None else prob.hold.ctx)
         if hp is not None:
+            if prob.hold is not None:
+                hp = after_hold(prob.hold, hp)
             tiers.append(planner.analyzer.analyze(prob, hp, 0.0).tier)
     best = min((t for t in tiers if t != Tier.VIOLATES_CONSTRAINTS), default=Tier.DEFAULT)
     assert plan.tier == best
