@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planning.robot import ReachError, RobotModel
+from planning.robot import RobotModel
 from planning.swing._poly import Poly1D
 from planning.swing.params import SwingParams
 from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_family
@@ -360,23 +360,34 @@ class Analyzer:
         pr = self.params
         if len(v.knee_idx) == 0:
             return 0.0, 0.0, None
-        knees, kept = [], []
+        idx = v.knee_idx
+        n = len(idx)
+        foot_c = np.empty((n, 3))  # foot centers at the knee samples, world
+        foot_c[:, 0] = v.xw[idx]
+        foot_c[:, 1] = v.yw[idx]
+        np.add(zs[idx], self.r_foot, out=foot_c[:, 2])
         poses = prob.poses
-        for k in v.knee_idx.tolist():
+        body = prob.body
+        pose_list = []
+        p_body_foot = np.empty((n, 3))
+        for i, k in enumerate(idx.tolist()):
             pose = poses.get(k)
             if pose is None:
-                pose = poses[k] = prob.body.pose_at(float(prob.ts[k]))
+                pose = poses[k] = body.pose_at(float(prob.ts[k]))
             p_w, R = pose
-            foot_c = np.array([v.xw[k], v.yw[k], zs[k] + self.r_foot])
-            try:
-                q = self.robot.ik_leg(prob.leg, R.T @ (foot_c - p_w))
-            except ReachError:
-                continue
-            knees.append(p_w + R @ self.robot.knee_body(prob.leg, q))
-            kept.append(k)
-        if not knees:
+            pose_list.append(pose)
+            p_body_foot[i] = R.T @ (foot_c[i] - p_w)
+        # one vectorized IK over the samples (rows out of reach are skipped, as ik_leg's ReachError was)
+        q, ok = self.robot.ik_leg_many(prob.leg, p_body_foot)
+        kept_i = np.flatnonzero(ok).tolist()
+        if not kept_i:
             return 0.0, 0.0, None
-        kn = np.array(knees)
+        knee_b = self.robot.knee_body_many(prob.leg, q)
+        kn = np.empty((len(kept_i), 3))
+        for j, i in enumerate(kept_i):
+            p_w, R = pose_list[i]
+            kn[j] = p_w + R @ knee_b[i]
+        kept = idx[kept_i]
         kt = 0.0
         if v.knee_terrain:
             gk = (
