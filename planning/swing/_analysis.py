@@ -162,6 +162,9 @@ class Analyzer:
         self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
         self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
         self._knee_idx_cache: dict[int, np.ndarray] = {}
+        # per leg: the knee probe grid's fore-aft offsets (every ~4 cm) and its two lateral offsets (hip, foot)
+        fore = np.linspace(-self.knee_reach, self.knee_reach, 17)
+        self._knee_grid = [(fore, np.array([0.0, float(robot.abd_offset[leg])])) for leg in range(4)]
 
     # ---- geometry of one candidate ------------------------------------------------------------------------
     def world_xy(self, prob: LegProblem, hp: HPath) -> tuple[np.ndarray, np.ndarray]:
@@ -325,8 +328,7 @@ class Analyzer:
             else:
                 # A grid fore and aft of each hip, in line with the hip and with the foot (abduction offset).
                 c, sn = prob.cos_yaw, prob.sin_yaw
-                fore = np.linspace(-self.knee_reach, self.knee_reach, 17)  # every ~4 cm
-                side = np.array([0.0, float(self.robot.abd_offset[prob.leg])])
+                fore, side = self._knee_grid[prob.leg]
                 ox = (fore[:, None] * c - side[None, :] * sn).ravel()
                 oy = (fore[:, None] * sn + side[None, :] * c).ravel()
                 hips = prob.hips[[0, len(prob.hips) // 2, -1]]

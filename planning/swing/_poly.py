@@ -83,13 +83,14 @@ class Poly1D:
 
     def sample_many(self, ts: np.ndarray, order: int = 0) -> np.ndarray:
         """Returns p (order 0), v (1) or a (2) at the times ts (K,) as a (K,) array."""
-        tb, c = self._arrays()
-        if len(tb) == 1:
-            c0, c1, c2, c3 = c[0]
-            tau = np.maximum(ts - tb[0], 0.0)
+        if len(self.breaks) == 1:
+            c0, c1, c2, c3 = self.coeffs[0]
+            tau = np.maximum(ts - self.breaks[0], 0.0)
         else:
+            tb = self._tb_np
             cols = self._cols
-            if cols is None:
+            if tb is None or cols is None:
+                tb, c = self._arrays()
                 cols = self._cols = np.ascontiguousarray(c.T)
             k = tb.searchsorted(ts, "right")
             k -= 1
