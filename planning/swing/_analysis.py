@@ -95,6 +95,7 @@ class Verdict:
         default_factory=lambda: np.zeros(0, dtype=bool)
     )  # (K,) ground is an obstacle
     ring_g: np.ndarray | None = None  # (K,R) highest obstacle ground on each probe ring (−inf: none)
+    any_obstacle: bool = True  # obstacle.any() (False lets the vertical checks skip the scraping test)
     foot_self_sev: float = 0.0
     near_others: list[OtherLeg] = field(default_factory=list)  # other legs close enough to matter
     knee_idx: np.ndarray = field(
@@ -216,7 +217,9 @@ class Analyzer:
         g, h_ref = self._terrain(prob, xw, yw)
         obstacle = g > h_ref + pr.obstacle_step_m
         ring_g = self._ring_ground(prob, xw, yw, h_ref)
-        v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g)
+        v = Verdict(
+            Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g, bool(obstacle.any())
+        )
         zs = prob.zs_aggressive
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         v.near_others = self._near_others(prob, xw, yw)
@@ -261,7 +264,7 @@ class Analyzer:
         pr = self.params
         clear = zs - v.g
         pen = float(-clear.min()) if len(clear) else 0.0
-        scrape = bool((v.obstacle & (clear < pr.clearance_margin_m)).any())
+        scrape = v.any_obstacle and bool((v.obstacle & (clear < pr.clearance_margin_m)).any())
         h_margin = math.inf
         if v.ring_g is not None:
             hit = v.ring_g > (zs - pr.clearance_margin_m)[:, None]  # (K,R)
