@@ -268,20 +268,20 @@ class RobotModel:
         px, py, pz = p[:, 0], p[:, 1], p[:, 2]
         y = self._side(leg)
         lu, ll = self.l_upper, self.l_lower
-        with np.errstate(invalid="ignore"):
-            r2 = py * py + pz * pz - y * y
-            ok = r2 > 0.0
-            zp = -np.sqrt(r2)
-            q = np.empty((len(p), 3))
-            q0 = np.arctan2(pz, py) - np.arctan2(zp, y)
-            q[:, 0] = (q0 + np.pi) % (2 * np.pi) - np.pi
-            D = np.hypot(px, zp)
-            ok &= (D <= self.max_leg_length_m + 1e-9) & (D >= self.min_leg_length_m - 1e-9)
-            c2 = np.clip((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0, 1.0)
-            q2 = -np.arccos(c2)
-            q[:, 2] = q2
-            q[:, 1] = np.arctan2(-px, -zp) - np.arctan2(ll * np.sin(q2), lu + ll * np.cos(q2))
-            ok &= ((q >= self.q_min[leg] - 1e-9) & (q <= self.q_max[leg] + 1e-9)).all(axis=1)
+        r2 = py * py + pz * pz - y * y
+        ok = r2 > 0.0
+        # rows with r2 ≤ 0 are out of reach: taking the root of 0 there keeps NaNs (and their warnings) out
+        zp = -np.sqrt(np.maximum(r2, 0.0))
+        q = np.empty((len(p), 3))
+        q0 = np.arctan2(pz, py) - np.arctan2(zp, y)
+        q[:, 0] = (q0 + np.pi) % (2 * np.pi) - np.pi
+        D = np.hypot(px, zp)
+        ok &= (D <= self.max_leg_length_m + 1e-9) & (D >= self.min_leg_length_m - 1e-9)
+        c2 = np.clip((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0, 1.0)
+        q2 = -np.arccos(c2)
+        q[:, 2] = q2
+        q[:, 1] = np.arctan2(-px, -zp) - np.arctan2(ll * np.sin(q2), lu + ll * np.cos(q2))
+        ok &= ((q >= self.q_min[leg] - 1e-9) & (q <= self.q_max[leg] + 1e-9)).all(axis=1)
         return q, ok
 
     def knee_body_many(self, leg: int, q: np.ndarray) -> np.ndarray:
