@@ -338,7 +338,8 @@ class Analyzer:
                 px = (hips[:, 0:1] + ox).ravel()
                 py = (hips[:, 1:2] + oy).ravel()
                 prob.g_knee_max = float(np.max(prob.ground(px, py)))
-        g_max = max(prob.g_knee_max, float(g.max()))
+        # on flat ground g is all flat_height (= g_knee_max)
+        g_max = prob.g_knee_max if prob.flat_height is not None else max(prob.g_knee_max, float(g.max()))
         terrain = float(prob.hips[:, 2].min()) - self.knee_reach - g_max < pr.knee_radius_m
         idx = self._knee_idx(len(near))
         if not terrain:

@@ -324,7 +324,10 @@ class SwingPlanner:
             and self._trip[leg] is None
             and 0.0 < horizon < pr.min_replan_horizon_s
             and last.t_touchdown == req.t_touchdown
-            and np.allclose(last.p_touchdown, req.p_touchdown)
+            # np.allclose(last.p_touchdown, req.p_touchdown) for finite points (SwingRequest checks), without its overhead
+            and bool(
+                (np.abs(last.p_touchdown - req.p_touchdown) <= 1e-8 + 1e-5 * np.abs(req.p_touchdown)).all()
+            )
         ):
             return last  # too close to touchdown for a replan from noisy measurements to help
         yaw = body.yaw
