@@ -258,6 +258,46 @@ class RobotModel:
             )
         return q
 
+    def ik_leg_many(self, leg: int, p_body_foot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vectorized ik_leg: joint angles (K,3) for foot centers p_body_foot (K,3) in the body frame, and which rows
+        are reachable (K,) bool (the rows ik_leg would raise ReachError for hold meaningless angles).
+
+        Same arithmetic as ik_leg, element by element, so reachable rows are bit-identical to it.
+        """
+        p = p_body_foot - self.p_body_hip[leg]
+        px, py, pz = p[:, 0], p[:, 1], p[:, 2]
+        y = self._side(leg)
+        lu, ll = self.l_upper, self.l_lower
+        r2 = py * py + pz * pz - y * y
+        ok = r2 > 0.0
+        # rows with r2 ≤ 0 are out of reach: taking the root of 0 there keeps NaNs (and their warnings) out
+        zp = -np.sqrt(np.maximum(r2, 0.0))
+        q = np.empty((len(p), 3))
+        q0 = np.arctan2(pz, py) - np.arctan2(zp, y)
+        q[:, 0] = (q0 + np.pi) % (2 * np.pi) - np.pi
+        D = np.hypot(px, zp)
+        ok &= (D <= self.max_leg_length_m + 1e-9) & (D >= self.min_leg_length_m - 1e-9)
+        c2 = np.clip((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0, 1.0)
+        q2 = -np.arccos(c2)
+        q[:, 2] = q2
+        q[:, 1] = np.arctan2(-px, -zp) - np.arctan2(ll * np.sin(q2), lu + ll * np.cos(q2))
+        ok &= ((q >= self.q_min[leg] - 1e-9) & (q <= self.q_max[leg] + 1e-9)).all(axis=1)
+        return q, ok
+
+    def knee_body_many(self, leg: int, q: np.ndarray) -> np.ndarray:
+        """Vectorized knee_body: knee positions (K,3) in the body frame for joint angles q (K,3)."""
+        q0, q1 = q[:, 0], q[:, 1]
+        x = -self.l_upper * np.sin(q1)
+        z = -self.l_upper * np.cos(q1)
+        y = self._side(leg)
+        c, s = np.cos(q0), np.sin(q0)
+        out = np.empty((len(q), 3))
+        out[:, 0] = x
+        out[:, 1] = c * y - s * z
+        out[:, 2] = s * y + c * z
+        out += self.p_body_hip[leg]
+        return out
+
     def nominal_footholds(self, p_world_body: np.ndarray, yaw: float) -> np.ndarray:
         """Returns the nominal foot contact points (4,3) in the world for a body at p_world_body with yaw (rad)."""
         c, s = np.cos(yaw), np.sin(yaw)

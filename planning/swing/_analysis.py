@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planning.robot import ReachError, RobotModel
+from planning.robot import RobotModel
 from planning.swing._poly import Poly1D
 from planning.swing.params import SwingParams
 from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_family
@@ -95,6 +95,7 @@ class Verdict:
         default_factory=lambda: np.zeros(0, dtype=bool)
     )  # (K,) ground is an obstacle
     ring_g: np.ndarray | None = None  # (K,R) highest obstacle ground on each probe ring (−inf: none)
+    any_obstacle: bool = True  # obstacle.any() (False lets the vertical checks skip the scraping test)
     foot_self_sev: float = 0.0
     near_others: list[OtherLeg] = field(default_factory=list)  # other legs close enough to matter
     knee_idx: np.ndarray = field(
@@ -162,6 +163,9 @@ class Analyzer:
         self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
         self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
         self._knee_idx_cache: dict[int, np.ndarray] = {}
+        # per leg: the knee probe grid's fore-aft offsets (every ~4 cm) and its two lateral offsets (hip, foot)
+        fore = np.linspace(-self.knee_reach, self.knee_reach, 17)
+        self._knee_grid = [(fore, np.array([0.0, float(robot.abd_offset[leg])])) for leg in range(4)]
 
     # ---- geometry of one candidate ------------------------------------------------------------------------
     def world_xy(self, prob: LegProblem, hp: HPath) -> tuple[np.ndarray, np.ndarray]:
@@ -213,7 +217,9 @@ class Analyzer:
         g, h_ref = self._terrain(prob, xw, yw)
         obstacle = g > h_ref + pr.obstacle_step_m
         ring_g = self._ring_ground(prob, xw, yw, h_ref)
-        v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g)
+        v = Verdict(
+            Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g, bool(obstacle.any())
+        )
         zs = prob.zs_aggressive
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         v.near_others = self._near_others(prob, xw, yw)
@@ -258,7 +264,7 @@ class Analyzer:
         pr = self.params
         clear = zs - v.g
         pen = float(-clear.min()) if len(clear) else 0.0
-        scrape = bool((v.obstacle & (clear < pr.clearance_margin_m)).any())
+        scrape = v.any_obstacle and bool((v.obstacle & (clear < pr.clearance_margin_m)).any())
         h_margin = math.inf
         if v.ring_g is not None:
             hit = v.ring_g > (zs - pr.clearance_margin_m)[:, None]  # (K,R)
@@ -325,15 +331,15 @@ class Analyzer:
             else:
                 # A grid fore and aft of each hip, in line with the hip and with the foot (abduction offset).
                 c, sn = prob.cos_yaw, prob.sin_yaw
-                fore = np.linspace(-self.knee_reach, self.knee_reach, 17)  # every ~4 cm
-                side = np.array([0.0, float(self.robot.abd_offset[prob.leg])])
+                fore, side = self._knee_grid[prob.leg]
                 ox = (fore[:, None] * c - side[None, :] * sn).ravel()
                 oy = (fore[:, None] * sn + side[None, :] * c).ravel()
                 hips = prob.hips[[0, len(prob.hips) // 2, -1]]
                 px = (hips[:, 0:1] + ox).ravel()
                 py = (hips[:, 1:2] + oy).ravel()
                 prob.g_knee_max = float(np.max(prob.ground(px, py)))
-        g_max = max(prob.g_knee_max, float(g.max()))
+        # on flat ground g is all flat_height (= g_knee_max)
+        g_max = prob.g_knee_max if prob.flat_height is not None else max(prob.g_knee_max, float(g.max()))
         terrain = float(prob.hips[:, 2].min()) - self.knee_reach - g_max < pr.knee_radius_m
         idx = self._knee_idx(len(near))
         if not terrain:
@@ -360,23 +366,34 @@ class Analyzer:
         pr = self.params
         if len(v.knee_idx) == 0:
             return 0.0, 0.0, None
-        knees, kept = [], []
+        idx = v.knee_idx
+        n = len(idx)
+        foot_c = np.empty((n, 3))  # foot centers at the knee samples, world
+        foot_c[:, 0] = v.xw[idx]
+        foot_c[:, 1] = v.yw[idx]
+        np.add(zs[idx], self.r_foot, out=foot_c[:, 2])
         poses = prob.poses
-        for k in v.knee_idx.tolist():
+        body = prob.body
+        pose_list = []
+        p_body_foot = np.empty((n, 3))
+        for i, k in enumerate(idx.tolist()):
             pose = poses.get(k)
             if pose is None:
-                pose = poses[k] = prob.body.pose_at(float(prob.ts[k]))
+                pose = poses[k] = body.pose_at(float(prob.ts[k]))
             p_w, R = pose
-            foot_c = np.array([v.xw[k], v.yw[k], zs[k] + self.r_foot])
-            try:
-                q = self.robot.ik_leg(prob.leg, R.T @ (foot_c - p_w))
-            except ReachError:
-                continue
-            knees.append(p_w + R @ self.robot.knee_body(prob.leg, q))
-            kept.append(k)
-        if not knees:
+            pose_list.append(pose)
+            p_body_foot[i] = R.T @ (foot_c[i] - p_w)
+        # one vectorized IK over the samples (rows out of reach are skipped, as ik_leg's ReachError was)
+        q, ok = self.robot.ik_leg_many(prob.leg, p_body_foot)
+        kept_i = np.flatnonzero(ok).tolist()
+        if not kept_i:
             return 0.0, 0.0, None
-        kn = np.array(knees)
+        knee_b = self.robot.knee_body_many(prob.leg, q)
+        kn = np.empty((len(kept_i), 3))
+        for j, i in enumerate(kept_i):
+            p_w, R = pose_list[i]
+            kn[j] = p_w + R @ knee_b[i]
+        kept = idx[kept_i]
         kt = 0.0
         if v.knee_terrain:
             gk = (

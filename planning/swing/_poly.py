@@ -83,13 +83,14 @@ class Poly1D:
 
     def sample_many(self, ts: np.ndarray, order: int = 0) -> np.ndarray:
         """Returns p (order 0), v (1) or a (2) at the times ts (K,) as a (K,) array."""
-        tb, c = self._arrays()
-        if len(tb) == 1:
-            c0, c1, c2, c3 = c[0]
-            tau = np.maximum(ts - tb[0], 0.0)
+        if len(self.breaks) == 1:
+            c0, c1, c2, c3 = self.coeffs[0]
+            tau = np.maximum(ts - self.breaks[0], 0.0)
         else:
+            tb = self._tb_np
             cols = self._cols
-            if cols is None:
+            if tb is None or cols is None:
+                tb, c = self._arrays()
                 cols = self._cols = np.ascontiguousarray(c.T)
             k = tb.searchsorted(ts, "right")
             k -= 1
@@ -372,7 +373,8 @@ def rise_hold_fall(
     def total(h: float) -> float:
         return rest_time(z0, v0, h, v_up, a_max) + rest_time(h, 0.0, z_end, v_down, a_max)
 
-    t_hi = total(z_top)
+    t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)  # the fall from the top (reused when the top stays)
+    t_hi = rest_time(z0, v0, z_top, v_up, a_max) + t_fall
     if t_hi > horizon:
         t_lo = total(z_lo)
         if t_lo > horizon + 1e-9:
@@ -401,12 +403,13 @@ def rise_hold_fall(
                 if side == -1:
                     f_hi *= 0.5
                 side = -1
-        z_top = lo if total(h) > horizon else h
+        # f = total(h) − horizon of the last h tried, and a − b > 0 exactly when a > b
+        z_top = lo if f > 0.0 else h
+        t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)
     n = len(b.breaks)
     b.segments(rest_segments(z0, v0, z_top, v_up, a_max))
     if len(b.breaks) > n:
         b.p, b.v = z_top, 0.0
-    t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)
     b.accel(t_end - t_fall - b.t, 0.0)
     to_rest(b, z_end, v_down, a_max)
     return True

@@ -139,6 +139,19 @@ class _Choice:
     evaluations: int
 
 
+def _linspace(start: float, stop: float, ramp: np.ndarray) -> np.ndarray:
+    """np.linspace(start, stop, len(ramp)) with ramp = np.arange(len(ramp)) precomputed: the same arithmetic (and
+    so the same bits) without its overhead."""
+    div = len(ramp) - 1
+    step = (stop - start) / div if div > 0 else 0.0
+    if step == 0.0:
+        return np.linspace(start, stop, len(ramp))
+    y = ramp * step
+    y += start
+    y[-1] = stop
+    return y
+
+
 def _heading(v: np.ndarray, c: float, s: float) -> tuple[float, float]:
     return float(c * v[0] + s * v[1]), float(-s * v[0] + c * v[1])
 
@@ -167,6 +180,10 @@ class SwingPlanner:
         # rise first: the highest clearance height asked for during the current swing, m (None: none asked)
         self._z_clear: list[float | None] = [None] * 4
         self._side = np.sign(robot.p_body_hip[:, 1])
+        # per-leg constants resolved once
+        self._ramp = np.arange(self.params.samples, dtype=float)  # for the sample times
+        self._up_rf = np.array([0.0, 0.0, robot.foot_radius_m])  # contact point → foot center, m
+        self._hips_body = [robot.p_body_hip[i].copy() for i in range(4)]
 
     @property
     def max_evaluations(self) -> int:
@@ -211,7 +228,7 @@ class SwingPlanner:
         stance: dict[int, np.ndarray] = {}
         for k, v in (stance_feet_world or {}).items():
             a = np.asarray(v, dtype=float)
-            if not (0 <= int(k) < 4) or a.shape != (3,) or not np.all(np.isfinite(a)):
+            if not (0 <= int(k) < 4) or a.shape != (3,) or not np.isfinite(a).all():
                 raise ValueError(
                     f"plan: stance_feet_world[{k!r}]: needs a leg index 0..3 and 3 finite numbers"
                 )
@@ -307,7 +324,10 @@ class SwingPlanner:
             and self._trip[leg] is None
             and 0.0 < horizon < pr.min_replan_horizon_s
             and last.t_touchdown == req.t_touchdown
-            and np.allclose(last.p_touchdown, req.p_touchdown)
+            # np.allclose(last.p_touchdown, req.p_touchdown) for finite points (SwingRequest checks), without its overhead
+            and bool(
+                (np.abs(last.p_touchdown - req.p_touchdown) <= 1e-8 + 1e-5 * np.abs(req.p_touchdown)).all()
+            )
         ):
             return last  # too close to touchdown for a replan from noisy measurements to help
         yaw = body.yaw
@@ -340,15 +360,15 @@ class SwingPlanner:
     ) -> LegProblem:
         pr = self.params
         leg = req.leg
-        ts = np.linspace(t_now, req.t_touchdown, pr.samples)
-        hips = body.hip_world_many(ts, self.robot.p_body_hip[leg])
+        ts = _linspace(t_now, req.t_touchdown, self._ramp)
+        hips = body.hip_world_many(ts, self._hips_body[leg])
         others: list[OtherLeg] = []
         keepouts: list[AABB] = []
         r = pr.keepout_radius_m
         rf = self.robot.foot_radius_m
         for j, p_foot in stance.items():
             shank = self._shank(j, p_foot, body, t_now)
-            fc = (p_foot + (0.0, 0.0, rf))[None, :]
+            fc = (p_foot + self._up_rf)[None, :]
             others.append(OtherLeg(j, fc, shank))
             keepouts.append(self._keepout(fc[0], shank, c, s, r))
         for j, p in planned.items():
@@ -356,7 +376,7 @@ class SwingPlanner:
             fc = p.positions(ts)
             fc[:, 2] += rf
             others.append(OtherLeg(j, fc, shank))
-            keepouts.append(self._keepout(p.p_touchdown + (0.0, 0.0, rf), shank, c, s, r))
+            keepouts.append(self._keepout(p.p_touchdown + self._up_rf, shank, c, s, r))
         p0 = _heading(req.p_world_foot, c, s)
         p1 = _heading(req.p_touchdown, c, s)
         ctx = LegCtx(
@@ -496,7 +516,7 @@ class SwingPlanner:
     def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
         """Knee minus foot center (3,) world, through the leg IK; cached while the foot moves < 5 mm in the body."""
         p_b, R = body.pose_at(t)
-        p_body_foot = R.T @ (p_foot_world + (0.0, 0.0, self.robot.foot_radius_m) - p_b)
+        p_body_foot = R.T @ (p_foot_world + self._up_rf - p_b)
         cached = self._shank_cache[leg]
         if cached is not None and float(np.abs(cached[0] - p_body_foot).max()) < 0.005:
             return R @ cached[1]

@@ -84,7 +84,7 @@ class SwingRequest:
             raise ValueError(f"SwingRequest.leg: must be a leg index 0..3 (FL, FR, RL, RR), got {self.leg!r}")
         for name in ("p_world_foot", "v_world_foot", "p_touchdown"):
             a = np.asarray(getattr(self, name), dtype=float)
-            if a.shape != (3,) or not np.all(np.isfinite(a)):
+            if a.shape != (3,) or not np.isfinite(a).all():
                 raise ValueError(
                     f"SwingRequest.{name}: must be 3 finite numbers, got {getattr(self, name)!r}"
                 )
@@ -115,7 +115,7 @@ class BodyMotion:
     def __post_init__(self) -> None:
         for name, shape in (("p_world_body", (3,)), ("R_world_body", (3, 3)), ("v_world_body", (3,))):
             a = np.asarray(getattr(self, name), dtype=float)
-            if a.shape != shape or not np.all(np.isfinite(a)):
+            if a.shape != shape or not np.isfinite(a).all():
                 raise ValueError(f"BodyMotion.{name}: must be a finite array of shape {shape}")
             object.__setattr__(self, name, a)
 
@@ -184,16 +184,20 @@ class BoxGround:
     boxes: Sequence[Box]
     base_m: float = 0.0
     _b: np.ndarray = field(init=False, repr=False)
+    _rows: list[tuple[float, ...]] = field(
+        init=False, repr=False, compare=False
+    )  # _b's rows as floats (faster to unpack)
 
     def __post_init__(self) -> None:
         arr = np.array([[b.x_min, b.x_max, b.y_min, b.y_max, b.height_m] for b in self.boxes], dtype=float)
         object.__setattr__(self, "_b", arr.reshape(-1, 5))
+        object.__setattr__(self, "_rows", [tuple(float(v) for v in row) for row in self._b])
 
     def __call__(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
         h = np.full(x.shape, self.base_m)
-        for x0, x1, y0, y1, top in self._b:
+        for x0, x1, y0, y1, top in self._rows:
             inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
             h = np.where(inside, np.maximum(h, top), h)
         return h

@@ -107,3 +107,28 @@ def test_leg_order_is_canonical() -> None:
     assert LEGS == ("FL", "FR", "RL", "RR")
     assert SPOT.p_body_hip[0, 0] > 0 and SPOT.p_body_hip[0, 1] > 0
     assert SPOT.p_body_hip[3, 0] < 0 and SPOT.p_body_hip[3, 1] < 0
+
+
+@pytest.mark.parametrize("robot", [SPOT, GO1], ids=["spot", "go1"])
+def test_vectorized_ik_and_knees_are_bit_identical_to_the_scalar_ones(robot) -> None:
+    """ik_leg_many/knee_body_many: the same angles and knees as ik_leg/knee_body, bit for bit, and the same rows
+    out of reach (where ik_leg raises), for batches of every length the swing planner uses."""
+    rng = np.random.default_rng(3)
+    reachable = unreachable = 0
+    for leg in range(4):
+        for K in (1, 2, 5, 8, 9, 17):
+            p = robot.nominal_foot_body[leg] + rng.normal(0.0, 0.15, (K, 3))
+            q, ok = robot.ik_leg_many(leg, p)
+            knees = robot.knee_body_many(leg, q)
+            for k in range(K):
+                try:
+                    q_one = robot.ik_leg(leg, p[k])
+                except ReachError:
+                    assert not ok[k]
+                    unreachable += 1
+                    continue
+                assert ok[k]
+                assert np.array_equal(q[k], q_one)
+                assert np.array_equal(knees[k], robot.knee_body(leg, q_one))
+                reachable += 1
+    assert reachable > 50 and unreachable > 5
