@@ -572,18 +572,7 @@ class TerrainNavigator:
             self._held_swing[leg] = target
         if p_new is None:
             return sel
-        held_path = path.with_touchdowns(p_new, path.kind + "+hold")
-        return Selection(
-            held_path,
-            sel.score,
-            sel.scores,
-            sel.index,
-            sel.candidates,
-            sel.xi_td,
-            sel.xi_td_reference,
-            sel.feasible,
-            sel.n_evaluated,
-        )
+        return dataclasses.replace(sel, path=path.with_touchdowns(p_new, path.kind + "+hold"))
 
     def _refine_qp(self, s: RobotState, sel: Selection) -> Selection:
         """The selection with its footholds refined by the step QP (see refine).
@@ -632,18 +621,7 @@ class TerrainNavigator:
         self._hold_refined_targets(path, p_new, moved)
         if plan is None and not np.any(moved):
             return sel
-        refined = path.with_touchdowns(p_new, path.kind + "+qp")
-        return Selection(
-            refined,
-            sel.score,
-            sel.scores,
-            sel.index,
-            sel.candidates,
-            sel.xi_td,
-            sel.xi_td_reference,
-            sel.feasible,
-            sel.n_evaluated,
-        )
+        return dataclasses.replace(sel, path=path.with_touchdowns(p_new, path.kind + "+qp"))
 
     def _hold_refined_targets(
         self, path: StepPath, p_new: NDArray[np.float64], moved: NDArray[np.bool_]
