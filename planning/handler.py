@@ -130,9 +130,10 @@ class Handler:
         # measured state wins: while another foot is late (or still in the air when the legs due to lift now would
         # leave fewer than min_stance_legs down), lifting would leave the body on fewer feet than planned; wait for
         # that foot (briefly)
+        swings = [plan.swing_at(leg, t) for leg in range(4)]
         due = []
         for leg in range(4):
-            sw = plan.swing_at(leg, t)
+            sw = swings[leg]
             if (
                 self.phase[leg] == _STANCE
                 and sw is not None
@@ -148,12 +149,12 @@ class Handler:
                     self._lift(leg, sw, s)
         for leg in range(4):
             ph = self.phase[leg]
-            sw = plan.swing_at(leg, t)
             if ph == _STANCE:
-                pass
-            elif ph == _SWING and self._tripped(leg, s):
-                pass  # a trip: the swing planner responds (elevate, stop forward motion, go around)
-            elif ph == _SWING:
+                continue
+            if ph == _SWING:
+                if self._tripped(leg, s):
+                    continue  # a trip: the swing planner responds (elevate, stop forward motion, go around)
+                sw = swings[leg]
                 if sw is not None and leg not in self.touchdown_overrides:
                     # the plan may move a touchdown while the foot is in the air (step replanning), but not into
                     # a later cycle: a foot that should be down by now is a late touchdown, not a new step

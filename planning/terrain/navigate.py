@@ -65,9 +65,7 @@ class NavigatorParams:
     with the foot shin_foot_ahead_m ahead of its hip at the standing height: a foot landing ahead of its hip has a
     flatter shin than at the nominal stance); foot_margin_m: step obstacles grown by this; riser_margin_m,
     riser_height_m: cells with ground higher by more than riser_height_m within riser_margin_m are no-step too (the
-    foot sphere would scrape the side of a box or riser; a drop needs no such margin); toe_slope, toe_reach_m:
-    ahead of a foothold (along the heading, up to toe_reach_m) ground may rise at most riser_height_m plus toe_slope
-    times the distance beyond riser_margin_m (the next swing must climb over it before moving on; 0 slope: none).
+    foot sphere would scrape the side of a box or riser; a drop needs no such margin).
     riser_reach_m, riser_rise_m: the riser keep-out in front of a foothold (see riser_keepout; 0 reach: none);
     drop_reach_m: the same for a drop ahead (the nosing going down).
     max_pitch_rad, max_pitch_rate_rps: limits of the body pitch target along the ground slope (rad, rad/s);
@@ -124,8 +122,6 @@ class NavigatorParams:
     drop_reach_m: float = 0.05
     riser_margin_m: float = 0.07
     riser_height_m: float = 0.04
-    toe_slope: float = 0.0
-    toe_reach_m: float = 0.2
     max_pitch_rad: float = 0.45
     max_pitch_rate_rps: float = 0.6
     slow_gait: str = "walk"
@@ -278,8 +274,6 @@ class TerrainNavigator:
             min_rise_m=p.shin_min_rise_m,
             riser_margin_m=p.riser_margin_m,
             riser_height_m=p.riser_height_m,
-            toe_slope=p.toe_slope,
-            toe_reach_m=p.toe_reach_m,
             riser_reach_m=p.riser_reach_m,
             riser_rise_m=p.riser_rise_m,
             drop_reach_m=p.drop_reach_m,
@@ -759,8 +753,6 @@ def with_keepouts(
     min_rise_m: float = 0.03,
     riser_margin_m: float = 0.0,
     riser_height_m: float = 0.04,
-    toe_slope: float = 0.0,
-    toe_reach_m: float = 0.0,
     riser_reach_m: float = 0.0,
     riser_rise_m: float = np.inf,
     drop_reach_m: float = 0.0,
@@ -768,8 +760,7 @@ def with_keepouts(
     """Gives the maps with the shin keep-out (see shin_keepout) added to the step obstacles and those grown by
     foot_margin_m (the foot's radius: a foot centered just off a box still scrapes its side), plus the cells with
     ground higher by more than riser_height_m within riser_margin_m (m) (the foot sphere and its tracking error
-    beside a riser), plus the toe keep-out: ground ahead (heading yaw) within toe_reach_m rising more than
-    riser_height_m + toe_slope·(d - riser_margin_m) (shin_keepout looking forward), plus the riser keep-out in
+    beside a riser), plus the riser keep-out in
     front of a foothold (see riser_keepout, when riser_reach_m > 0) and before a drop (drop_reach_m); SDF
     recomputed."""
     extra = shin_keepout(maps, yaw, slope, radius_m, reach_m, min_rise_m)
@@ -783,8 +774,6 @@ def with_keepouts(
         i = np.arange(-int(rc), int(rc) + 1)
         disk = (i[:, None] ** 2 + i[None, :] ** 2) <= rc * rc + 1e-9
         extra |= ndimage.maximum_filter(h, footprint=disk, mode="nearest") - h > riser_height_m
-    if toe_slope > 0.0 and toe_reach_m > 0.0:
-        extra |= shin_keepout(maps, yaw + np.pi, 1.0 / toe_slope, riser_margin_m, toe_reach_m, riser_height_m)
     step = maps.step_obstacle | extra
     r = int(round(foot_margin_m / maps.resolution_m))
     if r > 0 and step.any():
