@@ -101,6 +101,9 @@ class Handler:
         self.t_liftoff = np.zeros(4)
         self.t_touchdown = np.zeros(4)
         self.t_landed = np.full(4, -np.inf)
+        # when each stance leg's liftoff fell due (nan: not due), and whether a due liftoff waits this tick
+        self._due_since = np.full(4, np.nan)
+        self.waiting = False
         self.p_touchdown = np.zeros((4, 3))
         self.p_contact = np.zeros((4, 3))  # where each stance foot stands (contact point)
         self.plans: dict[int, SwingPlan] = {}
@@ -132,21 +135,27 @@ class Handler:
         # that foot (briefly)
         swings = [plan.swing_at(leg, t) for leg in range(4)]
         due = []
+        self.waiting = False
         for leg in range(4):
             sw = swings[leg]
-            if (
-                self.phase[leg] == _STANCE
-                and sw is not None
-                and t < sw.t_touchdown
-                and t - self.t_landed[leg] >= self.params.min_stance_s
-            ):
+            if self.phase[leg] != _STANCE or sw is None or t >= sw.t_touchdown:
+                self._due_since[leg] = np.nan
+                continue
+            if np.isnan(self._due_since[leg]):
+                self._due_since[leg] = max(t, sw.t_liftoff)
+            if t - self.t_landed[leg] >= self.params.min_stance_s:
                 due.append((leg, sw))
+            else:
+                self.waiting = True  # landed late: it stays down min_stance_s first
         if due:
             late = bool(np.any(self.phase == _LATE))
             few = int(np.sum(self.phase == _STANCE)) - len(due) < self.params.min_stance_legs
             for leg, sw in due:
-                if not (late or few) or t - sw.t_liftoff > self.params.max_liftoff_delay_s:
+                # the wait counts from when the liftoff fell due (the plan may have moved its liftoff time since)
+                if not (late or few) or t - self._due_since[leg] > self.params.max_liftoff_delay_s:
                     self._lift(leg, sw, s)
+                else:
+                    self.waiting = True
         for leg in range(4):
             ph = self.phase[leg]
             if ph == _STANCE:

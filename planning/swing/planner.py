@@ -185,6 +185,16 @@ class SwingPlanner:
         self._up_rf = np.array([0.0, 0.0, robot.foot_radius_m])  # contact point → foot center, m
         self._hips_body = [robot.p_body_hip[i].copy() for i in range(4)]
 
+    def set_params(self, params: SwingParams) -> None:
+        """Switches to other parameters (a terrain mode), keeping the per-leg memory of the swings under way."""
+        if params == self.params:
+            return
+        self.params = params
+        self.analyzer = Analyzer(self.robot, params)
+        self.family = vertical_family(params)
+        self.n_vertical = len(self.family)
+        self._ramp = np.arange(params.samples, dtype=float)
+
     @property
     def max_evaluations(self) -> int:
         """M + N: the most policy evaluations one leg's selection may take."""

@@ -45,6 +45,47 @@ from planning.terrain.scenes import TerrainScene
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
 
 
+def _stairs_swing() -> dict[str, Any]:
+    return {
+        "a_max_z_mps2": 40.0,
+        "terrain_apex_m": None,
+        "apex_free_over_obstacles": False,
+        "cliff_margin_m": 0.03,
+        "cliff_rings_m": (0.01, 0.02, 0.03),
+    }
+
+
+@dataclass(frozen=True)
+class StairsMode:
+    """What changes on stairs: a run of at least min_risers risers, each within max_tread_m of the last and all
+    rising (or all dropping), along both feet's lines in the climb window (see NavigatorParams.climb_*). The mode
+    holds until no riser is left in the window (the landing between flights stays in it).
+
+    Stairs want the opposite of clutter in a few places, measured on both: a swing over a riser rises at 40 m/s²,
+    not clutter's 60 (a foot thrown up fast overshoots and lands late on the next tread), with no extra apex over
+    obstacles seen late and no apex cap from the ground on the way (the rise-first hold already clears the nosing),
+    a 3 cm cliff margin (a 30 cm tread has little room for 5); the shin keep-out of a foot under its hip
+    (shin_radius_m, shin_foot_ahead_m, shin_min_rise_m as in NavigatorParams), and no swing-target hold against
+    foothold flips (on stairs the refined-target hold keeps the foot on its tread instead).
+
+    enabled: False keeps the default behaviour everywhere; swing: SwingParams fields set in the mode (the vertical
+    family keeps its absolute accelerations).
+    """
+
+    enabled: bool = True
+    gait: str | None = None
+    height_m: float | None = None
+    ahead_m: float = 1.6
+    down_pitch_rad: float = 0.1
+    min_risers: int = 2
+    max_tread_m: float = 0.5
+    shin_radius_m: float = 0.04
+    shin_foot_ahead_m: float = 0.0
+    shin_min_rise_m: float = 0.03
+    hold_swing_targets: bool = False
+    swing: dict[str, Any] = field(default_factory=_stairs_swing)
+
+
 @dataclass(frozen=True)
 class NavigatorParams:
     """Terrain-aware walking (lengths m, speeds m/s, rates Hz).
@@ -83,6 +124,7 @@ class NavigatorParams:
     climb_ahead_m ahead of the body has a step (a rise or a drop above climb_rise_m within two cells): stairs,
     a curb (long swings give the foot time to rise above a riser before moving on; None: never); the speed there
     is one riser pitch per gait cycle (one tread per step), within min_speed_mps and the gait's top speed.
+    stairs: the stairs mode (see StairsMode).
     late_descent_gain_per_s: set on the controller's swing planner (SwingParams): a late foot high above its
     touchdown (after a step down or a rise over a riser) descends faster, 1/s.
     hip_ground_min_m, hip_ground_max_m: the body height target follows the ground under the hips where it differs
@@ -137,6 +179,7 @@ class NavigatorParams:
     hip_ground_max_m: float = 0.15
     stay_slow: bool = True
     slow_gait_speed_mps: float = 0.3
+    stairs: StairsMode = field(default_factory=StairsMode)
     hold_jump_m: float = 0.04
     hold_radius_m: float = 0.15
     hold_min_sdf_m: float = 0.01
@@ -148,7 +191,7 @@ class NavigatorParams:
 
 @dataclass
 class NavigatorStats:
-    """Counters for the run report: replans of each kind, step-QP use and its timing (ms)."""
+    """Counters for the run report: replans of each kind, step-QP use and its timing (ms), time in the stairs mode (s)."""
 
     scans: int = 0
     body_paths: int = 0
@@ -159,6 +202,7 @@ class NavigatorStats:
     cadences: dict[str, int] = field(default_factory=dict)
     min_height_m: float = np.inf
     gait_switches: int = 0
+    stairs_mode_s: float = 0.0
 
     def summary(self) -> dict[str, Any]:
         ms = np.asarray(self.qp_ms) if self.qp_ms else np.zeros(1)
@@ -172,6 +216,7 @@ class NavigatorStats:
             "step_qp_ms_p99": round(float(np.percentile(ms, 99)), 3) if self.qp_ms else None,
             "cadences": dict(self.cadences),
             "gait_switches": self.gait_switches,
+            "stairs_mode_s": round(self.stairs_mode_s, 2),
             "min_body_height_target_m": None
             if not np.isfinite(self.min_height_m)
             else round(self.min_height_m, 3),
@@ -206,10 +251,11 @@ class TerrainNavigator:
         self.qp = StepQP(p.step_qp)
         self.standing_height = p.standing_height_m or float(self.robot.standing_height_m)
         self.p_body_hip_xy = np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2]
-        q0 = np.asarray(self.robot.q_nominal[0], dtype=np.float64)
-        foot = self.robot.fk_leg(0, q0) + np.array([p.shin_foot_ahead_m, 0.0, 0.0])
-        knee = self.robot.knee_body(0, self.robot.ik_leg(0, foot))
-        self.shin_slope = float(max(foot[0] - knee[0], 1e-3) / max(knee[2] - foot[2], 1e-3))
+        self.shin_slope = self._shin_slope(p.shin_foot_ahead_m)
+        self.stairs_shin_slope = self._shin_slope(p.stairs.shin_foot_ahead_m)
+        self.on_stairs = False  # in the stairs mode (see StairsMode)
+        self._swing_default: Any = None  # the swing planner's parameters off stairs (set by attach)
+        self._swing_stairs: Any = None
         self.maps: TerrainMaps | None = None
         self.path: BodyPath | None = None
         self.cadence: CadenceScore | None = None
@@ -231,6 +277,13 @@ class TerrainNavigator:
         self._held_swing = np.full((4, 3), np.nan)
         self.holds = 0
 
+    def _shin_slope(self, foot_ahead_m: float) -> float:
+        """The stance shin's slope (m back per m up) with the foot foot_ahead_m ahead of its nominal place."""
+        q0 = np.asarray(self.robot.q_nominal[0], dtype=np.float64)
+        foot = self.robot.fk_leg(0, q0) + np.array([foot_ahead_m, 0.0, 0.0])
+        knee = self.robot.knee_body(0, self.robot.ik_leg(0, foot))
+        return float(max(foot[0] - knee[0], 1e-3) / max(knee[2] - foot[2], 1e-3))
+
     # ---- wiring ---------------------------------------------------------------------------------------------
     def attach(self) -> None:
         """Sets the controller's hooks and adds the perception and body-path stages in front of its stages."""
@@ -238,9 +291,13 @@ class TerrainNavigator:
         c.command_source = self.command
         c.foothold_filter = self.refine
         swing = c.handler.swing_planner
-        swing.params = dataclasses.replace(
+        sw = self._swing_default = dataclasses.replace(
             swing.params, late_descent_gain_per_s=self.params.late_descent_gain_per_s
         )
+        swing.set_params(sw)
+        scale = sw.a_max_z_mps2 / float(self.params.stairs.swing.get("a_max_z_mps2", sw.a_max_z_mps2))
+        family = tuple(dataclasses.replace(v, accel_frac=v.accel_frac * scale) for v in sw.vertical_family)
+        self._swing_stairs = dataclasses.replace(sw, vertical_family=family, **self.params.stairs.swing)
         c.set_goal(*self.goal)
         stages = [
             Stage("perception", self.params.perception_rate_hz, self._perceive),
@@ -264,14 +321,15 @@ class TerrainNavigator:
                 )
             maps = self._truth_maps
         assert maps is not None
+        st = self.on_stairs
         maps = with_keepouts(
             maps,
             s.yaw,
-            self.shin_slope,
-            p.shin_radius_m,
+            self.stairs_shin_slope if st else self.shin_slope,
+            p.stairs.shin_radius_m if st else p.shin_radius_m,
             p.shin_reach_m,
             p.foot_margin_m,
-            min_rise_m=p.shin_min_rise_m,
+            min_rise_m=p.stairs.shin_min_rise_m if st else p.shin_min_rise_m,
             riser_margin_m=p.riser_margin_m,
             riser_height_m=p.riser_height_m,
             riser_reach_m=p.riser_reach_m,
@@ -318,12 +376,19 @@ class TerrainNavigator:
         p = self.params
         share = self._dense_share(s.p_world_body[:2], s.yaw)
         c = self.controller
-        pitch = self._riser_pitch(s.p_world_body[:2], s.yaw) if p.climb_gait is not None else None
+        h = self._feet_lines(s.p_world_body[:2], s.yaw, p.climb_behind_m, p.climb_ahead_m)
+        res = self.maps.resolution_m if self.maps is not None else 1.0
+        pitch = None
+        if h is not None and p.climb_gait is not None:
+            pitch = riser_pitch(h, res, p.climb_rise_m, p.climb_ahead_m + p.climb_behind_m)
+        self._update_stairs(
+            self._feet_lines(s.p_world_body[:2], s.yaw, p.climb_behind_m, p.stairs.ahead_m), res
+        )
         if pitch is not None:
             assert p.climb_gait is not None
-            want = p.climb_gait
+            want = p.stairs.gait if self.on_stairs and p.stairs.gait else p.climb_gait
             # one tread per step: the body moves one riser pitch per gait cycle
-            g = get_gait(p.climb_gait)
+            g = get_gait(want)
             speed = pitch / (g.cycle_s * p.climb_steps_per_tread)
             self.climb_speed = float(np.clip(speed, p.min_speed_mps, g.max_speed_mps))
         elif share > p.slow_gait_on:
@@ -340,20 +405,37 @@ class TerrainNavigator:
             c.set_gait(want)
             self.stats.gait_switches += 1
 
-    def _riser_pitch(self, xy: NDArray[np.float64], yaw: float) -> float | None:
-        """Gives the riser pitch (m, the distance between successive risers) where the ground along the left and
-        right feet's lines (climb_behind_m behind to climb_ahead_m ahead of the body, heading yaw) has steps (a rise
-        or a drop above climb_rise_m within two cells), the window's length when it has only one; None: no step."""
-        p = self.params
+    def _feet_lines(
+        self, xy: NDArray[np.float64], yaw: float, behind_m: float, ahead_m: float
+    ) -> NDArray[np.float64] | None:
+        """Gives the ground height (2, N) along the left and right feet's lines, behind_m behind to ahead_m ahead
+        of the body (heading yaw), one sample per map cell; None without maps."""
         maps = self.maps
         if maps is None:
             return None
         res = maps.resolution_m
-        d = np.arange(-p.climb_behind_m, p.climb_ahead_m + 1e-9, res)
+        d = np.arange(-behind_m, ahead_m + 1e-9, res)
         lat = np.array([-0.165, 0.165])
         pts = xy + rotate_yaw(yaw, np.stack(np.broadcast_arrays(d[None, :], lat[:, None]), -1))
-        h = np.asarray(maps.height_at(pts[..., 0], pts[..., 1]), dtype=np.float64)
-        return riser_pitch(h, res, p.climb_rise_m, p.climb_ahead_m + p.climb_behind_m)
+        return np.asarray(maps.height_at(pts[..., 0], pts[..., 1]), dtype=np.float64)
+
+    def _update_stairs(self, h: NDArray[np.float64] | None, res: float) -> None:
+        """Enters the stairs mode where the feet's lines h (2, N) show a flight of stairs, leaves it once no riser
+        is left in them, and sets the swing planner's parameters to match."""
+        p = self.params
+        st = p.stairs
+        was = self.on_stairs
+        if not st.enabled or h is None:
+            self.on_stairs = False
+        elif not was:
+            self.on_stairs = stair_run(h, res, p.climb_rise_m, st.max_tread_m) >= st.min_risers
+        else:
+            self.on_stairs = riser_pitch(h, res, p.climb_rise_m, 1.0) is not None
+        if self.on_stairs:
+            self.stats.stairs_mode_s += 1.0 / p.perception_rate_hz
+        if self.on_stairs != was and self._swing_default is not None:
+            swing = self.controller.handler.swing_planner
+            swing.set_params(self._swing_stairs if self.on_stairs else self._swing_default)
 
     def _body_path(self, s: RobotState) -> None:
         """Replans the body path at path_rate_hz, and sooner when the current path's sweep hits an obstacle."""
@@ -416,6 +498,12 @@ class TerrainNavigator:
             float(np.min(clear)), self._remembered_clearance(s.p_world_body[:2], xy, z_ceiling, yaw, z_feet)
         )
         h = self.standing_height
+        if (
+            self.on_stairs
+            and p.stairs.height_m is not None
+            and self.controller.pitch > p.stairs.down_pitch_rad
+        ):
+            h = min(h, p.stairs.height_m)
         if np.isfinite(clear_now):
             h = min(h, clear_now - p.body_top_m - p.head_margin_m)
         h = float(np.clip(h, p.min_height_m, self.standing_height))
@@ -536,6 +624,9 @@ class TerrainNavigator:
         """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell,
         and the swinging feet's targets held against jumps (see NavigatorParams.hold_jump_m)."""
         sel = self._refine_qp(s, sel)
+        if self.on_stairs and not self.params.stairs.hold_swing_targets:
+            self._held_swing[:] = np.nan
+            return sel
         return self._hold_swing_targets(sel)
 
     def _hold_swing_targets(self, sel: Selection) -> Selection:
@@ -693,6 +784,32 @@ def riser_pitch(h: NDArray[np.float64], res: float, rise_m: float, window_m: flo
     if not seen:
         return None
     return float(np.median(gaps)) if gaps else window_m
+
+
+def stair_run(h: NDArray[np.float64], res: float, rise_m: float, max_tread_m: float) -> int:
+    """Gives the longest flight of stairs seen on every one of the height profiles h (L, N) sampled every res m:
+    the fewest, over the profiles, of the longest run of successive risers (the height changing by more than rise_m
+    within two samples) that all rise or all drop, each within max_tread_m of the one before."""
+    best = []
+    for row in h:
+        dz = row[2:] - row[:-2]
+        jump = np.abs(dz) > rise_m
+        idx = np.flatnonzero(jump)
+        if idx.size == 0:
+            best.append(0)
+            continue
+        starts = idx[np.r_[True, np.diff(idx) > 1]]
+        ends = idx[np.r_[np.diff(idx) > 1, True]]
+        x = 0.5 * (starts + ends) * res
+        sign = np.sign(
+            [dz[a : b + 1][np.argmax(np.abs(dz[a : b + 1]))] for a, b in zip(starts, ends, strict=True)]
+        )
+        run = longest = 1
+        for k in range(1, len(x)):
+            run = run + 1 if sign[k] == sign[k - 1] and x[k] - x[k - 1] <= max_tread_m else 1
+            longest = max(longest, run)
+        best.append(longest)
+    return int(min(best)) if best else 0
 
 
 def shin_keepout(

@@ -1,7 +1,8 @@
-"""Stairs: the planning rules added for them (fast). The closed-loop stairs crossing does not pass yet (README, Terrain).
+"""Stairs: the planning rules added for them, and the closed-loop crossing on the scene's ground-truth maps.
 
-Rules: the riser keep-out in front of footholds, the riser pitch that paces the climb gait, the rise-first swing
-(the foot's x and y wait until it clears a riser ahead), liftoffs that wait rather than leave one foot down.
+Rules: the riser keep-out in front of footholds, the riser pitch that paces the climb gait, the flight detection
+that switches the stairs mode on (and not on a box), the rise-first swing (the foot's x and y wait until it clears
+a riser ahead), liftoffs that wait rather than leave one foot down.
 """
 
 from __future__ import annotations
@@ -11,13 +12,14 @@ import pytest
 
 from planning.handler import Handler, Phase
 from planning.robot import load_robot
+from planning.sim.run import RunOptions, WalkCommand, run_walk
 from planning.sim.world import RobotState
 from planning.swing import SwingPlanner, SwingRequest
 from planning.swing.params import SwingParams
 from planning.swing.policies import RISE_FIRST
 from planning.swing.types import BodyMotion
 from planning.terrain.maps import maps_from_grids, maps_from_scene
-from planning.terrain.navigate import NavigatorParams, riser_keepout, riser_pitch, with_keepouts
+from planning.terrain.navigate import NavigatorParams, riser_keepout, riser_pitch, stair_run, with_keepouts
 from planning.terrain.scenes import build_terrain
 
 RES = 0.03
@@ -147,3 +149,38 @@ def test_liftoffs_wait_rather_than_leave_one_foot_down() -> None:
     s.t = 1.0 + h.params.max_liftoff_delay_s + 0.01  # ... at most max_liftoff_delay_s
     h.update_phases(s, plan)
     assert h.phase[1] == Phase.SWING and h.phase[2] == Phase.SWING
+
+
+def test_stair_run_counts_a_flight_and_not_a_box() -> None:
+    """A flight of 15 cm risers every 0.3 m is a run of three on both feet's lines (up or down); a box (a rise then
+    a drop), two boxes in a row and flat ground are not a flight of two."""
+    res = 0.03
+    x = np.arange(0.0, 2.0, res)
+    up = 0.15 * np.floor(np.clip(x - 0.5, 0.0, 0.89) / 0.3 + 1.0) * (x >= 0.5)
+    lines = np.stack([up, up])
+    assert stair_run(lines, res, 0.08, 0.5) == 3
+    assert stair_run(lines[:, ::-1], res, 0.08, 0.5) == 3  # going down
+    box = np.where((x > 0.6) & (x < 0.9), 0.12, 0.0)
+    assert stair_run(np.stack([box, box]), res, 0.08, 0.5) == 1
+    boxes = box + np.where((x > 1.1) & (x < 1.3), 0.1, 0.0)
+    assert stair_run(np.stack([boxes, boxes]), res, 0.08, 0.5) == 1
+    assert stair_run(np.zeros((2, x.size)), res, 0.08, 0.5) == 0
+    # a flight on one line only (a box beside the other foot) is not stairs
+    assert stair_run(np.stack([up, np.zeros_like(up)]), res, 0.08, 0.5) == 0
+    # risers farther apart than max_tread_m are not one flight
+    assert stair_run(lines, res, 0.08, 0.2) == 1
+
+
+def test_stairs_crossing_with_ground_truth_maps() -> None:
+    """Closed loop up the four risers, over the landing and down to (6, 0) on the scene's ground-truth maps, in the
+    stairs mode (≈10.5 s to cross): no fall, no body collision, crossed, at the goal, no touchdown in a no-step
+    cell, and the mode was on."""
+    cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=False, stop_at_goal=True)
+    r = run_walk(cmd, RunOptions(terrain="stairs", duration_s=18.0))
+    assert not r["fell"], r["failure_reason"]
+    assert r["body_collisions"] == 0
+    assert r["crossed"] and r["time_to_cross_s"] is not None and r["time_to_cross_s"] < 14.0
+    assert r["success"], r["failure_reason"]
+    assert r["no_step_touchdowns"] == 0
+    assert r["navigator"]["invalid_paths"] == 0
+    assert r["navigator"]["stairs_mode_s"] > 5.0
