@@ -219,7 +219,9 @@ def run_benchmarks(
 
         out["maneuvers"] = {e.name: bench_maneuver(e.name) for e in list_library() if not e.problems}
     if want("terrain") and not quick:
-        say("bench: terrain crossings toward (6, 0) with the depth sensor (slow)")
+        say(
+            "bench: terrain crossings toward (6, 0) with the depth sensor, and some on ground-truth maps (slow)"
+        )
         from planning.terrain.bench import bench_terrain_crossings
 
         out["terrain"] = bench_terrain_crossings()

@@ -118,18 +118,24 @@ def bench_terrain_crossings(
     goal_xy: tuple[float, float] = (6.0, 0.0),
     duration_s: float = 30.0,
     sensor: bool = True,
+    truth_terrains: tuple[str, ...] = ("clutter", "stairs", "stones"),
 ) -> dict:
     """Gives, per terrain, {"crossed", "fell", "no_step_touchdowns", "body_collisions",
-    "swing_collisions_per_100_steps", "time_s", "rtf",
+    "swing_collisions_per_100_steps", "time_s", "rtf", "stairs_mode_s",
     "reached_goal", "failure_reason"} of a terrain-aware walk to goal_xy in MuJoCo (time_s: simulated seconds until
-    the body got past the terrain's end, None when it did not). Slow: a crossing simulates ~15 s each."""
+    the body got past the terrain's end, None when it did not), with the depth sensor's maps (sensor=True) or the
+    scene's ground truth; plus "<terrain>/truth" for each of truth_terrains on ground-truth maps (perfect perception:
+    what the planning and control do on their own). Slow: a crossing simulates ~15 s each."""
     from planning.sim.run import RunOptions, WalkCommand, run_walk
 
+    runs = [(name, sensor) for name in terrains]
+    runs += [(name, False) for name in truth_terrains if sensor]
     out: dict = {}
-    for name in terrains:
-        cmd = WalkCommand(goal=goal_xy, terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
+    for name, use_sensor in runs:
+        cmd = WalkCommand(goal=goal_xy, terrain_aware=True, terrain_sensor=use_sensor, stop_at_goal=True)
         r = run_walk(cmd, RunOptions(terrain=name, duration_s=duration_s))
-        out[name] = {
+        key = name if use_sensor == sensor else f"{name}/truth"
+        out[key] = {
             "crossed": r["crossed"],
             "fell": r["fell"],
             "no_step_touchdowns": r["no_step_touchdowns"],
@@ -137,6 +143,7 @@ def bench_terrain_crossings(
             "swing_collisions_per_100_steps": r["swing_collisions_per_100_steps"],
             "time_s": r["time_to_cross_s"],
             "rtf": r["timing"]["rtf"],
+            "stairs_mode_s": r.get("navigator", {}).get("stairs_mode_s"),
             "reached_goal": r["success"],
             "failure_reason": r["failure_reason"],
         }
