@@ -86,6 +86,42 @@ class StairsMode:
     swing: dict[str, Any] = field(default_factory=_stairs_swing)
 
 
+def _stones_qp() -> StepQPParams:
+    return StepQPParams(snap_search_m=0.5, snap_clearance_m=0.06, snap_middle=True)
+
+
+@dataclass(frozen=True)
+class StonesMode:
+    """What changes over stepping stones: the mode is on while either foot line, from behind_m behind to ahead_m
+    ahead of the body, dips more than drop_m below the ground the feet stand on and comes back up to within
+    return_m of it further on (a pit or gaps between steppable patches; descending stairs never come back up, a
+    box is no dip), and off once no such dip is left.
+
+    In the mode the controller walks in the gait `gait` (a duty above 0.75 keeps four feet down between swings, so
+    a foot landing late after a long step across a gap never leaves the body on two) at speed_mps; the step QP
+    snaps footholds on a gap along the heading onto the nearer stone (step_qp, see StepQPParams.snap_search_m);
+    and a foothold the QP moved is kept once its touchdown is less than freeze_touchdown_s away (no late re-aim
+    across a gap). The step obstacles are grown by foot_margin_m and the drop keep-out reaches drop_reach_m (the
+    maps' own edge band already keeps the foot's radius off a stone's edge: a 30 cm stone keeps little room with
+    more). A snapped foothold with a step SDF of at least pin_min_sdf_m is taken as it is, not the QP's answer
+    (its other terms pull a foot toward a stone's edge; None: the QP's). enabled: False keeps the default behaviour
+    everywhere.
+    """
+
+    enabled: bool = True
+    drop_m: float = 0.15
+    return_m: float = 0.08
+    behind_m: float = 0.5
+    ahead_m: float = 1.0
+    gait: str = "crawl"
+    speed_mps: float = 0.25
+    freeze_touchdown_s: float = 0.12
+    foot_margin_m: float = 0.0
+    drop_reach_m: float = 0.0
+    pin_min_sdf_m: float | None = 0.03
+    step_qp: StepQPParams = field(default_factory=_stones_qp)
+
+
 @dataclass(frozen=True)
 class NavigatorParams:
     """Terrain-aware walking (lengths m, speeds m/s, rates Hz).
@@ -124,7 +160,7 @@ class NavigatorParams:
     climb_ahead_m ahead of the body has a step (a rise or a drop above climb_rise_m within two cells): stairs,
     a curb (long swings give the foot time to rise above a riser before moving on; None: never); the speed there
     is one riser pitch per gait cycle (one tread per step), within min_speed_mps and the gait's top speed.
-    stairs: the stairs mode (see StairsMode).
+    stairs: the stairs mode (see StairsMode); stones: the stepping-stones mode (see StonesMode).
     late_descent_gain_per_s: set on the controller's swing planner (SwingParams): a late foot high above its
     touchdown (after a step down or a rise over a riser) descends faster, 1/s.
     hip_ground_min_m, hip_ground_max_m: the body height target follows the ground under the hips where it differs
@@ -180,6 +216,7 @@ class NavigatorParams:
     stay_slow: bool = True
     slow_gait_speed_mps: float = 0.3
     stairs: StairsMode = field(default_factory=StairsMode)
+    stones: StonesMode = field(default_factory=StonesMode)
     hold_jump_m: float = 0.04
     hold_radius_m: float = 0.15
     hold_min_sdf_m: float = 0.01
@@ -203,6 +240,7 @@ class NavigatorStats:
     min_height_m: float = np.inf
     gait_switches: int = 0
     stairs_mode_s: float = 0.0
+    stones_mode_s: float = 0.0
 
     def summary(self) -> dict[str, Any]:
         ms = np.asarray(self.qp_ms) if self.qp_ms else np.zeros(1)
@@ -217,6 +255,7 @@ class NavigatorStats:
             "cadences": dict(self.cadences),
             "gait_switches": self.gait_switches,
             "stairs_mode_s": round(self.stairs_mode_s, 2),
+            "stones_mode_s": round(self.stones_mode_s, 2),
             "min_body_height_target_m": None
             if not np.isfinite(self.min_height_m)
             else round(self.min_height_m, 3),
@@ -249,11 +288,13 @@ class TerrainNavigator:
         self.perception = Perception(model, body, p.perception) if p.use_sensor else None
         self.cadence_params = p.cadence or CadenceParams.from_robot(self.robot)
         self.qp = StepQP(p.step_qp)
+        self.qp_stones = StepQP(p.stones.step_qp) if p.stones.enabled else self.qp
         self.standing_height = p.standing_height_m or float(self.robot.standing_height_m)
         self.p_body_hip_xy = np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2]
         self.shin_slope = self._shin_slope(p.shin_foot_ahead_m)
         self.stairs_shin_slope = self._shin_slope(p.stairs.shin_foot_ahead_m)
         self.on_stairs = False  # in the stairs mode (see StairsMode)
+        self.on_stones = False  # in the stepping-stones mode (see StonesMode)
         self._swing_default: Any = None  # the swing planner's parameters off stairs (set by attach)
         self._swing_stairs: Any = None
         self.maps: TerrainMaps | None = None
@@ -322,19 +363,20 @@ class TerrainNavigator:
             maps = self._truth_maps
         assert maps is not None
         st = self.on_stairs
+        sto = self.on_stones
         maps = with_keepouts(
             maps,
             s.yaw,
             self.stairs_shin_slope if st else self.shin_slope,
             p.stairs.shin_radius_m if st else p.shin_radius_m,
             p.shin_reach_m,
-            p.foot_margin_m,
+            p.stones.foot_margin_m if sto else p.foot_margin_m,
             min_rise_m=p.stairs.shin_min_rise_m if st else p.shin_min_rise_m,
             riser_margin_m=p.riser_margin_m,
             riser_height_m=p.riser_height_m,
             riser_reach_m=p.riser_reach_m,
             riser_rise_m=p.riser_rise_m,
-            drop_reach_m=p.drop_reach_m,
+            drop_reach_m=p.stones.drop_reach_m if sto else p.drop_reach_m,
         )
         self.maps = maps
         self.controller.maps = maps
@@ -384,7 +426,11 @@ class TerrainNavigator:
         self._update_stairs(
             self._feet_lines(s.p_world_body[:2], s.yaw, p.climb_behind_m, p.stairs.ahead_m), res
         )
-        if pitch is not None:
+        self._update_stones(s, res)
+        if self.on_stones:
+            want = p.stones.gait
+            self.climb_speed = p.stones.speed_mps
+        elif pitch is not None:
             assert p.climb_gait is not None
             want = p.stairs.gait if self.on_stairs and p.stairs.gait else p.climb_gait
             # one tread per step: the body moves one riser pitch per gait cycle
@@ -399,7 +445,7 @@ class TerrainNavigator:
             want = self.fast_gait
         else:
             want = p.slow_gait if c.gait == p.climb_gait else c.gait
-        if pitch is None:
+        if pitch is None and not self.on_stones:
             self.climb_speed = None
         if want != c.gait:
             c.set_gait(want)
@@ -436,6 +482,21 @@ class TerrainNavigator:
         if self.on_stairs != was and self._swing_default is not None:
             swing = self.controller.handler.swing_planner
             swing.set_params(self._swing_stairs if self.on_stairs else self._swing_default)
+
+    def _update_stones(self, s: RobotState, res: float) -> None:
+        """Enters the stepping-stones mode while either foot line shows a pit ahead (see StonesMode), leaves it
+        once none is left."""
+        st = self.params.stones
+        h = None
+        if st.enabled:
+            h = self._feet_lines(s.p_world_body[:2], s.yaw, st.behind_m, st.ahead_m)
+        if h is None:
+            self.on_stones = False
+            return
+        z_feet = float(np.mean(s.p_world_foot[:, 2])) - float(self.robot.foot_radius_m)
+        self.on_stones = pit_between(h, z_feet, st.drop_m, st.return_m)
+        if self.on_stones:
+            self.stats.stones_mode_s += 1.0 / self.params.perception_rate_hz
 
     def _body_path(self, s: RobotState) -> None:
         """Replans the body path at path_rate_hz, and sooner when the current path's sweep hits an obstacle."""
@@ -517,8 +578,8 @@ class TerrainNavigator:
         hip_ground_min_m (flat, rough). (Going up, a higher body measured so lifted the hind legs off: not used.)"""
         p = self.params
         maps = self.maps
-        if maps is None or p.hip_ground_max_m <= 0.0:
-            return 0.0
+        if maps is None or p.hip_ground_max_m <= 0.0 or self.on_stones:
+            return 0.0  # (over stones the ground under the hips is the pit, not ground to stand on)
         xy = s.p_world_body[:2] + rotate_yaw(s.yaw, self.p_body_hip_xy)
         h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
         z_feet = float(np.mean(self.controller.handler.p_contact[:, 2]))  # what the height is measured from
@@ -685,13 +746,15 @@ class TerrainNavigator:
         req = self._request(s, path, order)
         plan = None
         if req is not None:
-            plan = self.qp.solve(req, maps)
+            plan = (self.qp_stones if self.on_stones else self.qp).solve(req, maps)
             self.last_plan = plan
             self.stats.qp_solves += 1
             self.stats.qp_ms.append(plan.solve_ms)
             bad_hard = set(plan.hard_softened) - {"step_keep"}
             if bad_hard or not np.all(np.isfinite(plan.footholds)):
                 plan = None
+        if plan is not None and self.on_stones:
+            plan = self._pin_snapped(plan, maps)
         if plan is not None:
             t_rel = path.t_touchdown[order] - s.t
             for j, k in enumerate(order):
@@ -703,16 +766,39 @@ class TerrainNavigator:
                 p_new[k, 2] = float(maps.height_at(plan.footholds[j, 0], plan.footholds[j, 1]))
                 moved[k] = True
             self.stats.qp_used += 1
-        self._hold_refined_targets(path, p_new, moved)
+        freeze = self.params.stones.freeze_touchdown_s if self.on_stones else 0.0
+        self._hold_refined_targets(path, p_new, moved, s.t, freeze)
         if plan is None and not np.any(moved):
             return sel
         return dataclasses.replace(sel, path=path.with_touchdowns(p_new, path.kind + "+qp"))
 
+    def _pin_snapped(self, plan: StepPlan, maps: TerrainMaps) -> StepPlan:
+        """Gives the plan with its footholds replaced by the snapped nominals where those are free by at least
+        StonesMode.pin_min_sdf_m (see StonesMode)."""
+        lim = self.params.stones.pin_min_sdf_m
+        if lim is None or plan.p_nominal is None:
+            return plan
+        nom = plan.p_nominal
+        pin = np.asarray(maps.sdf_step(nom[:, 0], nom[:, 1]), dtype=np.float64) >= lim
+        if not np.any(pin):
+            return plan
+        feet = plan.footholds.copy()
+        feet[pin, :2] = nom[pin]
+        in_no_step = plan.in_no_step & ~pin
+        return dataclasses.replace(plan, footholds=feet, in_no_step=in_no_step)
+
     def _hold_refined_targets(
-        self, path: StepPath, p_new: NDArray[np.float64], moved: NDArray[np.bool_]
+        self,
+        path: StepPath,
+        p_new: NDArray[np.float64],
+        moved: NDArray[np.bool_],
+        t_now: float = 0.0,
+        freeze_s: float = 0.0,
     ) -> None:
         """Keeps each swinging leg's last refined touchdown place where this replan did not refine it (same
-        touchdown within 0.15 s), and remembers the refined places (p_new, moved: (K,) in path order, in place)."""
+        touchdown within 0.15 s), and remembers the refined places (p_new, moved: (K,) in path order, in place).
+        freeze_s > 0: a refined place is also kept against a new refinement once its touchdown is less than
+        freeze_s (s) after t_now (s)."""
         t_td, _ = path.next_touchdowns()
         first = {int(path.leg[i]): i for i in np.argsort(path.t_touchdown)[::-1]}
         for leg in range(4):
@@ -721,7 +807,10 @@ class TerrainNavigator:
             if k is None or not swinging:
                 self._held_t[leg] = np.nan
                 continue
-            if moved[k]:
+            same = abs(float(self._held_t[leg]) - float(t_td[leg])) < 0.15
+            if moved[k] and freeze_s > 0.0 and same and float(t_td[leg]) - t_now < freeze_s:
+                p_new[k] = self._held_p[leg]
+            elif moved[k]:
                 self._held_t[leg], self._held_p[leg] = t_td[leg], p_new[k]
             elif abs(float(self._held_t[leg]) - float(t_td[leg])) < 0.15:
                 p_new[k] = self._held_p[leg]
@@ -762,7 +851,22 @@ class TerrainNavigator:
             yaw_body=np.asarray(body.yaw(t_mid), dtype=np.float64),
             p_feet=s.p_world_foot[:, :2].copy(),
             v_feet=s.v_world_foot[:, :2].copy(),
+            t_now=float(t_now),
         )
+
+
+def pit_between(h: NDArray[np.float64], z_feet: float, drop_m: float, return_m: float) -> bool:
+    """Tells whether any of the height profiles h (L, N) (m, world; NaN: unknown) dips more than drop_m below
+    z_feet (the ground the feet stand on, m) between two samples within return_m of it (or higher): a pit or gap
+    between steppable patches. Stairs (up or down) never dip and come back up; a box rises."""
+    for row in h:
+        high = np.flatnonzero(row >= z_feet - return_m)
+        if high.size < 2:
+            continue
+        inner = row[high[0] : high[-1]]
+        if np.any(inner < z_feet - drop_m):
+            return True
+    return False
 
 
 def riser_pitch(h: NDArray[np.float64], res: float, rise_m: float, window_m: float) -> float | None:

@@ -28,6 +28,7 @@ Legs are FL, FR, RL, RR = 0..3. Times are seconds from now.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -66,7 +67,18 @@ class StepQPParams:
     balance_lateral_m: body point off the support line by at most this (two feet); balance_margin_m: the polygon
     margin wanted (three or four feet); keep_planes: half-planes per foothold; keep_clearance_m: the hard plane lies this far out of the no-step region;
     max_retargets: times per replan a foothold whose planes conflict is aimed at another free spot;
-    reach_search_m: how far that spot is searched (m); reuse_radius_m: a slot whose nominal foothold moved less than this since the last replan (same maps) keeps its
+    reach_search_m: how far that spot is searched (m); snap_search_m: a nominal foothold on or near a no-step
+    region (step SDF below snap_clearance_m) is first moved along the body heading, forward or back, to the
+    nearer of the first spots with that clearance (across a gap onto the next stone, or back onto the current
+    one), no more than snap_ahead_m ahead of / snap_behind_m behind its hip at touchdown along the heading (m);
+    0 (the default) turns this off, e.g. 0.45 on stepping stones; snap_clearance_m: the clearance wanted (m);
+    snap_hold_m: a leg already in the air keeps the side it was sent to (in the last replan, for the same
+    touchdown; needs StepRequest.t_now) while that spot is within this of a candidate (m), so a foot in flight is
+    not sent back and forth across a gap; snap_lateral_m: the search also runs this far to either side of the
+    heading line (m); snap_middle: a side whose free run (from the first spot with half of snap_clearance_m on) has no spot with
+    snap_clearance_m gives the run's spot farthest from the edges (largest step SDF: the middle of a stone, not its
+    edge: a foot tracking a few cm off lands on the stone still) when no spot on it has snap_clearance_m;
+    reuse_radius_m: a slot whose nominal foothold moved less than this since the last replan (same maps) keeps its
     planes; max_rounds: solve-add rounds;
     softened_tol_m: a slack above this counts as softened.
     """
@@ -94,6 +106,13 @@ class StepQPParams:
     keep_clearance_m: float = 0.01
     max_retargets: int = 4
     reach_search_m: float = 0.5
+    snap_search_m: float = 0.0
+    snap_clearance_m: float = 0.06
+    snap_ahead_m: float = 0.40
+    snap_behind_m: float = 0.25
+    snap_hold_m: float = 0.08
+    snap_lateral_m: float = 0.0
+    snap_middle: bool = False
     reuse_radius_m: float = 0.05
     max_rounds: int = 10
     softened_tol_m: float = 2e-3
@@ -112,7 +131,8 @@ class StepRequest:
     a liftoff <= 0 means the leg is swinging now); p_nominal: (K, 2) nominal footholds (m); p_hip: (K, 2) hip xy at
     touchdown (m); hip_height: (K,) hip above the nominal ground at touchdown (m); c_body: (K, 2) body xy in the
     middle of the support phase after touchdown k (m); yaw_body: (K,) body yaw then (rad); p_feet: (4, 2) feet now
-    (m); v_feet: (4, 2) feet velocities now (m/s).
+    (m); v_feet: (4, 2) feet velocities now (m/s); t_now: the time of the request (s, any clock; NaN: unknown), with
+    which a swing in flight is recognized from one replan to the next (see StepQPParams.snap_hold_m).
     """
 
     legs: NDArray[np.intp]
@@ -125,6 +145,7 @@ class StepRequest:
     yaw_body: NDArray[np.float64]
     p_feet: NDArray[np.float64]
     v_feet: NDArray[np.float64]
+    t_now: float = float("nan")
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,7 +153,8 @@ class StepPlan:
     """The answer. footholds: (K, 3) world (m; z from the ground height map); legs, t_touchdown as requested;
     body_shift: (K, 2) body offsets (m); slack: {family: max slack (m)}; softened: families whose slack exceeds
     the tolerance; hard_softened: those among the hard ones; in_no_step: (K,) footholds on no-step cells;
-    rounds: solves done; status: OSQP's last status; solve_ms: the whole replan; bare_solver_ms: OSQP solves only."""
+    rounds: solves done; status: OSQP's last status; solve_ms: the whole replan; bare_solver_ms: OSQP solves only;
+    p_nominal: (K, 2) the nominal footholds the QP started from (after snapping, m)."""
 
     footholds: NDArray[np.float64]
     legs: NDArray[np.intp]
@@ -146,6 +168,7 @@ class StepPlan:
     status: str
     solve_ms: float
     bare_solver_ms: float
+    p_nominal: NDArray[np.float64] | None = None
 
 
 _RAYS = np.stack([np.cos(np.arange(16) * np.pi / 8), np.sin(np.arange(16) * np.pi / 8)], axis=1)
@@ -261,6 +284,8 @@ class StepQP:
         self._keep_planes: list[list[tuple[NDArray[np.float64], float]]] = [[] for _ in range(K)]
         self._x_prev: NDArray[np.float64] | None = None
         self._prev_maps: TerrainMaps | None = None
+        # Per leg: (touchdown time on the request's clock, where that swing was sent) of the last snapped swing.
+        self._snapped: list[tuple[float, NDArray[np.float64]] | None] = [None] * 4
         self._prev_slots: list[tuple[int, NDArray[np.float64], list[tuple[NDArray[np.float64], float]]]] = []
         # Placeholder values so the pattern survives setup; real values come with the first update.
         self.A.data[:] = 1.0
@@ -316,6 +341,8 @@ class StepQP:
         K = self.K
         self._check(req)
         legs = np.asarray(req.legs, dtype=np.intp)
+        if maps is not None and p.snap_search_m > 0.0:
+            req = self._snap(req, legs, maps)
         self._fixed_feet = np.asarray(req.p_feet, dtype=np.float64)
         # Cost toward the nominal footholds.
         self.q[: 2 * K] = -2 * p.w_nominal * req.p_nominal.reshape(-1)
@@ -392,6 +419,7 @@ class StepQP:
             status=status,
             solve_ms=(time.perf_counter() - t0) * 1e3,
             bare_solver_ms=bare * 1e3,
+            p_nominal=np.asarray(req.p_nominal, dtype=np.float64).copy(),
         )
 
     def _check(self, req: StepRequest) -> None:
@@ -580,6 +608,28 @@ class StepQP:
                 const = term(vc, la, -n)
                 self._set_row(blk, k, i, self._coeff_on(blk, k, vc, 1.0), m - float(n @ c) - const, np.inf)
 
+    def _snap(self, req: StepRequest, legs: NDArray[np.intp], maps: TerrainMaps) -> StepRequest:
+        """Gives the request with its nominal footholds moved off no-step regions along the heading (see
+        snap_footholds); a leg in the air keeps the side it was sent to while that is still a candidate."""
+        p = self.params
+        hold: list[NDArray[np.float64] | None] = [None] * self.K
+        t_td = float(req.t_now) + np.asarray(req.t_touchdown, dtype=np.float64)
+        for k in range(4):
+            last = self._snapped[int(legs[k])]
+            if req.t_liftoff[k] <= 0.0 and last is not None and abs(last[0] - t_td[k]) < 0.05:
+                hold[k] = last[1]
+        p_nom, moved = snap_footholds(
+            maps, req.p_nominal, req.yaw_body, req.p_hip, (p.snap_behind_m, p.snap_ahead_m), p.snap_search_m,
+            p.snap_clearance_m, hold, p.snap_hold_m, p.snap_lateral_m, p.snap_middle,
+        )  # fmt: skip
+        for k in range(4):
+            leg = int(legs[k])
+            ok = req.t_liftoff[k] <= 0.0 and moved[k] and np.isfinite(t_td[k])
+            self._snapped[leg] = (float(t_td[k]), p_nom[k].copy()) if ok else None
+        if not np.any(moved):
+            return req
+        return dataclasses.replace(req, p_nominal=p_nom)
+
     # -- keep-out planes ----------------------------------------------------------------------------------------
 
     def _add_keep_outs(self, x: NDArray[np.float64], req: StepRequest, maps: TerrainMaps) -> bool:
@@ -595,6 +645,11 @@ class StepQP:
         c = req.c_body + x[2 * K : 4 * K].reshape(K, 2)
         sdc = np.atleast_1d(maps.sdf_body(c[:, 0], c[:, 1]))
         gradc = np.atleast_2d(maps.sdf_body_grad(c[:, 0], c[:, 1]))
+        snap = p.snap_search_m > 0.0
+        if snap:
+            p_nom = req.p_nominal
+            sd_nom = np.atleast_1d(maps.sdf_step(p_nom[:, 0], p_nom[:, 1]))
+            grad_nom = np.atleast_2d(maps.sdf_step_grad(p_nom[:, 0], p_nom[:, 1]))
         added = False
         tol = 1e-3
         slack_keep = x[4 * K + _F["step_keep"] :: len(FAMILIES)]
@@ -608,7 +663,8 @@ class StepQP:
                 # spot instead, the one nearest the nominal foothold among those reachable in a straight line from
                 # here that were not aimed at already, and keep only the planes that spot satisfies.
                 if self._retargets[k] < p.max_retargets:
-                    target = self._free_target(maps, feet[k], req.p_nominal[k], self._tried[k])
+                    heading = float(req.yaw_body[k]) if snap else None
+                    target = self._free_target(maps, feet[k], req.p_nominal[k], self._tried[k], heading)
                     if target is not None:
                         self._retargets[k] += 1
                         self._tried[k].append(target)
@@ -629,6 +685,11 @@ class StepQP:
             elif np.isfinite(sd[k]) and sd[k] < p.margin_m - tol:
                 g = _unit(grad[k], feet[k] - req.p_nominal[k])
                 q = feet[k] - sd[k] * g
+                if snap and sd_nom[k] >= p.margin_m:
+                    # The (snapped) nominal is free: the plane keeps the foot on the nominal's side of the
+                    # boundary nearest the nominal, not on whichever side the iterate happened to fall.
+                    g = _unit(grad_nom[k], feet[k] - req.p_nominal[k])
+                    q = req.p_nominal[k] - sd_nom[k] * g
                 if all(float(g @ g0) < 0.95 or abs(float(g @ q) - b0) > 0.01 for g0, b0 in planes):
                     i = len(planes)
                     planes.append((g, float(g @ q)))
@@ -660,20 +721,32 @@ class StepQP:
         return added
 
     def _free_target(
-        self, maps: TerrainMaps, p_now: NDArray[np.float64], p_nom: NDArray[np.float64], tried: list
+        self,
+        maps: TerrainMaps,
+        p_now: NDArray[np.float64],
+        p_nom: NDArray[np.float64],
+        tried: list,
+        heading: float | None = None,
     ) -> NDArray[np.float64] | None:
         """Gives the free spot (step SDF >= margin) nearest p_nom among the first free points along 16 rays from
-        p_now, away from spots already tried; None when there is none within reach_search_m."""
+        p_now, away from spots already tried; None when there is none within reach_search_m. With a heading (rad,
+        snapping on) only rays within 45° of it or of its reverse are searched: a foot goes fore or aft to a
+        stone, never sideways across the body's midline onto the other side's stone."""
         p = self.params
+        rays = _RAYS
+        if heading is not None:
+            rays = rays[
+                np.abs(rays @ np.array([np.cos(heading), np.sin(heading)])) >= np.cos(np.pi / 4) - 1e-9
+            ]
         ts = np.arange(0.0, p.reach_search_m, maps.resolution_m / 2)
-        pts = p_now[None, None, :] + ts[None, :, None] * _RAYS[:, None, :]
+        pts = p_now[None, None, :] + ts[None, :, None] * rays[:, None, :]
         sd = np.asarray(maps.sdf_step(pts[..., 0], pts[..., 1]))
         ok = sd >= p.margin_m + p.keep_clearance_m
         has = ok.any(axis=1)
         if not has.any():
             return None
         first = np.argmax(ok, axis=1)
-        cand = pts[np.arange(len(_RAYS)), first][has]
+        cand = pts[np.arange(len(rays)), first][has]
         for t in tried:
             cand = cand[np.sum((cand - t) ** 2, axis=1) > 0.1**2]
         if cand.shape[0] == 0:
@@ -682,6 +755,76 @@ class StepQP:
 
     _fixed_feet: NDArray[np.float64]
     _retargets: list[int]
+
+
+def snap_footholds(
+    maps: TerrainMaps,
+    p_nominal: NDArray[np.float64],
+    yaw: NDArray[np.float64],
+    p_hip: NDArray[np.float64],
+    hip_range_m: tuple[float, float],
+    search_m: float,
+    clearance_m: float,
+    hold: list[NDArray[np.float64] | None] | None = None,
+    hold_m: float = 0.08,
+    lateral_m: float = 0.0,
+    middle: bool = False,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Moves footholds off no-step regions along the heading: gives (footholds (K, 2), moved (K,)).
+
+    A foothold p_nominal[k] (world, m) whose step SDF is below clearance_m is moved along the heading
+    (cos yaw[k], sin yaw[k]) forward and back to the first spot with that clearance on each side, up to search_m
+    away, and no more than hip_range_m = (behind, ahead) (m) from the hip p_hip[k] along the heading; the nearer of the two is taken (a stepping stone's gap: onto
+    the next stone or back onto the current one, never into the gap's edge). hold[k], when given, is where the
+    slot was sent before: the candidate within hold_m of it wins, and when there is no candidate it stays the
+    target while it is free. lateral_m: the search also runs along lines
+    parallel to the heading up to this far to either side (m; the nearest candidate in distance wins), so a foothold
+    near a stone's inner corner still finds the stone. A foothold with no candidate stays. middle: each side's spot
+    is the first with clearance_m along the free run (SDF at least clearance_m / 2) from the first free spot on,
+    or the run's largest SDF when none has (a narrow stone's middle).
+    """
+    p_out = np.array(p_nominal, dtype=np.float64, copy=True).reshape(-1, 2)
+    K = p_out.shape[0]
+    moved = np.zeros(K, dtype=bool)
+    sd = np.atleast_1d(np.asarray(maps.sdf_step(p_out[:, 0], p_out[:, 1]), dtype=np.float64))
+    on_map = np.atleast_1d(np.asarray(maps.in_map(p_out[:, 0], p_out[:, 1]), dtype=bool))
+    todo = np.flatnonzero(on_map & (sd < clearance_m))
+    if todo.size == 0:
+        return p_out, moved
+    step = 0.5 * maps.resolution_m
+    ts = np.arange(step, search_m + 1e-9, step)
+    lat = np.array([0.0, 1.0, -1.0, 2.0, -2.0]) * 0.5 * lateral_m
+    for k in todo:
+        e = np.array([np.cos(yaw[k]), np.sin(yaw[k])])
+        n = np.array([-e[1], e[0]])
+        best: NDArray[np.float64] | None = None
+        best_d = np.inf
+        h = hold[k] if hold is not None and k < len(hold) else None
+        for sign in (1.0, -1.0):
+            for dl in lat:
+                pts = p_out[k] + dl * n + sign * ts[:, None] * e
+                sd_pts = np.asarray(maps.sdf_step(pts[:, 0], pts[:, 1]), dtype=np.float64)
+                ok = sd_pts >= (0.5 * clearance_m if middle else clearance_m)
+                along = (pts - p_hip[k]) @ e
+                ok &= (along >= -hip_range_m[0]) & (along <= hip_range_m[1])
+                if not ok.any():
+                    continue
+                i = int(np.argmax(ok))
+                if middle:
+                    run = i + int(np.argmin(ok[i:])) if not ok[i:].all() else len(ok)
+                    full = sd_pts[i:run] >= clearance_m
+                    i += int(np.argmax(full)) if full.any() else int(np.argmax(sd_pts[i:run]))
+                d = float(np.hypot(ts[i], dl))
+                if h is not None and float(np.linalg.norm(pts[i] - h)) <= hold_m:
+                    d -= 1.0
+                if d < best_d:
+                    best, best_d = pts[i], d
+        if best is None and h is not None and float(maps.sdf_step(h[0], h[1])) >= clearance_m:
+            best = np.asarray(h, dtype=np.float64)  # no candidate now: a swing keeps the spot it was sent to
+        if best is not None:
+            p_out[k] = best
+            moved[k] = True
+    return p_out, moved
 
 
 def _unit(g: NDArray[np.float64], fallback: NDArray[np.float64]) -> NDArray[np.float64]:
