@@ -261,7 +261,14 @@ class LiveSim:
         if not self.walking:
             raise NotSteerable()
         c = self.session.controller
-        if gait != c.gait:
+        nav = getattr(self.session, "navigator", None)
+        if nav is not None:
+            # on a terrain the navigator switches gaits (stairs, stones, dense clutter): the asked gait is the one it
+            # returns to on open ground
+            if gait != nav.fast_gait:
+                nav.fast_gait = gait
+                self.maneuver = WalkLabel(gait)
+        elif gait != c.gait:
             c.set_gait(gait)
             self.maneuver = WalkLabel(gait)
         c.steer(vx, vy, yaw_rate)

@@ -347,8 +347,8 @@ class WalkCommand:
         False  # True: the centroidal solver turns the step plan into forces (balance QP otherwise)
     )
     settle_s: float = 1.5  # velocity tracking is measured after this much time (s)
-    # Terrain-aware walking to the goal (planning.terrain.navigate): None = whenever a goal is given on a terrain
-    # other than flat. terrain_sensor: maps from the simulated depth sensor (False: the scene's ground truth).
+    # Terrain-aware walking (planning.terrain.navigate), to the goal or steered: None = on every terrain other
+    # than flat. terrain_sensor: maps from the simulated depth sensor (False: the scene's ground truth).
     terrain_aware: bool | None = None
     terrain_sensor: bool = True
     stop_at_goal: bool = False  # end the run once the body has held within half the goal tolerance for 1 s
@@ -380,13 +380,11 @@ class WalkSession(_Session):
         monitors: list[Callable[[RobotState], None]] = []
         aware = command.terrain_aware
         if aware is None:
-            aware = command.goal is not None and options.terrain != "flat"
+            aware = options.terrain != "flat"
         if aware:
             from planning.terrain.crossing import BodyCollisionMonitor
             from planning.terrain.navigate import NavigatorParams, attach_navigator
 
-            if command.goal is None:
-                raise ValueError("WalkCommand.terrain_aware: needs a goal")
             params = NavigatorParams(use_sensor=command.terrain_sensor)
             self.navigator = attach_navigator(
                 self.controller, self.world.model, self.world.data, command.goal, self.scene, params

@@ -84,6 +84,14 @@ def footprint_points(
     return np.stack([xy[..., None, 0] + c * off, xy[..., None, 1] + s * off], axis=-1)
 
 
+def sweep_points_clearance(
+    maps: TerrainMaps | None, xy: NDArray[np.float64], yaw: NDArray[np.float64], offsets: tuple[float, ...]
+) -> NDArray[np.float64]:
+    """Gives the body SDF (.., n) (m, +inf off the map) at the footprint circle centers of poses xy (.., 2),
+    yaw (..) (the footprint radius not subtracted)."""
+    return _clearance(maps, footprint_points(xy, yaw, offsets))
+
+
 def sweep_clearance(maps: TerrainMaps | None, path: BodyPath, params: BodyPathParams) -> float:
     """Gives the smallest clearance (m) of the footprint swept along the path (negative: a collision)."""
     n = max(int(np.ceil(path.length_m / 0.02)), 1) + 1

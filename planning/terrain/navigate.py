@@ -37,7 +37,13 @@ from planning.steps import SteeringCommand
 from planning.steps.gait import get_gait
 from planning.steps.select import Selection
 from planning.steps.state import StepPath, rotate_yaw
-from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
+from planning.terrain.bodypath import (
+    BodyPath,
+    BodyPathParams,
+    plan_body_path,
+    sweep_clearance,
+    sweep_points_clearance,
+)
 from planning.terrain.cadence import CadenceParams, CadenceScore, choose_cadence
 from planning.terrain.maps import TerrainMaps, _gradient, maps_from_scene, signed_distance
 from planning.terrain.perception import Perception, PerceptionParams
@@ -161,6 +167,8 @@ class NavigatorParams:
     a curb (long swings give the foot time to rise above a riser before moving on; None: never); the speed there
     is one riser pitch per gait cycle (one tread per step), within min_speed_mps and the gait's top speed.
     stairs: the stairs mode (see StairsMode); stones: the stepping-stones mode (see StonesMode).
+    stop_horizon_s, stop_margin_m: when steered, the commanded velocity slows so the body's footprint swept over
+    the next stop_horizon_s keeps stop_margin_m from body obstacles (see _obstacle_stop; 0 s: never).
     late_descent_gain_per_s: set on the controller's swing planner (SwingParams): a late foot high above its
     touchdown (after a step down or a rise over a riser) descends faster, 1/s.
     hip_ground_min_m, hip_ground_max_m: the body height target follows the ground under the hips where it differs
@@ -217,6 +225,8 @@ class NavigatorParams:
     slow_gait_speed_mps: float = 0.3
     stairs: StairsMode = field(default_factory=StairsMode)
     stones: StonesMode = field(default_factory=StonesMode)
+    stop_horizon_s: float = 0.6
+    stop_margin_m: float = 0.05
     hold_jump_m: float = 0.04
     hold_radius_m: float = 0.15
     hold_min_sdf_m: float = 0.01
@@ -270,13 +280,13 @@ class TerrainNavigator:
         controller: Any,
         model: mujoco.MjModel,
         data: mujoco.MjData,
-        goal_xy: tuple[float, float],
+        goal_xy: tuple[float, float] | None,
         scene: TerrainScene | None = None,
         params: NavigatorParams | None = None,
         body: str = "trunk",
     ) -> None:
         self.params = p = params or NavigatorParams()
-        if not np.all(np.isfinite(goal_xy)):
+        if goal_xy is not None and not np.all(np.isfinite(goal_xy)):
             raise ValueError(f"TerrainNavigator.goal_xy: must be finite, got {goal_xy}")
         if not p.use_sensor and scene is None:
             raise ValueError("TerrainNavigator: use_sensor=False needs the scene (ground-truth maps)")
@@ -284,7 +294,8 @@ class TerrainNavigator:
         self.robot = controller.robot
         self.data = data
         self.scene = scene
-        self.goal = np.asarray(goal_xy, dtype=np.float64).reshape(2)
+        # None: steered (the controller's velocity command, within the terrain's speed limits), no body path
+        self.goal = None if goal_xy is None else np.asarray(goal_xy, dtype=np.float64).reshape(2)
         self.perception = Perception(model, body, p.perception) if p.use_sensor else None
         self.cadence_params = p.cadence or CadenceParams.from_robot(self.robot)
         self.qp = StepQP(p.step_qp)
@@ -339,7 +350,8 @@ class TerrainNavigator:
         scale = sw.a_max_z_mps2 / float(self.params.stairs.swing.get("a_max_z_mps2", sw.a_max_z_mps2))
         family = tuple(dataclasses.replace(v, accel_frac=v.accel_frac * scale) for v in sw.vertical_family)
         self._swing_stairs = dataclasses.replace(sw, vertical_family=family, **self.params.stairs.swing)
-        c.set_goal(*self.goal)
+        if self.goal is not None:
+            c.set_goal(*self.goal)
         stages = [
             Stage("perception", self.params.perception_rate_hz, self._perceive),
             Stage("body_path", self.params.path_rate_hz * 5, self._body_path),
@@ -500,7 +512,7 @@ class TerrainNavigator:
 
     def _body_path(self, s: RobotState) -> None:
         """Replans the body path at path_rate_hz, and sooner when the current path's sweep hits an obstacle."""
-        if self.maps is None:
+        if self.maps is None or self.goal is None:
             return
         due = s.t - self._t_path >= 1.0 / self.params.path_rate_hz - 1e-9
         if not due and self.path is not None:
@@ -511,6 +523,7 @@ class TerrainNavigator:
 
     def replan(self, s: RobotState) -> BodyPath:
         """Plans the body path from the body to the goal on the current maps and chooses the cadence on it."""
+        assert self.goal is not None, "replan: a steered navigator has no goal"
         path = plan_body_path(self.maps, s.p_world_body[:2], s.yaw, self.goal, self.params.path)
         self.path = path
         self.stats.body_paths += 1
@@ -628,8 +641,11 @@ class TerrainNavigator:
 
     # ---- hooks ----------------------------------------------------------------------------------------------
     def command(self, s: RobotState) -> SteeringCommand:
-        """Gives the steering command (body frame) that follows the body path toward the goal."""
+        """Gives the steering command (body frame) that follows the body path toward the goal; when steered, the
+        controller's own command within the terrain's speed limits (see steered_command)."""
         p = self.params
+        if self.goal is None:
+            return self.steered_command(s)
         xy = s.p_world_body[:2]
         d_goal = self.goal - xy
         dist = float(np.linalg.norm(d_goal))
@@ -662,6 +678,45 @@ class TerrainNavigator:
         dyaw = float((yaw_des - s.yaw + np.pi) % (2 * np.pi) - np.pi)
         wz = float(np.clip(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
         return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
+
+    def steered_command(self, s: RobotState) -> SteeringCommand:
+        """Gives the operator's velocity command (the controller's, body frame) with its speed capped where the
+        terrain asks for it: one tread per step on stairs (climb speed), the stones speed, the slow gait's cap, and
+        slower where the step-obstacle map ahead is dense; the yaw rate within max_yaw_rate_rps."""
+        p = self.params
+        cmd = self.controller.command
+        cap = p.max_speed_mps * self._dense_slowdown(s.p_world_body[:2], s.yaw)
+        if self.climb_speed is not None:
+            cap = self.climb_speed
+        elif self.controller.gait == p.slow_gait:
+            cap = min(cap, p.slow_gait_speed_mps)
+        speed = float(np.hypot(cmd.vx, cmd.vy))
+        k = min(1.0, cap / speed) if speed > 1e-9 else 1.0
+        wz = float(np.clip(cmd.yaw_rate, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
+        k *= self._obstacle_stop(s, cmd.vx * k, cmd.vy * k, wz)
+        return SteeringCommand(cmd.vx * k, cmd.vy * k, wz)
+
+    def _obstacle_stop(self, s: RobotState, vx: float, vy: float, wz: float) -> float:
+        """Gives the largest of 1, 3/4, 1/2, 1/4, 0 by which the steered velocity (body frame, m/s, rad/s) may be
+        scaled so the body's footprint, swept over the next stop_horizon_s, keeps stop_margin_m from the
+        body-obstacle map (or does not come closer than it is now): steering stops short of a wall, a table leg or
+        a tall box instead of walking into it."""
+        p = self.params
+        maps = self.maps
+        if maps is None or p.stop_horizon_s <= 0.0 or (abs(vx) < 1e-6 and abs(vy) < 1e-6):
+            return 1.0
+        fp, r = p.path.footprint_x_m, p.path.footprint_r_m
+        xy0 = s.p_world_body[:2]
+        now = float(np.min(sweep_points_clearance(maps, xy0[None, :], np.array([s.yaw]), fp))) - r
+        need = min(p.stop_margin_m, now)
+        t = np.linspace(p.stop_horizon_s / 6, p.stop_horizon_s, 6)
+        yaw = s.yaw + wz * t
+        for f in (1.0, 0.75, 0.5, 0.25):
+            v_world = rotate_yaw(s.yaw, np.array([vx * f, vy * f]))
+            xy = xy0 + t[:, None] * v_world[None, :]
+            if float(np.min(sweep_points_clearance(maps, xy, yaw, fp))) - r >= need - 1e-3:
+                return f
+        return 0.0
 
     def _dense_share(self, xy: NDArray[np.float64], yaw: float) -> float:
         """Gives the no-step share of the dense_radius_m disk ahead of the body (0 without maps)."""
@@ -1012,7 +1067,7 @@ def attach_navigator(
     controller: Any,
     model: mujoco.MjModel,
     data: mujoco.MjData,
-    goal_xy: tuple[float, float],
+    goal_xy: tuple[float, float] | None,
     scene: TerrainScene | None = None,
     params: NavigatorParams | None = None,
 ) -> TerrainNavigator:
