@@ -191,6 +191,8 @@ def cmd_walk(a: argparse.Namespace) -> int:
             raise UsageError(f"--{name.replace('_', '-')} {v}: must be within ±5")
     if a.duration is not None and not (0 < a.duration <= 600):
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
+    if a.maps not in ("sensor", "truth", "off"):
+        raise UsageError(f"--maps {a.maps!r}: one of sensor, truth, off")
     _robot(a.robot)
     cmd = WalkCommand(
         a.vx,
@@ -201,6 +203,8 @@ def cmd_walk(a: argparse.Namespace) -> int:
         a.weights,
         not a.reference_only,
         centroidal=a.solver == "centroidal",
+        terrain_aware=False if a.maps == "off" else None,
+        terrain_sensor=a.maps == "sensor",
     )
     opts = RunOptions(
         terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
@@ -310,6 +314,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--duration", type=float, metavar="S", help="simulated seconds (default 10, 30 with --goal)"
     )
     w.add_argument("--terrain", default="flat", metavar="NAME")
+    w.add_argument(
+        "--maps",
+        default="sensor",
+        metavar="SOURCE",
+        help="on a terrain: sensor (the simulated depth sensor, default), truth (the scene's own maps: perfect "
+        "perception) or off (walk blind)",
+    )
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
     w.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")

@@ -25,6 +25,7 @@ def test_terrains_lists_names(capsys) -> None:
         (["run", "stand", "--terrain", "moon"], "--terrain 'moon': unknown terrain"),
         (["run", "stand", "--robot", "atlas"], "robot 'atlas': no such robot description"),
         (["validate", "missing/dir/x.yaml"], "no such file: missing/dir/x.yaml"),
+        (["walk", "--terrain", "stairs", "--maps", "lidar"], "--maps 'lidar': one of sensor, truth, off"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, needle, capsys) -> None:
@@ -79,3 +80,27 @@ def test_run_writes_report_and_exit_codes(tmp_path, capsys) -> None:
         assert key in rep, key
     assert rep["success"] is True
     assert main(["run", "stand", "--duration", "2", "--push", "0.5:0,3000,0:0.1"]) == 1
+
+
+def test_walk_maps_truth_writes_the_navigator_section(tmp_path, capsys) -> None:
+    """`walk --terrain slope --maps truth` walks on the scene's own maps: the report carries the navigator's
+    counters (no sensor scans needed, maps rebuilt around the body)."""
+    out = tmp_path / "r.json"
+    code = main(
+        [
+            "walk",
+            "--terrain",
+            "slope",
+            "--vx",
+            "0.4",
+            "--duration",
+            "2",
+            "--maps",
+            "truth",
+            "--report",
+            str(out),
+        ]
+    )
+    r = json.loads(out.read_text())
+    assert code == 0 and not r["fell"]
+    assert r["navigator"]["scans"] >= 15  # 10 Hz for 2 s
