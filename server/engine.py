@@ -472,7 +472,13 @@ def run_headless(job: dict[str, Any]) -> dict[str, Any]:
 
         w = dict(job["walk"])
         goal = w.pop("goal", None)
-        command = WalkCommand(**w, goal=None if goal is None else (float(goal[0]), float(goal[1])))
+        maps = w.pop("maps", "sensor")
+        command = WalkCommand(
+            **w,
+            goal=None if goal is None else (float(goal[0]), float(goal[1])),
+            terrain_aware=False if maps == "off" else None,
+            terrain_sensor=maps == "sensor",
+        )
         return run_walk(command, opts, progress=progress)
     maneuver = parse_maneuver(job["maneuver"])
     return run_maneuver(maneuver, opts, progress=progress)

@@ -60,6 +60,10 @@ class WalkIn(_In):
     yaw_rate: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
     gait: SteerGait = "trot"  # type: ignore[valid-type]
     goal: Annotated[list[_num(-100.0, 100.0)], Field(min_length=2, max_length=2)] | None = None  # type: ignore[valid-type]
+    maps: Literal["sensor", "truth", "off"] = Field(
+        "sensor",
+        description="on a terrain: the simulated depth sensor's maps, the scene's own (perfect perception), or none",
+    )
 
 
 class SimulationCreate(_In):

@@ -43,6 +43,29 @@ def test_walk_simulation(client: TestClient) -> None:
     assert j["status"] == "done" and j["request"]["walk"]["vx"] == 0.3 and j["report"]["maneuver"] == "walk"
 
 
+def test_walk_maps_field(client: TestClient) -> None:
+    """A walk's "maps" (sensor, truth, off) is accepted and kept in the request; an unknown source is a 422 naming
+    the field."""
+    body = {"walk": {"vx": 0.3, "maps": "truth"}, "terrain": "slope", "duration": 1.0}
+    r = client.post("/simulations", json=body)
+    assert r.status_code == 202, r.text
+    assert wait_done(client, r.json()["id"])["request"]["walk"]["maps"] == "truth"
+    bad = client.post("/simulations", json={"walk": {"vx": 0.3, "maps": "lidar"}, "terrain": "slope"})
+    assert bad.status_code == 422 and "maps" in bad.text
+
+
+def test_headless_walk_maps_reach_the_navigator() -> None:
+    """The worker turns "maps" into the walk's map source: "truth" runs the navigator on the scene's maps (its
+    counters in the report), "off" walks blind (no navigator section)."""
+    from server.engine import run_headless
+
+    job = {"id": "t", "terrain": "slope", "pushes": [], "duration": 1.0, "robot": "spot", "maneuver": None}
+    truth = run_headless({**job, "walk": {"vx": 0.3, "maps": "truth"}})
+    assert truth["navigator"]["scans"] >= 5
+    blind = run_headless({**job, "walk": {"vx": 0.3, "maps": "off"}})
+    assert "navigator" not in blind
+
+
 def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
     doc = copy.deepcopy(bow)
     doc["name"] = "inline-bow"
