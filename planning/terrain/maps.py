@@ -36,8 +36,10 @@ class MapParams:
 
     body_band_m: obstacles within this height band make a body obstacle (robot body bottom crouched .. body top
     standing; a table underside above the top is passable crouched); body_ref_radius_m: radius for the highest
-    ground nearby that the band is also measured from; body_step_m: ground higher than the lowest ground within
-    wall_radius_m higher by more than this makes a cell a body obstacle (the foot of a wall); low_radius_m,
+    ground nearby that the band is also measured from; body_above_ground_m: the band measured from a cell's own
+    ground starts at least this far above that highest ground nearby (None: not; with it a stone's top edge seen
+    from the pit beside it is ground-level, not a body obstacle); body_step_m: ground higher than the lowest ground
+    within wall_radius_m higher by more than this makes a cell a body obstacle (the foot of a wall); low_radius_m,
     max_step_height_m: ground higher than the lowest ground within low_radius_m by more than this is a step
     obstacle; edge_radius_m,
     edge_height_m: a height spread above edge_height_m within edge_radius_m is an edge; leg_band_m: obstacles at
@@ -51,6 +53,7 @@ class MapParams:
 
     body_band_m: tuple[float, float] = (0.30, 0.56)
     body_ref_radius_m: float = 0.3
+    body_above_ground_m: float | None = None
     body_step_m: float = 0.4
     wall_radius_m: float = 0.06
     low_radius_m: float = 0.3
@@ -256,7 +259,8 @@ def build_maps(
     h_low = ndimage.minimum_filter(h, size=size(p.low_radius_m), mode="nearest")
     h_ref = ndimage.maximum_filter(h, size=size(p.body_ref_radius_m), mode="nearest")
     lo, hi = p.body_band_m
-    body = (_count_between(cum, z0, dz, h + lo, h + hi) > 0) | (
+    z_lo = h + lo if p.body_above_ground_m is None else np.maximum(h + lo, h_ref + p.body_above_ground_m)
+    body = (_count_between(cum, z0, dz, z_lo, h + hi) > 0) | (
         _count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0
     )
     # A wall rising right beside a cell (higher than the body can pass over) blocks the body there.

@@ -1,6 +1,6 @@
 """Stepping stones: the pit detection that switches the stones mode on, foothold snapping along the heading onto
-the nearer stone, the snapped footholds pinned over the QP's answer, and the closed-loop crossing on the scene's
-ground-truth maps (seed 0).
+the nearer stone, the snapped footholds pinned over the QP's answer, the maps' stones rules, and the closed-loop
+crossings (seed 0) on the scene's ground-truth maps and with the depth sensor.
 """
 
 from __future__ import annotations
@@ -13,10 +13,11 @@ import pytest
 from planning.sim.run import RunOptions, WalkCommand, run_walk
 from planning.terrain.bodypath import plan_body_path
 from planning.terrain.cadence import CADENCES, CadenceParams, make_request
-from planning.terrain.maps import TerrainMaps, maps_from_grids, maps_from_scene
+from planning.terrain.maps import MapParams, TerrainMaps, build_maps, maps_from_grids, maps_from_scene
 from planning.terrain.navigate import NavigatorParams, StonesMode, TerrainNavigator, pit_between
 from planning.terrain.scenes import build_terrain
 from planning.terrain.stepqp import StepQP, StepQPParams, StepRequest, snap_footholds
+from planning.terrain.voxels import Columns
 
 RES = 0.03
 CLEAR = 0.06
@@ -185,3 +186,46 @@ def test_stones_crossing_on_ground_truth_maps() -> None:
     assert r["crossed"] and r["success"], r["failure_reason"]
     assert r["no_step_touchdowns"] <= 2
     assert r["navigator"]["stones_mode_s"] > 10.0
+
+
+def _stone_columns() -> Columns:
+    """A stone (x 0..0.3 m, top 2 cm up) in a pit 31 cm deep (x -0.3..0 and beyond 0.3) after a platform at 0, as
+    the sensor sees it: the stone's face toward the platform occupies the pit cell in front of it up to 3 cm."""
+    xs = np.arange(-0.6, 0.6 + 1e-9, RES)
+    ys = np.arange(-0.45, 0.45 + 1e-9, RES)
+    ground = np.full((xs.size, ys.size), -0.31)
+    ground[xs < -0.3 - 1e-9] = 0.0
+    ground[(xs > 1e-9) & (xs < 0.3)] = 0.02
+    z0, nz = -0.99, 90
+    zs = z0 + np.arange(nz) * RES
+    obstacle = np.zeros((*ground.shape, nz), dtype=bool)
+    face = int(np.argmin(np.abs(xs + RES / 2)))
+    obstacle[face, :, (zs > -0.3) & (zs < 0.04)] = True
+    return Columns((float(xs[0]), float(ys[0])), RES, ground, obstacle, z0, RES)
+
+
+def test_stones_map_rules_keep_a_stone_steppable_and_its_edge_no_body_obstacle() -> None:
+    """Default maps mark a stone standing more than max_step_height_m above the pit beside it no-step and its top
+    edge seen from the pit a body obstacle (the body path then veers off the stones); the stones mode's map
+    parameters do neither, and the pit and the face stay no-step."""
+    cols = _stone_columns()
+    default = NavigatorParams().perception.maps
+    stones = dataclasses.replace(default, **MODE.maps)
+    assert isinstance(stones, MapParams) and stones != default
+    x, y = np.array([0.15, -0.15, 0.15]), np.array([0.0, 0.0, 0.3])  # stone middle, pit, stone off the line
+    m0, m1 = build_maps(cols, default), build_maps(cols, stones)
+    assert bool(m0.no_step(0.15, 0.0)) and bool(np.any(m0.body_obstacle))
+    assert not bool(m1.no_step(0.15, 0.0)) and not bool(np.any(m1.body_obstacle))
+    assert list(np.asarray(m1.no_step(x, y), dtype=bool)) == [False, True, False]
+    assert bool(m1.no_step(-0.015, 0.0))  # the face itself
+
+
+def test_stones_crossing_with_the_sensor() -> None:
+    """The product's default (terrain_sensor=True), scene seed 0: measured crossed at 21.8 s, no fall."""
+    cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=True, stop_at_goal=True)
+    r = run_walk(cmd, RunOptions(terrain="stones", duration_s=30.0, seed=0))
+    assert not r["fell"], r["failure_reason"]
+    assert r["body_collisions"] == 0
+    assert r["crossed"] and r["success"], r["failure_reason"]
+    nav = r["navigator"]
+    assert nav["stones_mode_s"] > 10.0 and nav["stairs_mode_s"] == 0.0
