@@ -48,7 +48,9 @@ class MapParams:
     dense_radius_m, dense_fraction: where step obstacles cover more than this share of the disk, the area becomes a
     body obstacle; speck_cells: obstacle components smaller than this are removed; close_cells: body-map closing
     radius (cells); fill_min_cells: unknown cells within this many cells of known ones take the lowest neighbor;
-    ceiling_above_m: overhangs at least this high count for clearance.
+    ceiling_above_m: overhangs at least this high count for clearance; fill_low_radius_m: an unknown cell's ground is
+    at most the lowest observed ground within this radius (None: not; the shadow behind a stone's far edge then
+    reads as the pit it most likely is, not as more stone).
     """
 
     body_band_m: tuple[float, float] = (0.30, 0.56)
@@ -71,6 +73,7 @@ class MapParams:
     close_cells: int = 2
     fill_min_cells: int = 12
     ceiling_above_m: float = 0.30
+    fill_low_radius_m: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -250,6 +253,13 @@ def build_maps(
     res = columns.resolution_m
     observed = np.isfinite(columns.ground_z)
     h = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z)
+    if p.fill_low_radius_m is not None and not observed.all():
+        low = ndimage.minimum_filter(
+            np.where(observed, columns.ground_z, np.inf),
+            footprint=_disk(p.fill_low_radius_m / res),
+            mode="nearest",
+        )
+        h = np.where(~observed & np.isfinite(low), np.minimum(h, low), h)
     cum = np.cumsum(columns.obstacle, axis=2, dtype=np.int32)
     z0, dz = columns.z0_m, columns.dz_m
 

@@ -91,7 +91,7 @@ def _stones_qp() -> StepQPParams:
 
 
 def _stones_maps() -> dict[str, Any]:
-    return {"max_step_height_m": 0.5, "body_above_ground_m": 0.05}
+    return {"max_step_height_m": 0.5, "body_above_ground_m": 0.05, "fill_low_radius_m": 0.15}
 
 
 @dataclass(frozen=True)
@@ -110,8 +110,8 @@ class StonesMode:
     more). A snapped foothold with a step SDF of at least pin_min_sdf_m is taken as it is, not the QP's answer
     (its other terms pull a foot toward a stone's edge; None: the QP's). The maps are built with the MapParams
     fields in `maps` changed (a stone stands high above the pit floor next to it: no step obstacle for that, and its
-    top edge seen from the pit is no body obstacle), and the stairs mode stays off (a gap half seen looks like a
-    riser). enabled: False keeps the default behaviour everywhere.
+    top edge seen from the pit is no body obstacle, and the unseen shadow behind its far edge reads as pit, not as
+    more stone), and the stairs mode stays off (a gap half seen looks like a riser). enabled: False keeps the default behaviour everywhere.
     """
 
     enabled: bool = True
