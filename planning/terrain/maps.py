@@ -36,8 +36,10 @@ class MapParams:
 
     body_band_m: obstacles within this height band make a body obstacle (robot body bottom crouched .. body top
     standing; a table underside above the top is passable crouched); body_ref_radius_m: radius for the highest
-    ground nearby that the band is also measured from; body_step_m: ground higher than the lowest ground within
-    wall_radius_m higher by more than this makes a cell a body obstacle (the foot of a wall); low_radius_m,
+    ground nearby that the band is also measured from; body_above_ground_m: the band measured from a cell's own
+    ground starts at least this far above that highest ground nearby (None: not; with it a stone's top edge seen
+    from the pit beside it is ground-level, not a body obstacle); body_step_m: ground higher than the lowest ground
+    within wall_radius_m higher by more than this makes a cell a body obstacle (the foot of a wall); low_radius_m,
     max_step_height_m: ground higher than the lowest ground within low_radius_m by more than this is a step
     obstacle; edge_radius_m,
     edge_height_m: a height spread above edge_height_m within edge_radius_m is an edge; leg_band_m: obstacles at
@@ -46,11 +48,14 @@ class MapParams:
     dense_radius_m, dense_fraction: where step obstacles cover more than this share of the disk, the area becomes a
     body obstacle; speck_cells: obstacle components smaller than this are removed; close_cells: body-map closing
     radius (cells); fill_min_cells: unknown cells within this many cells of known ones take the lowest neighbor;
-    ceiling_above_m: overhangs at least this high count for clearance.
+    ceiling_above_m: overhangs at least this high count for clearance; fill_low_radius_m: an unknown cell's ground is
+    at most the lowest observed ground within this radius (None: not; the shadow behind a stone's far edge then
+    reads as the pit it most likely is, not as more stone).
     """
 
     body_band_m: tuple[float, float] = (0.30, 0.56)
     body_ref_radius_m: float = 0.3
+    body_above_ground_m: float | None = None
     body_step_m: float = 0.4
     wall_radius_m: float = 0.06
     low_radius_m: float = 0.3
@@ -68,6 +73,7 @@ class MapParams:
     close_cells: int = 2
     fill_min_cells: int = 12
     ceiling_above_m: float = 0.30
+    fill_low_radius_m: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -247,6 +253,13 @@ def build_maps(
     res = columns.resolution_m
     observed = np.isfinite(columns.ground_z)
     h = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z)
+    if p.fill_low_radius_m is not None and not observed.all():
+        low = ndimage.minimum_filter(
+            np.where(observed, columns.ground_z, np.inf),
+            footprint=_disk(p.fill_low_radius_m / res),
+            mode="nearest",
+        )
+        h = np.where(~observed & np.isfinite(low), np.minimum(h, low), h)
     cum = np.cumsum(columns.obstacle, axis=2, dtype=np.int32)
     z0, dz = columns.z0_m, columns.dz_m
 
@@ -256,7 +269,8 @@ def build_maps(
     h_low = ndimage.minimum_filter(h, size=size(p.low_radius_m), mode="nearest")
     h_ref = ndimage.maximum_filter(h, size=size(p.body_ref_radius_m), mode="nearest")
     lo, hi = p.body_band_m
-    body = (_count_between(cum, z0, dz, h + lo, h + hi) > 0) | (
+    z_lo = h + lo if p.body_above_ground_m is None else np.maximum(h + lo, h_ref + p.body_above_ground_m)
+    body = (_count_between(cum, z0, dz, z_lo, h + hi) > 0) | (
         _count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0
     )
     # A wall rising right beside a cell (higher than the body can pass over) blocks the body there.

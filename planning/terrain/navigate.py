@@ -96,6 +96,10 @@ def _stones_qp() -> StepQPParams:
     return StepQPParams(snap_search_m=0.5, snap_clearance_m=0.06, snap_middle=True)
 
 
+def _stones_maps() -> dict[str, Any]:
+    return {"max_step_height_m": 0.5, "body_above_ground_m": 0.05, "fill_low_radius_m": 0.15}
+
+
 @dataclass(frozen=True)
 class StonesMode:
     """What changes over stepping stones: the mode is on while either foot line, from behind_m behind to ahead_m
@@ -110,8 +114,10 @@ class StonesMode:
     across a gap). The step obstacles are grown by foot_margin_m and the drop keep-out reaches drop_reach_m (the
     maps' own edge band already keeps the foot's radius off a stone's edge: a 30 cm stone keeps little room with
     more). A snapped foothold with a step SDF of at least pin_min_sdf_m is taken as it is, not the QP's answer
-    (its other terms pull a foot toward a stone's edge; None: the QP's). enabled: False keeps the default behaviour
-    everywhere.
+    (its other terms pull a foot toward a stone's edge; None: the QP's). The maps are built with the MapParams
+    fields in `maps` changed (a stone stands high above the pit floor next to it: no step obstacle for that, and its
+    top edge seen from the pit is no body obstacle, and the unseen shadow behind its far edge reads as pit, not as
+    more stone), and the stairs mode stays off (a gap half seen looks like a riser). enabled: False keeps the default behaviour everywhere.
     """
 
     enabled: bool = True
@@ -126,6 +132,7 @@ class StonesMode:
     drop_reach_m: float = 0.0
     pin_min_sdf_m: float | None = 0.03
     step_qp: StepQPParams = field(default_factory=_stones_qp)
+    maps: dict[str, Any] = field(default_factory=_stones_maps)
 
 
 @dataclass(frozen=True)
@@ -300,6 +307,7 @@ class TerrainNavigator:
         self.cadence_params = p.cadence or CadenceParams.from_robot(self.robot)
         self.qp = StepQP(p.step_qp)
         self.qp_stones = StepQP(p.stones.step_qp) if p.stones.enabled else self.qp
+        self.stones_maps = dataclasses.replace(p.perception.maps, **p.stones.maps)
         self.standing_height = p.standing_height_m or float(self.robot.standing_height_m)
         self.p_body_hip_xy = np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2]
         self.shin_slope = self._shin_slope(p.shin_foot_ahead_m)
@@ -362,15 +370,16 @@ class TerrainNavigator:
     def _perceive(self, s: RobotState) -> None:
         p = self.params
         maps: TerrainMaps | None
+        map_params = self.stones_maps if self.on_stones else p.perception.maps
         if self.perception is not None:
-            maps = self.perception.scan_now(self.data)
+            maps = self.perception.scan_now(self.data, map_params)
         else:
             xy = s.p_world_body[:2]
             if self._truth_center is None or np.linalg.norm(xy - self._truth_center) > p.truth_recenter_m:
                 assert self.scene is not None
                 self._truth_center = xy.copy()
                 self._truth_maps = maps_from_scene(
-                    self.scene, (float(xy[0]), float(xy[1])), p.truth_half_extent_m, params=p.perception.maps
+                    self.scene, (float(xy[0]), float(xy[1])), p.truth_half_extent_m, params=map_params
                 )
             maps = self._truth_maps
         assert maps is not None
@@ -435,10 +444,13 @@ class TerrainNavigator:
         pitch = None
         if h is not None and p.climb_gait is not None:
             pitch = riser_pitch(h, res, p.climb_rise_m, p.climb_ahead_m + p.climb_behind_m)
-        self._update_stairs(
-            self._feet_lines(s.p_world_body[:2], s.yaw, p.climb_behind_m, p.stairs.ahead_m), res
-        )
         self._update_stones(s, res)
+        h_stairs = (
+            None
+            if self.on_stones
+            else self._feet_lines(s.p_world_body[:2], s.yaw, p.climb_behind_m, p.stairs.ahead_m)
+        )
+        self._update_stairs(h_stairs, res)
         if self.on_stones:
             want = p.stones.gait
             self.climb_speed = p.stones.speed_mps

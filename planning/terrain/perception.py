@@ -52,8 +52,8 @@ class Perception:
             return float(self.maps.height_at(p_body[0], p_body[1]))
         return float(p_body[2] - self.params.body_height_m)
 
-    def scan_now(self, data: mujoco.MjData) -> TerrainMaps:
-        """Scans, integrates and rebuilds the maps now; gives them."""
+    def scan_now(self, data: mujoco.MjData, map_params: MapParams | None = None) -> TerrainMaps:
+        """Scans, integrates and rebuilds the maps now (with map_params, default params.maps); gives them."""
         t0 = time.perf_counter()
         cloud = self.sensor.scan(data)
         p_body = data.xpos[self.sensor.body_id]
@@ -62,7 +62,9 @@ class Perception:
         columns = self.voxels.classify()
         if self.memory is not None:
             columns = self.memory.apply(columns)
-        self.maps = build_maps(columns, self.params.maps, default_ground_z=ground_z, t_s=float(data.time))
+        self.maps = build_maps(
+            columns, map_params or self.params.maps, default_ground_z=ground_z, t_s=float(data.time)
+        )
         self.last_cloud = cloud
         self.timings_ms.append((time.perf_counter() - t0) * 1e3)
         return self.maps

@@ -78,6 +78,8 @@ class StepQPParams:
     heading line (m); snap_middle: a side whose free run (from the first spot with half of snap_clearance_m on) has no spot with
     snap_clearance_m gives the run's spot farthest from the edges (largest step SDF: the middle of a stone, not its
     edge: a foot tracking a few cm off lands on the stone still) when no spot on it has snap_clearance_m;
+    snap_spread_m: a front foot's forward candidate and a hind foot's backward one count this much nearer (m; the
+    stance stays long, not all four feet on one stone with the body's weight near a hind foot);
     reuse_radius_m: a slot whose nominal foothold moved less than this since the last replan (same maps) keeps its
     planes; max_rounds: solve-add rounds;
     softened_tol_m: a slack above this counts as softened.
@@ -113,6 +115,7 @@ class StepQPParams:
     snap_hold_m: float = 0.08
     snap_lateral_m: float = 0.0
     snap_middle: bool = False
+    snap_spread_m: float = 0.0
     reuse_radius_m: float = 0.05
     max_rounds: int = 10
     softened_tol_m: float = 2e-3
@@ -621,6 +624,7 @@ class StepQP:
         p_nom, moved = snap_footholds(
             maps, req.p_nominal, req.yaw_body, req.p_hip, (p.snap_behind_m, p.snap_ahead_m), p.snap_search_m,
             p.snap_clearance_m, hold, p.snap_hold_m, p.snap_lateral_m, p.snap_middle,
+            np.where(np.asarray(legs) < 2, p.snap_spread_m, -p.snap_spread_m),
         )  # fmt: skip
         for k in range(4):
             leg = int(legs[k])
@@ -769,6 +773,7 @@ def snap_footholds(
     hold_m: float = 0.08,
     lateral_m: float = 0.0,
     middle: bool = False,
+    spread_m: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Moves footholds off no-step regions along the heading: gives (footholds (K, 2), moved (K,)).
 
@@ -781,7 +786,8 @@ def snap_footholds(
     parallel to the heading up to this far to either side (m; the nearest candidate in distance wins), so a foothold
     near a stone's inner corner still finds the stone. A foothold with no candidate stays. middle: each side's spot
     is the first with clearance_m along the free run (SDF at least clearance_m / 2) from the first free spot on,
-    or the run's largest SDF when none has (a narrow stone's middle).
+    or the run's largest SDF when none has (a narrow stone's middle). spread_m[k] (m): the forward candidate counts
+    this much nearer (negative: the backward one, by its size).
     """
     p_out = np.array(p_nominal, dtype=np.float64, copy=True).reshape(-1, 2)
     K = p_out.shape[0]
@@ -815,6 +821,8 @@ def snap_footholds(
                     full = sd_pts[i:run] >= clearance_m
                     i += int(np.argmax(full)) if full.any() else int(np.argmax(sd_pts[i:run]))
                 d = float(np.hypot(ts[i], dl))
+                if spread_m is not None and k < len(spread_m):
+                    d -= sign * float(spread_m[k])
                 if h is not None and float(np.linalg.norm(pts[i] - h)) <= hold_m:
                     d -= 1.0
                 if d < best_d:
