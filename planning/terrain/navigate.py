@@ -74,8 +74,10 @@ class StairsMode:
     (shin_radius_m, shin_foot_ahead_m, shin_min_rise_m as in NavigatorParams), and no swing-target hold against
     foothold flips (on stairs the refined-target hold keeps the foot on its tread instead).
 
-    enabled: False keeps the default behaviour everywhere; swing: SwingParams fields set in the mode (the vertical
-    family keeps its absolute accelerations).
+    enabled: False keeps the default behaviour everywhere; ahead_m: how far ahead of the body the flight is looked
+    for (m); gait: the gait on stairs (None: NavigatorParams.climb_gait); height_m, down_pitch_rad: body height
+    target (m) while going down (body pitch above down_pitch_rad), None: the standing height; swing: SwingParams
+    fields set in the mode (the vertical family keeps its absolute accelerations).
     """
 
     enabled: bool = True
@@ -93,7 +95,7 @@ class StairsMode:
 
 
 def _stones_qp() -> StepQPParams:
-    return StepQPParams(snap_search_m=0.5, snap_clearance_m=0.06, snap_middle=True)
+    return StepQPParams(snap_search_m=0.5, snap_clearance_m=0.06, snap_middle=True, snap_spread_m=0.04)
 
 
 def _stones_maps() -> dict[str, Any]:
@@ -109,7 +111,9 @@ class StonesMode:
 
     In the mode the controller walks in the gait `gait` (a duty above 0.75 keeps four feet down between swings, so
     a foot landing late after a long step across a gap never leaves the body on two) at speed_mps; the step QP
-    snaps footholds on a gap along the heading onto the nearer stone (step_qp, see StepQPParams.snap_search_m);
+    snaps footholds on a gap along the heading onto the nearer stone (step_qp, see StepQPParams.snap_search_m; on
+    near ties a front foot takes the stone ahead and a hind foot the one behind, snap_spread_m 4 cm: with it scene
+    seeds 0-2 cross with and without the sensor, without it seed 2 fell);
     and a foothold the QP moved is kept once its touchdown is less than freeze_touchdown_s away (no late re-aim
     across a gap). The step obstacles are grown by foot_margin_m and the drop keep-out reaches drop_reach_m (the
     maps' own edge band already keeps the foot's radius off a stone's edge: a 30 cm stone keeps little room with
