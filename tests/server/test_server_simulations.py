@@ -144,3 +144,16 @@ def test_the_queue_is_bounded(slow_client: TestClient, settings: Settings) -> No
     assert refused.headers["retry-after"] and "queue" in refused.json()["detail"]
     first = answers[0].json()["id"]
     assert slow_client.get(f"/simulations/{first}").json()["status"] in ("running", "done")
+
+
+def test_live_walk_on_a_terrain_walks_on_the_scenes_maps() -> None:
+    """A live (studio) walking session on a terrain runs the navigator on the scene's own maps, so it keeps real
+    time: steered onto the slope it keeps its feet, with maps and no sensor."""
+    from server.engine import LiveSim, walk_command
+
+    sim = LiveSim(walk_command(vx=0.4), "slope")
+    for _ in range(int(1.0 / sim.dt)):
+        sim.step()
+    nav = sim.session.navigator
+    assert nav is not None and nav.perception is None and nav.maps is not None
+    assert not sim.fell
