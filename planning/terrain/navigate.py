@@ -75,16 +75,13 @@ class StairsMode:
     foothold flips (on stairs the refined-target hold keeps the foot on its tread instead).
 
     enabled: False keeps the default behaviour everywhere; ahead_m: how far ahead of the body the flight is looked
-    for (m); gait: the gait on stairs (None: NavigatorParams.climb_gait); height_m, down_pitch_rad: body height
-    target (m) while going down (body pitch above down_pitch_rad), None: the standing height; swing: SwingParams
+    for (m); gait: the gait on stairs (None: NavigatorParams.climb_gait); swing: SwingParams
     fields set in the mode (the vertical family keeps its absolute accelerations).
     """
 
     enabled: bool = True
     gait: str | None = None
-    height_m: float | None = None
     ahead_m: float = 1.6
-    down_pitch_rad: float = 0.1
     min_risers: int = 2
     max_tread_m: float = 0.5
     shin_radius_m: float = 0.04
@@ -443,17 +440,18 @@ class TerrainNavigator:
         p = self.params
         share = self._dense_share(s.p_world_body[:2], s.yaw)
         c = self.controller
-        h = self._feet_lines(s.p_world_body[:2], s.yaw, p.climb_behind_m, p.climb_ahead_m)
+        # the feet's lines once, over the longer of the climb and the stairs windows (both from climb_behind_m)
+        ahead = max(p.climb_ahead_m, p.stairs.ahead_m)
+        h_all = self._feet_lines(s.p_world_body[:2], s.yaw, p.climb_behind_m, ahead)
         res = self.maps.resolution_m if self.maps is not None else 1.0
         pitch = None
-        if h is not None and p.climb_gait is not None:
-            pitch = riser_pitch(h, res, p.climb_rise_m, p.climb_ahead_m + p.climb_behind_m)
+        if h_all is not None and p.climb_gait is not None:
+            n_climb = np.arange(-p.climb_behind_m, p.climb_ahead_m + 1e-9, res).size
+            pitch = riser_pitch(h_all[:, :n_climb], res, p.climb_rise_m, p.climb_ahead_m + p.climb_behind_m)
         self._update_stones(s, res)
-        h_stairs = (
-            None
-            if self.on_stones
-            else self._feet_lines(s.p_world_body[:2], s.yaw, p.climb_behind_m, p.stairs.ahead_m)
-        )
+        h_stairs = None
+        if h_all is not None and not self.on_stones:
+            h_stairs = h_all[:, : np.arange(-p.climb_behind_m, p.stairs.ahead_m + 1e-9, res).size]
         self._update_stairs(h_stairs, res)
         if self.on_stones:
             want = p.stones.gait
@@ -588,12 +586,6 @@ class TerrainNavigator:
             float(np.min(clear)), self._remembered_clearance(s.p_world_body[:2], xy, z_ceiling, yaw, z_feet)
         )
         h = self.standing_height
-        if (
-            self.on_stairs
-            and p.stairs.height_m is not None
-            and self.controller.pitch > p.stairs.down_pitch_rad
-        ):
-            h = min(h, p.stairs.height_m)
         if np.isfinite(clear_now):
             h = min(h, clear_now - p.body_top_m - p.head_margin_m)
         h = float(np.clip(h, p.min_height_m, self.standing_height))
@@ -940,21 +932,34 @@ def pit_between(h: NDArray[np.float64], z_feet: float, drop_m: float, return_m: 
     return False
 
 
+def _risers(
+    row: NDArray[np.float64], res: float, rise_m: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gives the risers along one height profile row (N,) sampled every res m — where the height changes by more
+    than rise_m within two samples, runs of such samples counting once — as their centers (m from the profile's
+    second sample) and signs (+1 rising, -1 dropping, the run's largest change)."""
+    dz = row[2:] - row[:-2]  # centered on samples 1..N-2
+    idx = np.flatnonzero(np.abs(dz) > rise_m)
+    if idx.size == 0:
+        return np.zeros(0), np.zeros(0)
+    starts = idx[np.r_[True, np.diff(idx) > 1]]
+    ends = idx[np.r_[np.diff(idx) > 1, True]]
+    sign = np.sign(
+        [dz[a : b + 1][np.argmax(np.abs(dz[a : b + 1]))] for a, b in zip(starts, ends, strict=True)]
+    )
+    return np.asarray(0.5 * (starts + ends) * res, dtype=np.float64), np.asarray(sign, dtype=np.float64)
+
+
 def riser_pitch(h: NDArray[np.float64], res: float, rise_m: float, window_m: float) -> float | None:
-    """Gives the median distance (m) between successive risers along height profiles h (L, N) sampled every res m
-    (a riser: the height changes by more than rise_m within two samples), window_m when only one riser is seen,
-    None when none is."""
-    jump = np.abs(h[:, 2:] - h[:, :-2]) > rise_m  # (L, N-2), centered on samples 1..N-2
+    """Gives the median distance (m) between successive risers (see _risers) along height profiles h (L, N)
+    sampled every res m, window_m when only one riser is seen, None when none is."""
     gaps: list[float] = []
     seen = False
-    for row in jump:
-        idx = np.flatnonzero(row)
-        if idx.size == 0:
+    for row in h:
+        centers, _ = _risers(row, res, rise_m)
+        if centers.size == 0:
             continue
         seen = True
-        starts = idx[np.r_[True, np.diff(idx) > 1]]
-        ends = idx[np.r_[np.diff(idx) > 1, True]]
-        centers = 0.5 * (starts + ends) * res
         gaps.extend(np.diff(centers).tolist())
     if not seen:
         return None
@@ -967,18 +972,10 @@ def stair_run(h: NDArray[np.float64], res: float, rise_m: float, max_tread_m: fl
     within two samples) that all rise or all drop, each within max_tread_m of the one before."""
     best = []
     for row in h:
-        dz = row[2:] - row[:-2]
-        jump = np.abs(dz) > rise_m
-        idx = np.flatnonzero(jump)
-        if idx.size == 0:
+        x, sign = _risers(row, res, rise_m)
+        if x.size == 0:
             best.append(0)
             continue
-        starts = idx[np.r_[True, np.diff(idx) > 1]]
-        ends = idx[np.r_[np.diff(idx) > 1, True]]
-        x = 0.5 * (starts + ends) * res
-        sign = np.sign(
-            [dz[a : b + 1][np.argmax(np.abs(dz[a : b + 1]))] for a, b in zip(starts, ends, strict=True)]
-        )
         run = longest = 1
         for k in range(1, len(x)):
             run = run + 1 if sign[k] == sign[k - 1] and x[k] - x[k - 1] <= max_tread_m else 1
