@@ -85,6 +85,12 @@ class SwingParams:
     rise_first_top_m: float = 0.0  # the swing's top stays this far above the clearance height after a rise
     rise_first_gap_m: float = 0.02  # while rising, the foot's front closes in on the terrain up to this gap
     rise_first_v_up_mps: float = 2.0  # a rise-first swing rises at most this fast
+    # the foot waits at a place fixed from its lift-off place (True), not re-derived from the measured foot every
+    # tick (False: a foot the leg carries past the wait point waits further on, closer to the riser)
+    rise_first_anchored: bool = False
+    # a leg that cannot lift its foot rise_first_margin_m over the terrain (its hip too low) waits until the foot
+    # is as high as it reaches, when that clears the terrain by 5 mm (True), or does not wait (False)
+    rise_first_within_reach: bool = False
     step_down_top_m: float = 0.10  # a step down (by more than rise_first_above_m) rises at most this much
 
     # Other legs

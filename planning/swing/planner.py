@@ -171,6 +171,7 @@ class SwingPlanner:
         self._trip: list[TripEvent | None] = [None] * 4
         self._shank_cache: list[tuple[np.ndarray, np.ndarray] | None] = [None] * 4
         self._z_liftoff: list[float | None] = [None] * 4  # lift-off height of the current swing, m
+        self._xy_liftoff: list[np.ndarray | None] = [None] * 4  # lift-off place (x, y) of the current swing, m
         # top of the first plan of the current swing, m: replans may change the vertical policy (a measured
         # velocity a hair above a gentle policy's limit makes it infeasible), but never raise the apex, or a foot
         # replanned every 3 ms climbs policy by policy and lands late
@@ -207,6 +208,7 @@ class SwingPlanner:
         self._trip = [None] * 4
         self._shank_cache = [None] * 4
         self._z_liftoff = [None] * 4
+        self._xy_liftoff = [None] * 4
         self._z_top = [None] * 4
         self._last_t = [-np.inf] * 4
         self._z_clear = [None] * 4
@@ -216,6 +218,7 @@ class SwingPlanner:
         self._last_plan[leg] = None
         self._trip[leg] = None
         self._z_liftoff[leg] = None
+        self._xy_liftoff[leg] = None
         self._z_top[leg] = None
         self._z_clear[leg] = None
 
@@ -260,6 +263,7 @@ class SwingPlanner:
             self._last_t[r.leg] = t_now
             if self._z_liftoff[r.leg] is None:
                 self._z_liftoff[r.leg] = float(r.p_world_foot[2])
+                self._xy_liftoff[r.leg] = np.array(r.p_world_foot[:2], dtype=float)
             if r.trip is not None:
                 self._trip[r.leg] = r.trip
         order = sorted(legs, key=lambda r: r.t_touchdown)
@@ -425,6 +429,11 @@ class SwingPlanner:
         hold = None
         if not isinstance(ground, FlatGround):
             z_clear, approach = self._rise_first_height(req, ground, z_ref)
+            if pr.rise_first_within_reach and z_clear is not None and z_clear > z_ceiling - 0.003:
+                # the leg cannot lift the foot rise_first_margin_m over the terrain: it waits for what it can
+                # reach, if that still clears the terrain by 5 mm (else as before: no wait)
+                if z_ceiling - 0.003 >= z_clear - pr.rise_first_margin_m + 0.005:
+                    z_clear = z_ceiling - 0.003
             z_rose = self._z_clear[leg]
             if z_clear is not None:
                 z_rose = self._z_clear[leg] = z_clear if z_rose is None else max(z_rose, z_clear)
@@ -437,10 +446,19 @@ class SwingPlanner:
             if z_clear is not None:
                 t_clear = z_agg.crossing_time(z_clear)
                 p_wait = None
-                if approach > 0.0:
-                    d = req.p_touchdown[:2] - req.p_world_foot[:2]
-                    p_wait = _heading(req.p_world_foot[:2] + d * (approach / float(np.linalg.norm(d))), c, s)
+                d = req.p_touchdown[:2] - req.p_world_foot[:2]
+                d_hat = d / max(float(np.linalg.norm(d)), 1e-9)
+                anchor = self._xy_liftoff[leg]
+                if pr.rise_first_anchored and anchor is not None:
+                    # the wait point is fixed from the lift-off place: a foot carried past it comes back
+                    ahead = float((req.p_world_foot[:2] - anchor) @ d_hat) + approach
+                    p_wait = _heading(anchor + d_hat * max(ahead, 0.0), c, s)
+                elif approach > 0.0:
+                    p_wait = _heading(req.p_world_foot[:2] + d_hat * approach, c, s)
                 hold = None if t_clear is None else rise_first_hold(ctx, t_clear, p_wait)
+                import os
+                if os.environ.get("FFDBG") and leg == int(os.environ["FFDBG"]):
+                    print(f"  RF t={t_now:.3f} leg{leg} p0={np.round(req.p_world_foot,3)} z_ref={z_ref:.3f} z1={z1:.3f} zc={z_clear:.3f} ap={approach:.3f} wait={p_wait} tclr={t_clear} ceil={z_ceiling:.3f} td={req.t_touchdown:.3f} hold={hold is not None}")
         return LegProblem(
             leg=leg,
             ctx=ctx,
@@ -504,7 +522,7 @@ class SwingPlanner:
         if float(p0[2]) >= z_clear:
             return None, 0.0
         approach = length * float(u[max(int(above[0]) - 1, 0)]) - pr.rise_first_gap_m
-        return z_clear, max(approach, 0.0)
+        return z_clear, approach
 
     def _ground_on_way(self, req: SwingRequest, ground: GroundHeightFn) -> tuple[float, float]:
         """The highest ground (m) on the straight way from the foot to its target, and the highest that stands above

@@ -49,6 +49,7 @@ from planning.terrain.maps import TerrainMaps, _gradient, maps_from_scene, signe
 from planning.terrain.perception import Perception, PerceptionParams
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
+from planning.terrain.treads import TreadLine, TreadMargins, choose_tread, tread_line
 
 
 def _stairs_swing() -> dict[str, Any]:
@@ -58,6 +59,10 @@ def _stairs_swing() -> dict[str, Any]:
         "apex_free_over_obstacles": False,
         "cliff_margin_m": 0.03,
         "cliff_rings_m": (0.01, 0.02, 0.03),
+        "rise_first_margin_m": 0.05,
+        "rise_first_gap_m": 0.08,
+        "rise_first_anchored": True,
+        "rise_first_within_reach": True,
     }
 
 
@@ -89,6 +94,11 @@ class StairsMode:
     shin_min_rise_m: float = 0.03
     hold_swing_targets: bool = False
     swing: dict[str, Any] = field(default_factory=_stairs_swing)
+    treads: TreadMargins | None = field(default_factory=TreadMargins)
+    pace_gain_per_s: float = 1.0
+    pace_offset_m: float = 0.0
+    pace_lag_m: float = 0.18
+    pace_range: tuple[float, float] = (0.0, 1.5)
 
 
 def _stones_qp() -> StepQPParams:
@@ -337,6 +347,12 @@ class TerrainNavigator:
         # Held touchdown targets of the swinging legs (world, m), nan when none.
         self._held_swing = np.full((4, 3), np.nan)
         self.holds = 0
+        # Stairs: the risers along the right and left feet's lines (see planning.terrain.treads), the last stance
+        # place of each foot (m, world) and each swing's chosen touchdown (time s, place (3,) m; nan: none).
+        self._tread_lines: tuple[TreadLine, TreadLine] | None = None
+        self._stance_xy = np.full((4, 2), np.nan)
+        self._tread_t = np.full(4, np.nan)
+        self._tread_p = np.full((4, 3), np.nan)
 
     def _shin_slope(self, foot_ahead_m: float) -> float:
         """The stance shin's slope (m back per m up) with the foot foot_ahead_m ahead of its nominal place."""
@@ -453,6 +469,7 @@ class TerrainNavigator:
         if h_all is not None and not self.on_stones:
             h_stairs = h_all[:, : np.arange(-p.climb_behind_m, p.stairs.ahead_m + 1e-9, res).size]
         self._update_stairs(h_stairs, res)
+        self._update_treads(s, h_all, res)
         if self.on_stones:
             want = p.stones.gait
             self.climb_speed = p.stones.speed_mps
@@ -508,6 +525,18 @@ class TerrainNavigator:
         if self.on_stairs != was and self._swing_default is not None:
             swing = self.controller.handler.swing_planner
             swing.set_params(self._swing_stairs if self.on_stairs else self._swing_default)
+
+    def _update_treads(self, s: RobotState, h: NDArray[np.float64] | None, res: float) -> None:
+        """In the stairs mode with tread footholds, reads the risers along the right and left feet's lines h (2, N)
+        (sampled every res m from climb_behind_m behind the body); else forgets them."""
+        p = self.params
+        if not self.on_stairs or p.stairs.treads is None or h is None:
+            self._tread_lines = None
+            return
+        heading = np.array([np.cos(s.yaw), np.sin(s.yaw)])
+        xy = s.p_world_body[:2]
+        right, left = (tread_line(row, -p.climb_behind_m, res, p.climb_rise_m, xy, heading) for row in h)
+        self._tread_lines = (right, left)
 
     def _update_stones(self, s: RobotState, res: float) -> None:
         """Enters the stepping-stones mode while either foot line shows a pit ahead (see StonesMode), leaves it
@@ -673,7 +702,7 @@ class TerrainNavigator:
             target = target_a if s_ahead < path.length_m else self.goal
             yaw_des = float(path.yaw[k]) if dist > 0.5 else s.yaw
             if self.climb_speed is not None:
-                speed = min(self.climb_speed, p.goal_gain * dist)
+                speed = min(self.climb_speed * self._tread_pace(s), p.goal_gain * dist)
             else:
                 speed *= self._dense_slowdown(xy, s.yaw)
             del yaw_a
@@ -695,7 +724,7 @@ class TerrainNavigator:
         cmd = self.controller.command
         cap = p.max_speed_mps * self._dense_slowdown(s.p_world_body[:2], s.yaw)
         if self.climb_speed is not None:
-            cap = self.climb_speed
+            cap = self.climb_speed * self._tread_pace(s)
         elif self.controller.gait == p.slow_gait:
             cap = min(cap, p.slow_gait_speed_mps)
         speed = float(np.hypot(cmd.vx, cmd.vy))
@@ -703,6 +732,24 @@ class TerrainNavigator:
         wz = float(np.clip(cmd.yaw_rate, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
         k *= self._obstacle_stop(s, cmd.vx * k, cmd.vy * k, wz)
         return SteeringCommand(cmd.vx * k, cmd.vy * k, wz)
+
+    def _tread_pace(self, s: RobotState) -> float:
+        """On stairs with tread footholds, the factor on the climb speed that keeps the body over its feet: the
+        body speeds up while the feet (stance places and the swings' chosen touchdowns) are ahead of it and slows
+        down while they lag, by StairsMode.pace_gain_per_s per m, within StairsMode.pace_range; 1 elsewhere."""
+        st = self.params.stairs
+        lines = self._tread_lines
+        if lines is None or self.climb_speed is None or self.climb_speed <= 0.0:
+            return 1.0
+        feet = s.p_world_foot[:, :2].copy()
+        held = np.isfinite(self._tread_t)
+        feet[held] = self._tread_p[held, :2]
+        h = lines[0].heading
+        ahead = float(np.mean((feet - s.p_world_body[:2]) @ h)) - st.pace_offset_m
+        hips = s.p_world_body[:2] + rotate_yaw(s.yaw, self.p_body_hip_xy)
+        lag = max(float(np.max((hips - feet) @ h)) - st.pace_lag_m, 0.0)
+        lo, hi = st.pace_range
+        return float(np.clip(1.0 + st.pace_gain_per_s * (ahead - lag) / self.climb_speed, lo, hi))
 
     def _obstacle_stop(self, s: RobotState, vx: float, vy: float, wz: float) -> float:
         """Gives the largest of 1, 3/4, 1/2, 1/4, 0 by which the steered velocity (body frame, m/s, rad/s) may be
@@ -747,11 +794,52 @@ class TerrainNavigator:
     def refine(self, s: RobotState, sel: Selection) -> Selection:
         """Gives the selection with its footholds refined by the step QP when any lies on or near a no-step cell,
         and the swinging feet's targets held against jumps (see NavigatorParams.hold_jump_m)."""
+        if self._tread_lines is not None:
+            return self._tread_footholds(s, sel)
+        self._tread_t[:] = np.nan
         sel = self._refine_qp(s, sel)
         if self.on_stairs and not self.params.stairs.hold_swing_targets:
             self._held_swing[:] = np.nan
             return sel
         return self._hold_swing_targets(sel)
+
+    def _tread_footholds(self, s: RobotState, sel: Selection) -> Selection:
+        """The selection with every touchdown moved along the heading onto a tread (see planning.terrain.treads):
+        each swing lands on its own tread or the next, chosen once at liftoff and held to touchdown; a later
+        touchdown steps on from the one before it."""
+        lines = self._tread_lines
+        maps = self.maps
+        assert lines is not None and maps is not None
+        margins = self.params.stairs.treads
+        assert margins is not None
+        path = sel.path
+        swinging = np.isnan(path.t_liftoff_now)
+        self._stance_xy[~swinging] = s.p_world_foot[~swinging, :2]
+        t_td, _ = path.next_touchdowns()
+        p_new = path.p_world_touchdown.copy()
+        last_xy = self._stance_xy.copy()
+        for leg in np.flatnonzero(~swinging | ~(np.abs(self._tread_t - t_td) < 0.15)):
+            self._tread_t[leg] = np.nan
+        for k in range(path.n_touchdowns):
+            leg = int(path.leg[k])
+            line = lines[1 if leg in (0, 2) else 0]  # FL, RL on the left line
+            first = bool(swinging[leg]) and abs(float(path.t_touchdown[k]) - float(t_td[leg])) < 1e-9
+            nom = p_new[k, :2].copy()
+            u_nom = float(line.u(nom))
+            if first and np.isfinite(self._tread_t[leg]):
+                # the tread chosen at liftoff; the place along it follows the selection within its window
+                lo, hi = line.window(line.segment(float(line.u(self._tread_p[leg, :2]))), margins)
+                u = float(np.clip(u_nom, lo, hi))
+            else:
+                from_xy = last_xy[leg] if np.all(np.isfinite(last_xy[leg])) else s.p_world_foot[leg, :2]
+                u = choose_tread(line, float(line.u(from_xy)), u_nom, margins)
+            p_new[k, :2] = nom + (u - u_nom) * line.heading
+            if first and not np.isfinite(self._tread_t[leg]):
+                self._tread_t[leg] = t_td[leg]
+                self._tread_p[leg] = p_new[k]
+            p_new[k, 2] = float(maps.height_at(p_new[k, 0], p_new[k, 1]))
+            last_xy[leg] = p_new[k, :2]
+        return dataclasses.replace(sel, path=path.with_touchdowns(p_new, path.kind + "+treads"))
 
     def _hold_swing_targets(self, sel: Selection) -> Selection:
         p = self.params

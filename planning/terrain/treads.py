@@ -1,0 +1,118 @@
+"""Footholds on stairs chosen tread by tread.
+
+On a flight of stairs the step-obstacle map leaves a narrow free window on each tread, and a foothold chosen cell
+by cell (the capture-point selection, then the step QP) flips between two treads from one replan to the next, or is
+pushed sideways toward the body's center line when the window ahead is tight. Here the ground along each foot's
+line is read as segments between risers instead, and each swing lands on one tread chosen at liftoff:
+
+- ``TreadLine``: the risers along one line (positions ``u`` in m along the heading from an origin, each rising or
+  dropping) and, from them, the window of each segment where a foot may land: the segment shrunk by the toe's
+  clearance from a riser in front, the shin's clearance from a nosing behind going down, and the foot's margin
+  from a drop-off edge;
+- ``choose_tread``: the window a swing lands in: the one nearest the nominal foothold among the foot's own segment
+  and the next one along the heading (never skipping a tread), the nominal clamped into it.
+
+The navigator (planning.terrain.navigate) builds the lines at its perception rate and applies them to the swinging
+feet's touchdowns in its stairs mode.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+@dataclass(frozen=True)
+class TreadMargins:
+    """How far a foothold's center stays from the ends of its segment (m), by what lies there.
+
+    riser_ahead_m: a riser in front (ground higher ahead): the toe and the swing's descent clear it;
+    riser_behind_m: a riser behind (ground higher behind, going down): the stance shin clears its nosing;
+    drop_ahead_m, drop_behind_m: a drop-off in front or behind (ground lower there): the foot sphere stays on the
+    tread. A window narrower than min_width_m is replaced by the segment's middle (min_width_m wide).
+    """
+
+    riser_ahead_m: float = 0.08
+    riser_behind_m: float = 0.12
+    drop_ahead_m: float = 0.07
+    drop_behind_m: float = 0.06
+    min_width_m: float = 0.02
+
+
+@dataclass(frozen=True)
+class TreadLine:
+    """The risers along one foot line: origin (2,) m world and heading (2,) unit vector of the line; risers (R,)
+    m along it from the origin, increasing; signs (R,) +1 where the ground rises along the heading, -1 where it
+    drops. Segment i lies between risers i-1 and i (segment 0 before the first, segment R after the last)."""
+
+    origin: NDArray[np.float64]
+    heading: NDArray[np.float64]
+    risers: NDArray[np.float64]
+    signs: NDArray[np.float64]
+
+    def u(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Gives the positions (..) m along the line of world points xy (.., 2)."""
+        return np.asarray((np.asarray(xy, dtype=np.float64) - self.origin) @ self.heading, dtype=np.float64)
+
+    def segment(self, u: float) -> int:
+        """Gives the segment index of position u (m along the line)."""
+        return int(np.searchsorted(self.risers, u))
+
+    def window(self, i: int, m: TreadMargins) -> tuple[float, float]:
+        """Gives the landing window (lo, hi) m along the line of segment i (unbounded ends are ±inf)."""
+        R = self.risers.size
+        lo, hi = -np.inf, np.inf
+        if i > 0:
+            lo = float(self.risers[i - 1]) + (m.drop_behind_m if self.signs[i - 1] > 0 else m.riser_behind_m)
+        if i < R:
+            hi = float(self.risers[i]) - (m.riser_ahead_m if self.signs[i] > 0 else m.drop_ahead_m)
+        if hi - lo < m.min_width_m:
+            a = float(self.risers[i - 1]) if i > 0 else hi
+            b = float(self.risers[i]) if i < R else lo
+            mid = 0.5 * (a + b)
+            lo, hi = mid - 0.5 * m.min_width_m, mid + 0.5 * m.min_width_m
+        return lo, hi
+
+
+def tread_line(
+    row: NDArray[np.float64], u0: float, res: float, rise_m: float, origin: NDArray[np.float64], heading: NDArray[np.float64]
+) -> TreadLine:
+    """Gives the TreadLine of one height profile row (N,) (m; NaN unknown) sampled every res m from u0 m along
+    heading from origin: the risers are where the height changes by more than rise_m within two samples (a run of
+    such samples is one riser, at its middle)."""
+    row = np.asarray(row, dtype=np.float64)
+    dz = row[2:] - row[:-2]  # centered on samples 1..N-2
+    idx = np.flatnonzero(np.abs(np.nan_to_num(dz)) > rise_m)
+    if idx.size == 0:
+        return TreadLine(origin, heading, np.zeros(0), np.zeros(0))
+    starts = idx[np.r_[True, np.diff(idx) > 1]]
+    ends = idx[np.r_[np.diff(idx) > 1, True]]
+    signs = np.array([np.sign(dz[a + np.argmax(np.abs(dz[a : b + 1]))]) for a, b in zip(starts, ends, strict=True)])
+    # dz[i] spans samples i..i+2; a step between samples j and j+1 lights dz[j-1] and dz[j]: its edge lies at
+    # sample j + 1/2, i.e. the run's middle index + 1
+    u = u0 + (0.5 * (starts + ends) + 1.0) * res
+    return TreadLine(
+        np.asarray(origin, dtype=np.float64).copy(),
+        np.asarray(heading, dtype=np.float64).copy(),
+        np.asarray(u, dtype=np.float64),
+        signs.astype(np.float64),
+    )
+
+
+def choose_tread(line: TreadLine, u_foot: float, u_nominal: float, margins: TreadMargins) -> float:
+    """Gives where along the line (m) a swing from u_foot toward the nominal foothold u_nominal lands: in the
+    window of the foot's own segment or the next one along the heading (the nearer to u_nominal; a foot never
+    skips a tread, nor steps back one), u_nominal clamped into it."""
+    i = line.segment(u_foot)
+    best_u, best_d = u_nominal, np.inf
+    for j in (i, i + 1):
+        if j > line.risers.size:
+            continue
+        lo, hi = line.window(j, margins)
+        u = float(np.clip(u_nominal, lo, hi))
+        d = abs(u - u_nominal)
+        if d < best_d - 1e-9:
+            best_u, best_d = u, d
+    return best_u
