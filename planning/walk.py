@@ -110,6 +110,7 @@ class WalkController:
         # Terrain hooks (terrain-aware walking sets them): maps for step screening and foothold heights; a
         # command source that overrides steering (e.g. following a body path to a goal); the body height.
         self.maps: Any = None
+        self.swing_maps: Any = None  # the maps the swing planner sees, when other than self.maps (stairs)
         self.command_source: Callable[[RobotState], SteeringCommand] | None = None
         self.foothold_filter: Callable[[RobotState, Selection], Selection] | None = None
         self.f_des = np.zeros((4, 3))
@@ -195,7 +196,7 @@ class WalkController:
         else:
             cmd = self.command
         if self.maps is not None:
-            self.handler.ground = self.maps.height_at
+            self.handler.ground = (self.swing_maps or self.maps).height_at
         sel = self.planner.tick(cmd, self._walk_state(s), self.maps)
         if self.reference_only:
             ref = sel.candidates[0]

@@ -445,6 +445,9 @@ class SwingPlanner:
                 z_agg, z_ok = vertical(agg, t_now, z0, vz0, z1, req.t_touchdown, z_ceiling, z_ref)
             if z_clear is not None:
                 t_clear = z_agg.crossing_time(z_clear)
+                if t_clear is None and pr.rise_first_within_reach:
+                    # the apex capped at the height it rose to before may fall short of it by rounding
+                    t_clear = z_agg.crossing_time(z_clear - 0.004)
                 p_wait = None
                 d = req.p_touchdown[:2] - req.p_world_foot[:2]
                 d_hat = d / max(float(np.linalg.norm(d)), 1e-9)

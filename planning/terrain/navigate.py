@@ -49,7 +49,7 @@ from planning.terrain.maps import TerrainMaps, _gradient, maps_from_scene, signe
 from planning.terrain.perception import Perception, PerceptionParams
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
-from planning.terrain.treads import TreadLine, TreadMargins, choose_tread, tread_line
+from planning.terrain.treads import TreadLine, TreadMargins, choose_tread, shin_ground, tread_line
 
 
 def _stairs_swing() -> dict[str, Any]:
@@ -86,6 +86,7 @@ class StairsMode:
 
     enabled: bool = True
     gait: str | None = None
+    gait_down: str | None = None
     ahead_m: float = 1.6
     min_risers: int = 2
     max_tread_m: float = 0.5
@@ -96,7 +97,8 @@ class StairsMode:
     swing: dict[str, Any] = field(default_factory=_stairs_swing)
     treads: TreadMargins | None = field(default_factory=TreadMargins)
     pace_gain_per_s: float = 1.0
-    pace_offset_m: float = 0.0
+    down_lead_m: float = 0.0
+    shin_reach_m: float = 0.10
     pace_lag_m: float = 0.18
     pace_range: tuple[float, float] = (0.0, 1.5)
 
@@ -350,6 +352,7 @@ class TerrainNavigator:
         # Stairs: the risers along the right and left feet's lines (see planning.terrain.treads), the last stance
         # place of each foot (m, world) and each swing's chosen touchdown (time s, place (3,) m; nan: none).
         self._tread_lines: tuple[TreadLine, TreadLine] | None = None
+        self._descending = False  # the next riser ahead of the hind hips drops
         self._stance_xy = np.full((4, 2), np.nan)
         self._tread_t = np.full(4, np.nan)
         self._tread_p = np.full((4, 3), np.nan)
@@ -470,12 +473,18 @@ class TerrainNavigator:
             h_stairs = h_all[:, : np.arange(-p.climb_behind_m, p.stairs.ahead_m + 1e-9, res).size]
         self._update_stairs(h_stairs, res)
         self._update_treads(s, h_all, res)
+        self._descending = self._stairs_down()
+        c.swing_maps = None
+        if self._tread_lines is not None and self.maps is not None and p.stairs.shin_reach_m > 0.0:
+            c.swing_maps = shin_ground(self.maps, self._tread_lines[0].heading, p.stairs.shin_reach_m)
         if self.on_stones:
             want = p.stones.gait
             self.climb_speed = p.stones.speed_mps
         elif pitch is not None:
             assert p.climb_gait is not None
             want = p.stairs.gait if self.on_stairs and p.stairs.gait else p.climb_gait
+            if self.on_stairs and p.stairs.gait_down and self._descending:
+                want = p.stairs.gait_down
             # one tread per step: the body moves one riser pitch per gait cycle
             g = get_gait(want)
             speed = pitch / (g.cycle_s * p.climb_steps_per_tread)
@@ -537,6 +546,16 @@ class TerrainNavigator:
         xy = s.p_world_body[:2]
         right, left = (tread_line(row, -p.climb_behind_m, res, p.climb_rise_m, xy, heading) for row in h)
         self._tread_lines = (right, left)
+
+    def _stairs_down(self) -> bool:
+        """Whether the first riser ahead of the hind hips on the feet's lines drops (going down the stairs)."""
+        lines = self._tread_lines
+        if lines is None:
+            return False
+        hind = float(np.min(self.p_body_hip_xy[:, 0]))
+        signs = [ln.signs[ln.risers > hind] for ln in lines]
+        first = [float(sg[0]) for sg in signs if sg.size]
+        return bool(first) and min(first) < 0.0
 
     def _update_stones(self, s: RobotState, res: float) -> None:
         """Enters the stepping-stones mode while either foot line shows a pit ahead (see StonesMode), leaves it
@@ -745,9 +764,10 @@ class TerrainNavigator:
         held = np.isfinite(self._tread_t)
         feet[held] = self._tread_p[held, :2]
         h = lines[0].heading
-        ahead = float(np.mean((feet - s.p_world_body[:2]) @ h)) - st.pace_offset_m
+        lead = st.down_lead_m if self._descending else 0.0
+        ahead = float(np.mean((feet - s.p_world_body[:2]) @ h)) + lead
         hips = s.p_world_body[:2] + rotate_yaw(s.yaw, self.p_body_hip_xy)
-        lag = max(float(np.max((hips - feet) @ h)) - st.pace_lag_m, 0.0)
+        lag = max(float(np.max((hips - feet) @ h)) - lead - st.pace_lag_m, 0.0)
         lo, hi = st.pace_range
         return float(np.clip(1.0 + st.pace_gain_per_s * (ahead - lag) / self.climb_speed, lo, hi))
 
@@ -825,6 +845,8 @@ class TerrainNavigator:
             line = lines[1 if leg in (0, 2) else 0]  # FL, RL on the left line
             first = bool(swinging[leg]) and abs(float(path.t_touchdown[k]) - float(t_td[leg])) < 1e-9
             nom = p_new[k, :2].copy()
+            if self._descending:
+                nom -= self.params.stairs.down_lead_m * line.heading
             u_nom = float(line.u(nom))
             if first and np.isfinite(self._tread_t[leg]):
                 # the tread chosen at liftoff; the place along it follows the selection within its window

@@ -18,10 +18,13 @@ feet's touchdowns in its stairs mode.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from planning.terrain.maps import TerrainMaps
 
 
 @dataclass(frozen=True)
@@ -116,3 +119,29 @@ def choose_tread(line: TreadLine, u_foot: float, u_nominal: float, margins: Trea
         if d < best_d - 1e-9:
             best_u, best_d = u, d
     return best_u
+
+
+def shin_ground(maps: TerrainMaps, heading: NDArray[np.float64], reach_m: float) -> TerrainMaps:
+    """Gives the maps with each cell's ground raised to the highest ground within reach_m behind it along heading
+    (a unit vector), cell by cell: a drop's upper edge carried reach_m forward (rounded up to whole cells). A swing planned over it keeps a foot
+    stepping down high until it is reach_m past the nosing, where its shin, which trails behind and above the foot,
+    clears the nosing too."""
+    res = maps.resolution_m
+    n = int(np.ceil(reach_m / res - 1e-9))
+    if n <= 0:
+        return maps
+    src = maps.ground_height
+    g = src.copy()
+    nx, ny = src.shape
+    done: set[tuple[int, int]] = set()
+    for k in range(1, n + 1):
+        d = k * res  # at least reach_m in all: cells carry whole
+        i, j = int(round(d * heading[0] / res)), int(round(d * heading[1] / res))
+        if (i, j) in done or (i, j) == (0, 0):
+            continue
+        done.add((i, j))
+        # g[x] = max(g[x], src[x - (i, j)]) where both lie on the grid
+        a0, a1 = max(i, 0), nx + min(i, 0)
+        b0, b1 = max(j, 0), ny + min(j, 0)
+        np.fmax(g[a0:a1, b0:b1], src[a0 - i : a1 - i, b0 - j : b1 - j], out=g[a0:a1, b0:b1])
+    return dataclasses.replace(maps, ground_height=g)
