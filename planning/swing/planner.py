@@ -171,7 +171,8 @@ class SwingPlanner:
         self._trip: list[TripEvent | None] = [None] * 4
         self._shank_cache: list[tuple[np.ndarray, np.ndarray] | None] = [None] * 4
         self._z_liftoff: list[float | None] = [None] * 4  # lift-off height of the current swing, m
-        self._xy_liftoff: list[np.ndarray | None] = [None] * 4  # lift-off place (x, y) of the current swing, m
+        # lift-off place (x, y) of the current swing, m
+        self._xy_liftoff: list[np.ndarray | None] = [None] * 4
         # top of the first plan of the current swing, m: replans may change the vertical policy (a measured
         # velocity a hair above a gentle policy's limit makes it infeasible), but never raise the apex, or a foot
         # replanned every 3 ms climbs policy by policy and lands late
@@ -459,9 +460,6 @@ class SwingPlanner:
                 elif approach > 0.0:
                     p_wait = _heading(req.p_world_foot[:2] + d_hat * approach, c, s)
                 hold = None if t_clear is None else rise_first_hold(ctx, t_clear, p_wait)
-                import os
-                if os.environ.get("FFDBG") and leg == int(os.environ["FFDBG"]):
-                    print(f"  RF t={t_now:.3f} leg{leg} p0={np.round(req.p_world_foot,3)} z_ref={z_ref:.3f} z1={z1:.3f} zc={z_clear:.3f} ap={approach:.3f} wait={p_wait} tclr={t_clear} ceil={z_ceiling:.3f} td={req.t_touchdown:.3f} hold={hold is not None}")
         return LegProblem(
             leg=leg,
             ctx=ctx,

@@ -72,21 +72,32 @@ class StairsMode:
     rising (or all dropping), along both feet's lines in the climb window (see NavigatorParams.climb_*). The mode
     holds until no riser is left in the window (the landing between flights stays in it).
 
+    Footholds are chosen tread by tread (treads: the margins, see planning.terrain.treads; None: the step QP on
+    the no-step map instead): each swing lands on its own tread or the next, chosen at liftoff, away from the
+    riser ahead and the nosing behind. The body is paced by its feet: the climb speed (one tread per gait cycle)
+    is scaled by 1 + pace_gain_per_s × (how far the feet, with the swings' chosen touchdowns, are ahead of the
+    body, less how far the most trailing foot is behind its hip beyond pace_lag_m) / climb speed, within
+    pace_range: a foot that stayed on its tread is waited for instead of left to trail at full stretch. The swing
+    planner sees the ground with every nosing carried shin_reach_m forward (see treads.shin_ground): a foot stepping
+    down stays high until its trailing shin clears the nosing.
+
     Stairs want the opposite of clutter in a few places, measured on both: a swing over a riser rises at 40 m/s²,
     not clutter's 60 (a foot thrown up fast overshoots and lands late on the next tread), with no extra apex over
     obstacles seen late and no apex cap from the ground on the way (the rise-first hold already clears the nosing),
-    a 3 cm cliff margin (a 30 cm tread has little room for 5); the shin keep-out of a foot under its hip
-    (shin_radius_m, shin_foot_ahead_m, shin_min_rise_m as in NavigatorParams), and no swing-target hold against
-    foothold flips (on stairs the refined-target hold keeps the foot on its tread instead).
+    a 3 cm cliff margin (a 30 cm tread has little room for 5); a rise-first wait 5 cm over the nosing, 8 cm short of
+    the riser, fixed from the lift-off place and lowered to what the leg reaches (measured: the foot was carried
+    into the riser while it waited, or did not wait at all when its hip was low); the shin keep-out of a foot under
+    its hip (shin_radius_m, shin_foot_ahead_m, shin_min_rise_m as in NavigatorParams), and no swing-target hold
+    against foothold flips.
 
     enabled: False keeps the default behaviour everywhere; ahead_m: how far ahead of the body the flight is looked
-    for (m); gait: the gait on stairs (None: NavigatorParams.climb_gait); swing: SwingParams
-    fields set in the mode (the vertical family keeps its absolute accelerations).
+    for (m); gait: the gait on stairs (None: NavigatorParams.climb_gait; "stairs" is a trot with 0.4 s swings: the
+    0.3 s of "climb" left too little time to rise over a riser, longer or four-foot phases rolled the body); swing:
+    SwingParams fields set in the mode (the vertical family keeps its absolute accelerations).
     """
 
     enabled: bool = True
-    gait: str | None = None
-    gait_down: str | None = None
+    gait: str | None = "stairs"
     ahead_m: float = 1.6
     min_risers: int = 2
     max_tread_m: float = 0.5
@@ -97,10 +108,9 @@ class StairsMode:
     swing: dict[str, Any] = field(default_factory=_stairs_swing)
     treads: TreadMargins | None = field(default_factory=TreadMargins)
     pace_gain_per_s: float = 1.0
-    down_lead_m: float = 0.0
-    shin_reach_m: float = 0.10
     pace_lag_m: float = 0.18
     pace_range: tuple[float, float] = (0.0, 1.5)
+    shin_reach_m: float = 0.10
 
 
 def _stones_qp() -> StepQPParams:
@@ -352,7 +362,6 @@ class TerrainNavigator:
         # Stairs: the risers along the right and left feet's lines (see planning.terrain.treads), the last stance
         # place of each foot (m, world) and each swing's chosen touchdown (time s, place (3,) m; nan: none).
         self._tread_lines: tuple[TreadLine, TreadLine] | None = None
-        self._descending = False  # the next riser ahead of the hind hips drops
         self._stance_xy = np.full((4, 2), np.nan)
         self._tread_t = np.full(4, np.nan)
         self._tread_p = np.full((4, 3), np.nan)
@@ -473,7 +482,6 @@ class TerrainNavigator:
             h_stairs = h_all[:, : np.arange(-p.climb_behind_m, p.stairs.ahead_m + 1e-9, res).size]
         self._update_stairs(h_stairs, res)
         self._update_treads(s, h_all, res)
-        self._descending = self._stairs_down()
         c.swing_maps = None
         if self._tread_lines is not None and self.maps is not None and p.stairs.shin_reach_m > 0.0:
             c.swing_maps = shin_ground(self.maps, self._tread_lines[0].heading, p.stairs.shin_reach_m)
@@ -483,8 +491,6 @@ class TerrainNavigator:
         elif pitch is not None:
             assert p.climb_gait is not None
             want = p.stairs.gait if self.on_stairs and p.stairs.gait else p.climb_gait
-            if self.on_stairs and p.stairs.gait_down and self._descending:
-                want = p.stairs.gait_down
             # one tread per step: the body moves one riser pitch per gait cycle
             g = get_gait(want)
             speed = pitch / (g.cycle_s * p.climb_steps_per_tread)
@@ -546,16 +552,6 @@ class TerrainNavigator:
         xy = s.p_world_body[:2]
         right, left = (tread_line(row, -p.climb_behind_m, res, p.climb_rise_m, xy, heading) for row in h)
         self._tread_lines = (right, left)
-
-    def _stairs_down(self) -> bool:
-        """Whether the first riser ahead of the hind hips on the feet's lines drops (going down the stairs)."""
-        lines = self._tread_lines
-        if lines is None:
-            return False
-        hind = float(np.min(self.p_body_hip_xy[:, 0]))
-        signs = [ln.signs[ln.risers > hind] for ln in lines]
-        first = [float(sg[0]) for sg in signs if sg.size]
-        return bool(first) and min(first) < 0.0
 
     def _update_stones(self, s: RobotState, res: float) -> None:
         """Enters the stepping-stones mode while either foot line shows a pit ahead (see StonesMode), leaves it
@@ -764,10 +760,9 @@ class TerrainNavigator:
         held = np.isfinite(self._tread_t)
         feet[held] = self._tread_p[held, :2]
         h = lines[0].heading
-        lead = st.down_lead_m if self._descending else 0.0
-        ahead = float(np.mean((feet - s.p_world_body[:2]) @ h)) + lead
+        ahead = float(np.mean((feet - s.p_world_body[:2]) @ h))
         hips = s.p_world_body[:2] + rotate_yaw(s.yaw, self.p_body_hip_xy)
-        lag = max(float(np.max((hips - feet) @ h)) - lead - st.pace_lag_m, 0.0)
+        lag = max(float(np.max((hips - feet) @ h)) - st.pace_lag_m, 0.0)
         lo, hi = st.pace_range
         return float(np.clip(1.0 + st.pace_gain_per_s * (ahead - lag) / self.climb_speed, lo, hi))
 
@@ -838,15 +833,13 @@ class TerrainNavigator:
         t_td, _ = path.next_touchdowns()
         p_new = path.p_world_touchdown.copy()
         last_xy = self._stance_xy.copy()
-        for leg in np.flatnonzero(~swinging | ~(np.abs(self._tread_t - t_td) < 0.15)):
-            self._tread_t[leg] = np.nan
+        # a chosen touchdown is forgotten once its leg is down or its swing lands at another time
+        self._tread_t[~swinging | ~(np.abs(self._tread_t - t_td) < 0.15)] = np.nan
         for k in range(path.n_touchdowns):
             leg = int(path.leg[k])
             line = lines[1 if leg in (0, 2) else 0]  # FL, RL on the left line
             first = bool(swinging[leg]) and abs(float(path.t_touchdown[k]) - float(t_td[leg])) < 1e-9
             nom = p_new[k, :2].copy()
-            if self._descending:
-                nom -= self.params.stairs.down_lead_m * line.heading
             u_nom = float(line.u(nom))
             if first and np.isfinite(self._tread_t[leg]):
                 # the tread chosen at liftoff; the place along it follows the selection within its window

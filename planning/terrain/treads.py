@@ -80,7 +80,12 @@ class TreadLine:
 
 
 def tread_line(
-    row: NDArray[np.float64], u0: float, res: float, rise_m: float, origin: NDArray[np.float64], heading: NDArray[np.float64]
+    row: NDArray[np.float64],
+    u0: float,
+    res: float,
+    rise_m: float,
+    origin: NDArray[np.float64],
+    heading: NDArray[np.float64],
 ) -> TreadLine:
     """Gives the TreadLine of one height profile row (N,) (m; NaN unknown) sampled every res m from u0 m along
     heading from origin: the risers are where the height changes by more than rise_m within two samples (a run of
@@ -92,7 +97,9 @@ def tread_line(
         return TreadLine(origin, heading, np.zeros(0), np.zeros(0))
     starts = idx[np.r_[True, np.diff(idx) > 1]]
     ends = idx[np.r_[np.diff(idx) > 1, True]]
-    signs = np.array([np.sign(dz[a + np.argmax(np.abs(dz[a : b + 1]))]) for a, b in zip(starts, ends, strict=True)])
+    signs = np.array(
+        [np.sign(dz[a + np.argmax(np.abs(dz[a : b + 1]))]) for a, b in zip(starts, ends, strict=True)]
+    )
     # dz[i] spans samples i..i+2; a step between samples j and j+1 lights dz[j-1] and dz[j]: its edge lies at
     # sample j + 1/2, i.e. the run's middle index + 1
     u = u0 + (0.5 * (starts + ends) + 1.0) * res

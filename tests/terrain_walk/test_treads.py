@@ -88,6 +88,8 @@ def test_shin_ground_carries_a_nosing_forward_over_the_tread_below_only() -> Non
     assert np.all(g[xs > edge] == pytest.approx(0.45))
     # going the other way (up the step) nothing changes: the high side is already behind the riser
     back = shin_ground(maps, -HEADING, 0.10).ground_height[:, 20]
-    assert np.allclose(back[(xs < 0.5 - 0.12) | (xs > 0.5 + RES)], h[(xs < 0.5 - 0.12) | (xs > 0.5 + RES), 20])
+    assert np.allclose(
+        back[(xs < 0.5 - 0.12) | (xs > 0.5 + RES)], h[(xs < 0.5 - 0.12) | (xs > 0.5 + RES), 20]
+    )
     # the input maps are left as they were
     assert np.array_equal(maps.ground_height, h)
