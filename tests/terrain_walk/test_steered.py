@@ -39,6 +39,8 @@ def _steered(maps: object, cmd: SteeringCommand, climb_speed: float | None = Non
     nav._dense_slowdown = lambda xy, yaw: TerrainNavigator._dense_slowdown(nav, xy, yaw)
     nav._dense_share = lambda xy, yaw: TerrainNavigator._dense_share(nav, xy, yaw)
     nav._obstacle_stop = lambda s, vx, vy, wz: TerrainNavigator._obstacle_stop(nav, s, vx, vy, wz)
+    nav._tread_lines = None  # off stairs: the climb speed as it is
+    nav._tread_pace = lambda s: TerrainNavigator._tread_pace(nav, s)
     return TerrainNavigator.steered_command(nav, RobotState())
 
 

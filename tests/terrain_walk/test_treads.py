@@ -3,10 +3,15 @@ by what bounds each tread, the tread a swing lands on, and the swing maps that c
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
+from planning.robot import load_robot
+from planning.sim.world import RobotState
 from planning.terrain.maps import maps_from_grids
+from planning.terrain.navigate import NavigatorParams, TerrainNavigator
 from planning.terrain.treads import TreadMargins, choose_tread, shin_ground, tread_line
 
 RES = 0.03
@@ -93,3 +98,38 @@ def test_shin_ground_carries_a_nosing_forward_over_the_tread_below_only() -> Non
     )
     # the input maps are left as they were
     assert np.array_equal(maps.ground_height, h)
+
+
+def _pacer(feet_x: list[float], held: dict[int, float] | None = None):
+    """TerrainNavigator._tread_pace on a stand-in navigator facing +x at the origin, feet at feet_x (FL, FR, RL,
+    RR), swings' chosen touchdowns at held (leg → x)."""
+
+    robot = load_robot("spot")
+    line = tread_line(_profile((0.5, 0.8), 0.15), -0.8, RES, 0.08, np.zeros(2), HEADING)
+    t = np.full(4, np.nan)
+    p = np.full((4, 3), np.nan)
+    for leg, x in (held or {}).items():
+        t[leg], p[leg] = 1.0, (x, 0.0, 0.0)
+    nav = SimpleNamespace(
+        params=NavigatorParams(),
+        _tread_lines=(line, line),
+        climb_speed=0.375,
+        _tread_t=t,
+        _tread_p=p,
+        p_body_hip_xy=np.asarray(robot.p_body_hip, dtype=float)[:, :2],
+    )
+    s = RobotState()
+    s.p_world_foot[:, 0] = feet_x
+    s.p_world_foot[:, 1] = [0.165, -0.165, 0.165, -0.165]
+    return TerrainNavigator._tread_pace(nav, s)  # type: ignore[arg-type]
+
+
+def test_the_body_is_paced_by_its_feet_on_stairs() -> None:
+    # feet under the hips: the climb speed as it is
+    assert _pacer([0.3, 0.3, -0.3, -0.3]) == pytest.approx(1.0)
+    # feet (or a swing's chosen touchdown) ahead of the body: faster, within the range's top
+    assert 1.0 < _pacer([0.3, 0.3, -0.3, -0.3], held={0: 0.6}) <= NavigatorParams().stairs.pace_range[1]
+    # a hind foot trailing its hip by more than pace_lag_m: slower, down to a stop
+    slow = _pacer([0.3, 0.3, -0.3, -0.55])
+    assert 0.0 <= slow < 1.0
+    assert _pacer([0.3, 0.3, -0.3, -0.9]) == pytest.approx(0.0)
