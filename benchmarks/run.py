@@ -225,6 +225,11 @@ def run_benchmarks(
         from planning.terrain.bench import bench_terrain_crossings
 
         out["terrain"] = bench_terrain_crossings()
+    if want("stairs_variants") and not quick:
+        say("bench: the stairs with the goal moved sideways, with the sensor and on ground-truth maps (slow)")
+        from planning.terrain.bench import bench_stairs_variants
+
+        out["stairs_variants"] = bench_stairs_variants()
     return out
 
 
@@ -264,6 +269,12 @@ def format_table(result: dict[str, Any]) -> str:
             f"{v['swing_collisions_per_100_steps']}; rtf {v['rtf']}"
             + (f"; {v['failure_reason']}" if v["failure_reason"] else "")
         )
+    sv = result.get("stairs_variants")
+    if sv:
+        lines.append(f"{'stairs_variants':24s} crossed {sv['crossed']} of {sv['runs']}")
+        for k, v in sv["by_variant"].items():
+            how = f"crossed in {v['time_s']} s" if v["crossed"] else (v["failure_reason"] or "not crossed")
+            lines.append(f"{'stairs_variants.' + k:24s} {how}")
     return "\n".join(lines)
 
 

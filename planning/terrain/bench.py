@@ -148,3 +148,24 @@ def bench_terrain_crossings(
             "failure_reason": r["failure_reason"],
         }
     return out
+
+
+def bench_stairs_variants(
+    offsets_m: tuple[float, ...] = (0.0, 0.04, -0.04, 0.08, -0.08), duration_s: float = 30.0
+) -> dict:
+    """Gives how robust the stairs crossing is: a terrain-aware walk to (6, y) for each goal offset y (m, sideways),
+    with the depth sensor and on ground-truth maps: {"runs", "crossed" (no fall, past the stairs), "by_variant":
+    {"sensor y=..." / "truth y=...": {"crossed", "time_s", "failure_reason"}}}. Slow: ten crossings."""
+    from planning.sim.run import RunOptions, WalkCommand, run_walk
+
+    by: dict = {}
+    for sensor in (True, False):
+        for y in offsets_m:
+            cmd = WalkCommand(goal=(6.0, y), terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
+            r = run_walk(cmd, RunOptions(terrain="stairs", duration_s=duration_s))
+            by[f"{'sensor' if sensor else 'truth'} y={y:+.2f}"] = {
+                "crossed": bool(r["crossed"]),
+                "time_s": r["time_to_cross_s"],
+                "failure_reason": r["failure_reason"],
+            }
+    return {"runs": len(by), "crossed": sum(v["crossed"] for v in by.values()), "by_variant": by}

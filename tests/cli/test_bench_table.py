@@ -1,0 +1,29 @@
+"""The bench's plain-text table: terrain crossings and the stairs variants are printed with their verdicts."""
+
+from __future__ import annotations
+
+from benchmarks.run import format_table
+
+
+def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
+    result = {
+        "stages": {},
+        "terrain": {
+            "stairs": {
+                "crossed": True, "fell": False, "no_step_touchdowns": 0, "body_collisions": 0,
+                "swing_collisions_per_100_steps": 0.0, "time_s": 12.56, "rtf": 1.1, "failure_reason": None,
+            },
+        },
+        "stairs_variants": {
+            "runs": 2,
+            "crossed": 1,
+            "by_variant": {
+                "sensor y=+0.00": {"crossed": True, "time_s": 12.56, "failure_reason": None},
+                "truth y=-0.08": {"crossed": False, "time_s": None, "failure_reason": "fell: RR_lleg_geom"},
+            },
+        },
+    }  # fmt: skip
+    text = format_table(result)
+    assert "terrain.stairs" in text and "crossed in 12.56 s" in text
+    assert "stairs_variants          crossed 1 of 2" in text
+    assert "stairs_variants.truth y=-0.08 fell: RR_lleg_geom" in text
