@@ -49,7 +49,14 @@ from planning.terrain.maps import TerrainMaps, _gradient, maps_from_scene, signe
 from planning.terrain.perception import Perception, PerceptionParams
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
-from planning.terrain.treads import TreadLine, TreadMargins, choose_tread, shin_ground, tread_line
+from planning.terrain.treads import (
+    TreadLine,
+    TreadMargins,
+    choose_tread,
+    risers_along,
+    shin_ground,
+    tread_line,
+)
 
 
 def _stairs_swing() -> dict[str, Any]:
@@ -1035,31 +1042,13 @@ def pit_between(h: NDArray[np.float64], z_feet: float, drop_m: float, return_m: 
     return False
 
 
-def _risers(
-    row: NDArray[np.float64], res: float, rise_m: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Gives the risers along one height profile row (N,) sampled every res m — where the height changes by more
-    than rise_m within two samples, runs of such samples counting once — as their centers (m from the profile's
-    second sample) and signs (+1 rising, -1 dropping, the run's largest change)."""
-    dz = row[2:] - row[:-2]  # centered on samples 1..N-2
-    idx = np.flatnonzero(np.abs(dz) > rise_m)
-    if idx.size == 0:
-        return np.zeros(0), np.zeros(0)
-    starts = idx[np.r_[True, np.diff(idx) > 1]]
-    ends = idx[np.r_[np.diff(idx) > 1, True]]
-    sign = np.sign(
-        [dz[a : b + 1][np.argmax(np.abs(dz[a : b + 1]))] for a, b in zip(starts, ends, strict=True)]
-    )
-    return np.asarray(0.5 * (starts + ends) * res, dtype=np.float64), np.asarray(sign, dtype=np.float64)
-
-
 def riser_pitch(h: NDArray[np.float64], res: float, rise_m: float, window_m: float) -> float | None:
-    """Gives the median distance (m) between successive risers (see _risers) along height profiles h (L, N)
+    """Gives the median distance (m) between successive risers (see treads.risers_along) along height profiles h (L, N)
     sampled every res m, window_m when only one riser is seen, None when none is."""
     gaps: list[float] = []
     seen = False
     for row in h:
-        centers, _ = _risers(row, res, rise_m)
+        centers, _ = risers_along(row, res, rise_m)
         if centers.size == 0:
             continue
         seen = True
@@ -1075,7 +1064,7 @@ def stair_run(h: NDArray[np.float64], res: float, rise_m: float, max_tread_m: fl
     within two samples) that all rise or all drop, each within max_tread_m of the one before."""
     best = []
     for row in h:
-        x, sign = _risers(row, res, rise_m)
+        x, sign = risers_along(row, res, rise_m)
         if x.size == 0:
             best.append(0)
             continue

@@ -79,6 +79,24 @@ class TreadLine:
         return lo, hi
 
 
+def risers_along(
+    row: NDArray[np.float64], res: float, rise_m: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gives the risers along one height profile row (N,) sampled every res m — where the height changes by more
+    than rise_m within two samples, runs of such samples counting once — as their centers (m from the profile's
+    second sample) and signs (+1 rising, -1 dropping, the run's largest change). Unknown (NaN) heights are none."""
+    dz = row[2:] - row[:-2]  # centered on samples 1..N-2
+    idx = np.flatnonzero(np.abs(dz) > rise_m)
+    if idx.size == 0:
+        return np.zeros(0), np.zeros(0)
+    starts = idx[np.r_[True, np.diff(idx) > 1]]
+    ends = idx[np.r_[np.diff(idx) > 1, True]]
+    sign = np.sign(
+        [dz[a : b + 1][np.argmax(np.abs(dz[a : b + 1]))] for a, b in zip(starts, ends, strict=True)]
+    )
+    return np.asarray(0.5 * (starts + ends) * res, dtype=np.float64), np.asarray(sign, dtype=np.float64)
+
+
 def tread_line(
     row: NDArray[np.float64],
     u0: float,
@@ -88,26 +106,15 @@ def tread_line(
     heading: NDArray[np.float64],
 ) -> TreadLine:
     """Gives the TreadLine of one height profile row (N,) (m; NaN unknown) sampled every res m from u0 m along
-    heading from origin: the risers are where the height changes by more than rise_m within two samples (a run of
-    such samples is one riser, at its middle)."""
-    row = np.asarray(row, dtype=np.float64)
-    dz = row[2:] - row[:-2]  # centered on samples 1..N-2
-    idx = np.flatnonzero(np.abs(np.nan_to_num(dz)) > rise_m)
-    if idx.size == 0:
-        return TreadLine(origin, heading, np.zeros(0), np.zeros(0))
-    starts = idx[np.r_[True, np.diff(idx) > 1]]
-    ends = idx[np.r_[np.diff(idx) > 1, True]]
-    signs = np.array(
-        [np.sign(dz[a + np.argmax(np.abs(dz[a : b + 1]))]) for a, b in zip(starts, ends, strict=True)]
-    )
-    # dz[i] spans samples i..i+2; a step between samples j and j+1 lights dz[j-1] and dz[j]: its edge lies at
-    # sample j + 1/2, i.e. the run's middle index + 1
-    u = u0 + (0.5 * (starts + ends) + 1.0) * res
+    heading from origin, its risers found by risers_along. (dz[i] spans samples i..i+2: a step between samples j
+    and j+1 lights dz[j-1] and dz[j], a run centered on sample j + 1/2, which risers_along counts from the
+    second sample.)"""
+    centers, signs = risers_along(np.asarray(row, dtype=np.float64), res, rise_m)
     return TreadLine(
         np.asarray(origin, dtype=np.float64).copy(),
         np.asarray(heading, dtype=np.float64).copy(),
-        np.asarray(u, dtype=np.float64),
-        signs.astype(np.float64),
+        u0 + res + centers,
+        signs,
     )
 
 
