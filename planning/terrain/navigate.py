@@ -859,8 +859,8 @@ class TerrainNavigator:
             if first and not np.isfinite(self._tread_t[leg]):
                 self._tread_t[leg] = t_td[leg]
                 self._tread_p[leg] = p_new[k]
-            p_new[k, 2] = float(maps.height_at(p_new[k, 0], p_new[k, 1]))
             last_xy[leg] = p_new[k, :2]
+        p_new[:, 2] = maps.height_at(p_new[:, 0], p_new[:, 1])
         return dataclasses.replace(sel, path=path.with_touchdowns(p_new, path.kind + "+treads"))
 
     def _hold_swing_targets(self, sel: Selection) -> Selection:

@@ -122,6 +122,10 @@ class ManeuverEditor:
         self.gizmo_item: int | None = None
         self.scrub_nodes: list[Any] = []
         self._validate_timer: threading.Timer | None = None
+        # edits so far, and the edit count of the document whose problems are shown: a check of an older document
+        # (a quiet-period timer that fired before the latest edit) must not overwrite a newer one's problems
+        self._rev = 0
+        self._shown_rev = -1
         self._suspend = False  # set while the GUI is written from the document (its callbacks must not echo)
 
     # ================================================================================================================
@@ -196,6 +200,7 @@ class ManeuverEditor:
         if self._suspend:
             return
         self.dirty = True
+        self._rev += 1
         if structural:
             self.rebuild_items()
         self._refresh_header()
@@ -675,6 +680,7 @@ class ManeuverEditor:
 
     def validate_now(self, announce: bool = False) -> Any:
         """Validates the document, shows the problems on their items; returns the result (None: shape errors)."""
+        rev = self._rev
         doc, ev_ids, kf_ids = self.document()
         try:
             maneuver = parse_maneuver(doc)
@@ -684,6 +690,9 @@ class ManeuverEditor:
             result = validate_maneuver(maneuver, self.services.robot)
             problems = [*result.failures, *result.warnings]
         with self.lock:
+            if rev < self._shown_rev:
+                return result  # a newer document's problems are shown already
+            self._shown_rev = rev
             self.result = result
             self.problems_by_item = {}
             self.general_problems = []

@@ -97,6 +97,33 @@ def test_a_tab_gets_a_live_robot_at_30_fps(studio_app: tuple[TestClient, Any], t
     assert tab.view is not None and len(tab.view.bodies) >= 13  # trunk + 4 × (hip, upper, lower)
 
 
+def test_a_check_of_an_older_document_does_not_hide_newer_problems(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    """Edits validate after a quiet period on a timer thread; a check that began before the latest edit (its
+    document older) and ends after the latest check must leave the newer problems shown."""
+    ed = tab.editor
+    assert ed.open("bow")
+    ed.sl_scrub.value = 1.0
+    ed.add_step("FL")
+    lo, td = next(p for p in ed._steps_of("FL"))
+    old_doc, old_rev = ed.document(), ed._rev
+    ed._set(td, "t", 0.9)  # touchdown before its liftoff
+    assert not ed.validate_now().ok
+    ui = ed.item_ui[id(td)]
+    assert ui.folder.label.startswith("✖")
+    # the late check of the document as it was before the edit: valid, but stale
+    new_rev, document = ed._rev, ed.document
+    ed._rev, ed.document = old_rev, lambda: old_doc
+    try:
+        assert ed.validate_now().ok
+    finally:
+        ed._rev, ed.document = new_rev, document
+    assert ui.folder.label.startswith("✖") and ui.problems.visible and not ed.result.ok
+    ed.delete_items(lo, td)
+    assert ed.validate_now().ok
+
+
 def test_open_edit_validate_and_preview(studio_app: tuple[TestClient, Any], tab: Any) -> None:
     client, _ = studio_app
     ed = tab.editor
