@@ -75,3 +75,15 @@ def test_steered_under_the_table_with_the_sensor() -> None:
     assert r["crossed"], r["time_to_cross_s"]
     assert r["navigator"]["min_body_height_target_m"] < 0.47
     assert r["navigator"]["body_paths"] == 0  # steered: no path planning
+
+
+def test_steered_over_the_stairs_with_the_sensor() -> None:
+    """Steered straight ahead at 0.5 m/s (no goal) with the depth sensor: the stairs mode caps the speed at one
+    tread per step (paced by the feet) and the tread-by-tread footholds carry the robot up and down (crossed at
+    ~12.4 s), no fall, no body collision."""
+    r = run_walk(WalkCommand(vx=0.5, terrain_sensor=True), RunOptions(terrain="stairs", duration_s=14.0))
+    assert not r["fell"], r["failure_reason"]
+    assert r["crossed"] and r["body_collisions"] == 0
+    assert r["no_step_touchdowns"] <= 2
+    assert r["navigator"]["stairs_mode_s"] > 8.0
+    assert r["mean_velocity"]["vx"] < 0.5  # capped on the stairs
