@@ -196,7 +196,8 @@ class WalkController:
         else:
             cmd = self.command
         if self.maps is not None:
-            self.handler.ground = (self.swing_maps or self.maps).height_at
+            swing_maps = self.maps if self.swing_maps is None else self.swing_maps
+            self.handler.ground = swing_maps.height_at
         sel = self.planner.tick(cmd, self._walk_state(s), self.maps)
         if self.reference_only:
             ref = sel.candidates[0]

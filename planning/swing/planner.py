@@ -489,7 +489,7 @@ class SwingPlanner:
     ) -> tuple[float | None, float]:
         """The height (m) the foot must reach before it moves over the terrain ahead (see
         SwingParams.rise_first_above_m), None when nothing on the route asks for it; and how far (m) the foot may
-        approach that terrain meanwhile.
+        approach that terrain meanwhile (negative: the foot is already closer to it than rise_first_gap_m).
 
         On a step up (touchdown above the lift-off by more than rise_first_above_m), terrain on the straight route
         from the foot to the touchdown (under the foot's center or its front) that stands above the line from the
