@@ -148,7 +148,9 @@ def test_step_qp_keeps_each_foothold_within_its_lateral_reach() -> None:
     center = req.p_nominal[k] - out * 0.1 * ey
     xs, ys = grid()
     X, Y = np.meshgrid(xs, ys, indexing="ij")
-    maps = maps_from_grids((xs[0], ys[0]), RES, np.zeros(X.shape), np.hypot(X - center[0], Y - center[1]) < 0.3)
+    maps = maps_from_grids(
+        (xs[0], ys[0]), RES, np.zeros(X.shape), np.hypot(X - center[0], Y - center[1]) < 0.3
+    )
 
     def lateral(reach_m: float) -> float:
         plan = StepQP(StepQPParams(lateral_reach_m=reach_m)).solve(req, maps)
