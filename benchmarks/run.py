@@ -230,6 +230,13 @@ def run_benchmarks(
         from planning.terrain.bench import bench_stairs_variants
 
         out["stairs_variants"] = bench_stairs_variants()
+    if (
+        only is not None and "clutter_variants" in only and not quick
+    ):  # asked for by name only: twelve crossings
+        say("bench: clutter scenes of eight seeds with the sensor and four on ground-truth maps (slow)")
+        from planning.terrain.bench import bench_clutter_variants
+
+        out["clutter_variants"] = bench_clutter_variants()
     return out
 
 
@@ -269,12 +276,14 @@ def format_table(result: dict[str, Any]) -> str:
             f"{v['swing_collisions_per_100_steps']}; rtf {v['rtf']}"
             + (f"; {v['failure_reason']}" if v["failure_reason"] else "")
         )
-    sv = result.get("stairs_variants")
-    if sv:
-        lines.append(f"{'stairs_variants':24s} crossed {sv['crossed']} of {sv['runs']}")
+    for name in ("stairs_variants", "clutter_variants"):
+        sv = result.get(name)
+        if not sv:
+            continue
+        lines.append(f"{name:24s} crossed {sv['crossed']} of {sv['runs']}")
         for k, v in sv["by_variant"].items():
             how = f"crossed in {v['time_s']} s" if v["crossed"] else (v["failure_reason"] or "not crossed")
-            lines.append(f"{'stairs_variants.' + k:24s} {how}")
+            lines.append(f"{name + '.' + k:24s} {how}")
     return "\n".join(lines)
 
 

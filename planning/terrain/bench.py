@@ -150,22 +150,40 @@ def bench_terrain_crossings(
     return out
 
 
-def bench_stairs_variants(
-    offsets_m: tuple[float, ...] = (0.0, 0.04, -0.04, 0.08, -0.08), duration_s: float = 30.0
+def bench_variants(
+    terrain: str, variants: list[tuple[str, int, float, bool]], duration_s: float = 30.0
 ) -> dict:
-    """Gives how robust the stairs crossing is: a terrain-aware walk to (6, y) for each goal offset y (m, sideways),
-    with the depth sensor and on ground-truth maps: {"runs", "crossed" (no fall, past the stairs), "by_variant":
-    {"sensor y=..." / "truth y=...": {"crossed", "time_s", "failure_reason"}}}. Slow: ten crossings."""
+    """Gives how robust a terrain's crossing is over variants (label, scene seed, goal y (m), with the depth sensor
+    or on ground-truth maps), each a terrain-aware walk to (6, y): {"runs", "crossed" (no fall, past the terrain),
+    "by_variant": {label: {"crossed", "time_s", "failure_reason"}}}. Slow: one crossing per variant."""
     from planning.sim.run import RunOptions, WalkCommand, run_walk
 
     by: dict = {}
-    for sensor in (True, False):
-        for y in offsets_m:
-            cmd = WalkCommand(goal=(6.0, y), terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
-            r = run_walk(cmd, RunOptions(terrain="stairs", duration_s=duration_s))
-            by[f"{'sensor' if sensor else 'truth'} y={y:+.2f}"] = {
-                "crossed": bool(r["crossed"]),
-                "time_s": r["time_to_cross_s"],
-                "failure_reason": r["failure_reason"],
-            }
+    for label, seed, y, sensor in variants:
+        cmd = WalkCommand(goal=(6.0, y), terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
+        r = run_walk(cmd, RunOptions(terrain=terrain, seed=seed, duration_s=duration_s))
+        by[label] = {
+            "crossed": bool(r["crossed"]),
+            "time_s": r["time_to_cross_s"],
+            "failure_reason": r["failure_reason"],
+        }
     return {"runs": len(by), "crossed": sum(v["crossed"] for v in by.values()), "by_variant": by}
+
+
+def bench_stairs_variants(offsets_m: tuple[float, ...] = (0.0, 0.04, -0.04, 0.08, -0.08)) -> dict:
+    """The stairs (scene seed 0) with the goal moved sideways by each offset (m), with the depth sensor and on
+    ground-truth maps (see bench_variants): ten crossings."""
+    return bench_variants(
+        "stairs",
+        [(f"{'sensor' if m else 'truth'} y={y:+.2f}", 0, y, m) for m in (True, False) for y in offsets_m],
+    )
+
+
+def bench_clutter_variants(sensor_seeds: int = 8, truth_seeds: int = 4) -> dict:
+    """Clutter scenes of seeds 0.. (each a different layout of boxes), to (6, 0), with the depth sensor and on
+    ground-truth maps (see bench_variants): twelve crossings."""
+    return bench_variants(
+        "clutter",
+        [(f"sensor seed {k}", k, 0.0, True) for k in range(sensor_seeds)]
+        + [(f"truth seed {k}", k, 0.0, False) for k in range(truth_seeds)],
+    )

@@ -12,7 +12,7 @@ last iterate, so the pattern never changes and the OSQP problem is built once an
 
   reach_rect   the reachable rectangle: the first step of a swinging leg lies within p0 + v0 T ± a_max T²/2 of
                its current position; later steps lie within a stride box around the leg's previous foothold
-  reach_oct    the reach octagon around the hip at touchdown (leg length), cut to a band across the heading
+  reach_oct    the reach octagon around the hip at touchdown (leg length)
   step_keep    step keep-out: half-planes approximating no-step regions, added iteratively (solve, find footholds
                in no-step cells, add the nearest boundary's half-plane, re-solve)
   margin       keep-out margin: the same half-planes pushed out by margin_m (soft)
@@ -60,9 +60,7 @@ class StepQPParams:
     (balance harder than margin); margin_m: keep-out margin; foot_body_clearance_m: feet from body obstacles;
     body_radius_m: refined body point from body obstacles; max_foot_accel: swing foot acceleration (m/s²);
     stride_box_m: (forward, lateral) half sizes of the box around a leg's previous foothold; leg_length_m: hip to
-    foot at full reach; lateral_reach_m: a foothold
-    lies at most this far to either side of its hip at touchdown, across the body heading (the reach octagon alone
-    let a foot dodging a box land 0.38 m out from its hip, and the robot rolled over it); hip_height_m: hip above the ground; self_lateral_m, self_longitudinal_m: minimum spacing
+    foot at full reach; hip_height_m: hip above the ground; self_lateral_m, self_longitudinal_m: minimum spacing
     to the lateral and longitudinal neighbors (body frame); self_taper: trapezoid slant (lateral spacing grows by
     this much per m of longitudinal offset, negative narrows); cop_fraction: least share of the weight per foot
     (two feet down); cop_margin_m: body point inside the support polygon by this much (three or four feet);
@@ -98,7 +96,6 @@ class StepQPParams:
     max_foot_accel: float = 40.0
     stride_box_m: tuple[float, float] = (0.45, 0.25)
     leg_length_m: float = 0.68
-    lateral_reach_m: float = 0.25
     hip_height_m: float = 0.52
     self_lateral_m: float = 0.10
     self_longitudinal_m: float = 0.25
@@ -243,7 +240,7 @@ class StepQP:
         self.b_rect = block(
             4, [p_of(k) + (p_of(k - 4) if k >= 4 else []) + [self._is(k, "reach_rect")] for k in range(K)]
         )
-        self.b_oct = block(10, [p_of(k) + dc_of(k) + [self._is(k, "reach_oct")] for k in range(K)])
+        self.b_oct = block(8, [p_of(k) + dc_of(k) + [self._is(k, "reach_oct")] for k in range(K)])
         self.b_keep = block(p.keep_planes, [p_of(k) + [self._is(k, "step_keep")] for k in range(K)])
         self.b_margin = block(p.keep_planes, [p_of(k) + [self._is(k, "margin")] for k in range(K)])
         self.b_fbody = block(1, [p_of(k) + [self._is(k, "body_keep")] for k in range(K)])
@@ -496,15 +493,6 @@ class StepQP:
                 vc = {ip: n[0], ip + 1: n[1], idc: -n[0], idc + 1: -n[1]}
                 self._set_row(self.b_oct, k, i, self._coeff_on(self.b_oct, k, vc, -1.0), -np.inf,
                               r * np.cos(np.pi / 8) + float(n @ req.p_hip[k]))  # fmt: skip
-            # ... and a band across the body heading: |ey·(p - hip - dc)| <= lateral_reach_m
-            vc = {ip: ey[0], ip + 1: ey[1], idc: -ey[0], idc + 1: -ey[1]}
-            c_hip = float(ey @ req.p_hip[k])
-            self._set_row(
-                self.b_oct, k, 8, self._coeff_on(self.b_oct, k, vc, -1.0), -np.inf, c_hip + p.lateral_reach_m
-            )
-            self._set_row(
-                self.b_oct, k, 9, self._coeff_on(self.b_oct, k, vc, 1.0), c_hip - p.lateral_reach_m, np.inf
-            )
             # Where every leg stands at touchdown k and in the middle of phase k.
             t_mid = self._phase_mid(k, t_td)
             stance_td = self._stance(k, float(t_td[k]), legs, t_lo, t_td)

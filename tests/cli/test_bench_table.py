@@ -22,8 +22,15 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
                 "truth y=-0.08": {"crossed": False, "time_s": None, "failure_reason": "fell: RR_lleg_geom"},
             },
         },
+        "clutter_variants": {
+            "runs": 1,
+            "crossed": 1,
+            "by_variant": {"sensor seed 0": {"crossed": True, "time_s": 16.86, "failure_reason": None}},
+        },
     }  # fmt: skip
     text = format_table(result)
     assert "terrain.stairs" in text and "crossed in 12.56 s" in text
     assert "stairs_variants          crossed 1 of 2" in text
     assert "stairs_variants.truth y=-0.08 fell: RR_lleg_geom" in text
+    assert "clutter_variants         crossed 1 of 1" in text
+    assert "clutter_variants.sensor seed 0 crossed in 16.86 s" in text
