@@ -110,16 +110,11 @@ class GaitClock:
         t0: float = 0.0,
         max_start_progress: float = 0.2,
         min_stance_fraction: float = 0.5,
-        min_support: int = 2,
     ) -> None:
         """gait: initial gait. t0: s. max_start_progress: fraction of a swing already elapsed under which a foot
         in stance may lift off immediately when a new gait says it should be swinging. min_stance_fraction: a
-        foot landing after a switch stays down at least this fraction of the new gait's stance time. min_support:
-        fewest feet left down while feet in the air at a switch finish their old swing (measured on clutter: a walk
-        to trot switch that lifted a diagonal pair while a third foot was still in the air left one foot down, and
-        the robot rolled over)."""
+        foot landing after a switch stays down at least this fraction of the new gait's stance time."""
         self.min_stance_fraction = float(min_stance_fraction)
-        self.min_support = int(min_support)
         self.gait: Gait = get_gait(gait)
         self._t_ref = float(t0)  # s, time at which the global phase was 0
         self._holds: list[list[tuple[float, bool]]] = [[] for _ in range(N_LEGS)]
@@ -316,46 +311,7 @@ class GaitClock:
                     if short and self._gait_contact(g, t_ref1, leg, t_td0 + _EPS_S):
                         t_lo1 = self._next_gait_event(g, t_ref1, leg, t_lo1, touchdown=False)
                     holds[leg].append((t_lo1, True))
-        self._keep_support(g, t_ref1, t, holds)
         return holds
-
-    def _keep_support(self, g: Gait, t_ref1: float, t: float, holds: list[list[tuple[float, bool]]]) -> None:
-        """Extends holds so that, while feet in the air at a switch finish their old swing, no new-gait liftoff
-        leaves fewer than min_support feet down: a foot that would lift then stays down through that swing."""
-        t_end = max((h[0][0] for h in holds if h and not h[0][1]), default=t)
-
-        def down(leg: int, when: float) -> bool:  # planned contact just after `when`, with the holds so far
-            for te, c in holds[leg]:
-                if when + _EPS_S < te:
-                    return c
-            return self._gait_contact(g, t_ref1, leg, when)
-
-        for _ in range(2 * N_LEGS):
-            times = {t} | {te for h in holds for te, _ in h if t < te < t_end}
-            for leg in range(N_LEGS):
-                te = self._next_gait_event(g, t_ref1, leg, t, touchdown=False)
-                while te < t_end:
-                    times.add(te)
-                    te = self._next_gait_event(g, t_ref1, leg, te, touchdown=False)
-            short = next(
-                (
-                    tt
-                    for tt in sorted(times)
-                    if sum(down(leg, tt) for leg in range(N_LEGS)) < self.min_support
-                ),
-                None,
-            )
-            if short is None:
-                return
-            before = [
-                self.leg_contact(leg, t + _EPS_S) if short <= t else down(leg, short - 2 * _EPS_S)
-                for leg in range(N_LEGS)
-            ]
-            lifting = [leg for leg in range(N_LEGS) if before[leg] and not down(leg, short)]
-            if not lifting:
-                return
-            for leg in lifting:
-                holds[leg].append((self._next_gait_event(g, t_ref1, leg, short, touchdown=False), True))
 
     def _switch(self, g: Gait, t: float, anchor: tuple[int, float] | None) -> None:
         t_ref1 = self._t_ref_for(g, t, anchor)

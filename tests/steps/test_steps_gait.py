@@ -123,23 +123,3 @@ def test_no_leg_lands_before_its_planned_touchdown_after_a_switch() -> None:
     for leg in air:
         first_down = ts[np.argmax(c[:, leg])]
         assert first_down >= planned[int(leg)] - DT
-
-
-@pytest.mark.parametrize("b", ["trot", "climb", "stairs", "pace", "bound"])
-def test_a_switch_from_the_walk_keeps_two_feet_down_whenever_it_is_asked(b: str) -> None:
-    """Asked at any moment of the walk, the switch to a two-beat gait never leaves fewer than two feet down
-    (feet finishing an old swing while the new gait lifts a pair would leave one); without the guard it does."""
-
-    def fewest_down(min_support: int) -> int:
-        fewest = 4
-        for t_req in np.arange(2.0, 3.0, 0.05):
-            clock = GaitClock("walk", min_support=min_support)
-            _run(clock, 0.0, float(t_req))
-            clock.request(b)
-            _, c = _run(clock, float(t_req), float(t_req) + 2.0)
-            assert clock.gait.name == b
-            fewest = min(fewest, int(c.sum(axis=1).min()))
-        return fewest
-
-    assert fewest_down(2) >= 2
-    assert fewest_down(0) < 2
