@@ -230,9 +230,8 @@ def run_benchmarks(
         from planning.terrain.bench import bench_stairs_variants
 
         out["stairs_variants"] = bench_stairs_variants()
-    if (
-        only is not None and "clutter_variants" in only and not quick
-    ):  # asked for by name only: twelve crossings
+    # clutter_variants runs only when asked for by name: twelve crossings
+    if only is not None and "clutter_variants" in only and not quick:
         say("bench: clutter scenes of eight seeds with the sensor and four on ground-truth maps (slow)")
         from planning.terrain.bench import bench_clutter_variants
 
