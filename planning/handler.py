@@ -69,6 +69,7 @@ class HandlerParams:
     stance_damping: float = 0.5  # N·m·s/rad on stance legs
     early_touchdown_fraction: float = 0.5  # a contact after this fraction of the swing counts as a touchdown
     max_liftoff_delay_s: float = 0.12  # a liftoff waits at most this long for a late foot to land
+    landing_wait_s: float = 0.04  # a foot due down within this counts as late for other legs' liftoffs
     min_stance_s: float = 0.08  # a foot that just landed stays down at least this long
     min_stance_legs: int = 2  # liftoffs wait (max_liftoff_delay_s at most) rather than leave fewer feet down
     self_collision_m: float = (
@@ -148,7 +149,10 @@ class Handler:
             else:
                 self.waiting = True  # landed late: it stays down min_stance_s first
         if due:
-            late = bool(np.any(self.phase == _LATE))
+            # a swing foot due down within landing_wait_s counts as late already: in a walk one foot's liftoff falls
+            # on another's touchdown, and a foot still high over an obstacle lands after its time
+            landing = (self.phase == _SWING) & (self.t_touchdown - t <= self.params.landing_wait_s)
+            late = bool(np.any((self.phase == _LATE) | landing))
             few = int(np.sum(self.phase == _STANCE)) - len(due) < self.params.min_stance_legs
             for leg, sw in due:
                 # the wait counts from when the liftoff fell due (the plan may have moved its liftoff time since)

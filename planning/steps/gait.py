@@ -121,6 +121,9 @@ class GaitClock:
         self._pending: Gait | None = None
         self._t_last = float(t0)
         self.max_start_progress = float(max_start_progress)
+        self.same_instant_s = (
+            0.004  # s, a liftoff this close before a switch counts as at the switch (2 ticks)
+        )
         self.t_switch: float = float(t0)  # s, time of the last switch
 
     # ---- queries ------------------------------------------------------------------------------------------------
@@ -282,11 +285,18 @@ class GaitClock:
         downs = [te for te, c in self._leg_events(leg, t - span, t) if c]
         return downs[-1] if downs else -math.inf
 
+    def _last_liftoff(self, leg: int, t: float) -> float:
+        """Returns when the leg, in swing at t, last lifted off (searching back up to two old-gait cycles)."""
+        span = 2.0 * (self.gait.cycle_s if not self.gait.is_stand else 1.0)
+        ups = [te for te, c in self._leg_events(leg, t - span, t + _EPS_S) if not c]
+        return ups[-1] if ups else -math.inf
+
     def _holds_for(
         self, g: Gait, t: float, anchor: tuple[int, float] | None
     ) -> list[list[tuple[float, bool]]]:
         t_ref1 = self._t_ref_for(g, t, anchor)
         min_stance = self.min_stance_fraction * g.stance_s
+        pairs = g.duty < 0.75 - 1e-9  # the new gait has two legs in the air at once (a trot, pace, bound)
         holds: list[list[tuple[float, bool]]] = [[] for _ in range(N_LEGS)]
         for leg in range(N_LEGS):
             c0 = self.leg_contact(leg, t + _EPS_S)
@@ -299,6 +309,11 @@ class GaitClock:
                 late = self._swing_progress(g, t_ref1, leg, t + _EPS_S) > self.max_start_progress
                 if late or t - self._last_touchdown(leg, t) < min_stance:
                     holds[leg].append((self._next_gait_event(g, t_ref1, leg, t, touchdown=False), True))
+            elif not c0 and c1 and pairs and t - self._last_liftoff(leg, t) <= self.same_instant_s:
+                # An old-gait swing that begins at the switch itself (at a walk's touchdown the diagonal leg lifts
+                # at the same instant) is not a foot in flight: when the new gait swings legs in pairs, the leg
+                # stays down with it rather than swing on while the new gait lifts a pair (three feet up at once).
+                continue
             elif not c0:
                 # Finish the swing in flight at its planned time, then follow the new gait (holding stance
                 # through a new-gait swing that would already be under way).

@@ -208,6 +208,9 @@ class NavigatorParams:
     the next stop_horizon_s keeps stop_margin_m from body obstacles (see _obstacle_stop; 0 s: never).
     late_descent_gain_per_s: set on the controller's swing planner (SwingParams): a late foot high above its
     touchdown (after a step down or a rise over a riser) descends faster, 1/s.
+    lag_slow_m: off stairs, the speed scales down linearly from 1 to 0 as the stance foot farthest behind its hip
+    (along the heading) trails it by the first to the second length (m): a foot whose step over a box failed, or
+    that landed short, is waited for instead of left behind while the body walks off its support.
     hip_ground_min_m, hip_ground_max_m: the body height target follows the ground under the hips where it differs
     from the feet's by more than the first, by at most the second (see _ground_offset; 0: never).
     """
@@ -260,6 +263,7 @@ class NavigatorParams:
     hip_ground_max_m: float = 0.15
     stay_slow: bool = True
     slow_gait_speed_mps: float = 0.3
+    lag_slow_m: tuple[float, float] = (0.22, 0.36)
     stairs: StairsMode = field(default_factory=StairsMode)
     stones: StonesMode = field(default_factory=StonesMode)
     stop_horizon_s: float = 0.6
@@ -726,7 +730,7 @@ class TerrainNavigator:
             if self.climb_speed is not None:
                 speed = min(self.climb_speed * self._tread_pace(s), p.goal_gain * dist)
             else:
-                speed *= self._dense_slowdown(xy, s.yaw)
+                speed *= self._dense_slowdown(xy, s.yaw) * self._lag_slowdown(s)
             del yaw_a
         d = target - xy
         n = float(np.linalg.norm(d))
@@ -744,7 +748,7 @@ class TerrainNavigator:
         slower where the step-obstacle map ahead is dense; the yaw rate within max_yaw_rate_rps."""
         p = self.params
         cmd = self.controller.command
-        cap = p.max_speed_mps * self._dense_slowdown(s.p_world_body[:2], s.yaw)
+        cap = p.max_speed_mps * self._dense_slowdown(s.p_world_body[:2], s.yaw) * self._lag_slowdown(s)
         if self.climb_speed is not None:
             cap = self.climb_speed * self._tread_pace(s)
         elif self.controller.gait == p.slow_gait:
@@ -772,6 +776,18 @@ class TerrainNavigator:
         lag = max(float(np.max((hips - feet) @ h)) - st.pace_lag_m, 0.0)
         lo, hi = st.pace_range
         return float(np.clip(1.0 + st.pace_gain_per_s * (ahead - lag) / self.climb_speed, lo, hi))
+
+    def _lag_slowdown(self, s: RobotState) -> float:
+        """Gives the factor (0 to 1) on the speed from how far the stance foot farthest behind its hip trails it
+        along the heading (see NavigatorParams.lag_slow_m); 1 with no foot down."""
+        lo, hi = self.params.lag_slow_m
+        stance = self.controller.handler.stance
+        if hi <= lo or not stance.any():
+            return 1.0
+        h = np.array([np.cos(s.yaw), np.sin(s.yaw)])
+        hips = s.p_world_body[:2] + rotate_yaw(s.yaw, self.p_body_hip_xy)
+        lag = float(np.max(((hips - s.p_world_foot[:, :2]) @ h)[stance]))
+        return float(np.clip((hi - lag) / (hi - lo), 0.0, 1.0))
 
     def _obstacle_stop(self, s: RobotState, vx: float, vy: float, wz: float) -> float:
         """Gives the largest of 1, 3/4, 1/2, 1/4, 0 by which the steered velocity (body frame, m/s, rad/s) may be

@@ -89,3 +89,38 @@ def test_a_knee_contact_is_a_knee_trip() -> None:
     h.update_phases(_state(0.12, (False, True, True, True)), plan)
     h.update_phases(_state(0.2, (False, True, True, True), knee=True), plan)
     assert h.trip_log[-1][1].kind == TripKind.KNEE
+
+
+class _WalkPlan:
+    """A walk's instant: FL swings 0.1–0.4 s and FR's swing is due at 0.38 s, just before FL is due down."""
+
+    def swing_at(self, leg: int, t: float) -> _Swing | None:
+        if leg == 0 and 0.1 <= t < 0.4:
+            return _Swing(0, 0.1, 0.4, np.array([0.35, 0.165, 0.0]))
+        if leg == 1 and 0.38 <= t < 0.68:
+            return _Swing(1, 0.38, 0.68, np.array([0.35, -0.165, 0.0]))
+        return None
+
+
+def test_a_liftoff_due_just_before_a_touchdown_waits_for_that_foot_to_land() -> None:
+    h = Handler(ROBOT)
+    plan = _WalkPlan()
+    h.update_phases(_state(0.0, (True,) * 4), plan)
+    h.update_phases(_state(0.12, (False, True, True, True)), plan)
+    assert h.phase[0] == Phase.SWING
+    # FL, still high over a box, is due down in 20 ms: FR waits rather than leave the right side unsupported
+    h.update_phases(_state(0.38, (False, True, True, True)), plan)
+    assert h.phase[1] == Phase.STANCE and h.waiting
+    h.update_phases(_state(0.45, (False, True, True, True)), plan)
+    assert h.phase[0] == Phase.LATE and h.phase[1] == Phase.STANCE
+    h.update_phases(_state(0.47, (True, True, True, True)), plan)  # FL lands: FR may go
+    assert h.phase[0] == Phase.STANCE
+    h.update_phases(_state(0.48, (True, True, True, True)), plan)
+    assert h.phase[1] == Phase.SWING
+    # ... and never longer than max_liftoff_delay_s
+    h2 = Handler(ROBOT)
+    h2.update_phases(_state(0.0, (True,) * 4), plan)
+    h2.update_phases(_state(0.12, (False, True, True, True)), plan)
+    h2.update_phases(_state(0.38, (False, True, True, True)), plan)
+    h2.update_phases(_state(0.38 + h2.params.max_liftoff_delay_s + 0.01, (False, True, True, True)), plan)
+    assert h2.phase[1] == Phase.SWING

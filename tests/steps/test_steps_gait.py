@@ -123,3 +123,18 @@ def test_no_leg_lands_before_its_planned_touchdown_after_a_switch() -> None:
     for leg in air:
         first_down = ts[np.argmax(c[:, leg])]
         assert first_down >= planned[int(leg)] - DT
+
+
+@pytest.mark.parametrize("b", ["climb", "stairs", "trot"])
+def test_a_switch_from_the_walk_keeps_two_feet_down(b: str) -> None:
+    # At a walk touchdown the diagonal leg lifts at the same instant; switching there to a trot-like gait must not
+    # let that leg swing on while the new gait lifts the other pair (three feet up at once).
+    worst = 4
+    for t_req in np.arange(1.0, 2.0, 0.05):
+        clock = GaitClock("walk")
+        _run(clock, 0.0, float(t_req))
+        clock.request(b)
+        _, c = _run(clock, float(t_req), float(t_req) + 2.0)
+        assert clock.gait.name == b
+        worst = min(worst, int(c.sum(axis=1).min()))
+    assert worst >= 2

@@ -85,6 +85,26 @@ def test_command_slows_where_the_step_map_is_dense() -> None:
     assert slow >= nav.params.min_speed_mps - 1e-9
 
 
+def test_command_waits_for_a_foot_left_behind() -> None:
+    session = _session()
+    nav: TerrainNavigator = session.navigator
+    s = session.loop.state
+    nav.path = plan_body_path(None, s.p_world_body[:2], s.yaw, nav.goal)
+    full = nav.command(s).vx
+    lo, hi = nav.params.lag_slow_m
+    hips = s.p_world_body[:2] + nav.p_body_hip_xy
+    s.p_world_foot[3, :2] = hips[3] - [
+        (lo + hi) / 2,
+        0.0,
+    ]  # RR, in stance, trails its hip halfway into the band
+    half = nav.command(s).vx
+    assert half == pytest.approx(full / 2, rel=0.05)
+    s.p_world_foot[3, :2] = hips[3] - [hi + 0.02, 0.0]
+    assert nav.command(s).vx == 0.0  # the body waits for that foot
+    nav.controller.handler.stance[3] = False  # the same foot in the air (its step under way) does not hold it
+    assert nav.command(s).vx == pytest.approx(full)
+
+
 def test_body_height_is_lowered_under_an_overhang_only() -> None:
     session = _session()
     nav: TerrainNavigator = session.navigator
