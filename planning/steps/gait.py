@@ -121,9 +121,8 @@ class GaitClock:
         self._pending: Gait | None = None
         self._t_last = float(t0)
         self.max_start_progress = float(max_start_progress)
-        self.same_instant_s = (
-            0.004  # s, a liftoff this close before a switch counts as at the switch (2 ticks)
-        )
+        # s, a liftoff this close before a switch counts as at the switch (2 ticks)
+        self.same_instant_s = 0.004
         self.t_switch: float = float(t0)  # s, time of the last switch
 
     # ---- queries ------------------------------------------------------------------------------------------------
@@ -279,17 +278,19 @@ class GaitClock:
             t_ref1 = t_a - g.offset[leg_a] * g.cycle_s
         return t_ref1
 
-    def _last_touchdown(self, leg: int, t: float) -> float:
-        """Returns when the leg, in stance at t, last landed (searching back up to two old-gait cycles)."""
+    def _last_event(self, leg: int, t_to: float, touchdown: bool) -> float:
+        """Returns the leg's last touchdown (or liftoff) up to t_to (searching back up to two old-gait cycles)."""
         span = 2.0 * (self.gait.cycle_s if not self.gait.is_stand else 1.0)
-        downs = [te for te, c in self._leg_events(leg, t - span, t) if c]
-        return downs[-1] if downs else -math.inf
+        events = [te for te, c in self._leg_events(leg, t_to - span, t_to) if c == touchdown]
+        return events[-1] if events else -math.inf
+
+    def _last_touchdown(self, leg: int, t: float) -> float:
+        """Returns when the leg, in stance at t, last landed."""
+        return self._last_event(leg, t, touchdown=True)
 
     def _last_liftoff(self, leg: int, t: float) -> float:
-        """Returns when the leg, in swing at t, last lifted off (searching back up to two old-gait cycles)."""
-        span = 2.0 * (self.gait.cycle_s if not self.gait.is_stand else 1.0)
-        ups = [te for te, c in self._leg_events(leg, t - span, t + _EPS_S) if not c]
-        return ups[-1] if ups else -math.inf
+        """Returns when the leg, in swing at t, last lifted off (a liftoff at t included)."""
+        return self._last_event(leg, t + _EPS_S, touchdown=False)
 
     def _holds_for(
         self, g: Gait, t: float, anchor: tuple[int, float] | None
