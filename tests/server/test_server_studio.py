@@ -91,8 +91,10 @@ def test_a_tab_gets_a_live_robot_at_30_fps(studio_app: tuple[TestClient, Any], t
     sid = tab.session.id
     sessions = {s["id"]: s for s in client.get("/sessions").json()}
     assert sessions[sid]["origin"] == "studio"
+    # the rate over the last 200 frames; on a 2-core machine the other test worker's simulations can hold it
+    # under 30 for a few seconds (seen at 28.7 in CI), so it is given time to show the rate a tab gets
     assert wait_for(
-        lambda: client.get("/studio").json()["fps"].get(str(tab.client.client_id), 0) >= 30, 5.0
+        lambda: client.get("/studio").json()["fps"].get(str(tab.client.client_id), 0) >= 30, 20.0
     ), client.get("/studio").json()
     assert tab.view is not None and len(tab.view.bodies) >= 13  # trunk + 4 × (hip, upper, lower)
 
