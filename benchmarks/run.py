@@ -230,12 +230,17 @@ def run_benchmarks(
         from planning.terrain.bench import bench_stairs_variants
 
         out["stairs_variants"] = bench_stairs_variants()
-    # clutter_variants runs only when asked for by name: twelve crossings
+    # clutter_variants and stones_variants run only when asked for by name: twelve and six crossings
     if only is not None and "clutter_variants" in only and not quick:
         say("bench: clutter scenes of eight seeds with the sensor and four on ground-truth maps (slow)")
         from planning.terrain.bench import bench_clutter_variants
 
         out["clutter_variants"] = bench_clutter_variants()
+    if only is not None and "stones_variants" in only and not quick:
+        say("bench: stepping-stone scenes of four seeds with the sensor and two on ground-truth maps (slow)")
+        from planning.terrain.bench import bench_stones_variants
+
+        out["stones_variants"] = bench_stones_variants()
     return out
 
 
@@ -275,7 +280,7 @@ def format_table(result: dict[str, Any]) -> str:
             f"{v['swing_collisions_per_100_steps']}; rtf {v['rtf']}"
             + (f"; {v['failure_reason']}" if v["failure_reason"] else "")
         )
-    for name in ("stairs_variants", "clutter_variants"):
+    for name in ("stairs_variants", "clutter_variants", "stones_variants"):
         sv = result.get(name)
         if not sv:
             continue

@@ -187,3 +187,14 @@ def bench_clutter_variants(sensor_seeds: int = 8, truth_seeds: int = 4) -> dict:
         [(f"sensor seed {k}", k, 0.0, True) for k in range(sensor_seeds)]
         + [(f"truth seed {k}", k, 0.0, False) for k in range(truth_seeds)],
     )
+
+
+def bench_stones_variants(sensor_seeds: int = 4, truth_seeds: int = 2) -> dict:
+    """Stepping-stone scenes of seeds 0.. (each a different spacing and size of stones), to (6, 0), with the
+    depth sensor and on ground-truth maps (see bench_variants): six crossings (35 s each at most)."""
+    return bench_variants(
+        "stones",
+        [(f"sensor seed {k}", k, 0.0, True) for k in range(sensor_seeds)]
+        + [(f"truth seed {k}", k, 0.0, False) for k in range(truth_seeds)],
+        duration_s=35.0,
+    )

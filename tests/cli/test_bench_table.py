@@ -27,6 +27,14 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
             "crossed": 1,
             "by_variant": {"sensor seed 0": {"crossed": True, "time_s": 16.86, "failure_reason": None}},
         },
+        "stones_variants": {
+            "runs": 2,
+            "crossed": 1,
+            "by_variant": {
+                "sensor seed 0": {"crossed": True, "time_s": 22.08, "failure_reason": None},
+                "sensor seed 3": {"crossed": False, "time_s": None, "failure_reason": "fell: RR_lleg_geom"},
+            },
+        },
     }  # fmt: skip
     text = format_table(result)
     assert "terrain.stairs" in text and "crossed in 12.56 s" in text
@@ -34,3 +42,5 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
     assert "stairs_variants.truth y=-0.08 fell: RR_lleg_geom" in text
     assert "clutter_variants         crossed 1 of 1" in text
     assert "clutter_variants.sensor seed 0 crossed in 16.86 s" in text
+    assert "stones_variants          crossed 1 of 2" in text
+    assert "stones_variants.sensor seed 3 fell: RR_lleg_geom" in text
