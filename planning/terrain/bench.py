@@ -182,19 +182,17 @@ def bench_stairs_variants(offsets_m: tuple[float, ...] = (0.0, 0.04, -0.04, 0.08
 def bench_clutter_variants(sensor_seeds: int = 8, truth_seeds: int = 4) -> dict:
     """Clutter scenes of seeds 0.. (each a different layout of boxes), to (6, 0), with the depth sensor and on
     ground-truth maps (see bench_variants): twelve crossings."""
-    return bench_variants(
-        "clutter",
-        [(f"sensor seed {k}", k, 0.0, True) for k in range(sensor_seeds)]
-        + [(f"truth seed {k}", k, 0.0, False) for k in range(truth_seeds)],
-    )
+    return bench_variants("clutter", _scene_seeds(sensor_seeds, truth_seeds))
 
 
 def bench_stones_variants(sensor_seeds: int = 4, truth_seeds: int = 2) -> dict:
     """Stepping-stone scenes of seeds 0.. (each a different spacing and size of stones), to (6, 0), with the
     depth sensor and on ground-truth maps (see bench_variants): six crossings (35 s each at most)."""
-    return bench_variants(
-        "stones",
-        [(f"sensor seed {k}", k, 0.0, True) for k in range(sensor_seeds)]
-        + [(f"truth seed {k}", k, 0.0, False) for k in range(truth_seeds)],
-        duration_s=35.0,
-    )
+    return bench_variants("stones", _scene_seeds(sensor_seeds, truth_seeds), duration_s=35.0)
+
+
+def _scene_seeds(sensor_seeds: int, truth_seeds: int) -> list[tuple[str, int, float, bool]]:
+    """The variants of scene seeds 0.. with the depth sensor and 0.. on ground-truth maps, to (6, 0)."""
+    return [(f"sensor seed {k}", k, 0.0, True) for k in range(sensor_seeds)] + [
+        (f"truth seed {k}", k, 0.0, False) for k in range(truth_seeds)
+    ]
