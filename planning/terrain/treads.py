@@ -34,12 +34,14 @@ class TreadMargins:
     riser_ahead_m: a riser in front (ground higher ahead): the toe and the swing's descent clear it;
     riser_behind_m: a riser behind (ground higher behind, going down): the stance shin clears its nosing;
     drop_ahead_m, drop_behind_m: a drop-off in front or behind (ground lower there): the foot sphere stays on the
-    tread. A window narrower than min_width_m is replaced by the segment's middle (min_width_m wide).
+    tread (10 cm in front: the sensor's ground-height map puts a drop-off's edge up to a cell late, where the
+    upper tread's height bleeds over it, and at 7 cm a foot stepping down landed 2.5 cm from the real edge). A
+    window narrower than min_width_m is replaced by the segment's middle (min_width_m wide).
     """
 
     riser_ahead_m: float = 0.08
     riser_behind_m: float = 0.12
-    drop_ahead_m: float = 0.07
+    drop_ahead_m: float = 0.10
     drop_behind_m: float = 0.06
     min_width_m: float = 0.02
 
@@ -159,3 +161,66 @@ def shin_ground(maps: TerrainMaps, heading: NDArray[np.float64], reach_m: float)
         b0, b1 = max(j, 0), ny + min(j, 0)
         np.fmax(g[a0:a1, b0:b1], src[a0 - i : a1 - i, b0 - j : b1 - j], out=g[a0:a1, b0:b1])
     return dataclasses.replace(maps, ground_height=g)
+
+
+def shin_clearance(
+    hip: NDArray[np.float64],
+    feet: NDArray[np.float64],
+    point: NDArray[np.float64],
+    l_upper: float,
+    l_lower: float,
+) -> NDArray[np.float64]:
+    """Gives the distance (m) from a point (a nosing) to the shin, the segment from the knee to the foot, for a leg
+    whose hip is at hip (2,) and whose foot is at each of feet (K, 2), all (along the heading, up) in m in the
+    leg's plane, the knee behind the hip-foot line (a knee that points back); -inf where the foot is out of reach.
+    """
+    hip = np.asarray(hip, dtype=np.float64)
+    d = np.asarray(feet, dtype=np.float64) - hip
+    D = np.hypot(d[:, 0], d[:, 1])
+    reach = (D < l_upper + l_lower - 1e-3) & (D > abs(l_upper - l_lower) + 1e-3)
+    Ds = np.where(reach, D, 1.0)
+    a = (l_upper**2 - l_lower**2 + Ds**2) / (2.0 * Ds)
+    h = np.sqrt(np.maximum(l_upper**2 - a**2, 0.0))
+    e = d / Ds[:, None]
+    perp = np.stack([-e[:, 1], e[:, 0]], axis=1)
+    perp *= np.where(perp[:, 0] > 0.0, -1.0, 1.0)[:, None]  # toward the back
+    knee = hip + a[:, None] * e + h[:, None] * perp
+    shin = feet - knee
+    t = np.clip(
+        np.sum((point - knee) * shin, axis=1) / np.maximum(np.sum(shin * shin, axis=1), 1e-12), 0.0, 1.0
+    )
+    dist = np.hypot(*(point - (knee + t[:, None] * shin)).T)
+    return np.where(reach, dist, -np.inf)
+
+
+def clear_of_nosing(
+    u: float,
+    window: tuple[float, float],
+    hip: NDArray[np.float64],
+    foot_z: float,
+    nosing: NDArray[np.float64],
+    l_upper: float,
+    l_lower: float,
+    clear_m: float,
+) -> float:
+    """Gives where along a tread (m) a foot stepping down lands so that its shin clears the nosing it stepped over
+    by clear_m (see shin_clearance): u itself if it does, else the nearest place in the window (lo, hi) that does,
+    else the place of the most clearance (u when none is in reach). hip (2,): where the hip will be at touchdown;
+    foot_z: the foot center's height on the tread; nosing (2,): the nosing's place, all (along the heading, up)."""
+    lo, hi = window
+    cands = np.arange(lo, hi + 1e-9, 0.01)
+    if cands.size == 0:
+        return u
+    feet = np.stack([cands, np.full(cands.size, foot_z)], axis=1)
+    c = shin_clearance(hip, feet, np.asarray(nosing, dtype=np.float64), l_upper, l_lower)
+    here = shin_clearance(
+        hip, np.array([[u, foot_z]]), np.asarray(nosing, dtype=np.float64), l_upper, l_lower
+    )
+    if here[0] >= clear_m:
+        return u
+    good = c >= clear_m
+    if np.any(good):
+        return float(cands[good][np.argmin(np.abs(cands[good] - u))])
+    if not np.isfinite(np.max(c)):
+        return u
+    return float(cands[int(np.argmax(c))])
