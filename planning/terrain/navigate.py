@@ -294,7 +294,8 @@ class NavigatorParams:
 
 @dataclass
 class NavigatorStats:
-    """Counters for the run report: replans of each kind, step-QP use and its timing (ms), time in the stairs mode (s)."""
+    """Counters for the run report: replans of each kind, step-QP use and its timing (ms), time in the stairs mode
+    and of it going down (s), time in the stones mode (s)."""
 
     scans: int = 0
     body_paths: int = 0
@@ -306,6 +307,7 @@ class NavigatorStats:
     min_height_m: float = np.inf
     gait_switches: int = 0
     stairs_mode_s: float = 0.0
+    stairs_descent_s: float = 0.0
     stones_mode_s: float = 0.0
 
     def summary(self) -> dict[str, Any]:
@@ -321,6 +323,7 @@ class NavigatorStats:
             "cadences": dict(self.cadences),
             "gait_switches": self.gait_switches,
             "stairs_mode_s": round(self.stairs_mode_s, 2),
+            "stairs_descent_s": round(self.stairs_descent_s, 2),
             "stones_mode_s": round(self.stones_mode_s, 2),
             "min_body_height_target_m": None
             if not np.isfinite(self.min_height_m)
@@ -592,6 +595,8 @@ class TerrainNavigator:
         u_hind = float(right.u(xy)) + float(np.min(self.p_body_hip_xy[:, 0]))
         ahead = np.concatenate([line.signs[line.risers > u_hind - 0.15] for line in (right, left)])
         self.descending = bool(np.any(ahead < 0) and not np.any(ahead > 0))
+        if self.descending:
+            self.stats.stairs_descent_s += 1.0 / p.perception_rate_hz
 
     def _update_stones(self, s: RobotState, res: float) -> None:
         """Enters the stepping-stones mode while either foot line shows a pit ahead (see StonesMode), leaves it

@@ -12,7 +12,14 @@ from planning.robot import load_robot
 from planning.sim.world import RobotState
 from planning.terrain.maps import maps_from_grids
 from planning.terrain.navigate import NavigatorParams, TerrainNavigator
-from planning.terrain.treads import TreadMargins, choose_tread, shin_ground, tread_line
+from planning.terrain.treads import (
+    TreadMargins,
+    choose_tread,
+    clear_of_nosing,
+    shin_clearance,
+    shin_ground,
+    tread_line,
+)
 
 RES = 0.03
 HEADING = np.array([1.0, 0.0])
@@ -133,3 +140,53 @@ def test_the_body_is_paced_by_its_feet_on_stairs() -> None:
     slow = _pacer([0.3, 0.3, -0.3, -0.55])
     assert 0.0 <= slow < 1.0
     assert _pacer([0.3, 0.3, -0.3, -0.9]) == pytest.approx(0.0)
+
+
+L_UPPER, L_LOWER = 0.32, 0.34  # the robot's thigh and shin (m)
+
+
+def _brute_shin_distance(hip: np.ndarray, foot: np.ndarray, point: np.ndarray) -> float:
+    """The knee found by sweeping the thigh's angle (the place l_lower from the foot, behind the hip-foot line),
+    then the point's distance to the shin sampled densely."""
+    a = np.linspace(-np.pi, np.pi, 200001)
+    knees = hip + L_UPPER * np.stack([np.cos(a), np.sin(a)], 1)
+    err = np.abs(np.hypot(*(knees - foot).T) - L_LOWER)
+    d = foot - hip
+    behind = (d[0] * (knees[:, 1] - hip[1]) - d[1] * (knees[:, 0] - hip[0])) * np.sign(d[1]) > 0
+    err[~behind] = np.inf
+    knee = knees[int(np.argmin(err))]
+    t = np.linspace(0.0, 1.0, 4001)[:, None]
+    return float(np.min(np.hypot(*(knee + t * (foot - knee) - point).T)))
+
+
+def test_shin_clearance_is_the_nosings_distance_to_the_shin_of_a_knee_back_leg() -> None:
+    """Against a brute-force knee (thigh angle swept) and a densely sampled shin; out of reach gives -inf."""
+    hip = np.array([0.05, 0.58])
+    nosing = np.array([0.0, 0.15])
+    feet = np.array([[0.10, 0.0], [0.17, 0.0], [0.25, 0.0], [0.05, 0.2]])
+    got = shin_clearance(hip, feet, nosing, L_UPPER, L_LOWER)
+    for foot, g in zip(feet, got, strict=True):
+        assert g == pytest.approx(_brute_shin_distance(hip, foot, nosing), abs=2e-3)
+    assert shin_clearance(hip, np.array([[0.9, 0.0]]), nosing, L_UPPER, L_LOWER)[0] == -np.inf
+    # the knee points back: a foot landing just ahead of the nosing below a hip over it has its shin across the
+    # nosing; landing farther ahead (the leg reaching forward) lifts the shin clear of it
+    assert got[0] < 0.03 < got[2]
+
+
+def test_a_foot_stepping_down_moves_along_its_tread_until_its_shin_clears_the_nosing() -> None:
+    hip = np.array([0.05, 0.58])  # (along the heading, up) with the nosing at (0, 0.15), the tread at 0
+    nosing = np.array([0.0, 0.15])
+    window = (0.12, 0.23)
+    u = clear_of_nosing(0.12, window, hip, 0.0, nosing, L_UPPER, L_LOWER, 0.07)
+    c = shin_clearance(hip, np.array([[u, 0.0]]), nosing, L_UPPER, L_LOWER)[0]
+    assert window[0] < u <= window[1] and c >= 0.07
+    # the nearest such place: 1 cm less and the shin is closer than wanted
+    assert shin_clearance(hip, np.array([[u - 0.01, 0.0]]), nosing, L_UPPER, L_LOWER)[0] < 0.07
+    # a place that clears already stays where it is
+    assert clear_of_nosing(0.22, window, hip, 0.0, nosing, L_UPPER, L_LOWER, 0.07) == pytest.approx(0.22)
+    # with no place in the window clear enough (a low hip), the place of the most clearance
+    low = np.array([0.05, 0.45])
+    v = clear_of_nosing(0.12, window, low, 0.0, nosing, L_UPPER, L_LOWER, 0.07)
+    cands = np.arange(window[0], window[1] + 1e-9, 0.01)
+    best = shin_clearance(low, np.stack([cands, np.zeros_like(cands)], 1), nosing, L_UPPER, L_LOWER)
+    assert shin_clearance(low, np.array([[v, 0.0]]), nosing, L_UPPER, L_LOWER)[0] == pytest.approx(best.max())
