@@ -948,7 +948,7 @@ class TerrainNavigator:
         )
         return clear_of_nosing(
             u,
-            (lo, min(hi, r + 0.45)),
+            (lo, min(hi, r + 0.45)),  # the floor after the flight has no far end: at most 45 cm on
             hip_uz,
             z_down + float(self.robot.foot_radius_m),
             np.array([r, z_up]),
