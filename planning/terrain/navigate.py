@@ -592,8 +592,8 @@ class TerrainNavigator:
         xy = s.p_world_body[:2]
         right, left = (tread_line(row, -p.climb_behind_m, res, p.climb_rise_m, xy, heading) for row in h)
         self._tread_lines = (right, left)
-        # going down: of the risers ahead of the hind hips, some drop and none rises
-        u_hind = float(right.u(xy)) + float(np.min(self.p_body_hip_xy[:, 0]))
+        # going down: of the risers ahead of the hind hips, some drop and none rises (the lines start at the body)
+        u_hind = float(np.min(self.p_body_hip_xy[:, 0]))
         ahead = np.concatenate([line.signs[line.risers > u_hind - 0.15] for line in (right, left)])
         self.descending = bool(np.any(ahead < 0) and not np.any(ahead > 0))
         if self.descending:

@@ -211,13 +211,12 @@ def clear_of_nosing(
     cands = np.arange(lo, hi + 1e-9, 0.01)
     if cands.size == 0:
         return u
-    feet = np.stack([cands, np.full(cands.size, foot_z)], axis=1)
-    c = shin_clearance(hip, feet, np.asarray(nosing, dtype=np.float64), l_upper, l_lower)
-    here = shin_clearance(
-        hip, np.array([[u, foot_z]]), np.asarray(nosing, dtype=np.float64), l_upper, l_lower
-    )
-    if here[0] >= clear_m:
+    places = np.append(cands, u)  # the window's places and u itself, in one call
+    feet = np.stack([places, np.full(places.size, foot_z)], axis=1)
+    c_all = shin_clearance(hip, feet, np.asarray(nosing, dtype=np.float64), l_upper, l_lower)
+    if c_all[-1] >= clear_m:
         return u
+    c = c_all[:-1]
     good = c >= clear_m
     if np.any(good):
         return float(cands[good][np.argmin(np.abs(cands[good] - u))])
