@@ -275,7 +275,8 @@ def format_table(result: dict[str, Any]) -> str:
         how = "crossed" if v["crossed"] else "not crossed"
         how += f" in {v['time_s']} s" if v["time_s"] is not None else ""
         lines.append(
-            f"{'terrain.' + k:24s} {how}; fell {v['fell']}; no-step touchdowns {v['no_step_touchdowns']}; "
+            f"{'terrain.' + k:24s} {how}; fell {v['fell']}; no-step touchdowns {v['no_step_touchdowns']} "
+            f"(scuffs {v.get('no_step_scuffs', 0)}); "
             f"body collisions {v['body_collisions']}; swing collisions per 100 steps "
             f"{v['swing_collisions_per_100_steps']}; rtf {v['rtf']}"
             + (f"; {v['failure_reason']}" if v["failure_reason"] else "")
@@ -287,6 +288,8 @@ def format_table(result: dict[str, Any]) -> str:
         lines.append(f"{name:24s} crossed {sv['crossed']} of {sv['runs']}")
         for k, v in sv["by_variant"].items():
             how = f"crossed in {v['time_s']} s" if v["crossed"] else (v["failure_reason"] or "not crossed")
+            if "no_step_touchdowns" in v:
+                how += f"; no-step touchdowns {v['no_step_touchdowns']} (scuffs {v['no_step_scuffs']})"
             lines.append(f"{name + '.' + k:24s} {how}")
     return "\n".join(lines)
 

@@ -119,7 +119,7 @@ def _summary(report: dict[str, Any]) -> str:
     if "crossed" in report:
         line += (
             f"; crossed {report['crossed']} (t={report['time_to_cross_s']} s), no-step touchdowns "
-            f"{report['no_step_touchdowns']}, body collisions {report['body_collisions']}, swing collisions "
+            f"{report['no_step_touchdowns']} (scuffs {report.get('no_step_scuffs', 0)}), body collisions {report['body_collisions']}, swing collisions "
             f"{report['swing_collisions_per_100_steps']} per 100 steps"
         )
     return line

@@ -19,16 +19,30 @@ def percentiles(values: list[float] | np.ndarray) -> dict[str, float]:
     return {"p50_ms": round(float(np.percentile(a, 50)), 4), "p99_ms": round(float(np.percentile(a, 99)), 4)}
 
 
+# A contact onset is a landing when the foot rose at least this far (m) above where it last left the ground: less
+# is a foot scuffing along the ground as it lifts, or chattering on it while it slides (seen at 2-10 ms apart on
+# the stones), not a step.
+LANDING_RISE_M = 0.01
+
+
 @dataclass
 class Touchdown:
     leg: int
     t: float
     p_world: np.ndarray  # contact point (foot center minus radius along z)
+    # how high the foot rose above where it last stood before this contact (m)
+    rise_m: float = float("inf")
+
+    @property
+    def landing(self) -> bool:
+        """Whether this contact ends a swing (the foot rose LANDING_RISE_M or more), not a scuff or a chatter."""
+        return self.rise_m >= LANDING_RISE_M
 
 
 @dataclass
 class Recorder:
-    """Watches every physics step: touchdowns (contact rising edges), the body path, velocity samples."""
+    """Watches every physics step: touchdowns (contact rising edges, each with how high the foot rose before it),
+    the body path, velocity samples."""
 
     foot_radius_m: float
     sample_period_s: float = 0.02
@@ -44,11 +58,16 @@ class Recorder:
     _t_prev: float = 0.0
     _prev_contact: np.ndarray = field(default_factory=lambda: np.ones(4, dtype=bool))
     _anchor: np.ndarray | None = None
+    _z_off: np.ndarray | None = None  # (4,) each foot's height when it was last on the ground, m
+    _z_top: np.ndarray | None = None  # (4,) each foot's highest point since, m
     _next_sample: float = 0.0
 
     def __call__(self, s: RobotState) -> None:
         if self._anchor is None:
             self._anchor = s.p_world_foot[:, :2].copy()
+        if self._z_off is None or self._z_top is None:
+            self._z_off = s.p_world_foot[:, 2].copy()
+            self._z_top = self._z_off.copy()
         contact = s.contact
         any_contact = bool(contact.any())
         if not any_contact:
@@ -57,13 +76,19 @@ class Recorder:
         if s.p_world_body[2] > self.max_body_height_m:
             self.max_body_height_m = float(s.p_world_body[2])
         prev = self._prev_contact
+        z = s.p_world_foot[:, 2]
+        np.maximum(self._z_top, z, out=self._z_top, where=~contact)
         rising = contact & ~prev
         if rising.any():
             for leg in np.flatnonzero(rising):
                 p = s.p_world_foot[leg].copy()
                 p[2] -= self.foot_radius_m
-                self.touchdowns.append(Touchdown(int(leg), s.t, p))
+                rise = float(self._z_top[leg] - self._z_off[leg])
+                self.touchdowns.append(Touchdown(int(leg), s.t, p, rise))
                 self._anchor[leg] = p[:2]
+        # where each foot in contact stands: the height the next rise is measured from
+        np.copyto(self._z_off, z, where=contact)
+        np.copyto(self._z_top, z, where=contact)
         if any_contact:
             d = s.p_world_foot[:, :2] - self._anchor
             slip = np.hypot(d[:, 0], d[:, 1])

@@ -164,6 +164,7 @@ class _Session:
             "fell": bool(self.loop.fell),
             "fall_time_s": None if self.loop.fall_time is None else round(self.loop.fall_time, 4),
             "no_step_touchdowns": 0,
+            "no_step_scuffs": 0,
             "body_collisions": 0 if not self.loop.fell else 1,
             "max_horizontal_drift_m": round(drift, 4),
             "max_foot_slip_m": round(rec.max_foot_slip_m, 4),
@@ -187,7 +188,7 @@ class _Session:
             "swing_collisions_per_100_steps": round(
                 100.0
                 * sum(1 for _, tr in self._handler().trip_log if tr.kind in _TERRAIN_TRIPS)
-                / max(len(rec.touchdowns), 1),
+                / max(sum(1 for td in rec.touchdowns if td.landing), 1),
                 2,
             ),
             "stages": stage_times,
@@ -467,7 +468,7 @@ class WalkSession(_Session):
                 "vy": round(float(mean_v[1]), 4),
                 "yaw_rate": round(mean_w, 4),
             },
-            "steps_taken": len(rec.touchdowns),
+            "steps_taken": sum(1 for td in rec.touchdowns if td.landing),
             "solver": _solver_section(self.controller, base["stages"]),
         }
 
@@ -476,8 +477,11 @@ class WalkSession(_Session):
         from planning.terrain.crossing import no_step_touchdowns, terrain_span_x
 
         rec = self.recorder
+        landings = [td.p_world for td in rec.touchdowns if td.landing]
+        others = [td.p_world for td in rec.touchdowns if not td.landing]
         out: dict[str, Any] = {
-            "no_step_touchdowns": no_step_touchdowns(self.scene, [td.p_world for td in rec.touchdowns]),
+            "no_step_touchdowns": no_step_touchdowns(self.scene, landings),
+            "no_step_scuffs": no_step_touchdowns(self.scene, others),
         }
         x_end = terrain_span_x(self.scene)[1]
         crossed_at = next(

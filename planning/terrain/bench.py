@@ -120,7 +120,7 @@ def bench_terrain_crossings(
     sensor: bool = True,
     truth_terrains: tuple[str, ...] = ("clutter", "stairs", "stones"),
 ) -> dict:
-    """Gives, per terrain, {"crossed", "fell", "no_step_touchdowns", "body_collisions",
+    """Gives, per terrain, {"crossed", "fell", "no_step_touchdowns", "no_step_scuffs", "body_collisions",
     "swing_collisions_per_100_steps", "time_s", "rtf", "stairs_mode_s",
     "reached_goal", "failure_reason"} of a terrain-aware walk to goal_xy in MuJoCo (time_s: simulated seconds until
     the body got past the terrain's end, None when it did not), with the depth sensor's maps (sensor=True) or the
@@ -139,6 +139,7 @@ def bench_terrain_crossings(
             "crossed": r["crossed"],
             "fell": r["fell"],
             "no_step_touchdowns": r["no_step_touchdowns"],
+            "no_step_scuffs": r["no_step_scuffs"],
             "body_collisions": r["body_collisions"],
             "swing_collisions_per_100_steps": r["swing_collisions_per_100_steps"],
             "time_s": r["time_to_cross_s"],
@@ -155,7 +156,8 @@ def bench_variants(
 ) -> dict:
     """Gives how robust a terrain's crossing is over variants (label, scene seed, goal y (m), with the depth sensor
     or on ground-truth maps), each a terrain-aware walk to (6, y): {"runs", "crossed" (no fall, past the terrain),
-    "by_variant": {label: {"crossed", "time_s", "failure_reason"}}}. Slow: one crossing per variant."""
+    "by_variant": {label: {"crossed", "time_s", "no_step_touchdowns", "no_step_scuffs", "failure_reason"}}}. Slow:
+    one crossing per variant."""
     from planning.sim.run import RunOptions, WalkCommand, run_walk
 
     by: dict = {}
@@ -165,6 +167,8 @@ def bench_variants(
         by[label] = {
             "crossed": bool(r["crossed"]),
             "time_s": r["time_to_cross_s"],
+            "no_step_touchdowns": r["no_step_touchdowns"],
+            "no_step_scuffs": r["no_step_scuffs"],
             "failure_reason": r["failure_reason"],
         }
     return {"runs": len(by), "crossed": sum(v["crossed"] for v in by.values()), "by_variant": by}

@@ -1,4 +1,4 @@
-"""The bench's plain-text table: terrain crossings and the stairs variants are printed with their verdicts."""
+"""The bench's plain-text table: terrain crossings and the stairs variants are printed with their verdicts and no-step counts."""
 
 from __future__ import annotations
 
@@ -31,7 +31,10 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
             "runs": 2,
             "crossed": 1,
             "by_variant": {
-                "sensor seed 0": {"crossed": True, "time_s": 22.08, "failure_reason": None},
+                "sensor seed 0": {
+                    "crossed": True, "time_s": 22.08, "no_step_touchdowns": 0, "no_step_scuffs": 2,
+                    "failure_reason": None,
+                },
                 "sensor seed 3": {"crossed": False, "time_s": None, "failure_reason": "fell: RR_lleg_geom"},
             },
         },
@@ -44,3 +47,6 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
     assert "clutter_variants.sensor seed 0 crossed in 16.86 s" in text
     assert "stones_variants          crossed 1 of 2" in text
     assert "stones_variants.sensor seed 3 fell: RR_lleg_geom" in text
+    # the no-step counts: landings, and the scuffs beside them
+    assert "stones_variants.sensor seed 0 crossed in 22.08 s; no-step touchdowns 0 (scuffs 2)" in text
+    assert "no-step touchdowns 0 (scuffs 0)" in text  # terrain.stairs, a result without the scuffs field
