@@ -198,13 +198,15 @@ def _request_at(p4: np.ndarray) -> StepRequest:
 @pytest.mark.parametrize("seed", [0, 2])
 def test_stones_crossing_on_ground_truth_maps(seed: int) -> None:
     """Ground-truth maps (terrain_sensor=False) isolate planning and control from perception (scene seeds 0 and 2,
-    measured crossed at 21.2 s and 21.9 s with 4 and 5 no-step touchdowns: a foot re-touching by a stone's edge)."""
+    measured crossed at 21.2 s and 21.9 s; 1 and 0 landings in a no-step place (a hind foot 2.5 cm from the
+    front edge of the stone behind), beside 3 and 5 scuffs: a foot dragging or chattering by a stone's edge)."""
     cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=False, stop_at_goal=True)
     r = run_walk(cmd, RunOptions(terrain="stones", duration_s=30.0, seed=seed))
     assert not r["fell"], r["failure_reason"]
     assert r["body_collisions"] == 0
     assert r["crossed"] and r["success"], r["failure_reason"]
-    assert r["no_step_touchdowns"] <= 8
+    assert r["no_step_touchdowns"] <= 1
+    assert r["no_step_scuffs"] <= 8
     assert r["navigator"]["stones_mode_s"] > 10.0
 
 
@@ -261,13 +263,15 @@ def test_stones_fill_reads_the_shadow_behind_a_stone_as_pit() -> None:
 
 @pytest.mark.parametrize("seed", [0, 2])
 def test_stones_crossing_with_the_sensor(seed: int) -> None:
-    """The product's default (terrain_sensor=True), scene seeds 0 and 2: measured crossed at 22.1 s, no fall, 2 and
-    1 no-step touchdowns (ground-truth check: feet within the edge band of a stone)."""
+    """The product's default (terrain_sensor=True), scene seeds 0 and 2: measured crossed at 22.1 s, no fall, no
+    landing in a no-step place (ground-truth check: within 2.5 cm of a stone's edge), 2 and 1 scuffs there (a foot
+    dragged toward an edge as it lifted)."""
     cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=True, stop_at_goal=True)
     r = run_walk(cmd, RunOptions(terrain="stones", duration_s=30.0, seed=seed))
     assert not r["fell"], r["failure_reason"]
     assert r["body_collisions"] == 0
     assert r["crossed"] and r["success"], r["failure_reason"]
     nav = r["navigator"]
-    assert r["no_step_touchdowns"] <= 8
+    assert r["no_step_touchdowns"] == 0
+    assert r["no_step_scuffs"] <= 6
     assert nav["stones_mode_s"] > 10.0 and nav["stairs_mode_s"] == 0.0
