@@ -47,6 +47,7 @@ class Recorder:
     foot_radius_m: float
     sample_period_s: float = 0.02
     touchdowns: list[Touchdown] = field(default_factory=list)
+    landings: int = 0  # how many of the touchdowns are landings (Touchdown.landing): the steps taken
     t: list[float] = field(default_factory=list)
     p_body: list[np.ndarray] = field(default_factory=list)
     rpy_body: list[np.ndarray] = field(default_factory=list)
@@ -83,8 +84,9 @@ class Recorder:
             for leg in np.flatnonzero(rising):
                 p = s.p_world_foot[leg].copy()
                 p[2] -= self.foot_radius_m
-                rise = float(self._z_top[leg] - self._z_off[leg])
-                self.touchdowns.append(Touchdown(int(leg), s.t, p, rise))
+                td = Touchdown(int(leg), s.t, p, float(self._z_top[leg] - self._z_off[leg]))
+                self.touchdowns.append(td)
+                self.landings += td.landing
                 self._anchor[leg] = p[:2]
         # where each foot in contact stands: the height the next rise is measured from
         np.copyto(self._z_off, z, where=contact)

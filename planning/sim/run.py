@@ -188,7 +188,7 @@ class _Session:
             "swing_collisions_per_100_steps": round(
                 100.0
                 * sum(1 for _, tr in self._handler().trip_log if tr.kind in _TERRAIN_TRIPS)
-                / max(sum(1 for td in rec.touchdowns if td.landing), 1),
+                / max(rec.landings, 1),
                 2,
             ),
             "stages": stage_times,
@@ -468,7 +468,7 @@ class WalkSession(_Session):
                 "vy": round(float(mean_v[1]), 4),
                 "yaw_rate": round(mean_w, 4),
             },
-            "steps_taken": sum(1 for td in rec.touchdowns if td.landing),
+            "steps_taken": rec.landings,
             "solver": _solver_section(self.controller, base["stages"]),
         }
 
