@@ -230,9 +230,9 @@ def run_benchmarks(
         from planning.terrain.bench import bench_stairs_variants
 
         out["stairs_variants"] = bench_stairs_variants()
-    # clutter_variants and stones_variants run only when asked for by name: twelve and six crossings
+    # clutter_variants and stones_variants run only when asked for by name: twenty-four and six crossings
     if only is not None and "clutter_variants" in only and not quick:
-        say("bench: clutter scenes of eight seeds with the sensor and four on ground-truth maps (slow)")
+        say("bench: clutter scenes of twelve seeds with the sensor and twelve on ground-truth maps (slow)")
         from planning.terrain.bench import bench_clutter_variants
 
         out["clutter_variants"] = bench_clutter_variants()

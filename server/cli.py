@@ -350,8 +350,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="run only this stage (repeatable): physics_step, stance_handler, swing_select, step_selection_25, "
         "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, maneuvers "
         "(every shipped maneuver), terrain (every terrain crossing), stairs_variants (the stairs with the goal "
-        "moved sideways by 0, ±2, ±4, ±6, ±8 cm, with the sensor and on ground-truth maps), clutter_variants (eight clutter layouts with the sensor, "
-        "four on ground-truth maps; only when named), stones_variants (four stepping-stone layouts with the sensor, "
+        "moved sideways by 0, ±2, ±4, ±6, ±8 cm, with the sensor and on ground-truth maps), clutter_variants (twelve clutter layouts with the sensor, "
+        "twelve on ground-truth maps; only when named), stones_variants (four stepping-stone layouts with the sensor, "
         "two on ground-truth maps; only when named)",
     )
     b.set_defaults(fn=cmd_bench)
