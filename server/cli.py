@@ -119,7 +119,8 @@ def _summary(report: dict[str, Any]) -> str:
     if "crossed" in report:
         line += (
             f"; crossed {report['crossed']} (t={report['time_to_cross_s']} s), no-step touchdowns "
-            f"{report['no_step_touchdowns']} (scuffs {report.get('no_step_scuffs', 0)}), body collisions {report['body_collisions']}, swing collisions "
+            f"{report['no_step_touchdowns']} (scuffs {report.get('no_step_scuffs', 0)}), "
+            f"body collisions {report['body_collisions']}, swing collisions "
             f"{report['swing_collisions_per_100_steps']} per 100 steps"
         )
     return line
@@ -350,9 +351,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="run only this stage (repeatable): physics_step, stance_handler, swing_select, step_selection_25, "
         "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, maneuvers "
         "(every shipped maneuver), terrain (every terrain crossing), stairs_variants (the stairs with the goal "
-        "moved sideways by 0, ±2, ±4, ±6, ±8 cm, with the sensor and on ground-truth maps), clutter_variants (twelve clutter layouts with the sensor, "
-        "twelve on ground-truth maps; only when named), stones_variants (four stepping-stone layouts with the sensor, "
-        "two on ground-truth maps; only when named)",
+        "moved sideways by 0, ±2, ±4, ±6, ±8 cm, with the sensor and on ground-truth maps), clutter_variants "
+        "(twelve clutter layouts with the sensor, twelve on ground-truth maps; only when named), stones_variants "
+        "(four stepping-stone layouts with the sensor, two on ground-truth maps; only when named)",
     )
     b.set_defaults(fn=cmd_bench)
 

@@ -477,11 +477,12 @@ class WalkSession(_Session):
         from planning.terrain.crossing import no_step_touchdowns, terrain_span_x
 
         rec = self.recorder
-        landings = [td.p_world for td in rec.touchdowns if td.landing]
-        others = [td.p_world for td in rec.touchdowns if not td.landing]
+        places: dict[bool, list[np.ndarray]] = {True: [], False: []}  # landings, and scuffs or chatter
+        for td in rec.touchdowns:
+            places[td.landing].append(td.p_world)
         out: dict[str, Any] = {
-            "no_step_touchdowns": no_step_touchdowns(self.scene, landings),
-            "no_step_scuffs": no_step_touchdowns(self.scene, others),
+            "no_step_touchdowns": no_step_touchdowns(self.scene, places[True]),
+            "no_step_scuffs": no_step_touchdowns(self.scene, places[False]),
         }
         x_end = terrain_span_x(self.scene)[1]
         crossed_at = next(

@@ -1,4 +1,5 @@
-"""The bench's plain-text table: terrain crossings and the stairs variants are printed with their verdicts and no-step counts."""
+"""The bench's plain-text table: terrain crossings and the stairs variants are printed with their verdicts and
+no-step counts."""
 
 from __future__ import annotations
 
