@@ -220,6 +220,11 @@ class NavigatorParams:
     a curb (long swings give the foot time to rise above a riser before moving on; None: never); the speed there
     is one riser pitch per gait cycle (one tread per step), within min_speed_mps and the gait's top speed.
     stairs: the stairs mode (see StairsMode); stones: the stepping-stones mode (see StonesMode).
+    keep_heading_m: walking to a goal, where the steering filter's clipping of the path's velocity component by
+    component (a walk's sideways limit is 0.19 m/s) would sweep the body's footprint within this of a body
+    obstacle over the next stop_horizon_s, the velocity is scaled as a whole into the limits instead, keeping
+    the path's direction (see _direction_kept; 0: never; not in the stairs and stones modes, whose forward
+    speed is paced by the treads and stones).
     stop_horizon_s, stop_margin_m: when steered, the commanded velocity slows so the body's footprint swept over
     the next stop_horizon_s keeps stop_margin_m from body obstacles (see _obstacle_stop; 0 s: never).
     late_descent_gain_per_s: set on the controller's swing planner (SwingParams): a late foot high above its
@@ -282,6 +287,7 @@ class NavigatorParams:
     lag_slow_m: tuple[float, float] = (0.22, 0.36)
     stairs: StairsMode = field(default_factory=StairsMode)
     stones: StonesMode = field(default_factory=StonesMode)
+    keep_heading_m: float = 0.15
     stop_horizon_s: float = 0.6
     stop_margin_m: float = 0.05
     hold_jump_m: float = 0.04
@@ -775,7 +781,39 @@ class TerrainNavigator:
         v_body = rotate_yaw(-s.yaw, v_world)
         dyaw = float((yaw_des - s.yaw + np.pi) % (2 * np.pi) - np.pi)
         wz = float(np.clip(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
+        if not (self.on_stones or self.on_stairs) and p.keep_heading_m > 0.0:
+            keep = self._direction_kept(float(v_body[0]), float(v_body[1]))
+            if keep < 1.0:
+                clipped = self.controller.planner.steering.limit(
+                    SteeringCommand(float(v_body[0]), float(v_body[1]), wz), self._steered_gait()
+                )
+                if self._swept_clearance(s, clipped.vx, clipped.vy, wz) < p.keep_heading_m:
+                    v_body *= keep
         return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
+
+    def _steered_gait(self) -> Any:
+        """The gait whose steering limits apply: the one walked or about to be (the walk gait from a stand)."""
+        planner = self.controller.planner
+        gait = planner.clock.pending or planner.clock.gait
+        return planner.walk_gait if gait.is_stand else gait
+
+    def _direction_kept(self, vx: float, vy: float) -> float:
+        """Gives the factor (0 to 1) on a body-frame velocity (m/s) that brings it within the steering limits of
+        the gait walked (or about to be) while keeping its direction: the steering filter clips each component
+        on its own, and a walk's sideways limit (0.19 m/s) would otherwise turn a path's sideways leg around a
+        box into a walk straight on, into the box."""
+        planner = self.controller.planner
+        gait = self._steered_gait()
+        big = 1e3
+        hi = planner.steering.limit(SteeringCommand(big, big, 0.0), gait)
+        lo = planner.steering.limit(SteeringCommand(-big, -big, 0.0), gait)
+        k = 1.0
+        for v, v_hi, v_lo in ((vx, hi.vx, lo.vx), (vy, hi.vy, lo.vy)):
+            if v > v_hi > 0.0:
+                k = min(k, v_hi / v)
+            elif v < v_lo < 0.0:
+                k = min(k, v_lo / v)
+        return k
 
     def steered_command(self, s: RobotState) -> SteeringCommand:
         """Gives the operator's velocity command (the controller's, body frame) with its speed capped where the
@@ -830,21 +868,26 @@ class TerrainNavigator:
         body-obstacle map (or does not come closer than it is now): steering stops short of a wall, a table leg or
         a tall box instead of walking into it."""
         p = self.params
-        maps = self.maps
-        if maps is None or p.stop_horizon_s <= 0.0 or (abs(vx) < 1e-6 and abs(vy) < 1e-6):
+        if self.maps is None or p.stop_horizon_s <= 0.0 or (abs(vx) < 1e-6 and abs(vy) < 1e-6):
             return 1.0
-        fp, r = p.path.footprint_x_m, p.path.footprint_r_m
-        xy0 = s.p_world_body[:2]
-        now = float(np.min(sweep_points_clearance(maps, xy0[None, :], np.array([s.yaw]), fp))) - r
-        need = min(p.stop_margin_m, now)
-        t = np.linspace(p.stop_horizon_s / 6, p.stop_horizon_s, 6)
-        yaw = s.yaw + wz * t
+        need = min(p.stop_margin_m, self._swept_clearance(s, 0.0, 0.0, 0.0))
         for f in (1.0, 0.75, 0.5, 0.25):
-            v_world = rotate_yaw(s.yaw, np.array([vx * f, vy * f]))
-            xy = xy0 + t[:, None] * v_world[None, :]
-            if float(np.min(sweep_points_clearance(maps, xy, yaw, fp))) - r >= need - 1e-3:
+            if self._swept_clearance(s, vx * f, vy * f, wz) >= need - 1e-3:
                 return f
         return 0.0
+
+    def _swept_clearance(self, s: RobotState, vx: float, vy: float, wz: float) -> float:
+        """Gives the smallest clearance (m) from the body-obstacle map of the body's footprint swept over the
+        next stop_horizon_s at the body-frame velocity (m/s, rad/s); +inf without maps."""
+        p = self.params
+        maps = self.maps
+        if maps is None:
+            return float("inf")
+        fp, r = p.path.footprint_x_m, p.path.footprint_r_m
+        t = np.linspace(0.0, p.stop_horizon_s, 7)
+        v_world = rotate_yaw(s.yaw, np.array([vx, vy]))
+        xy = s.p_world_body[:2] + t[:, None] * v_world[None, :]
+        return float(np.min(sweep_points_clearance(maps, xy, s.yaw + wz * t, fp))) - r
 
     def _dense_share(self, xy: NDArray[np.float64], yaw: float) -> float:
         """Gives the no-step share of the dense_radius_m disk ahead of the body (0 without maps)."""

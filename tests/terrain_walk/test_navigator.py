@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from planning.sim.run import RunOptions, WalkCommand, WalkSession
+from planning.steps import SteeringCommand
 from planning.steps.state import StepPath
 from planning.terrain.bodypath import plan_body_path
 from planning.terrain.crossing import no_step_flags, no_step_touchdowns, terrain_span_x
@@ -103,6 +104,36 @@ def test_command_waits_for_a_foot_left_behind() -> None:
     assert nav.command(s).vx == 0.0  # the body waits for that foot
     nav.controller.handler.stance[3] = False  # the same foot in the air (its step under way) does not hold it
     assert nav.command(s).vx == pytest.approx(full)
+
+
+def test_a_sideways_path_beside_a_box_keeps_its_direction_in_the_walk() -> None:
+    """In the walk (sideways limit 0.19 m/s) a path leg at 45° to the right: with a box straight ahead, clipping
+    vy alone would walk the body into it, so the whole velocity is scaled and keeps the path's direction; in the
+    open the clipped command (more forward progress) stands."""
+    session = _session(goal=(3.0, -3.0))
+    nav: TerrainNavigator = session.navigator
+    s = session.loop.state
+    nav.controller.set_gait("walk")
+    nav.controller.planner.clock.advance(0.0)
+    nav.path = plan_body_path(None, s.p_world_body[:2], s.yaw, nav.goal)
+    xs, ys = _grid()
+    h = np.zeros((xs.size, ys.size))
+    nothing = np.zeros(h.shape, bool)
+    box = (np.abs(xs[:, None] - 0.75) < 0.15) & (np.abs(ys[None, :]) < 0.3)
+    walk = nav._steered_gait()
+    assert walk.name == "walk"
+    lim = nav.controller.planner.steering.limit(SteeringCommand(1.0, -1.0, 0.0), walk)
+
+    nav.maps = maps_from_grids((xs[0], ys[0]), RES, h, nothing, box)
+    kept = nav.command(s)
+    assert kept.vy < 0.0 and kept.vx == pytest.approx(-kept.vy, rel=0.02)  # 45°, as the path
+    assert abs(kept.vy) <= abs(lim.vy) + 1e-9
+
+    nav.maps = maps_from_grids((xs[0], ys[0]), RES, h, nothing, nothing)
+    open_ground = nav.command(s)
+    assert open_ground.vx > kept.vx + 0.01 and open_ground.vx == pytest.approx(-open_ground.vy, rel=0.02)
+    limited = nav.controller.planner.steering.limit(open_ground, walk)
+    assert limited.vx > abs(limited.vy) + 0.01  # the steering filter then clips it off the diagonal
 
 
 def test_body_height_is_lowered_under_an_overhang_only() -> None:

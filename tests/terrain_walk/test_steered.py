@@ -41,6 +41,7 @@ def _steered(maps: object, cmd: SteeringCommand, climb_speed: float | None = Non
     nav._dense_slowdown = lambda xy, yaw: TerrainNavigator._dense_slowdown(nav, xy, yaw)
     nav._dense_share = lambda xy, yaw: TerrainNavigator._dense_share(nav, xy, yaw)
     nav._obstacle_stop = lambda s, vx, vy, wz: TerrainNavigator._obstacle_stop(nav, s, vx, vy, wz)
+    nav._swept_clearance = lambda s, vx, vy, wz: TerrainNavigator._swept_clearance(nav, s, vx, vy, wz)
     nav._lag_slowdown = lambda s: TerrainNavigator._lag_slowdown(nav, s)  # no foot down: no lag
     nav._tread_lines = None  # off stairs: the climb speed as it is
     nav._tread_pace = lambda s: TerrainNavigator._tread_pace(nav, s)
