@@ -287,7 +287,7 @@ class NavigatorParams:
     lag_slow_m: tuple[float, float] = (0.22, 0.36)
     stairs: StairsMode = field(default_factory=StairsMode)
     stones: StonesMode = field(default_factory=StonesMode)
-    keep_heading_m: float = 0.15
+    keep_heading_m: float = 0.3
     stop_horizon_s: float = 0.6
     stop_margin_m: float = 0.05
     hold_jump_m: float = 0.04
