@@ -34,7 +34,7 @@ from scipy import ndimage
 from planning.sim.loop import Stage
 from planning.sim.world import RobotState
 from planning.steps import SteeringCommand
-from planning.steps.gait import get_gait
+from planning.steps.gait import Gait, get_gait
 from planning.steps.select import Selection
 from planning.steps.state import StepPath, rotate_yaw
 from planning.terrain.bodypath import (
@@ -223,7 +223,7 @@ class NavigatorParams:
     keep_heading_m: walking to a goal, where the steering filter's clipping of the path's velocity component by
     component (a walk's sideways limit is 0.19 m/s) would sweep the body's footprint within this of a body
     obstacle over the next stop_horizon_s, the velocity is scaled as a whole into the limits instead, keeping
-    the path's direction (see _direction_kept; 0: never; not in the stairs and stones modes, whose forward
+    the path's direction (see direction_kept; 0: never; not in the stairs and stones modes, whose forward
     speed is paced by the treads and stones).
     stop_horizon_s, stop_margin_m: when steered, the commanded velocity slows so the body's footprint swept over
     the next stop_horizon_s keeps stop_margin_m from body obstacles (see _obstacle_stop; 0 s: never).
@@ -782,38 +782,20 @@ class TerrainNavigator:
         dyaw = float((yaw_des - s.yaw + np.pi) % (2 * np.pi) - np.pi)
         wz = float(np.clip(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
         if not (self.on_stones or self.on_stairs) and p.keep_heading_m > 0.0:
-            keep = self._direction_kept(float(v_body[0]), float(v_body[1]))
-            if keep < 1.0:
-                clipped = self.controller.planner.steering.limit(
-                    SteeringCommand(float(v_body[0]), float(v_body[1]), wz), self._steered_gait()
-                )
-                if self._swept_clearance(s, clipped.vx, clipped.vy, wz) < p.keep_heading_m:
-                    v_body *= keep
+            vx, vy = float(v_body[0]), float(v_body[1])
+            clipped = self.controller.planner.steering.limit(
+                SteeringCommand(vx, vy, wz), self._steered_gait()
+            )
+            keep = direction_kept(vx, vy, clipped)
+            if keep < 1.0 and self._swept_clearance(s, clipped.vx, clipped.vy, wz) < p.keep_heading_m:
+                v_body *= keep
         return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
 
-    def _steered_gait(self) -> Any:
+    def _steered_gait(self) -> Gait:
         """The gait whose steering limits apply: the one walked or about to be (the walk gait from a stand)."""
         planner = self.controller.planner
         gait = planner.clock.pending or planner.clock.gait
         return planner.walk_gait if gait.is_stand else gait
-
-    def _direction_kept(self, vx: float, vy: float) -> float:
-        """Gives the factor (0 to 1) on a body-frame velocity (m/s) that brings it within the steering limits of
-        the gait walked (or about to be) while keeping its direction: the steering filter clips each component
-        on its own, and a walk's sideways limit (0.19 m/s) would otherwise turn a path's sideways leg around a
-        box into a walk straight on, into the box."""
-        planner = self.controller.planner
-        gait = self._steered_gait()
-        big = 1e3
-        hi = planner.steering.limit(SteeringCommand(big, big, 0.0), gait)
-        lo = planner.steering.limit(SteeringCommand(-big, -big, 0.0), gait)
-        k = 1.0
-        for v, v_hi, v_lo in ((vx, hi.vx, lo.vx), (vy, hi.vy, lo.vy)):
-            if v > v_hi > 0.0:
-                k = min(k, v_hi / v)
-            elif v < v_lo < 0.0:
-                k = min(k, v_lo / v)
-        return k
 
     def steered_command(self, s: RobotState) -> SteeringCommand:
         """Gives the operator's velocity command (the controller's, body frame) with its speed capped where the
@@ -1164,6 +1146,17 @@ class TerrainNavigator:
             v_feet=s.v_world_foot[:, :2].copy(),
             t_now=float(t_now),
         )
+
+
+def direction_kept(vx: float, vy: float, clipped: SteeringCommand) -> float:
+    """Gives the factor (0 to 1) on a body-frame velocity (m/s) that brings it within the limits its clipped
+    version shows (the steering filter clips each component on its own) while keeping its direction: a walk's
+    sideways limit (0.19 m/s) would otherwise turn a path's sideways leg around a box into a walk straight on."""
+    k = 1.0
+    for v, c in ((vx, clipped.vx), (vy, clipped.vy)):
+        if v * c > 0.0 and abs(c) < abs(v):
+            k = min(k, c / v)
+    return k
 
 
 def pit_between(h: NDArray[np.float64], z_feet: float, drop_m: float, return_m: float) -> bool:
