@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planning.handler import Handler, Phase
+from planning.handler import Handler, HandlerParams, Phase
 from planning.robot import load_robot
 from planning.sim.world import RobotState
 from planning.swing import TripKind
@@ -124,3 +124,35 @@ def test_a_liftoff_due_just_before_a_touchdown_waits_for_that_foot_to_land() -> 
     h2.update_phases(_state(0.38, (False, True, True, True)), plan)
     h2.update_phases(_state(0.38 + h2.params.max_liftoff_delay_s + 0.01, (False, True, True, True)), plan)
     assert h2.phase[1] == Phase.SWING
+
+
+def _replanned_height(h: Handler, off_m: float) -> tuple[float, float]:
+    """FL swings; 20 ms into it the measured foot is off_m above its plan. Returns (the plan's height then, the
+    height the replanned swing starts from)."""
+    plan = _Plan()
+    h.update_phases(_state(0.0, (True,) * 4), plan)
+    s = _state(0.15, (False, True, True, True))
+    h.update_phases(s, plan)
+    h.plan_swings(s)
+    z_plan = float(h.plans[0].sample(0.17)[0][2])
+    s = _state(0.17, (False, True, True, True))
+    s.p_world_foot[0, 2] = z_plan + ROBOT.foot_radius_m + off_m
+    h.update_phases(s, plan)
+    h.plan_swings(s)
+    return z_plan, float(h.plans[0].sample(0.17)[0][2])
+
+
+def test_a_swing_near_its_plan_is_replanned_from_the_plans_height_when_asked() -> None:
+    """With replan_height_from_plan_m (the stairs mode's rule) a foot 2 cm over its plan is replanned from the
+    plan's height, so the joint feedback keeps pulling it onto one trajectory; 5 cm off (blocked, pushed) it is
+    replanned from where it is; and by default every swing starts from the measured foot."""
+    z_plan, z_new = _replanned_height(
+        Handler(ROBOT, params=HandlerParams(replan_height_from_plan_m=0.03)), 0.02
+    )
+    assert abs(z_new - z_plan) < 1e-6
+    z_plan, z_new = _replanned_height(
+        Handler(ROBOT, params=HandlerParams(replan_height_from_plan_m=0.03)), 0.05
+    )
+    assert abs(z_new - (z_plan + 0.05)) < 1e-6
+    z_plan, z_new = _replanned_height(Handler(ROBOT), 0.02)
+    assert abs(z_new - (z_plan + 0.02)) < 1e-6

@@ -204,6 +204,23 @@ def test_stairs_variants_cross_going_down(sensor: bool, goal_y: float) -> None:
     assert r["navigator"]["stairs_descent_s"] > 1.0
 
 
+def test_a_stairs_variant_that_fell_climbing_crosses() -> None:
+    """The goal 2 cm to the left, with the sensor: a climb that fell before the stairs mode replanned a swing's
+    height from its last plan (a front foot rising over a riser went on rising past its planned top, landed
+    late, and the next diagonal lifted off before it was down). It crosses now, with no touchdown in a no-step
+    cell, and the handler's rule is off again once the mode is left."""
+    from planning.sim.run import WalkSession
+
+    cmd = WalkCommand(goal=(6.0, 0.02), terrain_aware=True, terrain_sensor=True, stop_at_goal=True)
+    session = WalkSession(cmd, RunOptions(terrain="stairs", duration_s=20.0))
+    r = session.run()
+    assert not r["fell"], r["failure_reason"]
+    assert r["body_collisions"] == 0
+    assert r["crossed"] and r["success"], r["failure_reason"]
+    assert r["no_step_touchdowns"] == 0
+    assert session.controller.handler.params.replan_height_from_plan_m == 0.0
+
+
 def test_tread_footholds_land_every_stairs_touchdown_on_a_tread() -> None:
     """On the way up (ground-truth maps), every touchdown is on a tread or the floor, clear of the riser ahead by
     the foot's radius and of the nosing behind: the tread windows hold in closed loop, not just on paper."""
