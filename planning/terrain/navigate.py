@@ -106,7 +106,12 @@ class StairsMode:
     from its last plan while the foot is within this of it, so the leg keeps tracking one trajectory (replanned
     from the measured foot, a foot rising over a riser went on rising 12 cm past its planned top and the next pair
     lifted off before it landed; 15 of the 18 stairs variants crossed, 17 with it; the stones crawl, tuned against
-    the measured replanning, crossed 2–3 of 6 with it against 5, so it stays a stairs rule).
+    the measured replanning, crossed 2–3 of 6 with it against 5, so it stays a stairs rule); center_m: climbing,
+    the path point the body steers to is moved across the heading to the middle of the span free of body
+    obstacles through it (the railings), looked for up to center_m either side (0: off; see corridor_middle): a
+    path planned from where the body is runs along the stairs at whatever offset a sway or a detour left it, and
+    three climbs rolled over toward the railing they had drifted to (30 of 34 variants crossed, 32 with it; going
+    down too, 32 as well, but the default walk with the sensor fell going down).
 
     Going down (no riser left ahead of the hind hips that rises, one that drops): descent_gait, the trot with
     0.3 s swings (the 0.4 s diagonal phases of "stairs" let the body roll or drift sideways off its line, one
@@ -143,6 +148,7 @@ class StairsMode:
     pace_range: tuple[float, float] = (0.0, 1.5)
     shin_reach_m: float = 0.10
     replan_height_from_plan_m: float = 0.03
+    center_m: float = 0.8
 
 
 def _stones_qp() -> StepQPParams:
@@ -404,6 +410,10 @@ class TerrainNavigator:
         self._held_p = np.full((4, 3), np.nan)
         # Held touchdown targets of the swinging legs (world, m), nan when none.
         self._held_swing = np.full((4, 3), np.nan)
+        c = self.params.stairs.center_m
+        self._center_offsets = np.linspace(
+            -c, c, 2 * int(round(c / 0.02)) + 1
+        )  # across the heading, every 2 cm
         self.holds = 0
         # Stairs: the risers along the right and left feet's lines (see planning.terrain.treads), the last stance
         # place of each foot (m, world) and each swing's chosen touchdown (time s, place (3,) m; nan: none).
@@ -790,6 +800,8 @@ class TerrainNavigator:
             else:
                 speed *= self._dense_slowdown(xy, s.yaw) * self._lag_slowdown(s)
             del yaw_a
+            if self.on_stairs and not self.descending and self.maps is not None and p.stairs.center_m > 0.0:
+                target = target + corridor_middle(self.maps.sdf_body, target, s.yaw, self._center_offsets)
         d = target - xy
         n = float(np.linalg.norm(d))
         if n < 1e-9:
@@ -1163,6 +1175,28 @@ class TerrainNavigator:
             v_feet=s.v_world_foot[:, :2].copy(),
             t_now=float(t_now),
         )
+
+
+def corridor_middle(
+    sdf_body: Callable[[NDArray[np.float64], NDArray[np.float64]], Any],
+    xy: NDArray[np.float64],
+    yaw: float,
+    offsets: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """Gives the shift (2,) m, world, across the heading yaw that brings xy to the middle of the span free of body
+    obstacles through it (sdf_body > 0 at the offsets, m, sorted, symmetric about 0): zero when xy is not free or
+    the span reaches the end of the offsets on either side (no corridor, nothing to center in)."""
+    n = np.array([-np.sin(yaw), np.cos(yaw)])
+    free = np.asarray(sdf_body(xy[0] + offsets * n[0], xy[1] + offsets * n[1]), dtype=np.float64) > 0.0
+    mid = len(offsets) // 2
+    if not free[mid]:
+        return np.zeros(2)
+    blocked = np.flatnonzero(~free)
+    left, right = blocked[blocked < mid], blocked[blocked > mid]
+    if left.size == 0 or right.size == 0:
+        return np.zeros(2)
+    lo, hi = offsets[left[-1] + 1], offsets[right[0] - 1]
+    return 0.5 * float(lo + hi) * n
 
 
 def direction_kept(vx: float, vy: float, clipped: SteeringCommand) -> float:

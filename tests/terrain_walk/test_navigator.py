@@ -11,7 +11,13 @@ from planning.steps.state import StepPath
 from planning.terrain.bodypath import plan_body_path
 from planning.terrain.crossing import no_step_flags, no_step_touchdowns, terrain_span_x
 from planning.terrain.maps import maps_from_grids
-from planning.terrain.navigate import NavigatorParams, TerrainNavigator, shin_keepout, with_keepouts
+from planning.terrain.navigate import (
+    NavigatorParams,
+    TerrainNavigator,
+    corridor_middle,
+    shin_keepout,
+    with_keepouts,
+)
 from planning.terrain.scenes import build_terrain
 
 RES = 0.03
@@ -261,3 +267,21 @@ def test_bad_goal_is_rejected_with_the_field_named() -> None:
             session.controller, session.world.model, session.world.data, (1.0, 0.0), None,
             NavigatorParams(use_sensor=False),
         )  # fmt: skip
+
+
+def test_corridor_middle_centres_between_railings_and_leaves_open_ground_alone() -> None:
+    """Between two railings (body obstacles at y = ±0.67) a point 10 cm right of the middle is moved 10 cm left,
+    whichever way the body faces along the corridor; turned 90° the same railings leave no span to center in
+    (none across the heading), nor does open ground or a point inside an obstacle."""
+    offsets = np.linspace(-0.8, 0.8, 81)
+
+    def rails(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return 0.65 - np.abs(np.asarray(y))  # > 0 between the railings' inner faces at ±0.65
+
+    shift = corridor_middle(rails, np.array([2.0, -0.10]), 0.0, offsets)
+    assert np.allclose(shift, [0.0, 0.10], atol=0.011)
+    shift = corridor_middle(rails, np.array([2.0, 0.10]), np.pi, offsets)  # walking the other way
+    assert np.allclose(shift, [0.0, -0.10], atol=0.011)
+    assert np.allclose(corridor_middle(rails, np.array([2.0, -0.1]), np.pi / 2, offsets), 0.0)
+    assert np.allclose(corridor_middle(lambda x, y: np.ones_like(x), np.array([2.0, 0.0]), 0.0, offsets), 0.0)
+    assert np.allclose(corridor_middle(rails, np.array([2.0, 0.7]), 0.0, offsets), 0.0)

@@ -205,19 +205,26 @@ def test_stairs_variants_cross_going_down(sensor: bool, goal_y: float) -> None:
 
 
 def test_a_stairs_variant_that_fell_climbing_crosses() -> None:
-    """The goal 2 cm to the left, with the sensor: a climb that fell before the stairs mode replanned a swing's
-    height from its last plan (a front foot rising over a riser went on rising past its planned top, landed
-    late, and the next diagonal lifted off before it was down). It crosses now, with no touchdown in a no-step
-    cell, and the handler's rule is off again once the mode is left."""
+    """The goal 3 cm to the right, with the sensor: a climb that fell before the body was centred between the
+    railings going up (a 0.4 s detour of the body path at the foot of the flight left the body 8 cm right of its
+    line; it climbed along there, drifted on toward the railing and rolled over). It crosses now, with no
+    touchdown in a no-step cell, the body within 12 cm of the middle up the flight and over the landing, and the
+    handler's swing-height rule of the stairs mode is off again once the mode is left."""
     from planning.sim.run import WalkSession
 
-    cmd = WalkCommand(goal=(6.0, 0.02), terrain_aware=True, terrain_sensor=True, stop_at_goal=True)
+    cmd = WalkCommand(goal=(6.0, -0.03), terrain_aware=True, terrain_sensor=True, stop_at_goal=True)
     session = WalkSession(cmd, RunOptions(terrain="stairs", duration_s=20.0))
     r = session.run()
+    body = np.array(session.recorder.p_body)
+    up = body[
+        (body[:, 0] > 1.0) & (body[:, 0] < 3.3)
+    ]  # up the flight and over the landing (railings at ±0.67)
+    worst = float(np.max(np.abs(up[:, 1])))
     assert not r["fell"], r["failure_reason"]
     assert r["body_collisions"] == 0
     assert r["crossed"] and r["success"], r["failure_reason"]
     assert r["no_step_touchdowns"] == 0
+    assert worst < 0.12, worst
     assert session.controller.handler.params.replan_height_from_plan_m == 0.0
 
 
