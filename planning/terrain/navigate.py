@@ -410,10 +410,9 @@ class TerrainNavigator:
         self._held_p = np.full((4, 3), np.nan)
         # Held touchdown targets of the swinging legs (world, m), nan when none.
         self._held_swing = np.full((4, 3), np.nan)
+        # the offsets across the heading at which the stairs' corridor is looked for, every 2 cm
         c = self.params.stairs.center_m
-        self._center_offsets = np.linspace(
-            -c, c, 2 * int(round(c / 0.02)) + 1
-        )  # across the heading, every 2 cm
+        self._center_offsets = np.linspace(-c, c, 2 * int(round(c / 0.02)) + 1)
         self.holds = 0
         # Stairs: the risers along the right and left feet's lines (see planning.terrain.treads), the last stance
         # place of each foot (m, world) and each swing's chosen touchdown (time s, place (3,) m; nan: none).
@@ -800,7 +799,8 @@ class TerrainNavigator:
             else:
                 speed *= self._dense_slowdown(xy, s.yaw) * self._lag_slowdown(s)
             del yaw_a
-            if self.on_stairs and not self.descending and self.maps is not None and p.stairs.center_m > 0.0:
+            climbing = self.on_stairs and not self.descending and p.stairs.center_m > 0.0
+            if climbing and self.maps is not None and s_ahead < path.length_m:  # a path point, not the goal
                 target = target + corridor_middle(self.maps.sdf_body, target, s.yaw, self._center_offsets)
         d = target - xy
         n = float(np.linalg.norm(d))
