@@ -174,7 +174,7 @@ def test_stair_run_counts_a_flight_and_not_a_box() -> None:
 @pytest.mark.parametrize("sensor", [True, False], ids=["sensor", "truth"])
 def test_stairs_crossing(sensor: bool) -> None:
     """Closed loop up the four risers, over the landing and down to (6, 0), with the depth sensor and on the
-    scene's ground-truth maps, in the stairs mode (≈11.7 s and ≈11.9 s to cross): no fall, no body collision,
+    scene's ground-truth maps, in the stairs mode (≈11.7 s and ≈11.8 s to cross): no fall, no body collision,
     crossed, at the goal, no touchdown in a no-step cell, and the mode was on, going down part of the time."""
     cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
     r = run_walk(cmd, RunOptions(terrain="stairs", duration_s=20.0))
