@@ -237,7 +237,9 @@ def run_benchmarks(
 
         out["clutter_variants"] = bench_clutter_variants()
     if only is not None and "stones_variants" in only and not quick:
-        say("bench: stepping-stone scenes of four seeds with the sensor and two on ground-truth maps (slow)")
+        say(
+            "bench: stepping-stone scenes of eight seeds with the sensor and four on ground-truth maps (slow)"
+        )
         from planning.terrain.bench import bench_stones_variants
 
         out["stones_variants"] = bench_stones_variants()

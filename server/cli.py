@@ -353,7 +353,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(every shipped maneuver), terrain (every terrain crossing), stairs_variants (the stairs with the goal "
         "moved sideways by 0, ±2, ±4, ±6, ±8 cm, with the sensor and on ground-truth maps), clutter_variants "
         "(twelve clutter layouts with the sensor, twelve on ground-truth maps; only when named), stones_variants "
-        "(four stepping-stone layouts with the sensor, two on ground-truth maps; only when named)",
+        "(eight stepping-stone layouts with the sensor, four on ground-truth maps; only when named)",
     )
     b.set_defaults(fn=cmd_bench)
 
