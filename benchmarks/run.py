@@ -230,12 +230,17 @@ def run_benchmarks(
         from planning.terrain.bench import bench_stairs_variants
 
         out["stairs_variants"] = bench_stairs_variants()
-    # clutter_variants and stones_variants run only when asked for by name: twenty-four and six crossings
+    # clutter_variants (and _shifted) and stones_variants run only when asked for by name: 24, 24 and 12 crossings
     if only is not None and "clutter_variants" in only and not quick:
         say("bench: clutter scenes of twelve seeds with the sensor and twelve on ground-truth maps (slow)")
         from planning.terrain.bench import bench_clutter_variants
 
         out["clutter_variants"] = bench_clutter_variants()
+    if only is not None and "clutter_variants_shifted" in only and not quick:
+        say("bench: the same clutter scenes with the goal moved 1 mm sideways, to see what is chance (slow)")
+        from planning.terrain.bench import bench_clutter_variants
+
+        out["clutter_variants_shifted"] = bench_clutter_variants(goal_y_m=0.001)
     if only is not None and "stones_variants" in only and not quick:
         say(
             "bench: stepping-stone scenes of eight seeds with the sensor and four on ground-truth maps (slow)"
@@ -283,7 +288,7 @@ def format_table(result: dict[str, Any]) -> str:
             f"{v['swing_collisions_per_100_steps']}; rtf {v['rtf']}"
             + (f"; {v['failure_reason']}" if v["failure_reason"] else "")
         )
-    for name in ("stairs_variants", "clutter_variants", "stones_variants"):
+    for name in ("stairs_variants", "clutter_variants", "clutter_variants_shifted", "stones_variants"):
         sv = result.get(name)
         if not sv:
             continue

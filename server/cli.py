@@ -352,7 +352,9 @@ def build_parser() -> argparse.ArgumentParser:
         "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, maneuvers "
         "(every shipped maneuver), terrain (every terrain crossing), stairs_variants (the stairs with the goal "
         "moved sideways by 0, ±2, ±4, ±6, ±8 cm, with the sensor and on ground-truth maps), clutter_variants "
-        "(twelve clutter layouts with the sensor, twelve on ground-truth maps; only when named), stones_variants "
+        "(twelve clutter layouts with the sensor, twelve on ground-truth maps; only when named), "
+        "clutter_variants_shifted (the same with the goal moved 1 mm sideways: which outcomes are chance; only "
+        "when named), stones_variants "
         "(eight stepping-stone layouts with the sensor, four on ground-truth maps; only when named)",
     )
     b.set_defaults(fn=cmd_bench)

@@ -28,6 +28,11 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
             "crossed": 1,
             "by_variant": {"sensor seed 0": {"crossed": True, "time_s": 16.86, "failure_reason": None}},
         },
+        "clutter_variants_shifted": {
+            "runs": 1,
+            "crossed": 0,
+            "by_variant": {"sensor seed 0": {"crossed": False, "time_s": None, "failure_reason": "fell: trunk_geom"}},
+        },
         "stones_variants": {
             "runs": 2,
             "crossed": 1,
@@ -46,6 +51,8 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
     assert "stairs_variants.truth y=-0.08 fell: RR_lleg_geom" in text
     assert "clutter_variants         crossed 1 of 1" in text
     assert "clutter_variants.sensor seed 0 crossed in 16.86 s" in text
+    assert "clutter_variants_shifted crossed 0 of 1" in text
+    assert "clutter_variants_shifted.sensor seed 0 fell: trunk_geom" in text
     assert "stones_variants          crossed 1 of 2" in text
     assert "stones_variants.sensor seed 3 fell: RR_lleg_geom" in text
     # the no-step counts: landings, and the scuffs beside them
