@@ -351,7 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="run only this stage (repeatable): physics_step, stance_handler, swing_select, step_selection_25, "
         "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, maneuvers "
         "(every shipped maneuver), terrain (every terrain crossing), stairs_variants (the stairs with the goal "
-        "moved sideways by 0, ±2, ±4, ±6, ±8 cm, with the sensor and on ground-truth maps), clutter_variants "
+        "moved sideways by −8 to +8 cm, every centimetre, with the sensor and on ground-truth maps), clutter_variants "
         "(twelve clutter layouts with the sensor, twelve on ground-truth maps; only when named), "
         "clutter_variants_shifted (the same with the goal moved 1 mm sideways: which outcomes are chance; only "
         "when named), stones_variants "
