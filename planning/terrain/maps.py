@@ -231,18 +231,50 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
     return h
 
 
+def _cumulative_layers(obstacle: NDArray[np.bool_]) -> NDArray[np.int32]:
+    """Gives the inclusive count of obstacle layers up to each layer, z-major (nz, nx, ny); obstacle is (nx, ny, nz).
+
+    Layer by layer (one add per layer over a contiguous plane): a cumsum along the last axis of the (often
+    z-major underneath) occupancy is several times slower."""
+    obs = np.moveaxis(obstacle, 2, 0)
+    cum = np.empty(obs.shape, np.int32)
+    np.copyto(cum[0], obs[0])
+    for k in range(1, obs.shape[0]):
+        np.add(cum[k - 1], obs[k], out=cum[k])
+    return cum
+
+
 def _count_between(
     cum: NDArray[np.int32], z0: float, dz: float, z_lo: NDArray[np.float64], z_hi: NDArray[np.float64]
 ) -> NDArray[np.int32]:
-    """Gives per column the number of obstacle layers whose centers lie in [z_lo, z_hi] (cum: inclusive cumsum)."""
-    nz = cum.shape[2]
+    """Gives per column the number of obstacle layers whose centers lie in [z_lo, z_hi] (cum: _cumulative_layers)."""
+    nz = cum.shape[0]
     k_lo = np.clip(np.ceil((z_lo - z0) / dz - 1e-9).astype(np.intp), 0, nz)
     k_hi = np.clip(np.floor((z_hi - z0) / dz + 1e-9).astype(np.intp), -1, nz - 1)
-    upper = np.take_along_axis(cum, np.clip(k_hi, 0, nz - 1)[:, :, None], 2)[:, :, 0]
+    upper = np.take_along_axis(cum, np.clip(k_hi, 0, nz - 1)[None], 0)[0]
     upper = np.where(k_hi >= 0, upper, 0)
-    lower = np.take_along_axis(cum, np.clip(k_lo - 1, 0, nz - 1)[:, :, None], 2)[:, :, 0]
+    lower = np.take_along_axis(cum, np.clip(k_lo - 1, 0, nz - 1)[None], 0)[0]
     lower = np.where(k_lo - 1 >= 0, lower, 0)
     return np.where(k_hi >= k_lo, upper - lower, 0)
+
+
+def _disk_count(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Gives per cell the number of mask cells under a centered, symmetric footprint (edge cells repeat beyond the
+    map, as ndimage's mode="nearest"): one prefix sum and one difference per footprint row."""
+    r = footprint.shape[0] // 2
+    padded = np.pad(mask, r, mode="edge")
+    prefix = np.zeros((padded.shape[0], padded.shape[1] + 1), np.int64)
+    np.cumsum(padded, axis=1, out=prefix[:, 1:])
+    nx, ny = mask.shape
+    count = np.zeros(mask.shape, np.int64)
+    for i in range(footprint.shape[0]):
+        row = np.flatnonzero(footprint[i])
+        if row.size == 0:
+            continue
+        # Row i spans padded columns y + a .. y + b - 1 around cell y (b - a cells).
+        a, b = int(row[0]), int(row[-1]) + 1
+        count += prefix[i : i + nx, b : b + ny] - prefix[i : i + nx, a : a + ny]
+    return count
 
 
 def build_maps(
@@ -260,7 +292,7 @@ def build_maps(
             mode="nearest",
         )
         h = np.where(~observed & np.isfinite(low), np.minimum(h, low), h)
-    cum = np.cumsum(columns.obstacle, axis=2, dtype=np.int32)
+    cum = _cumulative_layers(columns.obstacle)
     z0, dz = columns.z0_m, columns.dz_m
 
     def size(radius_m: float) -> int:
@@ -298,9 +330,8 @@ def build_maps(
     step = _remove_specks(step, p.speck_cells)
     # Dense step obstacles become body obstacles.
     if step.any():
-        disk = _disk(p.dense_radius_m / res).astype(np.float64)
-        share = ndimage.convolve(step.astype(np.float64), disk / disk.sum(), mode="nearest")
-        body |= share > p.dense_fraction
+        disk = _disk(p.dense_radius_m / res)
+        body |= _disk_count(step, disk) / np.count_nonzero(disk) > p.dense_fraction
     if body.any():
         step |= ndimage.binary_dilation(body, structure=_disk(p.near_body_m / res))
     # Steppable patches narrower than min_support_m (a small box top, a sliver between obstacles) become no-step.
@@ -308,12 +339,14 @@ def build_maps(
     step = ndimage.binary_closing(np.pad(step, r, mode="edge"), structure=_disk(r))[r:-r, r:-r]
 
     # Clearance under overhangs: the lowest obstacle layer at least ceiling_above_m above the ground.
-    nz = columns.obstacle.shape[2]
+    # Read off the layer counts: below = layers under k_c; the first one at or over it is the first layer whose count
+    # exceeds that, i.e. the number of layers whose count does not.
+    nz = cum.shape[0]
     k_c = np.clip(np.ceil((h + p.ceiling_above_m - z0) / dz).astype(np.intp), 0, nz)
-    layer = np.arange(nz)[None, None, :]
-    over = columns.obstacle & (layer >= k_c[:, :, None])
-    has = over.any(axis=2)
-    z_c = z0 + np.argmax(over, axis=2) * dz - dz / 2
+    below = np.where(k_c > 0, np.take_along_axis(cum, np.maximum(k_c - 1, 0)[None], 0)[0], 0)
+    has = cum[-1] > below
+    k_first = np.count_nonzero(cum <= below[None], axis=0)
+    z_c = z0 + k_first * dz - dz / 2
     clearance = np.where(has, z_c - h, np.inf)
 
     sdf_body = signed_distance(body, res)

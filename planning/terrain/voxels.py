@@ -124,14 +124,22 @@ class VoxelMap:
         return True
 
     def _flat_index(self, p: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
-        ijk = np.rint(p * (1.0 / self.res)).astype(np.intp)
-        ix = ijk[:, 0] - self._ix0
-        iy = ijk[:, 1] - self._iy0
-        iz = ijk[:, 2] - self._iz0
+        return self._flat_index_xyz(p[:, 0], p[:, 1], p[:, 2])
+
+    def _flat_index_xyz(
+        self, x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.float64]
+    ) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+        """Gives the flat indices of the points (x, y, z) inside the map, and which points are inside."""
+        inv = 1.0 / self.res
         n, nz = self.n_xy, self.n_z
-        ok = (ix >= 0) & (ix < n) & (iy >= 0) & (iy < n) & (iz >= 0) & (iz < nz)
-        flat = (iz[ok] * n + ix[ok]) * n + iy[ok]
-        return flat, ok
+        ix, iy, iz = (
+            np.rint(c * inv).astype(np.intp) - i0
+            for c, i0 in ((x, self._ix0), (y, self._iy0), (z, self._iz0))
+        )
+        # One unsigned comparison per axis checks both bounds (a negative index wraps to a huge one).
+        ok = (ix.astype(np.uintp) < n) & (iy.astype(np.uintp) < n) & (iz.astype(np.uintp) < nz)
+        flat = (iz * n + ix) * n + iy
+        return flat[ok], ok
 
     # -- integration --------------------------------------------------------------------------------------------
 
@@ -158,11 +166,16 @@ class VoxelMap:
         n_k = np.maximum(np.floor((length - p.carve_margin_m) / self.res - 0.5).astype(np.intp) + 1, 0)
         total = int(n_k.sum())
         if total > 0:
-            ray = np.repeat(np.arange(n_k.shape[0]), n_k)
             first = np.repeat(np.cumsum(n_k) - n_k, n_k)
             t = (np.arange(total) - first + 0.5) * self.res
-            samples = o[ray] + u[ray] * t[:, None]
-            flat_f, _ = self._flat_index(samples)
+            # Axis by axis on flat arrays (repeat, not a gather of (total, 3) rows): the samples o + u t.
+            xyz = []
+            for c in range(3):
+                s = np.repeat(u[:, c], n_k)
+                s *= t
+                s += np.repeat(o[:, c], n_k)
+                xyz.append(s)
+            flat_f, _ = self._flat_index_xyz(*xyz)
             np.add.at(self.misses.reshape(-1), flat_f, w)
 
     # -- classification -----------------------------------------------------------------------------------------

@@ -7,8 +7,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from scipy import ndimage
 
-from planning.terrain.maps import maps_from_grids, maps_from_scene, signed_distance
+from planning.terrain.maps import (
+    _cumulative_layers,
+    _disk,
+    _disk_count,
+    maps_from_grids,
+    maps_from_scene,
+    signed_distance,
+)
 from planning.terrain.scenes import build_terrain
 
 
@@ -117,3 +125,24 @@ def test_sdf_queries_interpolate_and_gradient_points_away() -> None:
     assert maps.no_step(1.5, 1.0) and not maps.no_step(0.5, 1.0)
     assert not maps.no_step(100.0, 1.0)  # off the map
     assert maps.sdf_step(np.array([0.1, 1.5]), np.array([0.2, 0.2])).shape == (2,)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    arrays(np.bool_, st.tuples(st.integers(1, 30), st.integers(1, 30))),
+    st.floats(0.5, 10.5, allow_nan=False),
+)
+def test_disk_count_matches_a_brute_force_correlation(mask: np.ndarray, radius_cells: float) -> None:
+    """The dense-area rule counts step cells under a disk by row prefix sums; the count is the correlation's, edge
+    cells repeating beyond the map (mode "nearest"), the disk wider than the map included."""
+    disk = _disk(radius_cells)
+    want = ndimage.correlate(mask.astype(np.int64), disk.astype(np.int64), mode="nearest")
+    np.testing.assert_array_equal(_disk_count(mask, disk), want)
+
+
+@settings(max_examples=30, deadline=None)
+@given(arrays(np.bool_, st.tuples(st.integers(1, 6), st.integers(1, 6), st.integers(1, 20))))
+def test_cumulative_layers_count_obstacle_layers_up_to_each_layer(obstacle: np.ndarray) -> None:
+    cum = _cumulative_layers(obstacle)
+    assert cum.shape == (obstacle.shape[2], obstacle.shape[0], obstacle.shape[1])
+    np.testing.assert_array_equal(np.moveaxis(cum, 0, -1), np.cumsum(obstacle, axis=2))
