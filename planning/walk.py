@@ -113,6 +113,8 @@ class WalkController:
         self.swing_maps: Any = None  # the maps the swing planner sees, when other than self.maps (stairs)
         self.command_source: Callable[[RobotState], SteeringCommand] | None = None
         self.foothold_filter: Callable[[RobotState, Selection], Selection] | None = None
+        # what the terrain stack draws in the studio (its maps, body path, step-QP footholds), when it runs
+        self.navigator_overlays: Callable[[], dict[str, dict[str, Any]]] | None = None
         self.f_des = np.zeros((4, 3))
         self.height = robot.standing_height_m
         self.pitch = 0.0  # body pitch target, rad (positive: nose down), e.g. along a slope or a stair
@@ -260,11 +262,14 @@ class WalkController:
 
     def plan_overlays(self) -> dict[str, dict[str, Any]]:
         """Returns the studio's overlays: the chosen and the reference step paths, the other potential paths, the
-        capture points at touchdowns (chosen and reference), swing trajectories and contact forces."""
+        capture points at touchdowns (chosen and reference), swing trajectories and contact forces; on a terrain,
+        the navigator's (planning.terrain.overlays)."""
         s = self._last_state
         if s is None:
             return {}
         out = self.handler.overlays(self.f_des, s.p_world_foot)
+        if self.navigator_overlays is not None:
+            out.update(self.navigator_overlays())
         sel = self.plan.selection
         if sel is None:
             return out
@@ -303,8 +308,6 @@ class WalkController:
             "points": flat(sel.xi_td_reference),
             "color": [0.6, 0.6, 0.3],
         }
-        if self.maps is not None and hasattr(self, "navigator_overlays"):
-            out.update(self.navigator_overlays())
         return out
 
     def actuate(self, s: RobotState) -> np.ndarray:

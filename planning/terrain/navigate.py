@@ -46,6 +46,7 @@ from planning.terrain.bodypath import (
 )
 from planning.terrain.cadence import CadenceParams, CadenceScore, choose_cadence
 from planning.terrain.maps import TerrainMaps, _gradient, maps_from_scene, signed_distance
+from planning.terrain.overlays import map_overlays, plan_overlays
 from planning.terrain.perception import Perception, PerceptionParams
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
@@ -249,6 +250,7 @@ class NavigatorParams:
     that landed short, is waited for instead of left behind while the body walks off its support.
     hip_ground_min_m, hip_ground_max_m: the body height target follows the ground under the hips where it differs
     from the feet's by more than the first, by at most the second (see _ground_offset; 0: never).
+    overlay_plan_s: the studio shows the step QP's footholds while its last solve is at most this old (s).
     """
 
     use_sensor: bool = True
@@ -308,6 +310,7 @@ class NavigatorParams:
     hold_jump_m: float = 0.04
     hold_radius_m: float = 0.15
     hold_min_sdf_m: float = 0.01
+    overlay_plan_s: float = 0.3
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     path: BodyPathParams = field(default_factory=BodyPathParams)
     cadence: CadenceParams | None = None  # None: from the robot
@@ -397,7 +400,12 @@ class TerrainNavigator:
         self.speed_cap = p.max_speed_mps
         self.climb_speed: float | None = None  # speed on steps (riser pitch per climb-gait cycle), m/s
         self.last_plan: StepPlan | None = None
+        self._t_last_plan = -np.inf
         self.stats = NavigatorStats()
+        # The studio's map outlines, made once per maps object (see overlays), and where the body was at its scan.
+        self._overlay_maps: TerrainMaps | None = None
+        self._overlay_outlines: dict[str, dict[str, Any]] = {}
+        self._scan_xy = np.zeros(2)
         self._truth_center: NDArray[np.float64] | None = None
         self._truth_maps: TerrainMaps | None = None
         self._t_path = -np.inf
@@ -446,6 +454,7 @@ class TerrainNavigator:
         self._swing_stairs = dataclasses.replace(sw, vertical_family=family, **self.params.stairs.swing)
         if self.goal is not None:
             c.set_goal(*self.goal)
+        c.navigator_overlays = self.overlays
         stages = [
             Stage("perception", self.params.perception_rate_hz, self._perceive),
             Stage("body_path", self.params.path_rate_hz * 5, self._body_path),
@@ -487,6 +496,7 @@ class TerrainNavigator:
         )
         self.maps = maps
         self.controller.maps = maps
+        self._scan_xy = s.p_world_body[:2].copy()
         self.stats.scans += 1
         self._update_height(s)
         self.controller.height += self._ground_offset(s)
@@ -670,6 +680,22 @@ class TerrainNavigator:
         self.stats.cadences[best.cadence.name] = self.stats.cadences.get(best.cadence.name, 0) + 1
         self.speed_cap = min(self.params.max_speed_mps, best.cadence.speed_mps)
         return path
+
+    def overlays(self) -> dict[str, dict[str, Any]]:
+        """The studio's terrain overlays (planning.terrain.overlays): the maps' outlines around the body, the body
+        path, the step QP's footholds while it refines them (solved within overlay_plan_s) and the last depth scan."""
+        maps = self.maps
+        if maps is None:
+            return {}
+        if self._overlay_maps is not maps:
+            self._overlay_maps = maps
+            self._overlay_outlines = map_overlays(maps, self._scan_xy)
+        fresh = float(self.data.time) - self._t_last_plan <= self.params.overlay_plan_s
+        cloud = self.perception.last_cloud if self.perception is not None else None
+        return {
+            **self._overlay_outlines,
+            **plan_overlays(maps, self.path, self.last_plan if fresh else None, cloud),
+        }
 
     def _remaining(self, s: RobotState) -> BodyPath:
         """The current path from the point nearest the body on (for the sweep check)."""
@@ -1070,6 +1096,7 @@ class TerrainNavigator:
         if req is not None:
             plan = (self.qp_stones if self.on_stones else self.qp).solve(req, maps)
             self.last_plan = plan
+            self._t_last_plan = s.t
             self.stats.qp_solves += 1
             self.stats.qp_ms.append(plan.solve_ms)
             bad_hard = set(plan.hard_softened) - {"step_keep"}

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-DEFAULT_OFF_WORDS = ("potential", "reference", "error")  # shown on request only: busy or diagnostic
+DEFAULT_OFF_WORDS = ("potential", "reference", "error", "cloud")  # shown on request only: busy or diagnostic
 
 
 def default_on(name: str) -> bool:

@@ -285,3 +285,26 @@ def test_corridor_middle_centres_between_railings_and_leaves_open_ground_alone()
     assert np.allclose(corridor_middle(rails, np.array([2.0, -0.1]), np.pi / 2, offsets), 0.0)
     assert np.allclose(corridor_middle(lambda x, y: np.ones_like(x), np.array([2.0, 0.0]), 0.0, offsets), 0.0)
     assert np.allclose(corridor_middle(rails, np.array([2.0, 0.7]), 0.0, offsets), 0.0)
+
+
+def test_the_studio_overlays_show_the_navigators_maps_path_and_footholds() -> None:
+    """Walking to (6, 0) over the stones on ground-truth maps, 5 s in (the front feet at the first stone): the plan
+    overlays outline the navigator's own no-step cells near the body, draw its body path to the goal, and the step
+    QP's footholds it is refining now."""
+    cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=False, stop_at_goal=True)
+    session = WalkSession(cmd, RunOptions(terrain="stones", duration_s=10.0))
+    while session.world.data.time < 5.0:
+        session.loop.step()
+    nav: TerrainNavigator = session.navigator
+    ov = session.controller.plan_overlays()
+    no_step = np.asarray(ov["terrain_no_step"]["points"])
+    assert len(no_step) > 100
+    assert np.all(np.asarray(nav.maps.no_step(no_step[:, 0], no_step[:, 1]), dtype=bool))
+    body_xy = session.loop.state.p_world_body[:2]
+    assert np.all(np.hypot(*(no_step[:, :2] - body_xy).T) < 2.3)
+    path = np.asarray(ov["body_path_plan"]["points"])
+    np.testing.assert_allclose(path[-1, :2], [6.0, 0.0], atol=0.1)
+    assert nav.last_plan is not None
+    feet = np.asarray(ov["step_qp_footholds"]["points"])
+    np.testing.assert_allclose(feet, np.round(nav.last_plan.footholds, 3))
+    assert "depth_cloud" not in ov  # ground-truth maps: no scan
