@@ -288,6 +288,16 @@ def format_table(result: dict[str, Any]) -> str:
             f"{v['swing_collisions_per_100_steps']}; rtf {v['rtf']}"
             + (f"; {v['failure_reason']}" if v["failure_reason"] else "")
         )
+        qp, pe = v.get("step_qp_ms") or {}, v.get("perception_ms") or {}
+        if qp.get("p50") is not None:
+            lines.append(
+                f"{'':24s} step QP in the loop: {qp['solves']} replans, p50 {qp['p50']} ms p99 {qp['p99']} ms "
+                f"(bare OSQP p50 {qp['bare_solver_p50']} p99 {qp['bare_solver_p99']} ms)"
+            )
+        if pe.get("p50") is not None:
+            lines.append(
+                f"{'':24s} perception in the loop: p50 {pe['p50']} ms p99 {pe['p99']} ms, {pe['points']} points a scan"
+            )
     for name in ("stairs_variants", "clutter_variants", "clutter_variants_shifted", "stones_variants"):
         sv = result.get(name)
         if not sv:

@@ -121,11 +121,13 @@ def bench_terrain_crossings(
     truth_terrains: tuple[str, ...] = ("clutter", "stairs", "stones"),
 ) -> dict:
     """Gives, per terrain, {"crossed", "fell", "no_step_touchdowns", "no_step_scuffs", "body_collisions",
-    "swing_collisions_per_100_steps", "time_s", "rtf", "stairs_mode_s",
-    "reached_goal", "failure_reason"} of a terrain-aware walk to goal_xy in MuJoCo (time_s: simulated seconds until
+    "swing_collisions_per_100_steps", "time_s", "rtf", "stairs_mode_s", "reached_goal", "failure_reason",
+    "step_qp_ms", "perception_ms"} of a terrain-aware walk to goal_xy in MuJoCo (time_s: simulated seconds until
     the body got past the terrain's end, None when it did not), with the depth sensor's maps (sensor=True) or the
     scene's ground truth; plus "<terrain>/truth" for each of truth_terrains on ground-truth maps (perfect perception:
-    what the planning and control do on their own). Slow: a crossing simulates ~15 s each."""
+    what the planning and control do on their own). step_qp_ms: the step QP's replans in that walk, {"p50", "p99",
+    "bare_solver_p50", "bare_solver_p99", "solves"} (ms; bare: OSQP's own solves, all rounds of a replan);
+    perception_ms: its perception stage (scan → voxels → maps → keep-outs), {"p50", "p99", "points"}. Slow: a crossing simulates ~15 s each."""
     from planning.sim.run import RunOptions, WalkCommand, run_walk
 
     runs = [(name, sensor) for name in terrains]
@@ -135,6 +137,8 @@ def bench_terrain_crossings(
         cmd = WalkCommand(goal=goal_xy, terrain_aware=True, terrain_sensor=use_sensor, stop_at_goal=True)
         r = run_walk(cmd, RunOptions(terrain=name, duration_s=duration_s))
         key = name if use_sensor == sensor else f"{name}/truth"
+        nav = r.get("navigator", {})
+        perception = r.get("stages", {}).get("perception", {})
         out[key] = {
             "crossed": r["crossed"],
             "fell": r["fell"],
@@ -147,7 +151,15 @@ def bench_terrain_crossings(
             "stairs_mode_s": r.get("navigator", {}).get("stairs_mode_s"),
             "reached_goal": r["success"],
             "failure_reason": r["failure_reason"],
-        }
+            "step_qp_ms": {
+                "p50": nav.get("step_qp_ms_p50"), "p99": nav.get("step_qp_ms_p99"),
+                "bare_solver_p50": nav.get("step_qp_bare_solver_ms_p50"),
+                "bare_solver_p99": nav.get("step_qp_bare_solver_ms_p99"), "solves": nav.get("step_qp_solves"),
+            },
+            "perception_ms": None if not use_sensor else {
+                "p50": perception.get("p50_ms"), "p99": perception.get("p99_ms"), "points": nav.get("cloud_points_p50"),
+            },
+        }  # fmt: skip
     return out
 
 

@@ -19,6 +19,7 @@ Arrays are [ix, iy] with cell (ix, iy) centered at origin_xy + (ix, iy) * resolu
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -126,6 +127,15 @@ class TerrainMaps:
         return v.item() if v.ndim == 0 else v
 
     def _bilinear(self, grid: NDArray[np.float64], x: ArrayLike, y: ArrayLike) -> Any:
+        if isinstance(x, float) and isinstance(y, float) and grid.ndim == 2 and math.isfinite(x + y):
+            # One point (the planners ask for many, one at a time): the same arithmetic on Python floats.
+            nx, ny = grid.shape
+            fx = min(max((x - self.origin_xy[0]) / self.resolution_m, 0.0), nx - 1.000001)
+            fy = min(max((y - self.origin_xy[1]) / self.resolution_m, 0.0), ny - 1.000001)
+            i, j = math.floor(fx), math.floor(fy)
+            ax, ay = fx - i, fy - j
+            g = grid[i : i + 2, j : j + 2].tolist()
+            return (g[0][0] * (1 - ax) + g[1][0] * ax) * (1 - ay) + (g[0][1] * (1 - ax) + g[1][1] * ax) * ay
         fx, fy = self._frac(x, y)
         nx, ny = self.shape
         fx = np.clip(fx, 0.0, nx - 1.000001)

@@ -317,10 +317,15 @@ class NavigatorParams:
     step_qp: StepQPParams = field(default_factory=StepQPParams)
 
 
+def _p(values: list[float], q: float) -> float | None:
+    return round(float(np.percentile(values, q)), 3) if values else None
+
+
 @dataclass
 class NavigatorStats:
-    """Counters for the run report: replans of each kind, step-QP use and its timing (ms), time in the stairs mode
-    and of it going down (s), time in the stones mode (s)."""
+    """Counters for the run report: replans of each kind, step-QP use and its timing (ms; whole replans and OSQP's
+    own solves in them), the depth scans' sizes (points), time in the stairs mode and of it going down (s), time
+    in the stones mode (s)."""
 
     scans: int = 0
     body_paths: int = 0
@@ -328,6 +333,8 @@ class NavigatorStats:
     qp_solves: int = 0
     qp_used: int = 0
     qp_ms: list[float] = field(default_factory=list)
+    qp_bare_ms: list[float] = field(default_factory=list)
+    cloud_points: list[int] = field(default_factory=list)
     cadences: dict[str, int] = field(default_factory=dict)
     min_height_m: float = np.inf
     gait_switches: int = 0
@@ -336,15 +343,17 @@ class NavigatorStats:
     stones_mode_s: float = 0.0
 
     def summary(self) -> dict[str, Any]:
-        ms = np.asarray(self.qp_ms) if self.qp_ms else np.zeros(1)
         return {
             "scans": self.scans,
             "body_paths": self.body_paths,
             "invalid_paths": self.invalid_paths,
             "step_qp_solves": self.qp_solves,
             "step_qp_used": self.qp_used,
-            "step_qp_ms_p50": round(float(np.percentile(ms, 50)), 3) if self.qp_ms else None,
-            "step_qp_ms_p99": round(float(np.percentile(ms, 99)), 3) if self.qp_ms else None,
+            "step_qp_ms_p50": _p(self.qp_ms, 50),
+            "step_qp_ms_p99": _p(self.qp_ms, 99),
+            "step_qp_bare_solver_ms_p50": _p(self.qp_bare_ms, 50),
+            "step_qp_bare_solver_ms_p99": _p(self.qp_bare_ms, 99),
+            "cloud_points_p50": None if not self.cloud_points else int(np.median(self.cloud_points)),
             "cadences": dict(self.cadences),
             "gait_switches": self.gait_switches,
             "stairs_mode_s": round(self.stairs_mode_s, 2),
@@ -468,6 +477,8 @@ class TerrainNavigator:
         map_params = self.stones_maps if self.on_stones else p.perception.maps
         if self.perception is not None:
             maps = self.perception.scan_now(self.data, map_params)
+            assert self.perception.last_cloud is not None
+            self.stats.cloud_points.append(self.perception.last_cloud.size)
         else:
             xy = s.p_world_body[:2]
             if self._truth_center is None or np.linalg.norm(xy - self._truth_center) > p.truth_recenter_m:
@@ -1099,6 +1110,7 @@ class TerrainNavigator:
             self._t_last_plan = s.t
             self.stats.qp_solves += 1
             self.stats.qp_ms.append(plan.solve_ms)
+            self.stats.qp_bare_ms.append(plan.bare_solver_ms)
             bad_hard = set(plan.hard_softened) - {"step_keep"}
             if bad_hard or not np.all(np.isfinite(plan.footholds)):
                 plan = None

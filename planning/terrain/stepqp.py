@@ -800,16 +800,24 @@ def snap_footholds(
     step = 0.5 * maps.resolution_m
     ts = np.arange(step, search_m + 1e-9, step)
     lat = np.array([0.0, 1.0, -1.0, 2.0, -2.0]) * 0.5 * lateral_m
-    for k in todo:
-        e = np.array([np.cos(yaw[k]), np.sin(yaw[k])])
-        n = np.array([-e[1], e[0]])
+    # The search lines of every foothold to move, forward then back, each at every lateral offset: one SDF lookup.
+    signs = np.array([1.0, -1.0])
+    e_all = np.stack([np.cos(yaw[todo]), np.sin(yaw[todo])], axis=-1)  # (n, 2)
+    n_all = np.stack([-e_all[:, 1], e_all[:, 0]], axis=-1)
+    # pts[j, s, l, i] = p_out + dl * n + sign * t * e, summed in that order
+    pts_all = (
+        p_out[todo][:, None, None, None, :] + lat[None, None, :, None, None] * n_all[:, None, None, None, :]
+    ) + (signs[None, :, None, None, None] * ts[None, None, None, :, None]) * e_all[:, None, None, None, :]
+    sd_all = np.asarray(maps.sdf_step(pts_all[..., 0], pts_all[..., 1]), dtype=np.float64)
+    for j, k in enumerate(todo):
+        e = e_all[j]
         best: NDArray[np.float64] | None = None
         best_d = np.inf
         h = hold[k] if hold is not None and k < len(hold) else None
-        for sign in (1.0, -1.0):
-            for dl in lat:
-                pts = p_out[k] + dl * n + sign * ts[:, None] * e
-                sd_pts = np.asarray(maps.sdf_step(pts[:, 0], pts[:, 1]), dtype=np.float64)
+        for si, sign in enumerate(signs):
+            for li, dl in enumerate(lat):
+                pts = pts_all[j, si, li]
+                sd_pts = sd_all[j, si, li]
                 ok = sd_pts >= (0.5 * clearance_m if middle else clearance_m)
                 along = (pts - p_hip[k]) @ e
                 ok &= (along >= -hip_range_m[0]) & (along <= hip_range_m[1])

@@ -13,6 +13,8 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
             "stairs": {
                 "crossed": True, "fell": False, "no_step_touchdowns": 0, "body_collisions": 0,
                 "swing_collisions_per_100_steps": 0.0, "time_s": 12.56, "rtf": 1.1, "failure_reason": None,
+                "step_qp_ms": {"p50": 2.5, "p99": 6.0, "bare_solver_p50": 0.4, "bare_solver_p99": 3.1, "solves": 700},
+                "perception_ms": {"p50": 27.0, "p99": 31.0, "points": 11000},
             },
         },
         "stairs_variants": {
@@ -58,3 +60,6 @@ def test_table_prints_terrain_crossings_and_the_stairs_variants_count() -> None:
     # the no-step counts: landings, and the scuffs beside them
     assert "stones_variants.sensor seed 0 crossed in 22.08 s; no-step touchdowns 0 (scuffs 2)" in text
     assert "no-step touchdowns 0 (scuffs 0)" in text  # terrain.stairs, a result without the scuffs field
+    # what the step QP and the perception cost in that walk, the QP beside OSQP's own solves
+    assert "step QP in the loop: 700 replans, p50 2.5 ms p99 6.0 ms (bare OSQP p50 0.4 p99 3.1 ms)" in text
+    assert "perception in the loop: p50 27.0 ms p99 31.0 ms, 11000 points a scan" in text

@@ -24,3 +24,7 @@ def test_terrain_crossing(terrain: str) -> None:
     assert r["no_step_touchdowns"] <= MAX_NO_STEP_TOUCHDOWNS
     nav = r["navigator"]
     assert nav["scans"] > 50 and nav["body_paths"] > 10 and nav["invalid_paths"] == 0
+    # the report's own timings: the depth scans' size, and the step QP's replans beside OSQP's solves in them
+    assert nav["cloud_points_p50"] > 5000
+    if nav["step_qp_solves"]:
+        assert 0 < nav["step_qp_bare_solver_ms_p50"] <= nav["step_qp_ms_p50"]
