@@ -92,3 +92,31 @@ def test_steering_walks_the_robot(live: TestClient) -> None:
         assert st["mode"] == "steer" and abs(st["body"]["position"][0]) < 0.05
     finally:
         live.delete(f"/sessions/{sid}")
+
+
+def test_a_steered_session_on_a_terrain_shows_the_terrain_stacks_overlays(live: TestClient) -> None:
+    """On the stones, the plan carries what the terrain stack sees and plans: the no-step outline (the pit's
+    edges ahead), and once walking toward the stones, where it is headed."""
+    r = live.post("/sessions", json={"terrain": "stones", "mode": "steer"})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    try:
+        live.post(f"/sessions/{sid}/steer", json={"vx": 0.3, "gait": "trot"})
+        end = time.monotonic() + 15.0
+        plan: dict = {}
+        while time.monotonic() < end:
+            plan = live.get(f"/sessions/{sid}/plan").json()["overlays"]
+            if plan.get("terrain_no_step", {}).get("points"):
+                break
+            time.sleep(0.25)
+        no_step = plan["terrain_no_step"]
+        assert no_step["kind"] == "points" and len(no_step["points"]) > 20, sorted(plan)
+        xs = [p[0] for p in no_step["points"]]
+        assert min(xs) > 0.5  # the platform the robot stands on is steppable; the outline is the pit's edges
+        assert (
+            "terrain_body_obstacles" in plan and "depth_cloud" not in plan
+        )  # live sessions: the scene's maps
+        st = live.get(f"/sessions/{sid}/state").json()
+        assert not st["fell"]
+    finally:
+        live.delete(f"/sessions/{sid}")
