@@ -58,7 +58,12 @@ def map_overlays(
     ):
         ix, iy = np.nonzero(outline(mask) & near)
         p = np.column_stack([xs[ix], ys[iy], maps.ground_height[ix, iy] + lift])
-        out[name] = {"kind": "points", "points": _points(_thinned(p, max_points)), "color": color}
+        out[name] = {
+            "kind": "points",
+            "points": _points(_thinned(p, max_points)),
+            "color": color,
+            "point_size": 0.025,
+        }
     return out
 
 
@@ -101,5 +106,6 @@ def plan_overlays(
             "kind": "points",
             "points": _points(_thinned(cloud.p_world_points, max_cloud_points)),
             "color": [0.85, 0.85, 0.55],
+            "point_size": 0.015,
         }
     return out

@@ -1,5 +1,6 @@
 """Plan overlays drawn generically: any `{"kind": "points" | "polyline" | "segments", "points": [...]}` entry of a
-session's plan becomes point clouds or line segments; each name gets its own toggle."""
+session's plan becomes point clouds or line segments (points may say their "point_size", m); each name gets its own
+toggle."""
 
 from __future__ import annotations
 
@@ -45,6 +46,15 @@ def _color(entry: dict[str, Any]) -> tuple[int, int, int]:
         return (255, 255, 255)
 
 
+def _point_size(entry: dict[str, Any]) -> float:
+    """The entry's "point_size" (m) when it gives a sensible one, else 4 cm."""
+    try:
+        size = float(entry.get("point_size", 0.04))
+    except (TypeError, ValueError):
+        return 0.04
+    return size if 0.001 <= size <= 0.5 else 0.04
+
+
 class OverlayView:
     """Draws the overlays of a plan dict under `root`; `enabled` says which names are shown."""
 
@@ -84,7 +94,7 @@ class OverlayView:
             color = _color(entry)
             if kind == "points":
                 self.handles[name] = self.scene.add_point_cloud(
-                    node, points=arr, colors=color, point_size=0.04, point_shape="circle"
+                    node, points=arr, colors=color, point_size=_point_size(entry), point_shape="circle"
                 )
             else:
                 self.handles[name] = self.scene.add_line_segments(

@@ -18,7 +18,7 @@ from websockets.sync.client import connect
 
 from server.app import create_app
 from server.settings import Settings
-from server.studio.overlays import overlay_geometry
+from server.studio.overlays import _point_size, default_on, overlay_geometry
 from server.studio.robot_view import capsule_mesh, hfield_mesh
 from server.studio.timeline import Bar, Mark, timeline_svg
 
@@ -227,6 +227,14 @@ def test_overlay_geometry_is_generic() -> None:
     assert overlay_geometry({"kind": "points", "points": [[0, 0, float("nan")]]}) is None
     assert overlay_geometry({"kind": "nonsense", "points": [[0, 0, 0]]}) is None
     assert overlay_geometry({"kind": "points", "points": "junk"}) is None
+
+
+def test_overlay_points_take_their_own_size_within_bounds_and_busy_ones_start_hidden() -> None:
+    assert _point_size({"kind": "points"}) == 0.04
+    assert _point_size({"point_size": 0.02}) == 0.02
+    assert _point_size({"point_size": "big"}) == 0.04 and _point_size({"point_size": 50}) == 0.04
+    assert default_on("terrain_no_step") and default_on("body_path_plan") and default_on("step_qp_footholds")
+    assert not default_on("depth_cloud") and not default_on("step_qp_reference")
 
 
 def test_meshes_and_timeline() -> None:
