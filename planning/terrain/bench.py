@@ -127,7 +127,8 @@ def bench_terrain_crossings(
     scene's ground truth; plus "<terrain>/truth" for each of truth_terrains on ground-truth maps (perfect perception:
     what the planning and control do on their own). step_qp_ms: the step QP's replans in that walk, {"p50", "p99",
     "bare_solver_p50", "bare_solver_p99", "solves"} (ms; bare: OSQP's own solves, all rounds of a replan);
-    perception_ms: its perception stage (scan → voxels → maps → keep-outs), {"p50", "p99", "points"}. Slow: a crossing simulates ~15 s each."""
+    perception_ms: its perception stage (scan → voxels → maps → keep-outs), {"p50", "p99", "points"}. Slow: a
+    crossing simulates ~15 s each."""
     from planning.sim.run import RunOptions, WalkCommand, run_walk
 
     runs = [(name, sensor) for name in terrains]
@@ -148,7 +149,7 @@ def bench_terrain_crossings(
             "swing_collisions_per_100_steps": r["swing_collisions_per_100_steps"],
             "time_s": r["time_to_cross_s"],
             "rtf": r["timing"]["rtf"],
-            "stairs_mode_s": r.get("navigator", {}).get("stairs_mode_s"),
+            "stairs_mode_s": nav.get("stairs_mode_s"),
             "reached_goal": r["success"],
             "failure_reason": r["failure_reason"],
             "step_qp_ms": {
