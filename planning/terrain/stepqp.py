@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import osqp
@@ -178,6 +179,16 @@ _RAYS = np.stack([np.cos(np.arange(16) * np.pi / 8), np.sin(np.arange(16) * np.p
 _OCT_N = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)
 
 
+class _Block(NamedTuple):
+    """One constraint family's rows: r_idx (K, R) row indices; vars_of[k]: the variables of slot k's rows (the
+    slack last); ents[k][i]: the constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row."""
+
+    r_idx: NDArray[np.intp]
+    vars_of: list[list[int]]
+    ents: list[list[NDArray[np.intp]]]
+    rows: list[list[int]]
+
+
 class StepQP:
     """The step QP, built once with a fixed sparsity pattern; `solve` updates it in place and warm-starts."""
 
@@ -222,19 +233,18 @@ class StepQP:
                     out += p_of(j)
             return out
 
-        # Per family: row index (K, R) and entry index arrays (K, R, C) with -1 for absent entries.
-        def block(
-            n_rows: int, vars_of: list[list[int]]
-        ) -> tuple[NDArray[np.intp], NDArray[np.intp], list[list[int]]]:
-            width = max(len(v) for v in vars_of)
+        # Per family: row index (K, R), the variables of each slot's rows, and per row its entry indices (one per
+        # variable, in that order) and its row index as a Python int, for the per-replan filling.
+        def block(n_rows: int, vars_of: list[list[int]]) -> _Block:
             r_idx = np.zeros((K, n_rows), np.intp)
-            e_idx = -np.ones((K, n_rows, width), np.intp)
+            ents: list[list[NDArray[np.intp]]] = []
             for k in range(K):
+                ents.append([])
                 for i in range(n_rows):
                     r, ent = add_row(vars_of[k])
                     r_idx[k, i] = r
-                    e_idx[k, i, : len(ent)] = ent
-            return r_idx, e_idx, vars_of
+                    ents[k].append(np.asarray(ent, dtype=np.intp))
+            return _Block(r_idx, vars_of, ents, r_idx.tolist())
 
         # reach_rect: p_k, p_{k-4}, slack
         self.b_rect = block(
@@ -262,8 +272,7 @@ class StepQP:
         csc.sort_indices()
         order = csc.data.astype(np.intp) - 1  # entry index at each CSC slot
         self._perm = order
-        self._vals = np.zeros(nnz + 1)  # last element is a sink for entry index -1
-        self._vals[-1] = 0.0
+        self._vals = np.zeros(nnz)  # the matrix values by entry index (add_row's order)
         self.A = csc.copy()
         self.l = np.full(self.n_rows, -np.inf)
         self.u = np.full(self.n_rows, np.inf)
@@ -302,13 +311,9 @@ class StepQP:
 
     # -- value filling ------------------------------------------------------------------------------------------
 
-    def _set_row(self, block: tuple, k: int, i: int, coeffs: list[float], lo: float, hi: float) -> None:
-        r_idx, e_idx, _ = block
-        ent = e_idx[k, i]
-        n = len(coeffs)
-        self._vals[ent[:n]] = coeffs
-        self._vals[ent[n:][ent[n:] >= 0]] = 0.0
-        r = r_idx[k, i]
+    def _set_row(self, block: _Block, k: int, i: int, coeffs: list[float], lo: float, hi: float) -> None:
+        self._vals[block.ents[k][i]] = coeffs
+        r = block.rows[k][i]
         self.l[r], self.u[r] = lo, hi
 
     def _set_keep_row(self, k: int, i: int, g: NDArray[np.float64], b: float) -> None:
@@ -321,16 +326,14 @@ class StepQP:
         )
         self._set_row(self.b_margin, k, i, self._coeff_on(self.b_margin, k, vc, 1.0), b + p.margin_m, np.inf)
 
-    def _clear_row(self, block: tuple, k: int, i: int) -> None:
-        r_idx, e_idx, _ = block
-        ent = e_idx[k, i]
-        self._vals[ent[ent >= 0]] = 0.0
-        r = r_idx[k, i]
+    def _clear_row(self, block: _Block, k: int, i: int) -> None:
+        self._vals[block.ents[k][i]] = 0.0
+        r = block.rows[k][i]
         self.l[r], self.u[r] = -np.inf, np.inf
 
-    def _coeff_on(self, block: tuple, k: int, var_coeffs: dict[int, float], slack: float) -> list[float]:
+    def _coeff_on(self, block: _Block, k: int, var_coeffs: dict[int, float], slack: float) -> list[float]:
         """Gives the row's coefficient list in the block's variable order (the slack is the last variable)."""
-        vars_k = block[2][k]
+        vars_k = block.vars_of[k]
         out = [var_coeffs.get(v, 0.0) for v in vars_k[:-1]]
         out.append(slack)
         return out
@@ -452,6 +455,9 @@ class StepQP:
         K = self.K
         t_td = req.t_touchdown
         t_lo = req.t_liftoff
+        # the slots of each leg, and the times as Python floats, for the stance lookups below
+        slots_of = [[int(j) for j in np.flatnonzero(legs == leg)] for leg in range(4)]
+        lo_l, td_l = np.asarray(t_lo, dtype=np.float64).tolist(), np.asarray(t_td, dtype=np.float64).tolist()
         for k in range(K):
             leg = int(legs[k])
             yaw = float(req.yaw_body[k])
@@ -495,8 +501,8 @@ class StepQP:
                               r * np.cos(np.pi / 8) + float(n @ req.p_hip[k]))  # fmt: skip
             # Where every leg stands at touchdown k and in the middle of phase k.
             t_mid = self._phase_mid(k, t_td)
-            stance_td = self._stance(k, float(t_td[k]), legs, t_lo, t_td)
-            stance_mid = self._stance(k, t_mid, legs, t_lo, t_td)
+            stance_td = self._stance(k, float(t_td[k]), slots_of, lo_l, td_l)
+            stance_mid = self._stance(k, t_mid, slots_of, lo_l, td_l)
             # self_coll: lateral and longitudinal neighbors at touchdown, in the body frame at touchdown.
             side = 1.0 if LEG_IS_LEFT[leg] else -1.0
             front = 1.0 if LEG_IS_FRONT[leg] else -1.0
@@ -527,15 +533,15 @@ class StepQP:
         return 0.5 * (float(t_td[k]) + t_next)
 
     def _stance(
-        self, k: int, t: float, legs: NDArray[np.intp], t_lo: NDArray[np.float64], t_td: NDArray[np.float64]
+        self, k: int, t: float, slots_of: list[list[int]], t_lo: list[float], t_td: list[float]
     ) -> dict[int, int | NDArray[np.float64]]:
-        """Gives {leg: slot index or fixed xy} for the legs in stance at time t (slots up to k only)."""
+        """Gives {leg: slot index or fixed xy} for the legs in stance at time t (slots up to k only); slots_of[leg]:
+        that leg's slots."""
         out: dict[int, int | NDArray[np.float64]] = {}
-        for leg in range(4):
-            slots = np.flatnonzero(legs == leg)
-            if any(t_lo[s] <= t < t_td[s] for s in slots):
+        for leg, slots in enumerate(slots_of):
+            if any(t_lo[j] <= t < t_td[j] for j in slots):
                 continue  # swinging
-            landed = [int(s) for s in slots if t_td[s] <= t + 1e-9]
+            landed = [j for j in slots if t_td[j] <= t + 1e-9]
             if not landed:
                 out[leg] = self._fixed_feet[leg]
             elif max(landed) <= k:
@@ -702,7 +708,7 @@ class StepQP:
             if (
                 np.isfinite(sdb[k])
                 and sdb[k] < p.foot_body_clearance_m - tol
-                and self.l[self.b_fbody[0][k, 0]] == -np.inf
+                and self.l[self.b_fbody.rows[k][0]] == -np.inf
             ):
                 g = _unit(gradb[k], feet[k] - req.p_nominal[k])
                 q = feet[k] - sdb[k] * g
@@ -713,7 +719,7 @@ class StepQP:
             if (
                 np.isfinite(sdc[k])
                 and sdc[k] < p.body_radius_m - tol
-                and self.l[self.b_cbody[0][k, 0]] == -np.inf
+                and self.l[self.b_cbody.rows[k][0]] == -np.inf
             ):
                 g = _unit(gradc[k], np.zeros(2))
                 q = c[k] - sdc[k] * g
@@ -809,21 +815,24 @@ def snap_footholds(
         p_out[todo][:, None, None, None, :] + lat[None, None, :, None, None] * n_all[:, None, None, None, :]
     ) + (signs[None, :, None, None, None] * ts[None, None, None, :, None]) * e_all[:, None, None, None, :]
     sd_all = np.asarray(maps.sdf_step(pts_all[..., 0], pts_all[..., 1]), dtype=np.float64)
+    ok_all: NDArray[np.bool_] = np.asarray(sd_all >= (0.5 * clearance_m if middle else clearance_m))
     for j, k in enumerate(todo):
-        e = e_all[j]
+        along = (pts_all[j] - p_hip[k]) @ e_all[j]
+        ok_all[j] &= (along >= -hip_range_m[0]) & (along <= hip_range_m[1])
+    has_all: NDArray[np.bool_] = np.asarray(ok_all.any(axis=-1))
+    first_all = np.argmax(ok_all, axis=-1)
+    for j, k in enumerate(todo):
         best: NDArray[np.float64] | None = None
         best_d = np.inf
         h = hold[k] if hold is not None and k < len(hold) else None
         for si, sign in enumerate(signs):
             for li, dl in enumerate(lat):
+                if not has_all[j, si, li]:
+                    continue
                 pts = pts_all[j, si, li]
                 sd_pts = sd_all[j, si, li]
-                ok = sd_pts >= (0.5 * clearance_m if middle else clearance_m)
-                along = (pts - p_hip[k]) @ e
-                ok &= (along >= -hip_range_m[0]) & (along <= hip_range_m[1])
-                if not ok.any():
-                    continue
-                i = int(np.argmax(ok))
+                ok = ok_all[j, si, li]
+                i = int(first_all[j, si, li])
                 if middle:
                     run = i + int(np.argmin(ok[i:])) if not ok[i:].all() else len(ok)
                     full = sd_pts[i:run] >= clearance_m
