@@ -247,15 +247,18 @@ class VoxelMap:
 
 
 def _shift_clear(a: NDArray[np.float32], shift: tuple[int, int, int]) -> None:
-    """Moves the content of `a` by `shift` cells (new[i] = old[i - shift]); cells that come in are zeroed."""
-    for axis, s in enumerate(shift):
-        if s == 0:
-            continue
-        n = a.shape[axis]
+    """Moves the content of `a` by `shift` cells (new[i] = old[i - shift]); cells that come in are zeroed. One copy
+    of the part that stays, whatever the number of axes shifted."""
+    if not any(shift):
+        return
+    src: list[slice] = []
+    dst: list[slice] = []
+    for n, s in zip(a.shape, shift, strict=True):
         if abs(s) >= n:
             a.fill(0)
             return
-        a[:] = np.roll(a, s, axis=axis)
-        idx: list[slice] = [slice(None)] * 3
-        idx[axis] = slice(0, s) if s > 0 else slice(n + s, n)
-        a[tuple(idx)] = 0
+        src.append(slice(0, n - s) if s >= 0 else slice(-s, n))
+        dst.append(slice(s, n) if s >= 0 else slice(0, n + s))
+    kept = a[tuple(src)].copy()
+    a.fill(0)
+    a[tuple(dst)] = kept

@@ -13,7 +13,7 @@ from planning.terrain.maps import maps_from_scene
 from planning.terrain.perception import Perception
 from planning.terrain.scenes import build_terrain
 from planning.terrain.sensor import DepthSensor
-from planning.terrain.voxels import GROUND, OBSTACLE
+from planning.terrain.voxels import GROUND, OBSTACLE, VoxelMap, VoxelParams, _shift_clear
 
 STAND_IN = (
     '<body name="robot" pos="0 0 0.52"><freejoint/>'
@@ -117,3 +117,26 @@ def test_unknown_sensor_body_is_named() -> None:
 def test_bench_perception_reports_points() -> None:
     out = bench_perception(n=3)
     assert out["points"] > 5000 and out["p50_ms"] > 0 and out["p99_ms"] >= out["p50_ms"]
+
+
+@pytest.mark.parametrize(
+    "shift", [(0, 0, 0), (1, 0, 0), (0, -2, 3), (-1, 4, -5), (2, 2, 2), (0, 0, 9), (-6, 0, 0)]
+)
+def test_shift_clear_moves_the_content_and_zeroes_what_comes_in(shift: tuple[int, int, int]) -> None:
+    a = np.arange(5 * 6 * 7, dtype=np.float32).reshape(5, 6, 7) + 1.0
+    want = np.zeros_like(a)
+    for i, j, k in np.ndindex(*a.shape):  # new[i] = old[i - shift] where that exists
+        src = (i - shift[0], j - shift[1], k - shift[2])
+        if all(0 <= c < n for c, n in zip(src, a.shape, strict=True)):
+            want[i, j, k] = a[src]
+    _shift_clear(a, shift)
+    np.testing.assert_array_equal(a, want)
+
+
+def test_a_recentred_voxel_map_keeps_its_hits_in_world_place() -> None:
+    vm = VoxelMap(VoxelParams(half_extent_m=0.3, z_below_m=0.3, z_above_m=0.3, recenter_m=0.1))
+    flat, ok = vm._flat_index(np.array([[0.06, -0.03, 0.09]]))
+    vm.hits.reshape(-1)[flat] = 7.0
+    assert vm.recenter((0.2, -0.1), 0.05)
+    flat2, ok2 = vm._flat_index(np.array([[0.06, -0.03, 0.09]]))
+    assert ok2.all() and vm.hits.reshape(-1)[flat2][0] == 7.0 and vm.hits.sum() == 7.0
