@@ -65,8 +65,9 @@ def walk_command(vx: float = 0.0, vy: float = 0.0, yaw_rate: float = 0.0, gait: 
     steering, ValueError naming the choices for an unknown gait.
 
     On a terrain a live session walks on the scene's own maps (perfect perception): the depth sensor's scans
-    (~47 ms each, 10 Hz) would hold the loop under real time (measured ~0.7–0.9× on the slope against ~1.5× on
-    the scene's maps), and a live view must keep up; headless runs, the CLI and the bench use the sensor."""
+    (~26–33 ms each, 10 Hz) hold the loop under real time (a steered walk on the slope measured 0.78× with the sensor
+    against 1.09× on the scene's maps), and a live view must keep up; headless runs, the CLI and the bench use the
+    sensor."""
     try:
         from planning.sim.run import WalkCommand
         from planning.steps.gait import get_gait
