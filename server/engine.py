@@ -60,21 +60,28 @@ class WalkLabel:
     duration: float = 0.0
 
 
-def walk_command(vx: float = 0.0, vy: float = 0.0, yaw_rate: float = 0.0, gait: str = "trot") -> Any:
-    """Returns the planning stack's steering command for a live session; SteeringUnavailable when the build has no
-    steering, ValueError naming the choices for an unknown gait.
+MAPS = ("truth", "sensor")  # what a live session's terrain walk plans on (see walk_command)
 
-    On a terrain a live session walks on the scene's own maps (perfect perception): the depth sensor's scans
-    (~26–33 ms each, 10 Hz) hold the loop under real time (a steered walk on the slope measured 0.78× with the sensor
-    against 1.09× on the scene's maps), and a live view must keep up; headless runs, the CLI and the bench use the
-    sensor."""
+
+def walk_command(
+    vx: float = 0.0, vy: float = 0.0, yaw_rate: float = 0.0, gait: str = "trot", maps: str = "truth"
+) -> Any:
+    """Returns the planning stack's steering command for a live session; SteeringUnavailable when the build has no
+    steering, ValueError naming the choices for an unknown gait. maps: on a terrain, "truth" (the scene's own maps)
+    or "sensor" (the simulated depth sensor's).
+
+    On a terrain a live session walks on the scene's own maps (perfect perception) unless asked for the sensor: the
+    depth sensor's scans (~26–33 ms each, 10 Hz) hold the loop under real time (a steered walk on the slope measured
+    0.78× with the sensor against 1.09× on the scene's maps); headless runs, the CLI and the bench use the sensor."""
     try:
         from planning.sim.run import WalkCommand
         from planning.steps.gait import get_gait
     except ImportError:
         raise SteeringUnavailable() from None
     get_gait(gait)
-    return WalkCommand(vx=vx, vy=vy, yaw_rate=yaw_rate, gait=gait, terrain_sensor=False)
+    if maps not in MAPS:
+        raise ValueError(f"maps: one of {', '.join(MAPS)}, got {maps!r}")
+    return WalkCommand(vx=vx, vy=vy, yaw_rate=yaw_rate, gait=gait, terrain_sensor=maps == "sensor")
 
 
 def steering_gaits() -> tuple[str, ...]:

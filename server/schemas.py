@@ -111,12 +111,18 @@ class SimulationPublic(BaseModel):
 class SessionCreate(_In):
     terrain: TerrainName = "flat"  # type: ignore[valid-type]
     mode: Literal["steer", "maneuver"] = "maneuver"
+    maps: Literal["truth", "sensor"] = Field(
+        "truth",
+        description="on a terrain, what a walk plans on: the scene's own maps (keeps real time) or the simulated "
+        "depth sensor's (slower than real time; its scans show as the depth_cloud overlay)",
+    )
 
 
 class SessionCreated(BaseModel):
     id: str
     terrain: str
     mode: str
+    maps: str
     state_url: str
 
 
@@ -148,6 +154,7 @@ class SessionPushIn(_In):
 
 class SessionResetIn(_In):
     terrain: TerrainName | None = None  # type: ignore[valid-type]
+    maps: Literal["truth", "sensor"] | None = None
 
 
 class SessionControlIn(_In):

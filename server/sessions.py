@@ -135,10 +135,12 @@ class LiveSession:
         factory: SimFactory,
         origin: str = "api",
         clock: Callable[[], float] = time.monotonic,
+        maps: str = "truth",
     ) -> None:
         self.id = session_id
         self.terrain = terrain
         self.mode: Mode = mode
+        self.maps = maps  # a walk on a terrain plans on the scene's maps ("truth") or the depth sensor's
         self.robot = robot
         self.origin = origin
         self._factory = factory
@@ -146,7 +148,7 @@ class LiveSession:
         self.created = clock()
         self.last_access = self.created
         self.lock = threading.RLock()  # guards self.sim
-        self.sim: Sim = factory(self._entry_spec(mode), terrain, robot)
+        self.sim: Sim = factory(self._entry_spec(mode, maps=maps), terrain, robot)
         self.status: Status = "running"
         self.error: str | None = None
         self.speed = 1.0
@@ -182,11 +184,11 @@ class LiveSession:
         return self._thread.is_alive()
 
     @staticmethod
-    def _entry_spec(mode: Mode, gait: str = "trot") -> Any:
+    def _entry_spec(mode: Mode, gait: str = "trot", maps: str = "truth") -> Any:
         """What a session starts (or resets) with: standing for maneuvers, a zero command for steering."""
         if mode == "steer":
             try:
-                return walk_command(gait=gait)
+                return walk_command(gait=gait, maps=maps)
             except (SteeringUnavailable, ValueError):
                 pass  # no steering in this build: stand, and /steer answers 409
         return default_maneuver("stand")
@@ -295,6 +297,7 @@ class LiveSession:
             "realtime_factor": round(self.rtf, 3),
             "dropped_s": round(self.dropped_s, 3),
             "command": self.command,
+            "maps": self.maps,
             "generation": self.generation,
         }
 
@@ -351,13 +354,15 @@ class LiveSession:
         """Starts the current maneuver again from the stance."""
         self._replace(self.sim.maneuver)
 
-    def reset(self, terrain: str | None = None) -> None:
-        """Back to the start at the origin (optionally on another terrain): standing, or in steer mode walking
-        with a zero command; clears a crash."""
+    def reset(self, terrain: str | None = None, maps: str | None = None) -> None:
+        """Back to the start at the origin (optionally on another terrain, or planning a walk on other maps: "truth"
+        or "sensor"): standing, or in steer mode walking with a zero command; clears a crash."""
+        if maps is not None:
+            self.maps = maps
         gait = str(self.command["gait"]) if self.command else "trot"
         self.command = None
         self.status = "running"
-        self._replace(self._entry_spec(self.mode, gait), terrain)
+        self._replace(self._entry_spec(self.mode, gait, self.maps), terrain)
 
     def pause(self) -> None:
         """Stops stepping; when this returns, no batch is in flight and the state is the paused one."""
@@ -402,7 +407,7 @@ class LiveSession:
             raise SessionBadInput(str(e).removeprefix("gait: "), field="gait") from None
         if switch:
             try:
-                spec = walk_command(vx, vy, yaw_rate, gait)
+                spec = walk_command(vx, vy, yaw_rate, gait, self.maps)
             except SteeringUnavailable as e:
                 raise SessionError(str(e), field="steer") from None
             except ValueError as e:
@@ -479,7 +484,9 @@ class SessionManager:
         with self._lock:
             self._sessions.clear()
 
-    def create(self, terrain: str, mode: Mode = "maneuver", origin: str = "api") -> LiveSession:
+    def create(
+        self, terrain: str, mode: Mode = "maneuver", origin: str = "api", maps: str = "truth"
+    ) -> LiveSession:
         """Returns a new running session; SessionLimit when the cap is reached."""
         with self._lock:
             if len(self._sessions) + self._reserved >= self.settings.max_sessions:
@@ -491,7 +498,7 @@ class SessionManager:
             self._reserved += 1
         try:
             sid = secrets.token_hex(8)
-            s = LiveSession(sid, terrain, mode, self.settings.robot, self.factory, origin, self.clock)
+            s = LiveSession(sid, terrain, mode, self.settings.robot, self.factory, origin, self.clock, maps)
             s.start()
             with self._lock:
                 self._sessions[sid] = s

@@ -37,9 +37,15 @@ SessionId = Annotated[str, Path(max_length=64, description="the id POST /session
     summary="A live simulated robot on a terrain, standing, stepping in real time",
 )
 async def create_session(body: SessionCreate, sessions: SessionsDep) -> JSONResponse:
-    s = await run_in_threadpool(sessions.create, body.terrain, body.mode)
+    s = await run_in_threadpool(sessions.create, body.terrain, body.mode, "api", body.maps)
     return JSONResponse(
-        {"id": s.id, "terrain": s.terrain, "mode": s.mode, "state_url": f"/sessions/{s.id}/state"},
+        {
+            "id": s.id,
+            "terrain": s.terrain,
+            "mode": s.mode,
+            "maps": s.maps,
+            "state_url": f"/sessions/{s.id}/state",
+        },
         status_code=201,
         headers={"Location": f"/sessions/{s.id}"},
     )
@@ -133,7 +139,9 @@ async def session_reset(
     session_id: SessionId, sessions: SessionsDep, body: SessionResetIn | None = None
 ) -> dict[str, Any]:
     s = sessions.get(session_id)
-    await run_in_threadpool(s.reset, body.terrain if body is not None else None)
+    await run_in_threadpool(
+        s.reset, body.terrain if body is not None else None, body.maps if body is not None else None
+    )
     return s.state()
 
 

@@ -20,6 +20,10 @@ from server.studio.robot_view import RobotView
 
 log = logging.getLogger("footfall.studio")
 
+PERCEPTION = {
+    "scene (real time)": "truth",
+    "depth sensor": "sensor",
+}  # the studio's names for a session's maps
 FRAME_HZ = 60.0  # robot pose updates per second sent to the browser (≥ 30 fps), at most the publish rate
 OVERLAY_HZ = 10.0
 PLOT_HZ = 4.0
@@ -215,6 +219,9 @@ class StudioClient:
         gui = self.client.gui
         names = list(terrain_names())
         self.dd_terrain = gui.add_dropdown("terrain", names, initial_value="flat")
+        # what a walk on a terrain plans on: the scene's own maps keep real time, the depth sensor's are what a robot
+        # would see (slower than real time; the "depth cloud" overlay shows its scans)
+        self.dd_maps = gui.add_dropdown("walk on maps", tuple(PERCEPTION), initial_value="scene (real time)")
         btn_reset = gui.add_button("Reset robot")
         with gui.add_folder("Push"):
             sl_dir = gui.add_slider("direction (deg, 0 = +x)", -180.0, 180.0, 5.0, 90.0)
@@ -240,6 +247,12 @@ class StudioClient:
             if self.session is not None and str(e.target.value) != self.session.terrain:
                 if self.authorized("change the terrain"):
                     self.session.reset(str(e.target.value))
+
+        @self.dd_maps.on_update
+        def _(e: Any) -> None:
+            maps = PERCEPTION.get(str(e.target.value), "truth")
+            if self.session is not None and maps != self.session.maps and self.authorized("change the maps"):
+                self.session.reset(maps=maps)
 
         @btn_reset.on_click
         def _(_: Any) -> None:

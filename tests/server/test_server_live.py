@@ -120,3 +120,24 @@ def test_a_steered_session_on_a_terrain_shows_the_terrain_stacks_overlays(live: 
         assert not st["fell"]
     finally:
         live.delete(f"/sessions/{sid}")
+
+
+def test_a_session_on_the_depth_sensor_shows_its_scans(live: TestClient) -> None:
+    r = live.post("/sessions", json={"terrain": "stones", "mode": "steer", "maps": "sensor"})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    try:
+        end = time.monotonic() + 15.0
+        plan: dict = {}
+        while time.monotonic() < end:
+            plan = live.get(f"/sessions/{sid}/plan").json()["overlays"]
+            if plan.get("depth_cloud", {}).get("points"):
+                break
+            time.sleep(0.25)
+        cloud = plan["depth_cloud"]["points"]
+        assert len(cloud) > 500, sorted(plan)
+        assert min(p[0] for p in cloud) < 0.5 < max(p[0] for p in cloud)  # the scan sees around the body
+        assert plan["terrain_no_step"]["points"]  # the sensor's own maps, outlined
+        assert live.get(f"/sessions/{sid}/state").json()["maps"] == "sensor"
+    finally:
+        live.delete(f"/sessions/{sid}")

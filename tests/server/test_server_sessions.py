@@ -68,6 +68,21 @@ def test_start_maneuver_push_reset_control(client: TestClient) -> None:
     assert client.post(f"/sessions/{sid}/reset").status_code == 200  # no body: same terrain
 
 
+def test_a_session_plans_its_walks_on_the_maps_asked_for(client: TestClient) -> None:
+    """The scene's own maps by default (a live view keeps real time); the depth sensor's on request, at creation or
+    on a reset; the state says which."""
+    sid = _new(client, terrain="stones", mode="steer")
+    assert client.get(f"/sessions/{sid}/state").json()["maps"] == "truth"
+    r = client.post("/sessions", json={"terrain": "stones", "mode": "steer", "maps": "sensor"})
+    assert r.status_code == 201 and r.json()["maps"] == "sensor"
+    assert client.get(f"/sessions/{r.json()['id']}/state").json()["maps"] == "sensor"
+    r = client.post(f"/sessions/{sid}/reset", json={"maps": "sensor"})
+    assert r.status_code == 200 and r.json()["maps"] == "sensor" and r.json()["terrain"] == "stones"
+    assert (
+        client.post(f"/sessions/{sid}/reset", json={"terrain": "clutter"}).json()["maps"] == "sensor"
+    )  # kept
+
+
 def test_steer_without_a_steering_backend_is_409(client: TestClient) -> None:
     sid = _new(client, terrain="flat", mode="steer")
     r = client.post(f"/sessions/{sid}/steer", json={"vx": 0.3, "vy": 0.0, "yaw_rate": 0.1, "gait": "trot"})
@@ -95,6 +110,8 @@ def test_steer_without_a_steering_backend_is_409(client: TestClient) -> None:
         ("/sessions/{sid}/control", {"action": "rewind"}),
         ("/sessions/{sid}/control", {"speed": 0}),
         ("/sessions/{sid}/reset", {"terrain": "moon"}),
+        ("/sessions", {"terrain": "stones", "maps": "lidar"}),
+        ("/sessions/{sid}/reset", {"maps": "perfect"}),
     ],
 )
 def test_bad_session_input_is_4xx_with_the_field(client: TestClient, path: str, body: Any) -> None:
