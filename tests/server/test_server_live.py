@@ -94,6 +94,16 @@ def test_steering_walks_the_robot(live: TestClient) -> None:
         live.delete(f"/sessions/{sid}")
 
 
+def _overlays_once_drawn(live: TestClient, sid: str, name: str, timeout_s: float = 15.0) -> dict:
+    """The session's plan overlays once the overlay `name` has points (or the last ones seen at the timeout)."""
+    end = time.monotonic() + timeout_s
+    while True:
+        plan: dict = live.get(f"/sessions/{sid}/plan").json()["overlays"]
+        if plan.get(name, {}).get("points") or time.monotonic() > end:
+            return plan
+        time.sleep(0.25)
+
+
 def test_a_steered_session_on_a_terrain_shows_the_terrain_stacks_overlays(live: TestClient) -> None:
     """On the stones, the plan carries what the terrain stack sees and plans: the no-step outline (the pit's
     edges ahead), and once walking toward the stones, where it is headed."""
@@ -102,20 +112,13 @@ def test_a_steered_session_on_a_terrain_shows_the_terrain_stacks_overlays(live: 
     sid = r.json()["id"]
     try:
         live.post(f"/sessions/{sid}/steer", json={"vx": 0.3, "gait": "trot"})
-        end = time.monotonic() + 15.0
-        plan: dict = {}
-        while time.monotonic() < end:
-            plan = live.get(f"/sessions/{sid}/plan").json()["overlays"]
-            if plan.get("terrain_no_step", {}).get("points"):
-                break
-            time.sleep(0.25)
+        plan = _overlays_once_drawn(live, sid, "terrain_no_step")
         no_step = plan["terrain_no_step"]
         assert no_step["kind"] == "points" and len(no_step["points"]) > 20, sorted(plan)
         xs = [p[0] for p in no_step["points"]]
         assert min(xs) > 0.5  # the platform the robot stands on is steppable; the outline is the pit's edges
-        assert (
-            "terrain_body_obstacles" in plan and "depth_cloud" not in plan
-        )  # live sessions: the scene's maps
+        assert "terrain_body_obstacles" in plan
+        assert "depth_cloud" not in plan  # live sessions walk on the scene's maps unless asked otherwise
         st = live.get(f"/sessions/{sid}/state").json()
         assert not st["fell"]
     finally:
@@ -127,13 +130,7 @@ def test_a_session_on_the_depth_sensor_shows_its_scans(live: TestClient) -> None
     assert r.status_code == 201, r.text
     sid = r.json()["id"]
     try:
-        end = time.monotonic() + 15.0
-        plan: dict = {}
-        while time.monotonic() < end:
-            plan = live.get(f"/sessions/{sid}/plan").json()["overlays"]
-            if plan.get("depth_cloud", {}).get("points"):
-                break
-            time.sleep(0.25)
+        plan = _overlays_once_drawn(live, sid, "depth_cloud")
         cloud = plan["depth_cloud"]["points"]
         assert len(cloud) > 500, sorted(plan)
         assert min(p[0] for p in cloud) < 0.5 < max(p[0] for p in cloud)  # the scan sees around the body
