@@ -180,10 +180,9 @@ _OCT_N = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi
 
 
 class _Block(NamedTuple):
-    """One constraint family's rows: r_idx (K, R) row indices; vars_of[k]: the variables of slot k's rows (the
-    slack last); ents[k][i]: the constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row."""
+    """One constraint family's rows: vars_of[k]: the variables of slot k's rows (the slack last); ents[k][i]: the
+    constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row index."""
 
-    r_idx: NDArray[np.intp]
     vars_of: list[list[int]]
     ents: list[list[NDArray[np.intp]]]
     rows: list[list[int]]
@@ -233,18 +232,17 @@ class StepQP:
                     out += p_of(j)
             return out
 
-        # Per family: row index (K, R), the variables of each slot's rows, and per row its entry indices (one per
-        # variable, in that order) and its row index as a Python int, for the per-replan filling.
+        # Per family: the variables of each slot's rows, and per row its entry indices (one per variable, in that
+        # order) and its row index, for the per-replan filling.
         def block(n_rows: int, vars_of: list[list[int]]) -> _Block:
-            r_idx = np.zeros((K, n_rows), np.intp)
-            ents: list[list[NDArray[np.intp]]] = []
+            ents: list[list[NDArray[np.intp]]] = [[] for _ in range(K)]
+            rows: list[list[int]] = [[] for _ in range(K)]
             for k in range(K):
-                ents.append([])
-                for i in range(n_rows):
+                for _i in range(n_rows):
                     r, ent = add_row(vars_of[k])
-                    r_idx[k, i] = r
+                    rows[k].append(r)
                     ents[k].append(np.asarray(ent, dtype=np.intp))
-            return _Block(r_idx, vars_of, ents, r_idx.tolist())
+            return _Block(vars_of, ents, rows)
 
         # reach_rect: p_k, p_{k-4}, slack
         self.b_rect = block(
