@@ -123,6 +123,15 @@ def _summary(report: dict[str, Any]) -> str:
             f"body collisions {report['body_collisions']}, swing collisions "
             f"{report['swing_collisions_per_100_steps']} per 100 steps"
         )
+    nav = report.get("navigator") or {}
+    perception = (report.get("stages") or {}).get("perception") or {}
+    if nav.get("cloud_points_p50") and perception.get("p50_ms") is not None:
+        line += f"; perception p50 {perception['p50_ms']:.1f} ms ({nav['cloud_points_p50']} points a scan)"
+    if nav.get("step_qp_ms_p50") is not None:
+        line += (
+            f"; step QP {nav['step_qp_solves']} replans, p50 {nav['step_qp_ms_p50']:.2f} ms "
+            f"(bare OSQP {nav['step_qp_bare_solver_ms_p50']:.2f} ms)"
+        )
     return line
 
 

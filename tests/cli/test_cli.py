@@ -104,3 +104,19 @@ def test_walk_maps_truth_writes_the_navigator_section(tmp_path, capsys) -> None:
     r = json.loads(out.read_text())
     assert code == 0 and not r["fell"]
     assert r["navigator"]["scans"] >= 15  # 10 Hz for 2 s
+    assert "perception p50" not in capsys.readouterr().out  # the scene's maps: no scans to time
+
+
+def test_walk_summary_gives_the_perception_and_step_qp_times() -> None:
+    from server.cli import _summary
+
+    report = {
+        "mode": "walk", "terrain": "stones", "success": True, "failure_reason": None, "duration_s": 22.0,
+        "timing": {"wall_s": 44.0, "rtf": 0.5}, "final_pose_error": {"position_m": 0.03, "yaw_rad": 0.01},
+        "stages": {"perception": {"p50_ms": 31.04, "p99_ms": 38.5}},
+        "navigator": {"cloud_points_p50": 10248, "step_qp_solves": 2001, "step_qp_ms_p50": 7.162,
+                      "step_qp_bare_solver_ms_p50": 3.123},
+    }  # fmt: skip
+    line = _summary(report)
+    assert "perception p50 31.0 ms (10248 points a scan)" in line
+    assert "step QP 2001 replans, p50 7.16 ms (bare OSQP 3.12 ms)" in line
