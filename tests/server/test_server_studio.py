@@ -86,17 +86,26 @@ def tab(studio_app: tuple[TestClient, Any]) -> Iterator[Any]:
     assert wait_for(lambda: client.get("/studio").json()["clients"] == 0)
 
 
-def test_a_tab_gets_a_live_robot_at_30_fps(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+def _tab_fps(client: TestClient, tab: Any) -> float:
+    return float(client.get("/studio").json()["fps"].get(str(tab.client.client_id), 0.0))
+
+
+def test_a_tab_gets_a_live_robot(studio_app: tuple[TestClient, Any], tab: Any) -> None:
     client, _ = studio_app
     sid = tab.session.id
     sessions = {s["id"]: s for s in client.get("/sessions").json()}
     assert sessions[sid]["origin"] == "studio"
-    # the rate over the last 200 frames; on a 2-core machine the other test worker's simulations can hold it
-    # under 30 for a few seconds (seen at 28.7 in CI), so it is given time to show the rate a tab gets
-    assert wait_for(
-        lambda: client.get("/studio").json()["fps"].get(str(tab.client.client_id), 0) >= 30, 20.0
-    ), client.get("/studio").json()
+    # poses stream to the tab (how fast depends on the machine's load: the rate is checked on its own below)
+    assert wait_for(lambda: _tab_fps(client, tab) >= 5.0, 20.0), client.get("/studio").json()
     assert tab.view is not None and len(tab.view.bodies) >= 13  # trunk + 4 × (hip, upper, lower)
+
+
+@pytest.mark.load
+def test_a_tab_gets_its_robot_at_30_fps(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    """The pose rate a tab gets, over its last 200 frames: with the suite's other worker running simulations on a
+    2-core machine it fell to 25-29 for seconds at a time, so it runs with the load tests, on its own."""
+    client, _ = studio_app
+    assert wait_for(lambda: _tab_fps(client, tab) >= 30.0, 20.0), client.get("/studio").json()
 
 
 def test_a_check_of_an_older_document_does_not_hide_newer_problems(
