@@ -108,10 +108,14 @@ class SimulationPublic(BaseModel):
 
 
 # ---- sessions ---------------------------------------------------------------------------------------------------
+# what a live session's terrain walk plans on: the scene's own maps, or the simulated depth sensor's
+SessionMaps = Literal["truth", "sensor"]
+
+
 class SessionCreate(_In):
     terrain: TerrainName = "flat"  # type: ignore[valid-type]
     mode: Literal["steer", "maneuver"] = "maneuver"
-    maps: Literal["truth", "sensor"] = Field(
+    maps: SessionMaps = Field(
         "truth",
         description="on a terrain, what a walk plans on: the scene's own maps (keeps real time) or the simulated "
         "depth sensor's (slower than real time; its scans show as the depth_cloud overlay)",
@@ -154,7 +158,7 @@ class SessionPushIn(_In):
 
 class SessionResetIn(_In):
     terrain: TerrainName | None = None  # type: ignore[valid-type]
-    maps: Literal["truth", "sensor"] | None = None
+    maps: SessionMaps | None = None
 
 
 class SessionControlIn(_In):
