@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,6 +38,9 @@ class RunOptions:
     robot: str = "spot"
     seed: int = 0
     controller: ControllerParams = field(default_factory=ControllerParams)
+    terrain_params: Mapping[str, Any] = field(default_factory=dict)  # overrides of the terrain's Params
+    start_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)  # start pose off the origin: x m, y m, yaw rad
+    friction: float | None = None  # foot-ground sliding friction (None: the robot's and the scene's own)
 
 
 @dataclass(frozen=True)
@@ -113,8 +117,12 @@ class _Session:
     def _setup(self, options: RunOptions, robot: RobotModel | None) -> None:
         self.options = options
         self.robot = robot or load_robot(options.robot)
-        self.scene = build_terrain(options.terrain, seed=options.seed)
+        self.scene = build_terrain(options.terrain, seed=options.seed, **dict(options.terrain_params))
         self.world = World(self.robot, self.scene)
+        if options.friction is not None:
+            self.world.set_friction(options.friction)
+        if any(options.start_offset):
+            self.world.place(*options.start_offset)
         self.world.pushes = list(options.pushes)
         self.recorder = Recorder(self.robot.foot_radius_m)
 
@@ -353,6 +361,7 @@ class WalkCommand:
     terrain_aware: bool | None = None
     terrain_sensor: bool = True
     stop_at_goal: bool = False  # end the run once the body has held within half the goal tolerance for 1 s
+    sensor_noise_m: float | None = None  # the depth sensor's range noise floor (1σ, m; None: SensorParams')
 
 
 class WalkSession(_Session):
@@ -387,6 +396,12 @@ class WalkSession(_Session):
             from planning.terrain.navigate import NavigatorParams, attach_navigator
 
             params = NavigatorParams(use_sensor=command.terrain_sensor)
+            if command.sensor_noise_m is not None:
+                perception = params.perception
+                sensor = dataclasses.replace(perception.sensor, noise_m=command.sensor_noise_m)
+                params = dataclasses.replace(
+                    params, perception=dataclasses.replace(perception, sensor=sensor)
+                )
             self.navigator = attach_navigator(
                 self.controller, self.world.model, self.world.data, command.goal, self.scene, params
             )
