@@ -20,7 +20,7 @@ from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
 from planning.sim.world import Push, RobotState, World
 from planning.swing.types import TripKind
-from planning.terrain.scenes import build_terrain
+from planning.terrain.spec import load_terrain
 
 POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
 YAW_TOLERANCE_RAD = 0.2
@@ -30,7 +30,7 @@ YAW_TOLERANCE_RAD = 0.2
 class RunOptions:
     """How to run: terrain, disturbances, length, pacing."""
 
-    terrain: str = "flat"
+    terrain: str = "flat"  # a name, a name with overrides, or a file (planning.terrain.spec)
     pushes: Sequence[Push] = ()
     duration_s: float | None = None  # None: the maneuver's duration
     realtime: bool = False
@@ -113,7 +113,7 @@ class _Session:
     def _setup(self, options: RunOptions, robot: RobotModel | None) -> None:
         self.options = options
         self.robot = robot or load_robot(options.robot)
-        self.scene = build_terrain(options.terrain, seed=options.seed)
+        self.scene = load_terrain(options.terrain, seed=options.seed)
         self.world = World(self.robot, self.scene)
         self.world.pushes = list(options.pushes)
         self.recorder = Recorder(self.robot.foot_radius_m)
@@ -381,7 +381,7 @@ class WalkSession(_Session):
         monitors: list[Callable[[RobotState], None]] = []
         aware = command.terrain_aware
         if aware is None:
-            aware = options.terrain != "flat"
+            aware = self.scene.name != "flat"
         if aware:
             from planning.terrain.crossing import BodyCollisionMonitor
             from planning.terrain.navigate import NavigatorParams, attach_navigator
