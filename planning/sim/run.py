@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,7 +21,7 @@ from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
 from planning.sim.world import Push, RobotState, World
 from planning.swing.types import TripKind
-from planning.terrain.scenes import build_terrain
+from planning.terrain.spec import load_terrain
 
 POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
 YAW_TOLERANCE_RAD = 0.2
@@ -31,14 +31,13 @@ YAW_TOLERANCE_RAD = 0.2
 class RunOptions:
     """How to run: terrain, disturbances, length, pacing."""
 
-    terrain: str = "flat"
+    terrain: str = "flat"  # a name, a name with overrides, or a file (planning.terrain.spec)
     pushes: Sequence[Push] = ()
     duration_s: float | None = None  # None: the maneuver's duration
     realtime: bool = False
     robot: str = "spot"
     seed: int = 0
     controller: ControllerParams = field(default_factory=ControllerParams)
-    terrain_params: Mapping[str, Any] = field(default_factory=dict)  # overrides of the terrain's Params
     start_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)  # start pose off the origin: x m, y m, yaw rad
     friction: float | None = None  # foot-ground sliding friction (None: the robot's and the scene's own)
 
@@ -117,7 +116,7 @@ class _Session:
     def _setup(self, options: RunOptions, robot: RobotModel | None) -> None:
         self.options = options
         self.robot = robot or load_robot(options.robot)
-        self.scene = build_terrain(options.terrain, seed=options.seed, **dict(options.terrain_params))
+        self.scene = load_terrain(options.terrain, seed=options.seed)
         self.world = World(self.robot, self.scene)
         if options.friction is not None:
             self.world.set_friction(options.friction)
@@ -390,7 +389,7 @@ class WalkSession(_Session):
         monitors: list[Callable[[RobotState], None]] = []
         aware = command.terrain_aware
         if aware is None:
-            aware = options.terrain != "flat"
+            aware = self.scene.name != "flat"
         if aware:
             from planning.terrain.crossing import BodyCollisionMonitor
             from planning.terrain.navigate import NavigatorParams, attach_navigator

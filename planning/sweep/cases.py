@@ -160,7 +160,10 @@ def _terrain_params(terrain: str, params: dict[str, Any], where: str) -> dict[st
             if not isinstance(v, list) or len(v) != len(d):
                 raise SweepSpecError([f"{where}.{k}: expected a list of {len(d)} numbers like {list(d)}"])
         out[k] = v
-    try:
+    from planning.terrain.spec import spec_from_mapping
+
+    try:  # the same check as the terrain's own structured form (types and ranges)
+        spec_from_mapping({"name": terrain, "params": out})
         terrain_params(terrain, **{k: tuple(v) if isinstance(v, list) else v for k, v in out.items()})
     except (ValueError, TypeError) as e:
         raise SweepSpecError([f"{where}: {e}"]) from None
@@ -311,14 +314,15 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
         f = pu["impulse_ns"] / pu["duration_s"]
         a = math.radians(pu["direction_deg"])
         pushes.append(Push(pu["t_s"], (f * math.cos(a), f * math.sin(a), 0.0), pu["duration_s"]))
-    tparams = {k: tuple(v) if isinstance(v, list) else v for k, v in params["terrain_params"].items()}
+    from planning.terrain.spec import spec_from_mapping
+
+    terrain = spec_from_mapping({"name": params["terrain"], "params": params["terrain_params"]}).text()
     opts = RunOptions(
-        terrain=params["terrain"],
+        terrain=terrain,
         pushes=pushes,
         duration_s=params["duration_s"],
         robot=params["robot"],
         seed=params["seed"],
-        terrain_params=tparams,
         start_offset=(params["start"][0], params["start"][1], params["start"][2]),
         friction=params["friction"],
     )

@@ -12,7 +12,7 @@ from planning.sim.run import ManeuverSession, RunOptions
 
 
 def test_start_offset_friction_and_terrain_params_reach_the_world() -> None:
-    opts = RunOptions(terrain="stairs", terrain_params={"riser_m": 0.11, "n_steps": 3}, start_offset=(0.3, -0.2, 0.5),
+    opts = RunOptions(terrain="stairs:riser_m=0.11,n_steps=3", start_offset=(0.3, -0.2, 0.5),
                       friction=0.35, duration_s=0.01)  # fmt: skip
     s = ManeuverSession(load_maneuver(find_maneuver("stand")), opts)
     w = s.world
