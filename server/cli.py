@@ -26,6 +26,7 @@ examples:
   footfall walk --vx 0.5 --duration 10                trot forward at 0.5 m/s
   footfall walk --goal 3,1 --push 4:0,200,0:0.1       walk to a goal, taking a push on the way
   footfall bench --json bench.json                    time every stage and the closed loop
+  footfall sweep sweeps/push-stand.yaml               success rate of `stand` over a grid of pushes
   footfall serve                                      REST API on :8000 and the 3D studio on :8080
 """
 
@@ -379,6 +380,11 @@ def build_parser() -> argparse.ArgumentParser:
         "(eight stepping-stone layouts with the sensor, four on ground-truth maps; only when named)",
     )
     b.set_defaults(fn=cmd_bench)
+
+    from planning.sweep.cli import add_parser as add_sweep
+    from planning.sweep.cli import main as cmd_sweep
+
+    add_sweep(sub).set_defaults(fn=cmd_sweep)
 
     s = sub.add_parser("serve", help="REST API and browser studio")
     s.add_argument(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -37,6 +38,8 @@ class RunOptions:
     robot: str = "spot"
     seed: int = 0
     controller: ControllerParams = field(default_factory=ControllerParams)
+    start_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)  # start pose off the origin: x m, y m, yaw rad
+    friction: float | None = None  # foot-ground sliding friction (None: the robot's and the scene's own)
 
 
 @dataclass(frozen=True)
@@ -115,6 +118,10 @@ class _Session:
         self.robot = robot or load_robot(options.robot)
         self.scene = load_terrain(options.terrain, seed=options.seed)
         self.world = World(self.robot, self.scene)
+        if options.friction is not None:
+            self.world.set_friction(options.friction)
+        if any(options.start_offset):
+            self.world.place(*options.start_offset)
         self.world.pushes = list(options.pushes)
         self.recorder = Recorder(self.robot.foot_radius_m)
 
@@ -353,6 +360,7 @@ class WalkCommand:
     terrain_aware: bool | None = None
     terrain_sensor: bool = True
     stop_at_goal: bool = False  # end the run once the body has held within half the goal tolerance for 1 s
+    sensor_noise_m: float | None = None  # the depth sensor's range noise floor (1σ, m; None: SensorParams')
 
 
 class WalkSession(_Session):
@@ -387,6 +395,12 @@ class WalkSession(_Session):
             from planning.terrain.navigate import NavigatorParams, attach_navigator
 
             params = NavigatorParams(use_sensor=command.terrain_sensor)
+            if command.sensor_noise_m is not None:
+                perception = params.perception
+                sensor = dataclasses.replace(perception.sensor, noise_m=command.sensor_noise_m)
+                params = dataclasses.replace(
+                    params, perception=dataclasses.replace(perception, sensor=sensor)
+                )
             self.navigator = attach_navigator(
                 self.controller, self.world.model, self.world.data, command.goal, self.scene, params
             )
