@@ -18,7 +18,9 @@ import numpy as np
 LEGS: tuple[str, str, str, str] = ("FL", "FR", "RL", "RR")
 JOINT_ROLES = ("hip abduction", "hip flexion", "knee")
 AXIS_TOLERANCE = 1e-3  # a leg joint's axis may differ from body x / y by this much (1 - |cos|)
-NEAR_FOOT_FACTOR = 1.5  # a lower-leg contact within this many foot radii of the foot center counts as the foot's
+NEAR_FOOT_FACTOR = (
+    1.5  # a lower-leg contact within this many foot radii of the foot center counts as the foot's
+)
 DESCRIPTION_KEYS = {
     "name",
     "title",
@@ -92,7 +94,9 @@ def _name(m: mujoco.MjModel, kind: mujoco.mjtObj, i: int) -> str:
 def _name_everything(spec: mujoco.MjSpec) -> int:
     """Names unnamed bodies, joints, geoms and actuators (so that errors and falls read as names, and the world can
     re-resolve them after the scene is added); returns how many it named."""
-    used = {e.name for kind in (spec.bodies, spec.joints, spec.geoms, spec.sites, spec.actuators) for e in kind}
+    used = {
+        e.name for kind in (spec.bodies, spec.joints, spec.geoms, spec.sites, spec.actuators) for e in kind
+    }
 
     named = 0
 
@@ -241,16 +245,20 @@ def detect(spec: mujoco.MjSpec, path: Path, desc: dict[str, Any]) -> Detected:
                     b = int(m.body_parentid[b])
             js.sort(key=lambda j: (depth[j], j))
             names = [_name(m, mujoco.mjtObj.mjOBJ_JOINT, j) for j in js]
-            bad_type = [n for j, n in zip(js, names, strict=True) if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE]
+            bad_type = [
+                n for j, n in zip(js, names, strict=True) if m.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE
+            ]
             chain = all(
-                _is_ancestor(m, int(m.jnt_bodyid[a]), int(m.jnt_bodyid[b])) for a, b in zip(js, js[1:], strict=False)
+                _is_ancestor(m, int(m.jnt_bodyid[a]), int(m.jnt_bodyid[b]))
+                for a, b in zip(js, js[1:], strict=False)
             )
             where = f"the limb under body {_name(m, mujoco.mjtObj.mjOBJ_BODY, top)!r}"
             if bad_type:
                 problems.append(f"{where}: joints {bad_type} are not hinges (a leg is three hinge joints)")
             elif len(js) != 3 or not chain:
                 problems.append(
-                    f"{where}: {len(js)} joints {names}" + ("" if chain else " not in one chain")
+                    f"{where}: {len(js)} joints {names}"
+                    + ("" if chain else " not in one chain")
                     + "; a leg is three hinges in a chain (hip abduction, hip flexion, knee)"
                 )
             else:
@@ -327,7 +335,9 @@ def detect(spec: mujoco.MjSpec, path: Path, desc: dict[str, Any]) -> Detected:
                     f"(name the foot geom in the description's feet: {leg}: GEOM)"
                 )
         if foot >= 0 and m.geom_type[foot] != mujoco.mjtGeom.mjGEOM_SPHERE:
-            problems.append(f"leg {leg}: foot geom {_name(m, mujoco.mjtObj.mjOBJ_GEOM, foot)!r} is not a sphere")
+            problems.append(
+                f"leg {leg}: foot geom {_name(m, mujoco.mjtObj.mjOBJ_GEOM, foot)!r} is not a sphere"
+            )
         F = d.geom_xpos[foot] - p0 if foot >= 0 else A2 + [0, 0, -0.2]
         radius = float(m.geom_size[foot][0]) if foot >= 0 else 0.02
         # the foot site: one already at the foot center in its body, or a new one
@@ -345,7 +355,11 @@ def detect(spec: mujoco.MjSpec, path: Path, desc: dict[str, Any]) -> Detected:
                 while mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site_name) >= 0:
                     site_name = "footfall_" + site_name
                 site_adds.append(
-                    (_name(m, mujoco.mjtObj.mjOBJ_BODY, fb), site_name, np.array(m.geom_pos[foot], dtype=float))
+                    (
+                        _name(m, mujoco.mjtObj.mjOBJ_BODY, fb),
+                        site_name,
+                        np.array(m.geom_pos[foot], dtype=float),
+                    )
                 )
         p_hip = _round([A1[0], A0[1], A0[2]])
         thigh = _round(A2 - A1)
@@ -444,7 +458,11 @@ def detect(spec: mujoco.MjSpec, path: Path, desc: dict[str, Any]) -> Detected:
     if convert:
         for li, lg in enumerate(legs):
             for r, a in enumerate(lg.actuator_ids):
-                if a < 0 or m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE or not m.actuator_forcelimited[a]:
+                if (
+                    a < 0
+                    or m.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE
+                    or not m.actuator_forcelimited[a]
+                ):
                     continue
                 an = _name(m, mujoco.mjtObj.mjOBJ_ACTUATOR, a)
                 sa = spec.actuator(an)
@@ -477,7 +495,9 @@ def detect(spec: mujoco.MjSpec, path: Path, desc: dict[str, Any]) -> Detected:
     try:
         model = spec.compile()
     except Exception as e:
-        raise RobotDescriptionError(f"{path.name}: MuJoCo cannot compile it: {' '.join(str(e).split())}") from None
+        raise RobotDescriptionError(
+            f"{path.name}: MuJoCo cannot compile it: {' '.join(str(e).split())}"
+        ) from None
     return Detected(
         model=model,
         # an MJCF that needed no edit is used as written (to_xml rounds some values to 6 digits)

@@ -29,9 +29,19 @@ from planning.robot.mjcf import (
 
 ASSETS = Path(__file__).parent / "assets"
 DEFAULT_JOINT_VELOCITY_LIMIT = 20.0  # rad/s, when the description does not give one
-GUESSED_LEG_EXTENSION = 0.75  # with no keyframe: stand with the hip-foot distance at this share of the full reach
+GUESSED_LEG_EXTENSION = (
+    0.75  # with no keyframe: stand with the hip-foot distance at this share of the full reach
+)
 
-__all__ = ["ASSETS", "LEGS", "ReachError", "RobotDescriptionError", "RobotModel", "available_robots", "load_robot"]
+__all__ = [
+    "ASSETS",
+    "LEGS",
+    "ReachError",
+    "RobotDescriptionError",
+    "RobotModel",
+    "available_robots",
+    "load_robot",
+]
 
 
 class ReachError(ValueError):
@@ -83,14 +93,17 @@ def description_beside(xml: Path) -> Path:
     return xml.with_name(xml.stem + ".footfall.yaml")
 
 
-def load_robot(name_or_path: str | Path = "spot") -> RobotModel:
+def load_robot(name_or_path: str | Path = "spot", strict: bool = True) -> RobotModel:
     """Returns the RobotModel of a shipped robot name ("spot", "go1"), an MJCF path (``.xml``; an optional
-    ``NAME.footfall.yaml`` beside it overrides detection) or a description path (``.yaml`` naming its ``mjcf``)."""
+    ``NAME.footfall.yaml`` beside it overrides detection) or a description path (``.yaml`` naming its ``mjcf``).
+
+    Raises RobotDescriptionError naming every problem; with strict=False a robot that could be built is returned
+    with its problems in ``.problems`` (what `footfall robot check` prints)."""
     p = Path(name_or_path)
     if p.suffix.lower() == ".xml":
         side = description_beside(p)
         desc = _read_yaml(side) if side.exists() else {}
-        return RobotModel.from_mjcf(p, desc)
+        return RobotModel.from_mjcf(p, desc, strict)
     path = p if p.suffix in (".yaml", ".yml") else _builtin(str(name_or_path))
     if not path.exists():
         raise RobotDescriptionError(
@@ -99,15 +112,17 @@ def load_robot(name_or_path: str | Path = "spot") -> RobotModel:
         )
     desc = _read_yaml(path)
     if "mjcf" not in desc:
-        raise RobotDescriptionError(f"{path.name}: missing field 'mjcf' (the MJCF file, relative to the description)")
-    return RobotModel.from_mjcf(path.parent / str(desc["mjcf"]), desc)
+        raise RobotDescriptionError(
+            f"{path.name}: missing field 'mjcf' (the MJCF file, relative to the description)"
+        )
+    return RobotModel.from_mjcf(path.parent / str(desc["mjcf"]), desc, strict)
 
 
 class RobotModel:
     """A quadruped: MuJoCo model, names resolved to ids, analytic kinematics per leg."""
 
     @classmethod
-    def from_mjcf(cls, xml_path: Path, desc: dict[str, Any]) -> RobotModel:
+    def from_mjcf(cls, xml_path: Path, desc: dict[str, Any], strict: bool = True) -> RobotModel:
         """Loads and checks an MJCF; raises RobotDescriptionError naming every problem at once."""
         xml_path = Path(xml_path)
         if not xml_path.exists():
@@ -116,7 +131,7 @@ class RobotModel:
         spec = load_spec(xml_path)
         det = detect(spec, xml_path, desc)
         robot = cls(det, desc, xml_path)
-        if robot.problems:
+        if robot.problems and strict:
             raise RobotDescriptionError(
                 f"{xml_path.name}: {len(robot.problems)} problem(s): " + "; ".join(robot.problems)
             )
@@ -261,7 +276,11 @@ class RobotModel:
     def home_qpos(self, height: float | None = None) -> np.ndarray:
         """Returns the full qpos (free joint + legs) of the nominal stance with the body at ``height`` m."""
         q = self.model.qpos0.copy()
-        fa = int(self.model.jnt_qposadr[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, self.free_joint_name)])
+        fa = int(
+            self.model.jnt_qposadr[
+                mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, self.free_joint_name)
+            ]
+        )
         q[fa : fa + 7] = (0.0, 0.0, self.standing_height_m if height is None else height, 1.0, 0.0, 0.0, 0.0)
         for i in range(4):
             q[self.qpos_idx[i]] = self.q_nominal[i]

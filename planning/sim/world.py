@@ -8,7 +8,7 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
-from planning.robot import LEGS, RobotModel
+from planning.robot import RobotModel
 
 
 class Scene(Protocol):
@@ -124,7 +124,9 @@ class World:
         def rid(kind: mujoco.mjtObj, robot_id: int) -> int:
             i = mujoco.mj_name2id(m, kind, mujoco.mj_id2name(rm, kind, robot_id))
             if i < 0:
-                raise ValueError(f"{robot.name}: {kind.name[6:].lower()} {robot_id} lost when adding the scene")
+                raise ValueError(
+                    f"{robot.name}: {kind.name[6:].lower()} {robot_id} lost when adding the scene"
+                )
             return int(i)
 
         self.body_id = rid(mujoco.mjtObj.mjOBJ_BODY, robot.body_id)
@@ -134,7 +136,9 @@ class World:
         jid = np.array([[rid(mujoco.mjtObj.mjOBJ_JOINT, j) for j in lg.joint_ids] for lg in robot.legs])
         self.qpos_idx = m.jnt_qposadr[jid]
         self.dof_idx = m.jnt_dofadr[jid]
-        self.act_idx = np.array([[rid(mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in lg.actuator_ids] for lg in robot.legs])
+        self.act_idx = np.array(
+            [[rid(mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in lg.actuator_ids] for lg in robot.legs]
+        )
         self._ctrl_scale = np.asarray(robot.ctrl_scale, dtype=float)
         self._unit_gear = bool(np.all(self._ctrl_scale == 1.0))
         free = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, robot.free_joint_name)
@@ -144,7 +148,8 @@ class World:
         self.is_robot_geom = np.array([m.geom_bodyid[g] in robot_bodies for g in range(m.ngeom)])
         self.leg_of_foot_geom = np.full(m.ngeom, -1)
         self.leg_of_foot_geom[self.foot_geom] = np.arange(4)
-        for n in robot.ground_geom_names:  # geoms the description lets touch the ground: their leg's foot contact
+        # geoms the description lets touch the ground count as their leg's foot
+        for n in robot.ground_geom_names:
             g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)
             b = int(m.geom_bodyid[g])
             for leg, lg in enumerate(robot.legs):
@@ -166,7 +171,9 @@ class World:
         self.geom_names = [
             mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)
         ]
-        self.body_names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}" for b in range(m.nbody)]
+        self.body_names = [
+            mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}" for b in range(m.nbody)
+        ]
         # what a fall report names: the body of the geom that touched the world
         self.geom_body_names = [self.body_names[int(m.geom_bodyid[g])] for g in range(m.ngeom)]
         self.is_obstacle_geom = np.array([n.startswith("terrain_obstacle_") for n in self.geom_names])
