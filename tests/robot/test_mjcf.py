@@ -48,7 +48,10 @@ def _leg(name: str, sx: int, sy: int, actuated: str) -> str:
 
 
 def robot_xml(actuator: str = "motor", keyframe: bool = True) -> str:
-    legs = "".join(_leg(n, sx, sy, actuator) for n, sx, sy in (("lf", 1, 1), ("rf", 1, -1), ("lh", -1, 1), ("rh", -1, -1)))
+    legs = "".join(
+        _leg(n, sx, sy, actuator)
+        for n, sx, sy in (("lf", 1, 1), ("rf", 1, -1), ("lh", -1, 1), ("rh", -1, -1))
+    )
     acts = []
     for n in ("lf", "rf", "lh", "rh"):
         for j, t in (("abad", 10), ("pitch", 10), ("knee", 15)):
