@@ -200,6 +200,28 @@ class World:
             self.data.qpos[self.qpos_idx[i]] = self.robot.q_nominal[i]
         mujoco.mj_forward(self.model, self.data)
 
+    def place(self, dx_m: float, dy_m: float, dyaw_rad: float) -> None:
+        """Moves the robot, at rest in its stance, by (dx, dy) m and yaw dyaw rad from its reset pose."""
+        d = self.data
+        i = self.free_qpos
+        d.qpos[i] += dx_m
+        d.qpos[i + 1] += dy_m
+        d.qpos[i + 2] += float(self.scene.ground_height(dx_m, dy_m)) - float(
+            self.scene.ground_height(0.0, 0.0)
+        )
+        q = d.qpos[i + 3 : i + 7].copy()
+        turn = np.array([np.cos(dyaw_rad / 2), 0.0, 0.0, np.sin(dyaw_rad / 2)])
+        mujoco.mju_mulQuat(d.qpos[i + 3 : i + 7], turn, q)
+        mujoco.mj_forward(self.model, d)
+
+    def set_friction(self, mu: float) -> None:
+        """Sets the sliding friction of every contact between a foot and the terrain to mu (both sides: a
+        foot geom's priority would otherwise pick the foot's own)."""
+        m = self.model
+        for g in range(m.ngeom):
+            if not self.is_robot_geom[g] or self.leg_of_foot_geom[g] >= 0:
+                m.geom_friction[g, 0] = mu
+
     @property
     def t(self) -> float:
         return float(self.data.time)
