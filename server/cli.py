@@ -166,6 +166,14 @@ def cmd_run(a: argparse.Namespace) -> int:
     return EXIT_OK if report["success"] else EXIT_FAILED
 
 
+def cmd_robot_check(a: argparse.Namespace) -> int:
+    from planning.robot.check import check_robot
+
+    ok, text = check_robot(a.robot)
+    print(text)
+    return EXIT_OK if ok else EXIT_INVALID
+
+
 def _robot(name: str) -> Any:
     from planning.robot import RobotDescriptionError, load_robot
 
@@ -305,7 +313,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--report", metavar="FILE", help="write the JSON run report here")
     r.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     r.add_argument(
-        "--robot", default="spot", help="robot description: spot (default) or go1, or a .yaml path"
+        "--robot",
+        default="spot",
+        help="robot: spot (default), go1, an MJCF file (PATH.xml) or a .yaml description",
     )
     r.set_defaults(fn=cmd_run)
 
@@ -358,6 +368,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="skip the dry solve (the centroidal solver run along the plan)",
     )
     v.set_defaults(fn=cmd_validate)
+
+    rb = sub.add_parser("robot", help="robots: check what footfall detects in an MJCF")
+    rbs = rb.add_subparsers(dest="robot_cmd", metavar="COMMAND", required=True)
+    rc = rbs.add_parser(
+        "check", help="print what was detected, compare the kinematics with MuJoCo, list problems"
+    )
+    rc.add_argument(
+        "robot", metavar="PATH", help="an MJCF file (.xml), a description (.yaml) or a shipped name"
+    )
+    rc.set_defaults(fn=cmd_robot_check)
 
     t = sub.add_parser("terrains", help="list the terrain names")
     t.add_argument("--params", action="store_true", help="list each terrain's parameters with their ranges")

@@ -16,6 +16,7 @@ from planning.geometry import rpy_to_R
 from planning.maneuver import BodyReference, Maneuver, build_schedule
 from planning.maneuver.generator import ProblemGenerator
 from planning.maneuver.hints import HintedBody, load_hints
+from planning.maneuver.scale import scale_to_robot
 from planning.robot import LEGS, RobotModel, load_robot
 from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
@@ -207,8 +208,9 @@ class ManeuverSession(_Session):
     """A robot in a world executing one maneuver: the loop plus what the report needs. Usable step by step."""
 
     def __init__(self, maneuver: Maneuver, options: RunOptions, robot: RobotModel | None = None) -> None:
-        self.maneuver = maneuver
         self._setup(options, robot)
+        # lengths are written for the reference robot: on another robot they scale to its height and stance
+        self.maneuver = maneuver = scale_to_robot(maneuver, self.robot)
         self.schedule = build_schedule(maneuver, self.robot)
         base = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
         self.body_ref = HintedBody(base, load_hints(maneuver, self.robot), maneuver)
