@@ -288,7 +288,10 @@ def cmd_serve(a: argparse.Namespace) -> int:
         from server.app import serve
     except ImportError as e:  # the service lands with its issue
         raise UsageError(f"serve is not available in this build: {e}") from None
-    overrides = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    overrides: dict[str, Any] = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    if a.address and a.backend != "ray":
+        raise UsageError("--address is for --backend ray")
+    overrides.update(backend=a.backend, ray_address=a.address)
     serve(host=a.host, port=a.port, viewer_port=a.viewer_port, **overrides)
     return EXIT_OK
 
@@ -415,6 +418,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--data-dir", help="where user maneuvers live (default ~/.local/share/footfall, or FOOTFALL_DATA_DIR)"
     )
+    s.add_argument("--backend", choices=("local", "ray"), help="where queued simulations and sweeps run: local "
+                   "worker processes (default, or FOOTFALL_BACKEND) or Ray tasks")  # fmt: skip
+    s.add_argument("--address", metavar="ADDR", help="with --backend ray: the cluster (default: a local Ray)")
     s.set_defaults(fn=cmd_serve)
     return p
 

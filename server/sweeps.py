@@ -317,6 +317,9 @@ def _split(problem: str) -> tuple[str, str]:
 
 
 def _local_backend(settings: Settings) -> Any:
-    from planning.sweep.backends import LocalBackend
+    """Local worker processes (sim_workers of them), or Ray tasks with backend ray."""
+    from planning.sweep.backends import LocalBackend, RayBackend
 
+    if settings.backend == "ray":
+        return RayBackend(settings.ray_address)
     return LocalBackend(workers=max(1, settings.sim_workers))
