@@ -71,12 +71,14 @@ def _parse_pushes(specs: list[str] | None) -> list[Any]:
     return out
 
 
-def _check_terrain(text: str) -> None:
+def _check_terrain(text: str, seed: int) -> None:
     """Builds the terrain once (a name, a name with parameters, or a file) so that a bad one is a usage error."""
     from planning.terrain.spec import TerrainSpecError, load_terrain
 
+    if not 0 <= seed < 2**32:
+        raise UsageError(f"--seed {seed}: must be within 0 to 2^32 - 1")
     try:
-        load_terrain(text)
+        load_terrain(text, seed)
     except TerrainSpecError as e:
         raise UsageError(f"--terrain {text!r}: {e}") from None
 
@@ -144,7 +146,7 @@ def cmd_run(a: argparse.Namespace) -> int:
     from planning.maneuver import validate_maneuver
     from planning.sim.run import RunOptions, run_maneuver
 
-    _check_terrain(a.terrain)
+    _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     if a.duration is not None and not (0 < a.duration <= 600):
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
@@ -157,7 +159,12 @@ def cmd_run(a: argparse.Namespace) -> int:
         )
     progress = _Progress(maneuver.name)
     opts = RunOptions(
-        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+        terrain=a.terrain,
+        pushes=pushes,
+        duration_s=a.duration,
+        realtime=a.realtime,
+        robot=a.robot,
+        seed=a.seed,
     )
     report = run_maneuver(maneuver, opts, progress=progress)
     progress.done()
@@ -200,7 +207,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
     from planning.sim.run import RunOptions, WalkCommand, run_walk
     from planning.steps.gait import GAIT_NAMES
 
-    _check_terrain(a.terrain)
+    _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     goal = _parse_goal(a.goal)
     if a.gait not in GAIT_NAMES or a.gait == "stand":
@@ -229,7 +236,12 @@ def cmd_walk(a: argparse.Namespace) -> int:
         terrain_sensor=a.maps == "sensor",
     )
     opts = RunOptions(
-        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+        terrain=a.terrain,
+        pushes=pushes,
+        duration_s=a.duration,
+        realtime=a.realtime,
+        robot=a.robot,
+        seed=a.seed,
     )
     progress = _Progress("walk")
     report = run_walk(cmd, opts, progress=progress)
@@ -302,6 +314,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="simulate a maneuver in MuJoCo (headless unless --realtime)")
     r.add_argument("maneuver", metavar="MANEUVER", help="a library name (footfall run stand) or a .yaml path")
     r.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
+    r.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
     r.add_argument(
         "--push",
         action="append",
@@ -346,6 +359,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--duration", type=float, metavar="S", help="simulated seconds (default 10, 30 with --goal)"
     )
     w.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
+    w.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
     w.add_argument(
         "--maps",
         default="sensor",
