@@ -19,7 +19,10 @@ def test_terrains_lists_parameters_with_ranges(capsys) -> None:
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
-        (["--terrain", "stairs:riser=0.18"], "--terrain 'stairs:riser=0.18': stairs: unknown parameter 'riser'"),
+        (
+            ["--terrain", "stairs:riser=0.18"],
+            "--terrain 'stairs:riser=0.18': stairs: unknown parameter 'riser'",
+        ),
         (["--terrain", "stairs:riser_m=0.5"], "stairs.riser_m=0.5: outside the allowed range 0.02–0.3 m"),
         (["--terrain", "stones:gap_m=0.3..0.1"], "stones.gap_m=0.3..0.1: min is above max"),
         (["--terrain", "nowhere/hm.npy:cell_m=0.05"], "nowhere/hm.npy: no such file"),
@@ -38,4 +41,7 @@ def test_a_heightmap_without_a_cell_size_says_how_to_give_one(tmp_path: Path, ca
     np.save(tmp_path / "hm.npy", np.zeros((5, 5)))
     assert main(["walk", "--vx", "0.3", "--terrain", str(tmp_path / "hm.npy")]) == 2
     err = capsys.readouterr().err
-    assert "a heightmap needs cell_m" in err and "hm.npy:cell_m=0.05, or cell_m: 0.05 in hm.yaml beside it" in err
+    assert (
+        "a heightmap needs cell_m" in err
+        and "hm.npy:cell_m=0.05, or cell_m: 0.05 in hm.yaml beside it" in err
+    )
