@@ -405,7 +405,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         metavar="STAGE",
         help="run only this stage (repeatable): physics_step, stance_handler, swing_select, step_selection_25, "
-        "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, maneuvers "
+        "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, speed (top "
+        "speed per gait and direction: the command ramped until a fall or > 10 %% tracking error), "
+        "speed_centroidal (the same steered by the centroidal solver; only when named), maneuvers "
         "(every shipped maneuver), terrain (every terrain crossing), stairs_variants (the stairs with the goal "
         "moved sideways by −8 to +8 cm, every centimetre, with the sensor and on ground-truth maps), clutter_variants "
         "(twelve clutter layouts with the sensor, twelve on ground-truth maps; only when named), "
