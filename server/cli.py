@@ -215,6 +215,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
         centroidal=a.solver == "centroidal",
         terrain_aware=False if a.maps == "off" else None,
         terrain_sensor=a.maps == "sensor",
+        terrain_pipeline=a.terrain_pipeline,
     )
     opts = RunOptions(
         terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
@@ -330,6 +331,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SOURCE",
         help="on a terrain: sensor (the simulated depth sensor, default), truth (the scene's own maps: perfect "
         "perception) or off (walk blind)",
+    )
+    w.add_argument(
+        "--terrain-pipeline",
+        choices=("modes", "regions"),
+        default="modes",
+        help="on a terrain: modes (the stairs, stones and clutter rules, default) or regions (the unified "
+        "pipeline: steppable regions and footholds by the step QP inside them; see the README's Terrain section)",
     )
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
