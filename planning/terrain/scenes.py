@@ -21,7 +21,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -134,6 +134,12 @@ class _HField:
 _GroundPiece = _Plane | _Box | _Ramp | _HField
 
 
+class GroundSurface(Protocol):
+    """A support surface: its height (m) at world (x, y), -inf where it is absent."""
+
+    def height(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]: ...
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # The scene.
 
@@ -152,7 +158,7 @@ class TerrainScene:
     seed: int
     obstacle_geom_names: tuple[str, ...]
     obstacle_boxes: tuple[tuple[float, float, float, float, float, float], ...]
-    _ground: tuple[_GroundPiece, ...] = field(repr=False)
+    _ground: tuple[GroundSurface, ...] = field(repr=False)
     span_x: tuple[float, float] = (0.0, 0.0)  # where the terrain lies along x (m); (0, 0) for flat ground
 
     def ground_height(self, x: ArrayLike, y: ArrayLike) -> Any:
@@ -312,9 +318,10 @@ class TerrainParamError(ValueError):
     """A terrain parameter that is unknown, of the wrong type or outside its allowed range; the message names it."""
 
 
-def _param(default: Any, lo: float, hi: float, unit: str = "m") -> Any:
-    """A parameter with its allowed range [lo, hi] in `unit` (for a (min, max) pair: both ends, min ≤ max)."""
-    return field(default=default, metadata={"range": (lo, hi), "unit": unit})
+def _param(default: Any, lo: float, hi: float, unit: str = "m", *, required: bool = False) -> Any:
+    """A parameter with its allowed range [lo, hi] in `unit` (for a (min, max) pair: both ends, min ≤ max);
+    required: None (the default) is refused."""
+    return field(default=default, metadata={"range": (lo, hi), "unit": unit, "required": required})
 
 
 @dataclass(frozen=True)
@@ -327,15 +334,18 @@ class ParamInfo:
     default: Any
     range: tuple[float, float] | None
     unit: str
+    required: bool = False
 
     def describe(self) -> str:
         """Gives e.g. ``riser_m (0.02–0.3 m, default 0.15)``."""
         lim = "" if self.range is None else f"{self.range[0]:g}–{self.range[1]:g} {self.unit}".rstrip() + ", "
         default = self.default
-        if isinstance(default, tuple):
+        if isinstance(default, bool):
+            default = "true" if default else "false"
+        elif isinstance(default, tuple):
             default = f"{default[0]:g}..{default[1]:g}"
         elif default is None:
-            default = "auto"
+            default = "none: required" if self.required else "auto"
         return f"{self.name} ({lim}default {default})"
 
 
@@ -345,6 +355,7 @@ _KINDS = {
     "bool": "bool",
     "tuple[float, float]": "range",
     "float | None": "float | None",
+    "str": "str",
 }
 
 
@@ -383,7 +394,10 @@ class _Params:
             v = getattr(self, f.name)
             rng = f.metadata.get("range")
             unit = f.metadata.get("unit", "")
-            if kind == "bool":
+            if kind == "str":
+                if not isinstance(v, str):
+                    raise TerrainParamError(f"{fam}.{f.name}={v!r}: must be text")
+            elif kind == "bool":
                 if not isinstance(v, bool | np.bool_):
                     raise TerrainParamError(f"{fam}.{f.name}={v!r}: must be true or false")
                 object.__setattr__(self, f.name, bool(v))
@@ -399,6 +413,8 @@ class _Params:
                     _check_range(fam, f.name, hi, rng, unit, shown)
                 object.__setattr__(self, f.name, (lo, hi))
             elif kind == "float | None" and v is None:
+                if f.metadata.get("required"):
+                    raise TerrainParamError(f"{fam}.{f.name}: required ({f.metadata.get('unit', '')})")
                 continue
             else:
                 x = _number(fam, f.name, v, kind == "int")
@@ -655,12 +671,14 @@ _PARAMS: dict[str, type] = {
 
 def param_info(name: str) -> tuple[ParamInfo, ...]:
     """Gives the parameters of terrain family `name` (in declaration order); TerrainParamError for unknown names."""
-    cls = _family(name)
-    out = []
-    for f in dataclasses.fields(cls):
-        rng = f.metadata.get("range")
-        out.append(ParamInfo(f.name, _KINDS[str(f.type)], f.default, rng, f.metadata.get("unit", "")))
-    return tuple(out)
+    return tuple(_info(f) for f in dataclasses.fields(_family(name)))
+
+
+def _info(f: dataclasses.Field[Any]) -> ParamInfo:
+    md = f.metadata
+    return ParamInfo(
+        f.name, _KINDS[str(f.type)], f.default, md.get("range"), md.get("unit", ""), md.get("required", False)
+    )
 
 
 def _family(name: str) -> type:
