@@ -289,7 +289,10 @@ def cmd_serve(a: argparse.Namespace) -> int:
         from server.app import serve
     except ImportError as e:  # the service lands with its issue
         raise UsageError(f"serve is not available in this build: {e}") from None
-    overrides = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    overrides: dict[str, Any] = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    if a.address and a.backend != "ray":
+        raise UsageError("--address is for --backend ray")
+    overrides.update(backend=a.backend, ray_address=a.address)
     serve(host=a.host, port=a.port, viewer_port=a.viewer_port, **overrides)
     return EXIT_OK
 
@@ -399,7 +402,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         metavar="STAGE",
         help="run only this stage (repeatable): physics_step, stance_handler, swing_select, step_selection_25, "
-        "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, maneuvers "
+        "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, speed (top "
+        "speed per gait and direction: the command ramped until a fall or > 10 %% tracking error), "
+        "speed_centroidal (the same steered by the centroidal solver; only when named), maneuvers "
         "(every shipped maneuver), terrain (every terrain crossing), stairs_variants (the stairs with the goal "
         "moved sideways by −8 to +8 cm, every centimetre, with the sensor and on ground-truth maps), clutter_variants "
         "(twelve clutter layouts with the sensor, twelve on ground-truth maps; only when named), "
@@ -423,6 +428,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--data-dir", help="where user maneuvers live (default ~/.local/share/footfall, or FOOTFALL_DATA_DIR)"
     )
+    s.add_argument("--backend", choices=("local", "ray"), help="where queued simulations and sweeps run: local "
+                   "worker processes (default, or FOOTFALL_BACKEND) or Ray tasks")  # fmt: skip
+    s.add_argument("--address", metavar="ADDR", help="with --backend ray: the cluster (default: a local Ray)")
     s.set_defaults(fn=cmd_serve)
     return p
 
