@@ -89,8 +89,8 @@ def create_app(
             yield
         finally:
             services.close()
-            if getattr(app.state, "sweeps", None) is not None:
-                app.state.sweeps.shutdown()
+            if services.sweeps is not None:
+                services.sweeps.shutdown()
 
     app = FastAPI(
         title="footfall",

@@ -234,6 +234,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
         centroidal=a.solver == "centroidal",
         terrain_aware=False if a.maps == "off" else None,
         terrain_sensor=a.maps == "sensor",
+        terrain_pipeline=a.terrain_pipeline,
     )
     opts = RunOptions(
         terrain=a.terrain,
@@ -300,7 +301,10 @@ def cmd_serve(a: argparse.Namespace) -> int:
         from server.app import serve
     except ImportError as e:  # the service lands with its issue
         raise UsageError(f"serve is not available in this build: {e}") from None
-    overrides = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    overrides: dict[str, Any] = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    if a.address and a.backend != "ray":
+        raise UsageError("--address is for --backend ray")
+    overrides.update(backend=a.backend, ray_address=a.address)
     serve(host=a.host, port=a.port, viewer_port=a.viewer_port, **overrides)
     return EXIT_OK
 
@@ -367,6 +371,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="on a terrain: sensor (the simulated depth sensor, default), truth (the scene's own maps: perfect "
         "perception) or off (walk blind)",
     )
+    w.add_argument(
+        "--terrain-pipeline",
+        choices=("modes", "regions"),
+        default="modes",
+        help="on a terrain: modes (the stairs, stones and clutter rules, default) or regions (the unified "
+        "pipeline: steppable regions and footholds by the step QP inside them; see the README's Terrain section)",
+    )
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
     w.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
@@ -431,6 +442,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--data-dir", help="where user maneuvers live (default ~/.local/share/footfall, or FOOTFALL_DATA_DIR)"
     )
+    s.add_argument("--backend", choices=("local", "ray"), help="where queued simulations and sweeps run: local "
+                   "worker processes (default, or FOOTFALL_BACKEND) or Ray tasks")  # fmt: skip
+    s.add_argument("--address", metavar="ADDR", help="with --backend ray: the cluster (default: a local Ray)")
     s.set_defaults(fn=cmd_serve)
     return p
 

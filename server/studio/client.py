@@ -65,6 +65,8 @@ class StudioClient:
 
     def stop(self) -> None:
         self._stop.set()
+        if getattr(self, "robustness", None) is not None:
+            self.robustness.stop()
         thread = getattr(self, "_thread", None)
         if thread is not None and thread is not threading.current_thread():
             thread.join(1.0)  # let the render loop finish its frame before the session goes away
@@ -177,6 +179,12 @@ class StudioClient:
             self._build_view()
         with tabs.add_tab("Plots"):
             self._build_plots()
+        with tabs.add_tab("Robustness"):
+            from server.studio.robustness import RobustnessPanel
+
+            self.robustness = RobustnessPanel(self.client, self.services, self.notify, self.authorized,
+                                              self.editor.maneuver_or_none, lambda: self.session)  # fmt: skip
+            self.robustness.build()
         self._bind_playback()
         if not self.editor.open("bow"):
             self.editor.new_document()
