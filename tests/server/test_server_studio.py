@@ -297,7 +297,9 @@ def test_folder_titles_follow_edits(studio_app: tuple[TestClient, Any], tab: Any
     ui = ed.item_ui[id(td)]
     assert "1.20 → 1.42" in ui.folder.label
     ui.handles["td_t"].value = 1.55  # as the user types it
-    assert td["t"] == pytest.approx(1.55) and "1.20 → 1.55" in ui.folder.label and "1.42" not in ui.folder.label
+    assert (
+        td["t"] == pytest.approx(1.55) and "1.20 → 1.55" in ui.folder.label and "1.42" not in ui.folder.label
+    )
     ed.validate_now()
     assert "1.20 → 1.55" in ui.folder.label  # the problem mark keeps the new title
     kf = ed.keyframes[1]
@@ -353,9 +355,16 @@ def test_status_line() -> None:
           "realtime_factor": 1.0, "done": True, "fell": False}  # fmt: skip
     line = status_line(st, 55.0)
     assert "t = 10.00 / 10.0 s" in line and "done" in line and "78" not in line
-    st |= {"t": 2.75, "done": False, "fell": True, "failure_reason": "fell: body dropped to 0.12 m at t=2.75 s"}
+    st |= {
+        "t": 2.75,
+        "done": False,
+        "fell": True,
+        "failure_reason": "fell: body dropped to 0.12 m at t=2.75 s",
+    }
     line = status_line(st, 55.0)
-    assert line.count("fell") == 2 and "fell: fell" not in line and "· fell ·" in line and "running" not in line
+    assert (
+        line.count("fell") == 2 and "fell: fell" not in line and "· fell ·" in line and "running" not in line
+    )
     assert "body dropped to 0.12 m" in line
 
 
