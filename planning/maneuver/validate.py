@@ -28,6 +28,7 @@ from planning.maneuver.expand import (
 )
 from planning.maneuver.load import parse_maneuver, read_source
 from planning.maneuver.problems import ManeuverError, Problem, with_lines
+from planning.maneuver.scale import scale_to_robot
 from planning.maneuver.spec import Liftoff, Maneuver, MaximizeHeight, Touchdown
 
 if TYPE_CHECKING:
@@ -741,7 +742,9 @@ def validate_maneuver(
             maneuver = parse_maneuver(source)
     except ManeuverError as e:
         return ValidationResult(False, [], [p for p in e.problems if p.severity == "failure"])
-    ctx = Context(maneuver, robot if robot is not None else _default_robot(), params or Params())
+    robot = robot if robot is not None else _default_robot()
+    maneuver = scale_to_robot(maneuver, robot)  # lengths are the reference robot's (planning.maneuver.scale)
+    ctx = Context(maneuver, robot, params or Params())
     problems: list[Problem] = []
     for rule in RULES:
         try:
