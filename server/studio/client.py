@@ -277,6 +277,7 @@ class StudioClient:
                 self.notify("Terrain not usable", e.detail, "red")
                 return
             self.session.reset(terrain)
+            self.zero_sliders()
 
         @upload.on_upload
         def _(e: Any) -> None:
