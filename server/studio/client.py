@@ -75,6 +75,8 @@ class StudioClient:
 
     def stop(self) -> None:
         self._stop.set()
+        if getattr(self, "robustness", None) is not None:
+            self.robustness.stop()
         thread = getattr(self, "_thread", None)
         if thread is not None and thread is not threading.current_thread():
             thread.join(1.0)  # let the render loop finish its frame before the session goes away
@@ -214,6 +216,12 @@ class StudioClient:
             self._build_view()
         with tabs.add_tab("Plots"):
             self._build_plots()
+        with tabs.add_tab("Robustness"):
+            from server.studio.robustness import RobustnessPanel
+
+            self.robustness = RobustnessPanel(self.client, self.services, self.notify, self.authorized,
+                                              self.editor.maneuver_or_none, lambda: self.session)  # fmt: skip
+            self.robustness.build()
         self._bind_playback()
         if not self.editor.open("bow"):
             self.editor.new_document()
@@ -255,7 +263,7 @@ class StudioClient:
 
     def _build_custom_terrain(self) -> None:
         """A terrain with parameters or from a file, as on the command line (uploaded files by their name)."""
-        from server.terrains import resolve_terrain, save_file
+        from server.terrains import save_file
 
         gui = self.client.gui
         with gui.add_folder("Custom terrain", expand_by_default=False):
@@ -269,15 +277,8 @@ class StudioClient:
 
         @btn.on_click
         def _(_: Any) -> None:
-            if self.session is None or not self.authorized("change the terrain"):
-                return
-            try:
-                terrain = resolve_terrain(str(txt.value).strip(), self.services.settings)
-            except ApiError as e:
-                self.notify("Terrain not usable", e.detail, "red")
-                return
-            self.session.reset(terrain)
-            self.zero_sliders()
+            if self.authorized("change the terrain"):
+                self.use_terrain(str(txt.value).strip())
 
         @upload.on_upload
         def _(e: Any) -> None:
@@ -292,6 +293,22 @@ class StudioClient:
             if not str(f.name).endswith(".yaml"):
                 txt.value = str(f.name) + ("" if str(f.name).endswith(".xml") else ":cell_m=0.05")
             self.notify("Uploaded", f"{f.name}: check the terrain field, then Use this terrain", "green")
+
+    def use_terrain(self, text: str) -> bool:
+        """Puts this tab's robot on the terrain `text` names (the REST rules: uploaded files by name); False, with a
+        notification saying why, when it cannot be used."""
+        from server.terrains import resolve_terrain
+
+        if self.session is None:
+            return False
+        try:
+            terrain = resolve_terrain(text, self.services.settings)
+        except ApiError as e:
+            self.notify("Terrain not usable", e.detail, "red")
+            return False
+        self.session.reset(terrain)
+        self.zero_sliders()  # a new terrain starts standing: the old command must not walk it off
+        return True
 
     def _build_drive(self) -> None:
         from server.engine import steering_gaits, terrain_names
