@@ -89,6 +89,8 @@ def create_app(
             yield
         finally:
             services.close()
+            if services.sweeps is not None:
+                services.sweeps.shutdown()
 
     app = FastAPI(
         title="footfall",

@@ -15,6 +15,7 @@ import json
 import math
 import os
 import time
+from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -170,15 +171,28 @@ def _terrain_params(terrain: str, params: dict[str, Any], where: str) -> dict[st
     return out
 
 
+def maneuver_doc(
+    name: str, library_dirs: tuple[str | Path, ...] | None = None, allow_paths: bool = True
+) -> dict[str, Any]:
+    """The document of a maneuver by library name (or path, if allowed), checked: it loads and validates."""
+    from planning.maneuver import ManeuverError, find_maneuver
+    from planning.maneuver.load import SHIPPED_LIBRARY
+
+    try:
+        path = find_maneuver(name, library_dirs or (SHIPPED_LIBRARY,), allow_paths=allow_paths)
+        mtime = path.stat().st_mtime_ns
+    except (ManeuverError, OSError) as e:
+        raise SweepSpecError([f"run.maneuver: {e}"]) from None
+    return json.loads(_checked_doc(str(path.resolve()), mtime, name))
+
+
 @lru_cache(maxsize=64)
-def _maneuver_doc(name: str) -> str:
-    """The maneuver's document as JSON text (checked: it loads and has no validation failures)."""
-    from planning.maneuver import ManeuverError, find_maneuver, load_maneuver, validate_maneuver
+def _checked_doc(path: str, mtime_ns: int, name: str) -> str:
+    from planning.maneuver import ManeuverError, load_maneuver, validate_maneuver
     from planning.maneuver.load import read_source
 
     try:
-        path = find_maneuver(name)
-        data, _, _ = read_source(path)
+        data, _, _ = read_source(Path(path))
         m = load_maneuver(data)
     except ManeuverError as e:
         raise SweepSpecError([f"run.maneuver: {e}"]) from None
@@ -198,7 +212,10 @@ def _check_robot(name: str) -> None:
         raise SweepSpecError([f"robot: {e}"]) from None
 
 
-def _params(spec: SweepSpec, coords: dict[str, Any], index: int) -> dict[str, Any]:
+ManeuverSource = Callable[[str], dict[str, Any]]
+
+
+def _params(spec: SweepSpec, coords: dict[str, Any], index: int, maneuvers: ManeuverSource) -> dict[str, Any]:
     """The run parameters of the case at these axis coordinates."""
     d = spec.defaults
     runs = {r.name(): r for r in spec.runs()}
@@ -249,7 +266,7 @@ def _params(spec: SweepSpec, coords: dict[str, Any], index: int) -> dict[str, An
         p["kind"] = "probe"
         p["probe"] = {**run.probe.model_dump(), "index": index}
     elif p["kind"] == "maneuver":
-        p["maneuver"] = json.loads(_maneuver_doc(str(maneuver)))
+        p["maneuver"] = maneuvers(str(maneuver))
     else:
         from planning.steps.gait import GAIT_NAMES
 
@@ -267,13 +284,16 @@ def _params(spec: SweepSpec, coords: dict[str, Any], index: int) -> dict[str, An
     return p
 
 
-def expand(spec: SweepSpec) -> list[dict[str, Any]]:
+def expand(spec: SweepSpec, maneuvers: ManeuverSource | None = None) -> list[dict[str, Any]]:
     """The sweep's cases in order ({"key", "params", "axes"}). Cases at different coordinates may be the same run
     (no push in every direction; a random draw repeating an earlier one): they share a key, run once, and count
-    once in any one cell of the summary. Raises SweepSpecError on a value no run can take."""
+    once in any one cell of the summary. Raises SweepSpecError on a value no run can take.
+
+    maneuvers: gives a maneuver's document by the name a run or axis gives (default: maneuver_doc, the shipped
+    library or a path)."""
     out = []
     for i, coords in enumerate(_coordinates(spec)):
-        params = _params(spec, coords, i)
+        params = _params(spec, coords, i, maneuvers or maneuver_doc)
         out.append({"key": case_key(params), "params": params, "axes": coords})
     return out
 

@@ -127,12 +127,15 @@ def run_sweep(
     on_record: Callable[[dict[str, Any], dict[str, Any]], None] | None = None,
     write_outputs: bool = True,
     on_start: Callable[[dict[str, Any], int], None] | None = None,
+    cases: list[dict[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """Runs the cases of `spec` not yet stored in out_dir and returns the summary (see summary.summarize), with
     "code_version", "backend", "wall_s", "resumed" (cases found stored) and "ran" (cases run now).
 
-    on_record(case, record) is called after each case's record is stored."""
-    cases = expand(spec)
+    on_record(case, record) is called after each case's record is stored; cases: expand(spec), when the caller
+    has them already."""
+    if cases is None:
+        cases = expand(spec)
     store = ResultStore(out_dir)
     records: dict[str, dict[str, Any]] = {}
     for c in cases:

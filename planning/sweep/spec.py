@@ -225,7 +225,7 @@ def _problems(e: ValidationError) -> list[str]:
     for err in e.errors(include_url=False):
         loc = ".".join(str(p) for p in err["loc"] if not str(p).startswith(("function-", "tagged-union")))
         msg = err["msg"].removeprefix("Value error, ")
-        out.append(f"{loc or '(document)'}: {msg}")
+        out.append(f"{loc}: {msg}" if loc else msg)  # a whole-document check names its field itself
     return out
 
 

@@ -139,7 +139,9 @@ def summarize(
         groups.setdefault(k, {})[c["key"]] = records.get(c["key"])
     order = sorted(groups, key=lambda k: tuple(_sort_key(s) for s in k))
     cells = [{"axes": dict(zip(by, k, strict=True)), **_stats(list(groups[k].values()))} for k in order]
-    heat = spec.summary.heatmap or (tuple(by[:2]) if len(by) >= 2 else None)
+    multi = [n for n in names if len({_label(c["axes"][n]) for c in cases}) > 1]
+    two = by[:2] if len(by) >= 2 else (by + [n for n in multi if n not in by])[:2]
+    heat = spec.summary.heatmap or (tuple(two) if len(two) == 2 else None)
     heatmap = None
     if heat is not None:
         for a in heat:
