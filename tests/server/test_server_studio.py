@@ -385,3 +385,72 @@ def test_a_fallen_robot_goes_limp() -> None:
     assert np.abs(sim.data.ctrl).max() == 0.0 and [len(st.times_ms) for st in loop.stages] == runs
     assert float(sim.state.p_world_body[2]) < z0 - 0.05  # limp: it sags under its own weight
     assert sim.state_dict()["fell"] and sim.t == pytest.approx(0.54, abs=0.01)
+
+
+# ---- the timeline worked with the mouse (the ops page.js sends) -------------------------------------------------------
+def test_timeline_drags_snap_and_undo(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    ed = tab.editor
+    assert ed.open("jump")
+    ed.grid_s = 0.05
+    lo, td = next(p for p in ed._steps_of("FL"))
+    # a swing bar dragged by 0.13 s: both events move, the liftoff lands on the 0.05 s grid
+    ed.timeline_op({"op": "drag", "ids": [id(lo), id(td)], "part": "move", "dt": 0.13, "n": 1})
+    assert lo["t"] == pytest.approx(1.35) and td["t"] == pytest.approx(1.57)
+    ed.timeline_op(
+        {"op": "drag", "ids": [id(lo), id(td)], "part": "move", "dt": 0.13, "n": 1}
+    )  # delivered twice
+    assert lo["t"] == pytest.approx(1.35)
+    # its touchdown end stretched, its adjust window widened
+    ed.timeline_op({"op": "drag", "ids": [id(td)], "part": "end", "dt": 0.11, "n": 2})
+    assert td["t"] == pytest.approx(1.70) and lo["t"] == pytest.approx(1.35)
+    ed.timeline_op({"op": "drag", "ids": [id(td)], "part": "adjust", "dt": 0.04, "n": 3})
+    assert td["adjust"]["time"] == pytest.approx(0.1)
+    # a keyframe never leaves the maneuver
+    kf = ed.keyframes[-1]
+    ed.drag([id(kf)], "move", 10.0)
+    assert kf["t"] == pytest.approx(float(ed.meta["duration"]))
+    # undo walks back edit by edit (items are rebuilt: find them by leg and order), redo forward
+    for _ in range(4):
+        assert ed.undo()
+    lo, td = next(p for p in ed._steps_of("FL"))
+    assert (lo["t"], td["t"]) == (pytest.approx(1.2), pytest.approx(1.42)) and not ed.undo()
+    assert ed.redo()
+    lo, td = next(p for p in ed._steps_of("FL"))
+    assert lo["t"] == pytest.approx(1.35)
+    # a broken edit (touchdown dragged before its liftoff) shows on its bar in the timeline
+    ed.drag([id(td)], "end", -0.5)
+    ed.validate_now()
+    lo, td = next(p for p in ed._steps_of("FL"))
+    assert ed._severity(id(td)) == "failure" or ed._severity(id(lo)) == "failure"
+    assert "#ff3b30" in ed.html_timeline.content
+
+
+def test_timeline_select_copy_paste_duplicate_delete_and_zoom(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    ed = tab.editor
+    assert ed.open("jump")
+    ed.grid_s = 0.01
+    n_ev, n_kf = len(ed.events), len(ed.keyframes)
+    lo, td = next(p for p in ed._steps_of("RL"))
+    kf = ed.keyframes[0]
+    ed.timeline_op({"op": "select", "ids": [id(lo), id(td)], "n": 10})
+    ed.timeline_op({"op": "select", "ids": [id(kf)], "add": True, "n": 11})
+    assert ed.selected == {id(lo), id(td), id(kf)} and 'stroke="#ffffff"' in ed.html_timeline.content
+    # dragging one selected item moves the whole selection
+    ed.drag([id(kf)], "move", 0.1)
+    assert kf["t"] == pytest.approx(1.0) and lo["t"] == pytest.approx(1.3) and td["t"] == pytest.approx(1.52)
+    assert ed.copy_selection() == 3
+    assert ed.paste(2.0) == 3 and len(ed.events) == n_ev + 2 and len(ed.keyframes) == n_kf + 1
+    pasted = sorted(float(it["t"]) for it in ed.events + ed.keyframes if id(it) in ed.selected)
+    assert pasted == pytest.approx([2.0, 2.3, 2.52])
+    assert ed.duplicate_selection() == 3 and len(ed.keyframes) == n_kf + 2
+    assert ed.delete_selection() == 3 and len(ed.keyframes) == n_kf + 1 and len(ed.events) == n_ev + 2
+    # zoom: the SVG shows the window asked for; the whole maneuver again on request
+    ed.timeline_op({"op": "view", "t0": 1.0, "t1": 2.0, "n": 12})
+    assert ed.view == (1.0, 2.0) and 'data-v0="1.0000" data-v1="2.0000"' in ed.html_timeline.content
+    ed.timeline_op({"op": "view", "t0": None, "t1": None, "n": 13})
+    assert ed.view is None
+    ed.timeline_op({"op": "scrub", "t": 1.234, "n": 14})
+    assert ed.sl_scrub.value == pytest.approx(1.23)
+    ed.timeline_op({"op": "drag", "ids": ["junk"], "n": 15})  # malformed: ignored
