@@ -18,6 +18,7 @@ import threading
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,6 +39,10 @@ OBJECTIVES = F.OBJECTIVES
 TARGET_MODES = ("at", "offset", "in place")
 TRUNK_DIMS_M = (0.84, 0.24, 0.16)
 UNDO_DEPTH = 200  # edits kept for undo
+MOVES_DIR = (
+    Path(__file__).resolve().parents[2] / "maneuvers" / "moves"
+)  # small maneuvers inserted at the playhead
+MAX_REPEAT = 8  # how many times a move may be inserted back to back
 GRID_CHOICES = {"off": 0.0, "0.01 s": 0.01, "0.05 s": 0.05, "0.1 s": 0.1, "0.25 s": 0.25}
 _PATH_RE = re.compile(r"^(events|body|gaits|objectives)\[(\d+)\]")
 
@@ -48,6 +53,11 @@ def _hex_rgb(h: str) -> tuple[int, int, int]:
 
 def _r(x: float, nd: int = 4) -> float:
     return float(round(float(x), nd))
+
+
+def move_names() -> list[str]:
+    """Returns the names of the moves (small maneuvers in maneuvers/moves/), sorted."""
+    return sorted(p.stem for p in MOVES_DIR.glob("*.yaml"))
 
 
 def rpy_deg_from_wxyz(wxyz: Any) -> list[float]:
@@ -295,6 +305,11 @@ class ManeuverEditor:
         # the helper hides this row
         self.txt_timeline_ops = gui.add_text("timeline edits", "")
         self.sl_scrub = gui.add_slider("scrub (s)", 0.0, 3.0, 0.01, 0.0)
+        with gui.add_folder("Moves", expand_by_default=False):
+            names = move_names() or ["(none)"]
+            self.dd_move = gui.add_dropdown("move", names, initial_value=names[0])
+            self.num_move_repeat = gui.add_number("repeat", 1, min=1, max=MAX_REPEAT, step=1)
+            self.btn_insert_move = gui.add_button("Insert at playhead")
         with gui.add_folder("Timeline tools", expand_by_default=False):
             self.dd_grid = gui.add_dropdown("snap to", tuple(GRID_CHOICES), initial_value="0.05 s")
             self.btn_undo = gui.add_button("Undo")
@@ -379,6 +394,11 @@ class ManeuverEditor:
             if isinstance(op, dict):
                 self.timeline_op(op)
 
+        self.btn_insert_move.on_click(
+            lambda _e: self.insert_move(
+                str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value)
+            )
+        )
         self.dd_grid.on_update(lambda e: setattr(self, "grid_s", GRID_CHOICES.get(str(e.target.value), 0.0)))
         self.btn_undo.on_click(lambda _e: self.undo())
         self.btn_redo.on_click(lambda _e: self.redo())
@@ -869,6 +889,57 @@ class ManeuverEditor:
                 for i, t in zip(group, times, strict=True):
                     items[i][1]["t"] = _r(t + shift, 4)
         self._changed(structural=True)
+
+    def insert_move(self, name: str, t0: float, repeat: int = 1) -> int:
+        """Inserts a move (maneuvers/moves/NAME.yaml) `repeat` times back to back from t0 (s): its events, keyframes,
+        gaits and objectives shift by t0, its positions by where the body is planned to be at t0 (x, y); the
+        maneuver grows to hold it. Returns how many items it added (0, after telling the user, when it cannot)."""
+        path = MOVES_DIR / f"{name}.yaml"
+        try:
+            data, _ = read_yaml(path.read_text(encoding="utf-8"))
+        except (OSError, ManeuverError) as e:
+            self.notify("Cannot insert", f"{name}: {e}", "red")
+            return 0
+        if not isinstance(data, dict):
+            return 0
+        repeat = int(min(max(repeat, 1), MAX_REPEAT))
+        dur = float(data.get("duration") or 0.0)
+        t0 = self._snap(t0)
+        added: list[dict[str, Any]] = []
+        with self.lock:
+            for k in range(repeat):
+                ts = t0 + k * dur
+                p_ref, _ = self._reference_at(ts)
+                dxy = np.array([p_ref[0], p_ref[1], 0.0])
+                for ev in data.get("events") or []:
+                    c = {**copy.deepcopy(ev), "t": _r(float(ev["t"]) + ts)}
+                    if c.get("at") is not None:
+                        c["at"] = [_r(v) for v in np.asarray(c["at"], dtype=float) + dxy]
+                    self.events.append(c)
+                    added.append(c)
+                for kf in data.get("body") or []:
+                    c = {**copy.deepcopy(kf), "t": _r(float(kf["t"]) + ts)}
+                    c["position"] = [_r(v) for v in np.asarray(c["position"], dtype=float) + dxy]
+                    self.keyframes.append(c)
+                    added.append(c)
+                for g in data.get("gaits") or []:
+                    self.gaits.append({**copy.deepcopy(g), "from": _r(float(g["from"]) + ts),
+                                       "to": _r(float(g["to"]) + ts)})  # fmt: skip
+                for o in data.get("objectives") or []:
+                    c = copy.deepcopy(o)
+                    if isinstance(c.get("t"), list):
+                        c["t"] = [_r(float(v) + ts) for v in c["t"]]
+                    elif c.get("t") is not None:
+                        c["t"] = _r(float(c["t"]) + ts)
+                    self.objectives.append(c)
+            end = t0 + repeat * dur
+            if end > float(self.meta.get("duration") or 0.0):
+                self.meta["duration"] = _r(end, 2)
+            self.selected = {id(c) for c in added}
+        self._write_static_fields(keep_scrub=True)
+        self._changed(structural=True)
+        self.notify("Inserted", f"{name} × {repeat} at {t0:.2f} s", "green")
+        return len(added)
 
     def copy_selection(self) -> int:
         """Copies the selected items (times relative to the earliest); returns how many."""

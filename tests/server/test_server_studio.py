@@ -454,3 +454,35 @@ def test_timeline_select_copy_paste_duplicate_delete_and_zoom(
     ed.timeline_op({"op": "scrub", "t": 1.234, "n": 14})
     assert ed.sl_scrub.value == pytest.approx(1.23)
     ed.timeline_op({"op": "drag", "ids": ["junk"], "n": 15})  # malformed: ignored
+
+
+def test_moves_library_validates_and_inserts_at_the_playhead(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    """At least 20 moves, each a valid maneuver file; inserting one shifts it to the playhead (twice: back to
+    back), grows the maneuver to hold it, selects what it added, and undoes in one step."""
+    from planning.maneuver import validate_maneuver
+    from server.studio.editor import MOVES_DIR, move_names
+
+    names = move_names()
+    assert len(names) >= 20
+    for name in names:
+        r = validate_maneuver(MOVES_DIR / f"{name}.yaml", tab.services.robot)
+        assert r.ok, (name, [p.message for p in r.failures])
+    ed = tab.editor
+    assert ed.open("bow")
+    n_kf = len(ed.keyframes)
+    ed.sl_scrub.value = 5.0
+    added = ed.insert_move("step-fl", ed._scrub_t(), repeat=2)
+    assert (
+        added == 2 * (2 + 3) and len(ed.keyframes) == n_kf + 6 and ed.meta["duration"] == pytest.approx(9.4)
+    )
+    lifts = sorted(e["t"] for e in ed.events if e["leg"] == "FL" and e["type"] == "liftoff")
+    assert lifts == [pytest.approx(5.7), pytest.approx(7.9)] and len(ed.selected) == added
+    assert ed.num_duration.value == pytest.approx(9.4) and ed.validate_now().ok
+    assert (
+        ed.undo()
+        and len(ed.keyframes) == n_kf
+        and not ed.events
+        and ed.meta["duration"] == pytest.approx(6.0)
+    )
