@@ -101,11 +101,13 @@ def test_a_tab_gets_a_live_robot(studio_app: tuple[TestClient, Any], tab: Any) -
 
 
 @pytest.mark.load
-def test_a_tab_gets_its_robot_at_30_fps(studio_app: tuple[TestClient, Any], tab: Any) -> None:
-    """The pose rate a tab gets, over its last 200 frames: with the suite's other worker running simulations on a
-    2-core machine it fell to 25-29 for seconds at a time, so it runs with the load tests, on its own."""
+def test_a_tab_gets_its_robot_at_50_fps(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    """The pose rate a tab gets, over its last 200 frames, while the session keeps real time: sessions publish 60
+    snapshots a second and a tab sends each within 4 ms. Measured 48/s with the machine's load average at 12 (56
+    published); with the suite's other worker running simulations on 2 cores it fell further, so it runs with the
+    load tests, on its own."""
     client, _ = studio_app
-    assert wait_for(lambda: _tab_fps(client, tab) >= 30.0, 20.0), client.get("/studio").json()
+    assert wait_for(lambda: _tab_fps(client, tab) >= 50.0, 20.0), client.get("/studio").json()
 
 
 def test_a_check_of_an_older_document_does_not_hide_newer_problems(
