@@ -96,7 +96,7 @@ class SimulationPublic(BaseModel):
     """A simulation's status; `report` is the run report (CONTRACT.md) once done."""
 
     id: str
-    status: Literal["queued", "running", "done", "failed"]
+    status: Literal["queued", "running", "done", "failed", "cancelled"]
     request: dict[str, Any]
     created: float
     started: float | None = None

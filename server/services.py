@@ -169,7 +169,11 @@ def resolve_maneuver(ref: str | dict[str, Any], services: Services, field_name: 
             raise ApiError(
                 e.status, f"{field_name}: {reason}", [{"field": field_name, "reason": reason}]
             ) from None
-        data, lines = read_yaml(stored.text)
+        try:
+            data, lines = read_yaml(stored.text)
+        except ManeuverError as e:
+            reason = f"the library file of {ref!r} does not load: {e.problems[0].message}"
+            raise ApiError(422, f"{field_name}: {reason}"[:500], problems_to_fields(e.problems)) from None
         maneuver = to_maneuver(data, lines, services.settings)
     else:
         maneuver = to_maneuver(ref, None, services.settings)

@@ -26,7 +26,7 @@ from server.settings import Settings
 
 log = logging.getLogger("footfall.simulations")
 
-JobStatus = Literal["queued", "running", "done", "failed"]
+JobStatus = Literal["queued", "running", "done", "failed", "cancelled"]
 Runner = Callable[[dict[str, Any]], dict[str, Any]]
 
 _progress_queue: Any = None  # set in each worker process by _init_worker
@@ -133,6 +133,16 @@ class SimulationPool:
             pos = self._pending.index(job_id) if job.status == "queued" and job_id in self._pending else None
             return job, pos
 
+    def cancel(self, job_id: str) -> Job | None:
+        """Cancels a queued job (it never runs); returns it, or None when unknown. A job already running or
+        finished is returned unchanged: the caller tells the user it is too late."""
+        with self._lock:
+            job = self._jobs.get(job_id)
+            if job is not None and job.status == "queued" and job_id in self._pending:
+                self._pending.remove(job_id)
+                job.status, job.finished = "cancelled", time.time()
+            return job
+
     def list(self) -> list[Job]:
         with self._lock:
             return list(self._jobs.values())
@@ -150,7 +160,7 @@ class SimulationPool:
 
     # ---- internals ------------------------------------------------------------------------------------------------
     def _forget_old(self) -> None:
-        finished = [j for j in self._jobs.values() if j.status in ("done", "failed")]
+        finished = [j for j in self._jobs.values() if j.status in ("done", "failed", "cancelled")]
         for j in finished[: max(0, len(finished) - self.settings.max_kept_simulations)]:
             del self._jobs[j.id]
 
@@ -235,7 +245,7 @@ class SimulationPool:
             job_id, t, duration, rtf = item
             with self._lock:
                 job = self._jobs.get(job_id)
-                if job is None or job.status in ("done", "failed"):
+                if job is None or job.status in ("done", "failed", "cancelled"):
                     continue
                 if duration > 0:
                     job.progress = {
