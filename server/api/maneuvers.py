@@ -86,7 +86,7 @@ async def validate_maneuver_body(request: Request, services: ServicesDep) -> dic
     def work() -> dict[str, Any]:
         body = read_maneuver_body(raw, content_type)
         try:
-            maneuver = to_maneuver(body.data, body.lines, services.settings)
+            maneuver = to_maneuver(body.data, body.lines, services.settings, services.robot)
         except ApiError as e:
             if e.status != 422:
                 raise
@@ -191,7 +191,7 @@ async def put_maneuver(
         body = read_maneuver_body(raw, content_type)
         if isinstance(body.data, dict) and "name" not in body.data:
             body = dataclasses.replace(body, data={**body.data, "name": name}, is_yaml=False)
-        maneuver = to_maneuver(body.data, body.lines, services.settings)
+        maneuver = to_maneuver(body.data, body.lines, services.settings, services.robot)
         if maneuver.name != name:
             raise field_error(422, "name", f"must match the URL ({name!r}), got {maneuver.name!r}")
         result = require_valid(maneuver, services, body.lines)

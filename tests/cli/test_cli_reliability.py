@@ -20,6 +20,9 @@ def test_unreadable_values_are_one_line_naming_the_line(tmp_path: Path, tail: st
     f = tmp_path / "x.yaml"
     f.write_text(HEAD + tail)
     assert main(["validate", str(f)]) == 2
+    out = capsys.readouterr().out.strip()
+    assert out.startswith("failure: line 3:") and "Traceback" not in out, out
+    assert main(["run", str(f)]) == 2
     err = capsys.readouterr().err.strip()
     assert "line 3" in err and "Traceback" not in err and len(err.splitlines()) == 1, err
 
@@ -31,7 +34,7 @@ def test_a_huge_file_is_refused_before_it_is_read(tmp_path: Path, capsys) -> Non
     t0 = time.process_time()
     assert main(["validate", str(f)]) == 2
     assert time.process_time() - t0 < 0.5
-    assert "50.0 MB, larger than 1000 kB" in capsys.readouterr().err
+    assert "50.0 MB, larger than 1000 kB" in capsys.readouterr().out
 
 
 def test_too_many_events_are_refused_before_they_are_checked(tmp_path: Path, capsys) -> None:
@@ -41,6 +44,6 @@ def test_too_many_events_are_refused_before_they_are_checked(tmp_path: Path, cap
     t0 = time.process_time()
     assert main(["validate", "--no-solve", str(f)]) == 2
     cpu = time.process_time() - t0
-    err = capsys.readouterr().err
+    err = capsys.readouterr().out
     assert f"line {5 + 2000}" in err and "more than 2000 items" in err, err
     assert cpu < 1.5, f"{cpu:.1f} s of CPU"  # 0.3 s measured: the first 2000 items are parsed, not the rest

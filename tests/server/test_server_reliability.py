@@ -165,3 +165,32 @@ def test_a_queued_simulation_can_be_cancelled(tmp_path: Path) -> None:
         r = c.delete(f"/simulations/{first}")  # running (or done): too late
         assert r.status_code == 409, r.text
         assert c.delete("/simulations/0123456789abcdef").status_code == 404
+
+
+# ---- item 3: one validation everywhere -------------------------------------------------------------------------
+FLIGHT = "format: footfall/maneuver@1\nname: flight\nduration: 4.0\nevents:\n" + "".join(
+    f"  - {{t: {t}, leg: {leg}, type: {kind}}}\n"
+    for t, kind in ((1.0, "liftoff"), (3.0, "touchdown"))
+    for leg in ("FL", "FR", "RL", "RR")
+)  # two seconds with every foot in the air: the rules only warn, the dry solve finds no feasible plan
+
+
+def test_rest_validate_put_and_cli_agree(client: TestClient, tmp_path: Path, capsys) -> None:
+    from server.cli import main
+
+    r = client.post("/maneuvers/validate", content=FLIGHT, headers=YAML)
+    assert r.status_code == 200 and not r.json()["ok"], r.text
+    rest = {(f["path"], f["line"], f["message"]) for f in r.json()["failures"]}
+    assert rest and all("no feasible plan" in m for _, _, m in rest), rest
+    r = client.put("/maneuvers/flight", content=FLIGHT, headers=YAML)
+    assert r.status_code == 422 and "no feasible plan" in r.json()["detail"], r.text
+    assert client.get("/maneuvers/flight").status_code == 404  # not stored
+    f = tmp_path / "flight.yaml"
+    f.write_text(FLIGHT)
+    assert main(["validate", str(f)]) == 2
+    cli = {
+        line.removeprefix("failure: ")
+        for line in capsys.readouterr().out.splitlines()
+        if line.startswith("failure")
+    }
+    assert cli == {f"line {line}: {path}: {message}" for path, line, message in rest}
