@@ -477,6 +477,12 @@ class SessionManager:
             self._reaper = threading.Thread(target=self._reap_loop, name="footfall-reaper", daemon=True)
             self._reaper.start()
 
+    @property
+    def studio_cap(self) -> int:
+        """Sessions the studio's tabs may hold at once: all but one (kept for the API) when there are two or more."""
+        n = self.settings.max_sessions
+        return n - 1 if n >= 2 else n
+
     def shutdown(self) -> None:
         self._stop.set()
         for s in self.list_sessions():
@@ -489,6 +495,13 @@ class SessionManager:
     ) -> LiveSession:
         """Returns a new running session; SessionLimit when the cap is reached."""
         with self._lock:
+            studio = sum(1 for x in self._sessions.values() if x.origin == "studio")
+            if origin == "studio" and studio >= self.studio_cap:
+                raise SessionLimit(
+                    f"the studio's tabs have {studio} live robots, their share of the {self.settings.max_sessions} "
+                    "sessions (one is kept for the API); close a tab, or raise FOOTFALL_MAX_SESSIONS",
+                    field="sessions",
+                )
             if len(self._sessions) + self._reserved >= self.settings.max_sessions:
                 raise SessionLimit(
                     f"too many live sessions (the cap is {self.settings.max_sessions}); "

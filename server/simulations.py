@@ -8,6 +8,7 @@ rebuilt. Workers report progress through a queue that a thread of the server dra
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import multiprocessing as mp
@@ -147,11 +148,25 @@ class SimulationPool:
         with self._lock:
             return list(self._jobs.values())
 
-    def shutdown(self) -> None:
+    def shutdown(self, grace_s: float = 2.0) -> None:
+        """Ends every worker process this pool started: queued jobs are dropped, a running one is terminated
+        (SIGTERM, then SIGKILL after `grace_s`), so no worker outlives the server (nor the resource tracker that
+        multiprocessing keeps for them, which exits when they are gone)."""
         self._closed = True
         ex, self._executor = self._executor, None
         if ex is not None:
+            workers = list((getattr(ex, "_processes", None) or {}).values())
             ex.shutdown(wait=False, cancel_futures=True)
+            for w in workers:
+                with contextlib.suppress(Exception):
+                    w.terminate()
+            deadline = time.monotonic() + grace_s
+            for w in workers:
+                with contextlib.suppress(Exception):
+                    w.join(max(0.0, deadline - time.monotonic()))
+                    if w.is_alive():
+                        w.kill()
+                        w.join(1.0)
         if self._progress is not None:
             try:
                 self._progress.put_nowait(None)
