@@ -62,7 +62,9 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
     for k, v in m.pop("$defs", {}).items():
         comps.setdefault(k, v)
     comps["Maneuver"] = m
-    app.openapi_schema = schema
+    from server.api.openapi import describe_errors
+
+    app.openapi_schema = describe_errors(schema)
     return schema
 
 

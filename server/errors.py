@@ -81,6 +81,20 @@ def _reason(err: dict[str, Any]) -> str:
     return msg[:1].lower() + msg[1:]
 
 
+def _allowed_methods(request: Request) -> list[str]:
+    """Returns every method some route answers on the request's path (a path may have one route per method:
+    Starlette's own 405 names only the first route's)."""
+    from starlette.routing import Match
+
+    scope = {**request.scope, "method": "GET"}
+    methods: set[str] = set()
+    for route in request.app.routes:
+        match, _ = route.matches(scope)
+        if match != Match.NONE:
+            methods |= set(getattr(route, "methods", None) or ())
+    return sorted(methods)
+
+
 def install(app: FastAPI) -> None:
     """Registers the error handlers on the app."""
 
@@ -132,13 +146,15 @@ def install(app: FastAPI) -> None:
             return JSONResponse(error_body(detail, [{"field": "body", "reason": detail}]), status_code=413,
                                 headers={"Connection": "close"})  # fmt: skip
         field = ""
+        headers = dict(getattr(e, "headers", None) or {})
         if e.status_code == 405:
             detail = f"{request.method} is not allowed on {request.url.path[:200]} (see /docs)"
+            headers["Allow"] = ", ".join(_allowed_methods(request))
         elif e.status_code == 400 and detail == "There was an error parsing the body":
             field, detail = "body", "body: is not JSON text in UTF-8"
         return JSONResponse(
             error_body(detail, [{"field": field, "reason": detail.removeprefix(f"{field}: ")}]),
-            status_code=e.status_code, headers=getattr(e, "headers", None),
+            status_code=e.status_code, headers=headers or None,
         )  # fmt: skip
 
     @app.exception_handler(Exception)

@@ -178,8 +178,11 @@ def resolve_maneuver(ref: str | dict[str, Any], services: Services, field_name: 
             stored = services.store.get(ref)
         except StorageError as e:
             reason = e.message.removeprefix("name: ")
+            # the request's own resource exists: a body naming a maneuver that does not is unprocessable (422)
             raise ApiError(
-                e.status, f"{field_name}: {reason}", [{"field": field_name, "reason": reason}]
+                422 if e.status == 404 else e.status,
+                f"{field_name}: {reason}",
+                [{"field": field_name, "reason": reason}],
             ) from None
         try:
             data, lines = read_yaml(stored.text)

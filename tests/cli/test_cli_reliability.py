@@ -47,3 +47,16 @@ def test_too_many_events_are_refused_before_they_are_checked(tmp_path: Path, cap
     err = capsys.readouterr().out
     assert f"line {5 + 2000}" in err and "more than 2000 items" in err, err
     assert cpu < 1.5, f"{cpu:.1f} s of CPU"  # 0.3 s measured: the first 2000 items are parsed, not the rest
+
+
+def test_bench_runs_on_the_products_own_dependencies(monkeypatch, capsys) -> None:
+    """clarabel is a development dependency (the centroidal stage's reference solve): without it the stage runs,
+    without the reference error."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "clarabel", None)  # `import clarabel` raises ImportError
+    from planning.centroidal.bench import bench_centroidal_tick
+
+    out = bench_centroidal_tick(n_ticks=3)
+    assert out["ticks"] == 3 and out["p50_ms"] > 0.0
+    assert out["force_error_p50_N"] is None  # no reference without clarabel
