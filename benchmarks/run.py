@@ -225,30 +225,48 @@ def run_benchmarks(
         from planning.terrain.bench import bench_terrain_crossings
 
         out["terrain"] = bench_terrain_crossings()
-    if want("stairs_variants") and not quick:
-        say("bench: the stairs with the goal moved sideways, with the sensor and on ground-truth maps (slow)")
-        from planning.terrain.bench import bench_stairs_variants
-
-        out["stairs_variants"] = bench_stairs_variants()
+    # The variant stages are shipped sweep specs (sweeps/*-variants.yaml) run through `footfall sweep`'s code on
+    # local worker processes; results are kept in sweep-results/NAME, so an interrupted bench goes on.
     # clutter_variants (and _shifted) and stones_variants run only when asked for by name: 24, 24 and 12 crossings
-    if only is not None and "clutter_variants" in only and not quick:
-        say("bench: clutter scenes of twelve seeds with the sensor and twelve on ground-truth maps (slow)")
-        from planning.terrain.bench import bench_clutter_variants
-
-        out["clutter_variants"] = bench_clutter_variants()
-    if only is not None and "clutter_variants_shifted" in only and not quick:
-        say("bench: the same clutter scenes with the goal moved 1 mm sideways, to see what is chance (slow)")
-        from planning.terrain.bench import bench_clutter_variants
-
-        out["clutter_variants_shifted"] = bench_clutter_variants(goal_y_m=0.001)
-    if only is not None and "stones_variants" in only and not quick:
-        say(
-            "bench: stepping-stone scenes of eight seeds with the sensor and four on ground-truth maps (slow)"
-        )
-        from planning.terrain.bench import bench_stones_variants
-
-        out["stones_variants"] = bench_stones_variants()
+    for stage, by_name in (("stairs_variants", False), ("clutter_variants", True),
+                           ("clutter_variants_shifted", True), ("stones_variants", True)):  # fmt: skip
+        if quick or not (want(stage) if not by_name else only is not None and stage in only):
+            continue
+        say(f"bench: {stage} (sweeps/{stage.replace('_', '-')}.yaml; slow)")
+        out[stage] = sweep_variants(stage.replace("_", "-"))
     return out
+
+
+def sweep_variants(name: str, out_dir: str | None = None) -> dict[str, Any]:
+    """Runs the shipped sweep `name` on local workers; gives {"runs", "crossed" (no fall, past the terrain),
+    "success_rate", "by_variant": {label: {"crossed", "time_s", "no_step_touchdowns", "no_step_scuffs",
+    "failure_reason"}}}, the labels naming the run and the axis values."""
+    from pathlib import Path
+
+    from planning.sweep import ResultStore, expand, load_spec, make_backend, run_sweep
+
+    spec = load_spec(name)
+    out = Path(out_dir or Path("sweep-results") / spec.name)
+    summary = run_sweep(spec, make_backend("local"), out)
+    store = ResultStore(out)
+    by: dict[str, Any] = {}
+    for case in expand(spec):
+        rec = store.get(case["key"]) or {}
+        r = rec.get("report") or {}
+        label = " ".join(f"{v}" if a == "run" else f"{a}={v}" for a, v in case["axes"].items())
+        by[label] = {
+            "crossed": bool(r.get("crossed")),
+            "time_s": r.get("time_to_cross_s"),
+            "no_step_touchdowns": r.get("no_step_touchdowns"),
+            "no_step_scuffs": r.get("no_step_scuffs"),
+            "failure_reason": r.get("failure_reason") or rec.get("error"),
+        }
+    return {
+        "runs": len(by),
+        "crossed": sum(v["crossed"] for v in by.values()),
+        "success_rate": summary["overall"]["success_rate"],
+        "by_variant": by,
+    }
 
 
 def format_table(result: dict[str, Any]) -> str:

@@ -98,6 +98,8 @@ def create_app(
             yield
         finally:
             services.close()
+            if getattr(app.state, "sweeps", None) is not None:
+                app.state.sweeps.shutdown()
 
     app = FastAPI(
         title="footfall",

@@ -26,6 +26,7 @@ examples:
   footfall walk --vx 0.5 --duration 10                trot forward at 0.5 m/s
   footfall walk --goal 3,1 --push 4:0,200,0:0.1       walk to a goal, taking a push on the way
   footfall bench --json bench.json                    time every stage and the closed loop
+  footfall sweep sweeps/push-stand.yaml               success rate of `stand` over a grid of pushes
   footfall serve                                      REST API on :8000 and the 3D studio on :8080
 """
 
@@ -70,11 +71,14 @@ def _parse_pushes(specs: list[str] | None) -> list[Any]:
     return out
 
 
-def _check_terrain(name: str) -> None:
-    from planning.terrain.scenes import TERRAIN_NAMES
+def _check_terrain(text: str) -> None:
+    """Builds the terrain once (a name, a name with parameters, or a file) so that a bad one is a usage error."""
+    from planning.terrain.spec import TerrainSpecError, load_terrain
 
-    if name not in TERRAIN_NAMES:
-        raise UsageError(f"--terrain {name!r}: unknown terrain (one of: {', '.join(TERRAIN_NAMES)})")
+    try:
+        load_terrain(text)
+    except TerrainSpecError as e:
+        raise UsageError(f"--terrain {text!r}: {e}") from None
 
 
 def _load(name_or_path: str) -> Any:
@@ -162,6 +166,14 @@ def cmd_run(a: argparse.Namespace) -> int:
     return EXIT_OK if report["success"] else EXIT_FAILED
 
 
+def cmd_robot_check(a: argparse.Namespace) -> int:
+    from planning.robot.check import check_robot
+
+    ok, text = check_robot(a.robot)
+    print(text)
+    return EXIT_OK if ok else EXIT_INVALID
+
+
 def _robot(name: str) -> Any:
     from planning.robot import RobotDescriptionError, load_robot
 
@@ -247,11 +259,21 @@ def cmd_validate(a: argparse.Namespace) -> int:
 
 
 def cmd_terrains(a: argparse.Namespace) -> int:
-    from planning.terrain.scenes import TERRAIN_NAMES, build_terrain
+    from planning.terrain.scenes import TERRAIN_NAMES, build_terrain, param_info
 
     for name in TERRAIN_NAMES:
         print(f"{name:12s} {build_terrain(name).description}")
+        if a.params:
+            for info in param_info(name):
+                print(f"{'':14s}{info.describe()}")
     return EXIT_OK
+
+
+_TERRAIN_HELP = (
+    "a terrain name (footfall terrains lists them), a name with parameters (stairs:riser_m=0.18,tread_m=0.28; "
+    "footfall terrains --params lists them), or a file: an MJCF scene (.xml) or a heightmap (.npy or .png, "
+    "e.g. heightmap.npy:cell_m=0.05)"
+)
 
 
 def cmd_bench(a: argparse.Namespace) -> int:
@@ -284,9 +306,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("run", help="simulate a maneuver in MuJoCo (headless unless --realtime)")
     r.add_argument("maneuver", metavar="MANEUVER", help="a library name (footfall run stand) or a .yaml path")
-    r.add_argument(
-        "--terrain", default="flat", metavar="NAME", help="terrain scene (footfall terrains lists them)"
-    )
+    r.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
     r.add_argument(
         "--push",
         action="append",
@@ -298,7 +318,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--report", metavar="FILE", help="write the JSON run report here")
     r.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     r.add_argument(
-        "--robot", default="spot", help="robot description: spot (default) or go1, or a .yaml path"
+        "--robot",
+        default="spot",
+        help="robot: spot (default), go1, an MJCF file (PATH.xml) or a .yaml description",
     )
     r.set_defaults(fn=cmd_run)
 
@@ -328,7 +350,7 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument(
         "--duration", type=float, metavar="S", help="simulated seconds (default 10, 30 with --goal)"
     )
-    w.add_argument("--terrain", default="flat", metavar="NAME")
+    w.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
     w.add_argument(
         "--maps",
         default="sensor",
@@ -352,7 +374,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     v.set_defaults(fn=cmd_validate)
 
+    rb = sub.add_parser("robot", help="robots: check what footfall detects in an MJCF")
+    rbs = rb.add_subparsers(dest="robot_cmd", metavar="COMMAND", required=True)
+    rc = rbs.add_parser(
+        "check", help="print what was detected, compare the kinematics with MuJoCo, list problems"
+    )
+    rc.add_argument(
+        "robot", metavar="PATH", help="an MJCF file (.xml), a description (.yaml) or a shipped name"
+    )
+    rc.set_defaults(fn=cmd_robot_check)
+
     t = sub.add_parser("terrains", help="list the terrain names")
+    t.add_argument("--params", action="store_true", help="list each terrain's parameters with their ranges")
     t.set_defaults(fn=cmd_terrains)
 
     b = sub.add_parser("bench", help="time every planning stage and the closed loop (p50 / p99)")
@@ -372,6 +405,11 @@ def build_parser() -> argparse.ArgumentParser:
         "(eight stepping-stone layouts with the sensor, four on ground-truth maps; only when named)",
     )
     b.set_defaults(fn=cmd_bench)
+
+    from planning.sweep.cli import add_parser as add_sweep
+    from planning.sweep.cli import main as cmd_sweep
+
+    add_sweep(sub).set_defaults(fn=cmd_sweep)
 
     s = sub.add_parser("serve", help="REST API and browser studio")
     s.add_argument(

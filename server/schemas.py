@@ -8,12 +8,54 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, WithJsonSchema, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    WithJsonSchema,
+    field_validator,
+    model_validator,
+)
 
 from planning.maneuver.spec import NAME_PATTERN
 from server.engine import steering_gaits, terrain_names
 
 TerrainName = Literal[terrain_names()]  # type: ignore[valid-type]
+
+
+class TerrainObjectIn(BaseModel):
+    """A terrain in the structured form: a built-in name or an uploaded file, with parameters."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    name: TerrainName | None = Field(None, description="a built-in terrain (GET /terrains)")  # type: ignore[valid-type]
+    file: Annotated[str, Field(max_length=100)] | None = Field(
+        None, description="an uploaded terrain file (GET /terrain-files)"
+    )
+    params: Annotated[dict[str, Any], Field(max_length=40)] = Field(
+        default_factory=dict,
+        description="parameter overrides (GET /terrains lists each terrain's, with ranges); a range as [min, max]",
+    )
+
+
+def _terrain_text(v: Any) -> str:
+    """Gives the string form of a terrain field (checked: known name, known parameters in range, bare file name)."""
+    from server.terrains import parse_network_terrain
+
+    raw = v.model_dump(exclude_none=True) if isinstance(v, TerrainObjectIn) else v
+    return parse_network_terrain(raw).text()
+
+
+TerrainIn = Annotated[
+    Annotated[str, Field(max_length=2000)] | TerrainObjectIn,
+    AfterValidator(_terrain_text),
+    Field(
+        description="a built-in name (GET /terrains), a name with parameters (stairs:riser_m=0.18,tread_m=0.28), "
+        "an uploaded file (hills.npy:cell_m=0.05, room.xml; GET /terrain-files), or the structured form "
+        '{"name": "stairs", "params": {"riser_m": 0.18}}',
+        examples=["stairs:riser_m=0.18,tread_m=0.28"],
+    ),
+]
 SteerGait = Literal[steering_gaits() or ("trot", "walk", "pace", "bound")]  # type: ignore[valid-type]
 
 
@@ -101,7 +143,7 @@ class SimulationCreate(_In):
         None, description="a library name, or a maneuver document (footfall/maneuver@1) inline"
     )
     walk: WalkIn | None = None
-    terrain: TerrainName = "flat"  # type: ignore[valid-type]
+    terrain: TerrainIn = "flat"
     pushes: Annotated[list[PushIn | PushSpec], Field(max_length=50)] = Field(default_factory=list)
     duration: _num(0.0, 120.0, lo_open=True) | None = Field(  # type: ignore[valid-type]
         None, description="simulated seconds (default: the maneuver's)"
@@ -152,7 +194,7 @@ SessionMaps = Literal["truth", "sensor"]
 
 
 class SessionCreate(_In):
-    terrain: TerrainName = "flat"  # type: ignore[valid-type]
+    terrain: TerrainIn = "flat"
     mode: Literal["steer", "maneuver"] = "maneuver"
     maps: SessionMaps = Field(
         "truth",
@@ -196,7 +238,7 @@ class SessionPushIn(_In):
 
 
 class SessionResetIn(_In):
-    terrain: TerrainName | None = None  # type: ignore[valid-type]
+    terrain: TerrainIn | None = None
     maps: SessionMaps | None = None
 
 
@@ -209,7 +251,7 @@ class SessionControlIn(_In):
 
 class StudioPreviewIn(_In):
     maneuver: ManeuverName
-    terrain: TerrainName = "flat"  # type: ignore[valid-type]
+    terrain: TerrainIn = "flat"
 
     @field_validator("maneuver")
     @classmethod

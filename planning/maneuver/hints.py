@@ -15,6 +15,7 @@ import numpy as np
 from planning.maneuver.body import BodyReference
 from planning.maneuver.load import SHIPPED_LIBRARY, find_maneuver, load_maneuver
 from planning.maneuver.problems import ManeuverError, Problem
+from planning.maneuver.scale import scale_to_robot
 from planning.maneuver.spec import Maneuver
 from planning.robot import RobotModel
 
@@ -28,7 +29,9 @@ def load_hints(
     for i, h in enumerate(maneuver.hints):
         path = f"hints[{i}].maneuver"
         try:
-            hm = load_maneuver(find_maneuver(h.maneuver, library_dirs, allow_paths=False))
+            hm = scale_to_robot(
+                load_maneuver(find_maneuver(h.maneuver, library_dirs, allow_paths=False)), robot
+            )
         except ManeuverError as e:
             problems.append(
                 Problem(path, e.problems[0].message if e.problems else f"cannot load {h.maneuver!r}")

@@ -33,6 +33,7 @@ from planning.maneuver.expand import (
 )
 from planning.maneuver.load import parse_maneuver, read_source
 from planning.maneuver.problems import ManeuverError, Problem, with_lines
+from planning.maneuver.scale import scale_to_robot
 from planning.maneuver.spec import FORMAT, Liftoff, Maneuver, MaximizeHeight, Touchdown
 
 if TYPE_CHECKING:
@@ -822,7 +823,8 @@ def validate_maneuver(
         partial = _without_bad_items(data, shape)
         if partial is None:
             return ValidationResult(False, [], shape)
-        ctx = Context(partial.maneuver, robot if robot is not None else _default_robot(), params or Params(),
+        robot = robot if robot is not None else _default_robot()
+        ctx = Context(scale_to_robot(partial.maneuver, robot), robot, params or Params(),
                       incomplete_legs=partial.incomplete_legs)  # fmt: skip
         found = with_lines([partial.original(p) for p in _run_rules(ctx)], lines)
         seen = {(p.path, p.message) for p in shape}
@@ -832,7 +834,9 @@ def validate_maneuver(
             [p for p in more if p.severity == "warning"],
             shape + [p for p in more if p.severity == "failure"],
         )
-    ctx = Context(maneuver, robot if robot is not None else _default_robot(), params or Params())
+    robot = robot if robot is not None else _default_robot()
+    maneuver = scale_to_robot(maneuver, robot)  # lengths are the reference robot's (planning.maneuver.scale)
+    ctx = Context(maneuver, robot, params or Params())
     problems = with_lines(_run_rules(ctx), lines)
     failures = [p for p in problems if p.severity == "failure"]
     if not failures and not isinstance(ctx.schedule_or_problems, Schedule):

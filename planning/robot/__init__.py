@@ -1,4 +1,4 @@
-"""The robot: an MJCF plus a small description, names resolved once, analytic leg kinematics."""
+"""The robot: any quadruped MJCF (plus an optional small description), names resolved once, analytic leg kinematics."""
 
 from planning.robot.model import (
     LEGS,

@@ -1,9 +1,10 @@
-"""RobotModel: a quadruped loaded from an MJCF plus a small description, with analytic leg kinematics.
+"""RobotModel: a quadruped loaded from its MJCF (plus an optional small description), with analytic leg kinematics.
 
-Frames: ``body`` is the trunk frame (x forward, y left, z up, origin at the trunk center); ``world`` is MuJoCo's.
-Every leg is hip abduction (about body x) → hip flexion (about y) → knee (about y); at zero angles the leg hangs
-straight down. The kinematic lengths are read from the MJCF, so the description carries only names, the nominal
-stance and what the MJCF does not say.
+Frames: ``body`` is the base frame (x forward, y left, z up, origin at the base body's frame); ``world`` is MuJoCo's.
+Every leg is hip abduction (about body ±x) → hip flexion (about ±y) → knee (about ±y). The kinematic parameters are
+read from MuJoCo's own kinematics at zero joint angles (``planning.robot.mjcf``), so knee offsets, feet in their own
+bodies and joints turning about −y are all exact; `footfall robot check` compares the analytic model against MuJoCo.
+Joint angles everywhere are MuJoCo's.
 """
 
 from __future__ import annotations
@@ -16,16 +17,35 @@ import mujoco
 import numpy as np
 import yaml
 
-LEGS: tuple[str, str, str, str] = ("FL", "FR", "RL", "RR")
+from planning.robot.mjcf import (
+    DESCRIPTION_KEYS,
+    LEGS,
+    NEAR_FOOT_FACTOR,
+    Detected,
+    RobotDescriptionError,
+    detect,
+    load_spec,
+)
+
 ASSETS = Path(__file__).parent / "assets"
+DEFAULT_JOINT_VELOCITY_LIMIT = 20.0  # rad/s, when the description does not give one
+GUESSED_LEG_EXTENSION = (
+    0.75  # with no keyframe: stand with the hip-foot distance at this share of the full reach
+)
+
+__all__ = [
+    "ASSETS",
+    "LEGS",
+    "ReachError",
+    "RobotDescriptionError",
+    "RobotModel",
+    "available_robots",
+    "load_robot",
+]
 
 
 class ReachError(ValueError):
     """A foot position the leg cannot reach (too far, too close, or outside a joint's range)."""
-
-
-class RobotDescriptionError(ValueError):
-    """A robot description that does not match its MJCF (a missing joint, body or geom, a malformed field)."""
 
 
 @dataclass(frozen=True)
@@ -51,120 +71,217 @@ def available_robots() -> list[str]:
     return sorted(p.stem for p in ASSETS.glob("*.yaml"))
 
 
-def load_robot(name_or_path: str | Path = "spot") -> RobotModel:
-    """Returns the RobotModel of a shipped robot name ("spot", "go1") or a description file path."""
-    p = Path(name_or_path)
-    path = p if p.suffix in (".yaml", ".yml") else _builtin(str(name_or_path))
-    if not path.exists():
-        raise RobotDescriptionError(
-            f"robot {str(name_or_path)!r}: no such robot description (shipped: {', '.join(available_robots())})"
-        )
+def _read_yaml(path: Path) -> dict[str, Any]:
     try:
         desc = yaml.safe_load(path.read_text())
     except yaml.YAMLError as e:
-        raise RobotDescriptionError(f"{path}: not valid YAML: {e}") from None
+        raise RobotDescriptionError(f"{path}: not valid YAML: {' '.join(str(e).split())}") from None
+    if desc is None:
+        return {}
     if not isinstance(desc, dict):
         raise RobotDescriptionError(f"{path}: a robot description must be a mapping")
-    return RobotModel(desc, base_dir=path.parent)
+    unknown = sorted(set(map(str, desc)) - DESCRIPTION_KEYS)
+    if unknown:
+        raise RobotDescriptionError(
+            f"{path.name}: unknown field(s) {', '.join(unknown)} (known: {', '.join(sorted(DESCRIPTION_KEYS))})"
+        )
+    return desc
+
+
+def description_beside(xml: Path) -> Path:
+    """The optional description of an MJCF file: ``NAME.footfall.yaml`` in the same folder."""
+    return xml.with_name(xml.stem + ".footfall.yaml")
+
+
+def load_robot(name_or_path: str | Path = "spot", strict: bool = True) -> RobotModel:
+    """Returns the RobotModel of a shipped robot name ("spot", "go1"), an MJCF path (``.xml``; an optional
+    ``NAME.footfall.yaml`` beside it overrides detection) or a description path (``.yaml`` naming its ``mjcf``).
+
+    Raises RobotDescriptionError naming every problem; with strict=False a robot that could be built is returned
+    with its problems in ``.problems`` (what `footfall robot check` prints)."""
+    p = Path(name_or_path)
+    if p.suffix.lower() == ".xml":
+        side = description_beside(p)
+        desc = _read_yaml(side) if side.exists() else {}
+        return RobotModel.from_mjcf(p, desc, strict)
+    path = p if p.suffix in (".yaml", ".yml") else _builtin(str(name_or_path))
+    if not path.exists():
+        raise RobotDescriptionError(
+            f"robot {str(name_or_path)!r}: no such robot description (shipped: {', '.join(available_robots())}; "
+            f"or an MJCF file, PATH.xml)"
+        )
+    desc = _read_yaml(path)
+    if "mjcf" not in desc:
+        raise RobotDescriptionError(
+            f"{path.name}: missing field 'mjcf' (the MJCF file, relative to the description)"
+        )
+    return RobotModel.from_mjcf(path.parent / str(desc["mjcf"]), desc, strict)
 
 
 class RobotModel:
     """A quadruped: MuJoCo model, names resolved to ids, analytic kinematics per leg."""
 
-    def __init__(self, desc: dict[str, Any], base_dir: Path = ASSETS) -> None:
-        def field(key: str) -> Any:
-            if key not in desc:
-                raise RobotDescriptionError(f"robot description: missing field {key!r}")
-            return desc[key]
-
-        self.name: str = str(field("name"))
-        self.title: str = str(desc.get("title", self.name))
-        self.mjcf_path: Path = (base_dir / str(field("mjcf"))).resolve()
-        if not self.mjcf_path.exists():
-            raise RobotDescriptionError(f"robot {self.name}: mjcf: file {self.mjcf_path} does not exist")
-        self.mjcf_xml: str = self.mjcf_path.read_text()
-        self.model = mujoco.MjModel.from_xml_string(self.mjcf_xml)
-        m = self.model
-
-        def resolve(kind: mujoco.mjtObj, name: str, where: str) -> int:
-            i = mujoco.mj_name2id(m, kind, name)
-            if i < 0:
-                raise RobotDescriptionError(
-                    f"robot {self.name}: {where}: {kind.name[6:].lower()} {name!r} is not in {self.mjcf_path.name}"
-                )
-            return int(i)
-
-        self.body_id = resolve(mujoco.mjtObj.mjOBJ_BODY, str(field("body")), "body")
-        legs = field("legs")
-        if not isinstance(legs, dict) or set(legs) != set(LEGS):
-            raise RobotDescriptionError(f"robot {self.name}: legs: must name exactly {', '.join(LEGS)}")
-        ids: list[LegIds] = []
-        for leg in LEGS:
-            d = legs[leg]
-            where = f"legs.{leg}"
-            joints = d.get("joints", [])
-            if len(joints) != 3:
-                raise RobotDescriptionError(f"robot {self.name}: {where}.joints: needs 3 joints (hx, hy, kn)")
-            jids = tuple(resolve(mujoco.mjtObj.mjOBJ_JOINT, j, f"{where}.joints") for j in joints)
-            act = []
-            for j, jid in zip(joints, jids, strict=True):
-                a = [k for k in range(m.nu) if m.actuator_trnid[k, 0] == jid]
-                if not a:
-                    raise RobotDescriptionError(f"robot {self.name}: {where}: joint {j!r} has no actuator")
-                act.append(a[0])
-            ids.append(
-                LegIds(
-                    joint_ids=jids,  # type: ignore[arg-type]
-                    qpos_adr=tuple(int(m.jnt_qposadr[j]) for j in jids),  # type: ignore[arg-type]
-                    dof_adr=tuple(int(m.jnt_dofadr[j]) for j in jids),  # type: ignore[arg-type]
-                    actuator_ids=tuple(act),  # type: ignore[arg-type]
-                    foot_geom=resolve(mujoco.mjtObj.mjOBJ_GEOM, d.get("foot", ""), f"{where}.foot"),
-                    foot_site=resolve(mujoco.mjtObj.mjOBJ_SITE, d.get("foot_site", ""), f"{where}.foot_site"),
-                    hip_body=resolve(mujoco.mjtObj.mjOBJ_BODY, d.get("hip", ""), f"{where}.hip"),
-                    knee_body=resolve(mujoco.mjtObj.mjOBJ_BODY, d.get("knee", ""), f"{where}.knee"),
-                )
+    @classmethod
+    def from_mjcf(cls, xml_path: Path, desc: dict[str, Any], strict: bool = True) -> RobotModel:
+        """Loads and checks an MJCF; raises RobotDescriptionError naming every problem at once."""
+        xml_path = Path(xml_path)
+        if not xml_path.exists():
+            where = f"robot {desc['name']}: mjcf: " if "name" in desc else ""
+            raise RobotDescriptionError(f"{where}file {xml_path.resolve()} does not exist")
+        spec = load_spec(xml_path)
+        det = detect(spec, xml_path, desc)
+        robot = cls(det, desc, xml_path)
+        if robot.problems and strict:
+            raise RobotDescriptionError(
+                f"{xml_path.name}: {len(robot.problems)} problem(s): " + "; ".join(robot.problems)
             )
+        return robot
+
+    def __init__(self, det: Detected, desc: dict[str, Any], xml_path: Path) -> None:
+        self.problems: list[str] = list(det.problems)
+        self.notes: list[str] = list(det.notes)
+        self.mjcf_path: Path = Path(xml_path).resolve()
+        self.mjcf_xml: str = det.xml
+        self.model = det.model
+        m = self.model
+        self.name: str = str(desc.get("name", self.mjcf_path.stem))
+        self.title: str = str(desc.get("title", f"{self.name} ({self.mjcf_path.name})"))
+        self.body_id = det.base_body
+        self.free_joint_name = det.free_joint_name
+        geo = det.legs
+
+        def site(name: str) -> int:
+            return int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, name))
+
+        ids = [
+            LegIds(
+                joint_ids=g.joint_ids,
+                qpos_adr=tuple(int(m.jnt_qposadr[j]) for j in g.joint_ids),  # type: ignore[arg-type]
+                dof_adr=tuple(int(m.jnt_dofadr[j]) for j in g.joint_ids),  # type: ignore[arg-type]
+                actuator_ids=g.actuator_ids,
+                foot_geom=g.foot_geom,
+                foot_site=site(g.foot_site_name),
+                hip_body=int(m.jnt_bodyid[g.joint_ids[0]]),
+                knee_body=g.knee_body,
+            )
+            for g in geo
+        ]
         self.legs: tuple[LegIds, ...] = tuple(ids)
+        self.leg_geometry = tuple(geo)
         self.qpos_idx = np.array([leg.qpos_adr for leg in ids], dtype=np.int64)  # (4,3)
         self.dof_idx = np.array([leg.dof_adr for leg in ids], dtype=np.int64)  # (4,3)
         self.act_idx = np.array([leg.actuator_ids for leg in ids], dtype=np.int64)  # (4,3)
+        self.ctrl_scale = det.ctrl_scale  # (4,3) actuator ctrl per N·m of joint torque (1 / (gear · gain))
         self.foot_geom_ids = np.array([leg.foot_geom for leg in ids], dtype=np.int64)
         self.foot_site_ids = np.array([leg.foot_site for leg in ids], dtype=np.int64)
+        self.foot_site_names = tuple(g.foot_site_name for g in geo)
+        # collision geoms below each knee other than the foot: a contact near the foot center is the foot's
+        self.lower_leg_geoms = tuple(g.lower_geoms for g in geo)
+        self.ground_geom_names = tuple(str(n) for n in (desc.get("ground_geoms") or []))
+        for n in self.ground_geom_names:
+            if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n) < 0:
+                self.problems.append(f"ground_geoms: geom {n!r} is not in {self.mjcf_path.name}")
 
-        # Kinematic lengths from the MJCF tree: hip body pos (in trunk), upper-leg body pos (abduction offset),
-        # lower-leg body pos (upper length), foot geom pos (lower length).
-        self.p_body_hip = np.array([m.body_pos[leg.hip_body] for leg in ids])  # (4,3)
-        self.abd_offset = np.array([m.body_pos[m.body_parentid[leg.knee_body]][1] for leg in ids])
-        self.l_upper = float(-m.body_pos[ids[0].knee_body][2])
-        self.l_lower = float(-m.geom_pos[ids[0].foot_geom][2])
-        self.foot_radius_m = float(m.geom_size[ids[0].foot_geom][0])
-        self.q_min = np.array([[m.jnt_range[j][0] for j in leg.joint_ids] for leg in ids])
-        self.q_max = np.array([[m.jnt_range[j][1] for j in leg.joint_ids] for leg in ids])
-        self.tau_max = np.array([[m.actuator_ctrlrange[a][1] for a in leg.actuator_ids] for leg in ids])
-        self.qd_max = float(desc.get("joint_velocity_limit", 20.0))
+        # analytic kinematics, per leg (see planning.robot.mjcf.LegGeometry)
+        self.p_body_hip = np.array([g.p_hip for g in geo])  # (4,3) on the abduction axis
+        self.abd_offset = np.array([g.y_foot for g in geo])  # (4,) lateral offset of the foot plane
+        self._y_knee = np.array([g.y_knee for g in geo])
+        self._z_flex = np.array([g.z_flex for g in geo])
+        self._lu = np.array([g.l_upper for g in geo])
+        self._ll = np.array([g.l_lower for g in geo])
+        self._alpha = np.array([g.alpha for g in geo])
+        self._beta = np.array([g.beta for g in geo])
+        self._sign = np.array([g.signs for g in geo])  # (4,3)
+        self.l_upper = float(self._lu[0])
+        self.l_lower = float(self._ll[0])
+        if np.ptp(self._lu) > 1e-3 or np.ptp(self._ll) > 1e-3:
+            self.notes.append(
+                f"legs differ in length (upper {np.round(self._lu, 3).tolist()}, lower {np.round(self._ll, 3).tolist()} m)"
+            )
+        self.foot_radius_m = float(geo[0].foot_radius)
+        self.q_min = det.q_range[:, :, 0].copy()
+        self.q_max = det.q_range[:, :, 1].copy()
+        self.tau_max = det.tau_max
+        self.qd_max = float(desc.get("joint_velocity_limit", DEFAULT_JOINT_VELOCITY_LIMIT))
         self.mass_kg = float(np.sum(m.body_mass))
-        self.standing_height_m = float(field("standing_height"))
-        st = field("nominal_stance")
-        sx, sy = float(st["x"]), float(st["y"])
-        sign = np.array([[1, 1], [1, -1], [-1, 1], [-1, -1]], dtype=float)
-        self.nominal_foot_body = np.column_stack(
-            [sign[:, 0] * sx, sign[:, 1] * sy, np.full(4, -self.standing_height_m)]
-        )  # (4,3) contact points
-        kmin, kmax = self.q_min[0, 2], self.q_max[0, 2]
-        lu, ll = self.l_upper, self.l_lower
-        self.max_leg_length_m = float(np.sqrt(lu**2 + ll**2 + 2 * lu * ll * np.cos(kmax)))
-        self.min_leg_length_m = float(np.sqrt(lu**2 + ll**2 + 2 * lu * ll * np.cos(kmin)))
-        self.q_nominal = np.array(
-            [self.ik_leg(i, self.nominal_foot_body[i] + [0, 0, self.foot_radius_m]) for i in range(4)]
-        )
+        # the knee bends to one side: the relative shank angle's sign over the knee's range
+        psi_lo = self._sign[:, 2] * self.q_min[:, 2] + self._beta - self._alpha
+        psi_hi = self._sign[:, 2] * self.q_max[:, 2] + self._beta - self._alpha
+        lo, hi = np.minimum(psi_lo, psi_hi), np.maximum(psi_lo, psi_hi)
+        self._knee_branch = np.where(lo + hi <= 0.0, -1.0, 1.0)
+        a_lo = np.where(self._knee_branch < 0, np.clip(-hi, 0, np.pi), np.clip(lo, 0, np.pi))
+        a_hi = np.where(self._knee_branch < 0, np.clip(-lo, 0, np.pi), np.clip(hi, 0, np.pi))
+        lu, ll = self._lu, self._ll
+        self._d_max = np.sqrt(lu**2 + ll**2 + 2 * lu * ll * np.cos(a_lo))
+        self._d_min = np.sqrt(lu**2 + ll**2 + 2 * lu * ll * np.cos(a_hi))
+        self.max_leg_length_m = float(np.min(self._d_max))
+        self.min_leg_length_m = float(np.max(self._d_min))
+        self._standing_pose(det, desc)
+        try:
+            self.q_nominal = np.array(
+                [self.ik_leg(i, self.nominal_foot_body[i] + [0, 0, self.foot_radius_m]) for i in range(4)]
+            )
+        except ReachError as e:
+            self.problems.append(f"the standing pose is out of reach: {e}")
+            self.q_nominal = np.zeros((4, 3))
         self.inertia_body = self._composite_inertia()
 
+    def _standing_pose(self, det: Detected, desc: dict[str, Any]) -> None:
+        """Standing height and nominal footholds: the description's, else the home keyframe's, else guessed."""
+        r = self.foot_radius_m
+        if "standing_height" in desc and "nominal_stance" in desc:
+            try:
+                self.standing_height_m = float(desc["standing_height"])
+                st = desc["nominal_stance"]
+                sx, sy = float(st["x"]), float(st["y"])
+            except (TypeError, ValueError, KeyError):
+                raise RobotDescriptionError(
+                    "standing_height: a number (m) and nominal_stance: {x: M, y: M} are needed together"
+                ) from None
+            sign = np.array([[1, 1], [1, -1], [-1, 1], [-1, -1]], dtype=float)
+            self.nominal_foot_body = np.column_stack(
+                [sign[:, 0] * sx, sign[:, 1] * sy, np.full(4, -self.standing_height_m)]
+            )  # (4,3) contact points
+            self.standing_source = "description"
+            return
+        if det.home_q is not None:
+            feet = np.array([self.fk_leg(i, det.home_q[i]) for i in range(4)])
+            self.standing_source = "keyframe"
+        else:
+            feet = np.empty((4, 3))
+            for i in range(4):
+                d = GUESSED_LEG_EXTENSION * self._d_max[i] + (1 - GUESSED_LEG_EXTENSION) * self._d_min[i]
+                feet[i] = self.p_body_hip[i] + [0.0, self.abd_offset[i], self._z_flex[i] - d]
+            self.standing_source = "guessed"
+            self.notes.append(
+                f"no keyframe {desc.get('keyframe', 'home')!r}: standing pose guessed (feet under the hips, legs at "
+                f"{GUESSED_LEG_EXTENSION:.0%} of their reach)"
+            )
+        h = float(-np.mean(feet[:, 2]) + r)
+        if "standing_height" in desc:
+            h = float(desc["standing_height"])
+        self.standing_height_m = h
+        self.nominal_foot_body = np.column_stack([feet[:, :2], np.full(4, -h)])
+        if h <= r:
+            self.problems.append(f"the standing pose puts the feet at or above the base (height {h:.3f} m)")
+
     # ----------------------------------------------------------------------------------------------------------
+    @property
+    def nominal_stance_xy(self) -> tuple[float, float]:
+        """Mean |x| and |y| of the nominal footholds in the body frame (m): the robot's stance size."""
+        return float(np.mean(np.abs(self.nominal_foot_body[:, 0]))), float(
+            np.mean(np.abs(self.nominal_foot_body[:, 1]))
+        )
+
     def home_qpos(self, height: float | None = None) -> np.ndarray:
         """Returns the full qpos (free joint + legs) of the nominal stance with the body at ``height`` m."""
-        q = np.zeros(self.model.nq)
-        q[2] = self.standing_height_m if height is None else height
-        q[3] = 1.0
+        q = self.model.qpos0.copy()
+        fa = int(
+            self.model.jnt_qposadr[
+                mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, self.free_joint_name)
+            ]
+        )
+        q[fa : fa + 7] = (0.0, 0.0, self.standing_height_m if height is None else height, 1.0, 0.0, 0.0, 0.0)
         for i in range(4):
             q[self.qpos_idx[i]] = self.q_nominal[i]
         return q
@@ -190,30 +307,37 @@ class RobotModel:
 
     def fk_leg(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Returns the foot-center position (3,) in the body frame for leg joint angles q (3,) rad."""
-        q0, q1, q2 = q
-        lu, ll = self.l_upper, self.l_lower
-        x = -lu * np.sin(q1) - ll * np.sin(q1 + q2)
-        z = -lu * np.cos(q1) - ll * np.cos(q1 + q2)
+        s0, s1, s2 = self._sign[leg]
+        q0, q1, q2 = s0 * q[0], s1 * q[1], s2 * q[2]
+        lu, ll = self._lu[leg], self._ll[leg]
+        p1 = q1 + self._alpha[leg]
+        p12 = q1 + q2 + self._beta[leg]
+        x = -lu * np.sin(p1) - ll * np.sin(p12)
+        z = -lu * np.cos(p1) - ll * np.cos(p12) + self._z_flex[leg]
         y = self._side(leg)
         c, s = np.cos(q0), np.sin(q0)
         return self.p_body_hip[leg] + np.array([x, c * y - s * z, s * y + c * z])
 
     def knee_body(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Returns the knee position (3,) in the body frame."""
-        q0, q1, _ = q
-        x = -self.l_upper * np.sin(q1)
-        z = -self.l_upper * np.cos(q1)
-        y = self._side(leg)
+        s0, s1 = self._sign[leg, 0], self._sign[leg, 1]
+        q0, p1 = s0 * q[0], s1 * q[1] + self._alpha[leg]
+        x = -self._lu[leg] * np.sin(p1)
+        z = -self._lu[leg] * np.cos(p1) + self._z_flex[leg]
+        y = float(self._y_knee[leg])
         c, s = np.cos(q0), np.sin(q0)
         return self.p_body_hip[leg] + np.array([x, c * y - s * z, s * y + c * z])
 
     def jacobian_leg(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Returns d p_body_foot / d q (3,3) for leg joint angles q (3,)."""
-        q0, q1, q2 = q
-        lu, ll = self.l_upper, self.l_lower
-        s1, c1, s12, c12 = np.sin(q1), np.cos(q1), np.sin(q1 + q2), np.cos(q1 + q2)
-        z = -lu * c1 - ll * c12
-        dx1, dz1 = -lu * c1 - ll * c12, lu * s1 + ll * s12
+        s0, s1, s2 = self._sign[leg]
+        q0, q1, q2 = s0 * q[0], s1 * q[1], s2 * q[2]
+        lu, ll = self._lu[leg], self._ll[leg]
+        p1 = q1 + self._alpha[leg]
+        p12 = q1 + q2 + self._beta[leg]
+        s1_, c1_, s12, c12 = np.sin(p1), np.cos(p1), np.sin(p12), np.cos(p12)
+        z = -lu * c1_ - ll * c12 + self._z_flex[leg]
+        dx1, dz1 = -lu * c1_ - ll * c12, lu * s1_ + ll * s12
         dx2, dz2 = -ll * c12, ll * s12
         y = self._side(leg)
         c, s = np.cos(q0), np.sin(q0)
@@ -221,7 +345,19 @@ class RobotModel:
         J[0] = (0.0, dx1, dx2)
         J[1] = (-s * y - c * z, -s * dz1, -s * dz2)
         J[2] = (c * y - s * z, c * dz1, c * dz2)
+        J *= self._sign[leg]
         return J
+
+    def _wrap_into_range(self, leg: int, q: np.ndarray) -> np.ndarray:
+        """Moves an angle by 2π where that brings it into its joint's range (only then: the arithmetic of in-range
+        angles is untouched)."""
+        lo, hi = self.q_min[leg], self.q_max[leg]
+        for k in (1, 2):
+            if q[k] < lo[k] - 1e-9 and lo[k] - 1e-9 <= q[k] + 2 * np.pi <= hi[k] + 1e-9:
+                q[k] += 2 * np.pi
+            elif q[k] > hi[k] + 1e-9 and lo[k] - 1e-9 <= q[k] - 2 * np.pi <= hi[k] + 1e-9:
+                q[k] -= 2 * np.pi
+        return q
 
     def ik_leg(self, leg: int, p_body_foot: np.ndarray) -> np.ndarray:
         """Returns joint angles (3,) that put the foot center at p_body_foot (3,); raises ReachError."""
@@ -235,18 +371,22 @@ class RobotModel:
         zp = -np.sqrt(r2)
         q0 = np.arctan2(pz, py) - np.arctan2(zp, y)
         q0 = (q0 + np.pi) % (2 * np.pi) - np.pi
-        D = np.hypot(px, zp)
-        if D > self.max_leg_length_m + 1e-9 or D < self.min_leg_length_m - 1e-9:
+        zs = zp - self._z_flex[leg]
+        D = np.hypot(px, zs)
+        if D > self._d_max[leg] + 1e-9 or D < self._d_min[leg] - 1e-9:
             raise ReachError(
                 f"{name}: foot at {np.round(p_body_foot, 3).tolist()} (body frame) is {D:.3f} m from the hip; "
-                f"the leg reaches {self.min_leg_length_m:.3f}–{self.max_leg_length_m:.3f} m"
+                f"the leg reaches {self._d_min[leg]:.3f}–{self._d_max[leg]:.3f} m"
             )
-        lu, ll = self.l_upper, self.l_lower
+        lu, ll = self._lu[leg], self._ll[leg]
         c2 = np.clip((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0, 1.0)
-        q2 = -np.arccos(c2)
-        phi = np.arctan2(-px, -zp)
-        q1 = phi - np.arctan2(ll * np.sin(q2), lu + ll * np.cos(q2))
-        q = np.array([q0, q1, q2])
+        psi2 = self._knee_branch[leg] * np.arccos(c2)
+        phi = np.arctan2(-px, -zs)
+        psi1 = phi - np.arctan2(ll * np.sin(psi2), lu + ll * np.cos(psi2))
+        sg = self._sign[leg]
+        a, b = self._alpha[leg], self._beta[leg]
+        q = np.array([sg[0] * q0, sg[1] * (psi1 - a), sg[2] * (psi2 - b + a)])
+        q = self._wrap_into_range(leg, q)
         lo, hi = self.q_min[leg] - 1e-9, self.q_max[leg] + 1e-9
         bad = (q < lo) | (q > hi)
         if bad.any():
@@ -267,29 +407,44 @@ class RobotModel:
         p = p_body_foot - self.p_body_hip[leg]
         px, py, pz = p[:, 0], p[:, 1], p[:, 2]
         y = self._side(leg)
-        lu, ll = self.l_upper, self.l_lower
+        lu, ll = self._lu[leg], self._ll[leg]
         r2 = py * py + pz * pz - y * y
         ok = r2 > 0.0
         # rows with r2 ≤ 0 are out of reach: taking the root of 0 there keeps NaNs (and their warnings) out
         zp = -np.sqrt(np.maximum(r2, 0.0))
         q = np.empty((len(p), 3))
         q0 = np.arctan2(pz, py) - np.arctan2(zp, y)
-        q[:, 0] = (q0 + np.pi) % (2 * np.pi) - np.pi
-        D = np.hypot(px, zp)
-        ok &= (D <= self.max_leg_length_m + 1e-9) & (D >= self.min_leg_length_m - 1e-9)
+        q0 = (q0 + np.pi) % (2 * np.pi) - np.pi
+        zs = zp - self._z_flex[leg]
+        D = np.hypot(px, zs)
+        ok &= (D <= self._d_max[leg] + 1e-9) & (D >= self._d_min[leg] - 1e-9)
         c2 = np.clip((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0, 1.0)
-        q2 = -np.arccos(c2)
-        q[:, 2] = q2
-        q[:, 1] = np.arctan2(-px, -zp) - np.arctan2(ll * np.sin(q2), lu + ll * np.cos(q2))
-        ok &= ((q >= self.q_min[leg] - 1e-9) & (q <= self.q_max[leg] + 1e-9)).all(axis=1)
+        psi2 = self._knee_branch[leg] * np.arccos(c2)
+        psi1 = np.arctan2(-px, -zs) - np.arctan2(ll * np.sin(psi2), lu + ll * np.cos(psi2))
+        sg = self._sign[leg]
+        a, b = self._alpha[leg], self._beta[leg]
+        q[:, 0] = sg[0] * q0
+        q[:, 1] = sg[1] * (psi1 - a)
+        q[:, 2] = sg[2] * (psi2 - b + a)
+        lo, hi = self.q_min[leg] - 1e-9, self.q_max[leg] + 1e-9
+        for k in (1, 2):
+            up = (q[:, k] < lo[k]) & (q[:, k] + 2 * np.pi >= lo[k]) & (q[:, k] + 2 * np.pi <= hi[k])
+            down = (q[:, k] > hi[k]) & (q[:, k] - 2 * np.pi >= lo[k]) & (q[:, k] - 2 * np.pi <= hi[k])
+            if up.any():
+                q[up, k] += 2 * np.pi
+            if down.any():
+                q[down, k] -= 2 * np.pi
+        ok &= ((q >= lo) & (q <= hi)).all(axis=1)
         return q, ok
 
     def knee_body_many(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Vectorized knee_body: knee positions (K,3) in the body frame for joint angles q (K,3)."""
-        q0, q1 = q[:, 0], q[:, 1]
-        x = -self.l_upper * np.sin(q1)
-        z = -self.l_upper * np.cos(q1)
-        y = self._side(leg)
+        s0, s1 = self._sign[leg, 0], self._sign[leg, 1]
+        q0 = s0 * q[:, 0]
+        p1 = s1 * q[:, 1] + self._alpha[leg]
+        x = -self._lu[leg] * np.sin(p1)
+        z = -self._lu[leg] * np.cos(p1) + self._z_flex[leg]
+        y = float(self._y_knee[leg])
         c, s = np.cos(q0), np.sin(q0)
         out = np.empty((len(q), 3))
         out[:, 0] = x
@@ -311,3 +466,28 @@ class RobotModel:
     def hips_world(self, p_world_body: np.ndarray, R_world_body: np.ndarray) -> np.ndarray:
         """Returns the hip positions (4,3) in the world."""
         return np.asarray(p_world_body) + self.p_body_hip @ np.asarray(R_world_body).T
+
+    # ---- checks ------------------------------------------------------------------------------------------------
+    def kinematics_error(self, samples: int = 200, seed: int = 0) -> tuple[float, float]:
+        """Compares the analytic foot and knee positions against MuJoCo's at `samples` random poses inside the joint
+        ranges; returns the largest foot and knee errors (m)."""
+        m = self.model
+        d = mujoco.MjData(m)
+        rng = np.random.default_rng(seed)
+        worst_foot = worst_knee = 0.0
+        for _ in range(samples):
+            d.qpos[:] = self.home_qpos(0.0)
+            qs = self.q_min + rng.random((4, 3)) * (self.q_max - self.q_min)
+            for i in range(4):
+                d.qpos[self.qpos_idx[i]] = qs[i]
+            mujoco.mj_kinematics(m, d)
+            for i in range(4):
+                p_mj = d.site_xpos[self.foot_site_ids[i]] - d.xpos[self.body_id]
+                worst_foot = max(worst_foot, float(np.linalg.norm(self.fk_leg(i, qs[i]) - p_mj)))
+                k_mj = d.xanchor[self.legs[i].joint_ids[2]] - d.xpos[self.body_id]
+                worst_knee = max(worst_knee, float(np.linalg.norm(self.knee_body(i, qs[i]) - k_mj)))
+        return worst_foot, worst_knee
+
+    def near_foot_m(self) -> float:
+        """A lower-leg geom's contact within this distance (m) of the foot center counts as the foot's."""
+        return NEAR_FOOT_FACTOR * self.foot_radius_m

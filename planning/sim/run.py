@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -15,12 +16,13 @@ from planning.geometry import rpy_to_R
 from planning.maneuver import BodyReference, Maneuver, build_schedule
 from planning.maneuver.generator import ProblemGenerator
 from planning.maneuver.hints import HintedBody, load_hints
+from planning.maneuver.scale import scale_to_robot
 from planning.robot import LEGS, RobotModel, load_robot
 from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
 from planning.sim.world import Push, RobotState, World
 from planning.swing.types import TripKind
-from planning.terrain.scenes import build_terrain
+from planning.terrain.spec import load_terrain
 
 POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
 YAW_TOLERANCE_RAD = 0.2
@@ -30,13 +32,15 @@ YAW_TOLERANCE_RAD = 0.2
 class RunOptions:
     """How to run: terrain, disturbances, length, pacing."""
 
-    terrain: str = "flat"
+    terrain: str = "flat"  # a name, a name with overrides, or a file (planning.terrain.spec)
     pushes: Sequence[Push] = ()
     duration_s: float | None = None  # None: the maneuver's duration
     realtime: bool = False
     robot: str = "spot"
     seed: int = 0
     controller: ControllerParams = field(default_factory=ControllerParams)
+    start_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)  # start pose off the origin: x m, y m, yaw rad
+    friction: float | None = None  # foot-ground sliding friction (None: the robot's and the scene's own)
 
 
 @dataclass(frozen=True)
@@ -113,8 +117,12 @@ class _Session:
     def _setup(self, options: RunOptions, robot: RobotModel | None) -> None:
         self.options = options
         self.robot = robot or load_robot(options.robot)
-        self.scene = build_terrain(options.terrain, seed=options.seed)
+        self.scene = load_terrain(options.terrain, seed=options.seed)
         self.world = World(self.robot, self.scene)
+        if options.friction is not None:
+            self.world.set_friction(options.friction)
+        if any(options.start_offset):
+            self.world.place(*options.start_offset)
         self.world.pushes = list(options.pushes)
         self.recorder = Recorder(self.robot.foot_radius_m)
 
@@ -200,8 +208,9 @@ class ManeuverSession(_Session):
     """A robot in a world executing one maneuver: the loop plus what the report needs. Usable step by step."""
 
     def __init__(self, maneuver: Maneuver, options: RunOptions, robot: RobotModel | None = None) -> None:
-        self.maneuver = maneuver
         self._setup(options, robot)
+        # lengths are written for the reference robot: on another robot they scale to its height and stance
+        self.maneuver = maneuver = scale_to_robot(maneuver, self.robot)
         self.schedule = build_schedule(maneuver, self.robot)
         base = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
         self.body_ref = HintedBody(base, load_hints(maneuver, self.robot), maneuver)
@@ -370,6 +379,7 @@ class WalkCommand:
     terrain_aware: bool | None = None
     terrain_sensor: bool = True
     stop_at_goal: bool = False  # end the run once the body has held within half the goal tolerance for 1 s
+    sensor_noise_m: float | None = None  # the depth sensor's range noise floor (1σ, m; None: SensorParams')
 
 
 class WalkSession(_Session):
@@ -398,12 +408,18 @@ class WalkSession(_Session):
         monitors: list[Callable[[RobotState], None]] = []
         aware = command.terrain_aware
         if aware is None:
-            aware = options.terrain != "flat"
+            aware = self.scene.name != "flat"
         if aware:
             from planning.terrain.crossing import BodyCollisionMonitor
             from planning.terrain.navigate import NavigatorParams, attach_navigator
 
             params = NavigatorParams(use_sensor=command.terrain_sensor)
+            if command.sensor_noise_m is not None:
+                perception = params.perception
+                sensor = dataclasses.replace(perception.sensor, noise_m=command.sensor_noise_m)
+                params = dataclasses.replace(
+                    params, perception=dataclasses.replace(perception, sensor=sensor)
+                )
             self.navigator = attach_navigator(
                 self.controller, self.world.model, self.world.data, command.goal, self.scene, params
             )

@@ -8,7 +8,7 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
-from planning.robot import LEGS, RobotModel
+from planning.robot import RobotModel
 
 
 class Scene(Protocol):
@@ -92,7 +92,7 @@ class RobotState:
     tau_bias: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))  # gravity + Coriolis on leg joints
     contact: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
     knee_contact: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
-    bad_contact: str | None = None  # name of a non-foot robot geom touching the world, if any
+    bad_contact: str | None = None  # name of the body of a non-foot robot geom touching the world, if any
 
     @property
     def yaw(self) -> float:
@@ -117,44 +117,65 @@ class World:
         self.data = mujoco.MjData(self.model)
         m = self.model
         self.dt = float(m.opt.timestep)
-        self.body_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "trunk")
-        # Re-resolve the robot's names in the composed model (ids shift when the scene adds bodies first).
-        self.foot_geom = np.array(
-            [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_foot") for leg in LEGS]
-        )
-        self.foot_site = np.array(
-            [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, f"{leg}_foot_site") for leg in LEGS]
-        )
-        self._foot_site_ids = [int(i) for i in self.foot_site]
+        # Re-resolve the robot's names in the composed model (ids shift when the scene adds bodies first); the loader
+        # named every element it needs.
         rm = robot.model
-        jn = [
-            [mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_JOINT, j) for j in lg.joint_ids] for lg in robot.legs
-        ]
-        jid = np.array([[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in row] for row in jn])
+
+        def rid(kind: mujoco.mjtObj, robot_id: int) -> int:
+            i = mujoco.mj_name2id(m, kind, mujoco.mj_id2name(rm, kind, robot_id))
+            if i < 0:
+                raise ValueError(
+                    f"{robot.name}: {kind.name[6:].lower()} {robot_id} lost when adding the scene"
+                )
+            return int(i)
+
+        self.body_id = rid(mujoco.mjtObj.mjOBJ_BODY, robot.body_id)
+        self.foot_geom = np.array([rid(mujoco.mjtObj.mjOBJ_GEOM, int(g)) for g in robot.foot_geom_ids])
+        self.foot_site = np.array([rid(mujoco.mjtObj.mjOBJ_SITE, int(i)) for i in robot.foot_site_ids])
+        self._foot_site_ids = [int(i) for i in self.foot_site]
+        jid = np.array([[rid(mujoco.mjtObj.mjOBJ_JOINT, j) for j in lg.joint_ids] for lg in robot.legs])
         self.qpos_idx = m.jnt_qposadr[jid]
         self.dof_idx = m.jnt_dofadr[jid]
-        an = [
-            [mujoco.mj_id2name(rm, mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in lg.actuator_ids]
-            for lg in robot.legs
-        ]
         self.act_idx = np.array(
-            [[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in row] for row in an]
+            [[rid(mujoco.mjtObj.mjOBJ_ACTUATOR, a) for a in lg.actuator_ids] for lg in robot.legs]
         )
-        self.free_qpos = int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "root")])
-        self.free_dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "root")])
+        self._ctrl_scale = np.asarray(robot.ctrl_scale, dtype=float)
+        self._unit_gear = bool(np.all(self._ctrl_scale == 1.0))
+        free = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, robot.free_joint_name)
+        self.free_qpos = int(m.jnt_qposadr[free])
+        self.free_dof = int(m.jnt_dofadr[free])
         robot_bodies = {b for b in range(m.nbody) if m.body_rootid[b] == self.body_id}
         self.is_robot_geom = np.array([m.geom_bodyid[g] in robot_bodies for g in range(m.ngeom)])
         self.leg_of_foot_geom = np.full(m.ngeom, -1)
         self.leg_of_foot_geom[self.foot_geom] = np.arange(4)
-        knee_names = [f"{leg}_lleg_geom" for leg in LEGS]
+        # geoms the description lets touch the ground count as their leg's foot
+        for n in robot.ground_geom_names:
+            g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)
+            b = int(m.geom_bodyid[g])
+            for leg, lg in enumerate(robot.legs):
+                kb = rid(mujoco.mjtObj.mjOBJ_BODY, lg.hip_body)
+                while b > 0 and b != kb:
+                    b = int(m.body_parentid[b])
+                if b == kb:
+                    self.leg_of_foot_geom[g] = leg
+                    break
+        # collision geoms below each knee (other than the foot): a contact near the foot center counts as the foot's
+        # (shank meshes reaching the foot), anything else is a knee contact
         self.leg_of_knee_geom = np.full(m.ngeom, -1)
-        for i, kn in enumerate(knee_names):
-            g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, kn)
-            if g >= 0:
-                self.leg_of_knee_geom[g] = i
+        for i, geoms in enumerate(robot.lower_leg_geoms):
+            for g in geoms:
+                gg = rid(mujoco.mjtObj.mjOBJ_GEOM, g)
+                if self.leg_of_foot_geom[gg] < 0:
+                    self.leg_of_knee_geom[gg] = i
+        self._near_foot_m = float(robot.near_foot_m())
         self.geom_names = [
             mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)
         ]
+        self.body_names = [
+            mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}" for b in range(m.nbody)
+        ]
+        # what a fall report names: the body of the geom that touched the world
+        self.geom_body_names = [self.body_names[int(m.geom_bodyid[g])] for g in range(m.ngeom)]
         self.is_obstacle_geom = np.array([n.startswith("terrain_obstacle_") for n in self.geom_names])
         # the same lookups as Python lists, for the per-tick contact loop (numpy scalar indexing is ~10x slower)
         self._robot_geom_l: list[bool] = self.is_robot_geom.tolist()
@@ -179,13 +200,39 @@ class World:
             self.data.qpos[self.qpos_idx[i]] = self.robot.q_nominal[i]
         mujoco.mj_forward(self.model, self.data)
 
+    def place(self, dx_m: float, dy_m: float, dyaw_rad: float) -> None:
+        """Moves the robot, at rest in its stance, by (dx, dy) m and yaw dyaw rad from its reset pose."""
+        d = self.data
+        i = self.free_qpos
+        d.qpos[i] += dx_m
+        d.qpos[i + 1] += dy_m
+        d.qpos[i + 2] += float(self.scene.ground_height(dx_m, dy_m)) - float(
+            self.scene.ground_height(0.0, 0.0)
+        )
+        q = d.qpos[i + 3 : i + 7].copy()
+        turn = np.array([np.cos(dyaw_rad / 2), 0.0, 0.0, np.sin(dyaw_rad / 2)])
+        mujoco.mju_mulQuat(d.qpos[i + 3 : i + 7], turn, q)
+        mujoco.mj_forward(self.model, d)
+
+    def set_friction(self, mu: float) -> None:
+        """Sets the sliding friction of every contact between a foot and the terrain to mu (both sides: a
+        foot geom's priority would otherwise pick the foot's own)."""
+        m = self.model
+        for g in range(m.ngeom):
+            if not self.is_robot_geom[g] or self.leg_of_foot_geom[g] >= 0:
+                m.geom_friction[g, 0] = mu
+
     @property
     def t(self) -> float:
         return float(self.data.time)
 
     def set_torques(self, tau: np.ndarray) -> None:
-        """Writes joint torques tau (4,3) N·m to the actuators (MuJoCo clips to the actuator range)."""
-        self.data.ctrl[self.act_idx] = tau
+        """Writes joint torques tau (4,3) N·m to the actuators, through their gear (MuJoCo clips to the actuator
+        range)."""
+        if self._unit_gear:
+            self.data.ctrl[self.act_idx] = tau
+        else:
+            self.data.ctrl[self.act_idx] = tau * self._ctrl_scale
 
     def step(self) -> None:
         """Advances the physics by one timestep, applying any push active now."""
@@ -228,7 +275,7 @@ class World:
         if n:
             geoms = d.contact.geom[:n].tolist()
             robot, foot_leg = self._robot_geom_l, self._foot_leg_l
-            for g1, g2 in geoms:
+            for k, (g1, g2) in enumerate(geoms):
                 r1, r2 = robot[g1], robot[g2]
                 if r1 == r2:
                     continue
@@ -241,8 +288,12 @@ class World:
                     continue
                 kl = self._knee_leg_l[g]
                 if kl >= 0:
+                    r = d.contact.pos[k] - d.site_xpos[self._foot_site_ids[kl]]
+                    if float(r @ r) <= self._near_foot_m * self._near_foot_m:
+                        s.contact[kl] = True  # the shank right at the foot: the foot is down
+                        continue
                     s.knee_contact[kl] = True
-                s.bad_contact = self.geom_names[g]
+                s.bad_contact = self.geom_body_names[g]
         return s
 
 

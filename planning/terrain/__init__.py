@@ -11,6 +11,13 @@ from planning.terrain.cadence import (
 )
 from planning.terrain.maps import MapParams, TerrainMaps, build_maps, maps_from_grids, maps_from_scene
 from planning.terrain.perception import Perception, PerceptionParams
+from planning.terrain.regions import (
+    ConvexRegion,
+    RegionParams,
+    SteppableRegions,
+    convex_around,
+    segment_regions,
+)
 from planning.terrain.scenes import TERRAIN_NAMES, TerrainScene, build_terrain
 from planning.terrain.sensor import DepthCamera, DepthSensor, PointCloud, SensorParams
 from planning.terrain.stepqp import FAMILIES, StepPlan, StepQP, StepQPParams, StepRequest
@@ -18,7 +25,8 @@ from planning.terrain.voxels import Columns, VoxelMap, VoxelParams
 
 __all__ = [
     "CADENCES", "FAMILIES", "TERRAIN_NAMES", "BodyPath", "BodyPathParams", "Cadence", "CadenceParams",
-    "CadenceScore", "Columns", "DepthCamera", "DepthSensor", "MapParams", "Perception", "PerceptionParams",
+    "CadenceScore", "Columns", "ConvexRegion", "DepthCamera", "DepthSensor", "MapParams", "Perception",
+    "PerceptionParams", "RegionParams", "SteppableRegions", "convex_around", "segment_regions",
     "PointCloud", "SensorParams", "StepPlan", "StepQP", "StepQPParams", "StepRequest", "TerrainMaps",
     "TerrainScene", "VoxelMap", "VoxelParams", "build_maps", "build_terrain", "choose_cadence", "make_request",
     "maps_from_grids", "maps_from_scene", "plan_body_path",

@@ -18,28 +18,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planning.sim.world import RobotState, World
-from planning.terrain import scenes
 from planning.terrain.scenes import TerrainScene
 
 
 def terrain_span_x(scene: TerrainScene) -> tuple[float, float]:
     """Gives (x_start, x_end) (m) of the scene's terrain along x; (0, 0) for flat ground."""
-    p = scene.params
-    if isinstance(p, scenes.StairsParams):
-        return p.x_start_m, p.x_start_m + 2 * p.n_steps * p.tread_m + p.landing_m
-    if isinstance(p, scenes.StonesParams):
-        return p.x_start_m, p.x_end_m
-    if isinstance(p, scenes.ClutterParams):
-        boxes = scene.obstacle_boxes
-        x_end = max([p.x_range_m[1] + p.low_size_m[1] / 2, *(b[1] for b in boxes)])
-        return p.x_range_m[0] - p.low_size_m[1] / 2, x_end
-    if isinstance(p, scenes.UnderTableParams):
-        return p.x_center_m - p.length_m / 2, p.x_center_m + p.length_m / 2
-    if isinstance(p, scenes.SlopeParams):
-        return p.x_start_m, p.x_start_m + 2 * p.run_m + p.plateau_m
-    if isinstance(p, scenes.RoughParams):
-        return p.x_range_m
-    return 0.0, 0.0
+    return scene.span_x
 
 
 @dataclass(frozen=True)

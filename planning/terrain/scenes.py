@@ -21,12 +21,21 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-TERRAIN_NAMES: tuple[str, ...] = ("flat", "stairs", "stones", "clutter", "under-table", "slope", "rough")
+TERRAIN_NAMES: tuple[str, ...] = (
+    "flat",
+    "stairs",
+    "stones",
+    "clutter",
+    "under-table",
+    "slope",
+    "rough",
+    "mixed",
+)
 
 FRICTION = "0.8 0.005 0.0001"
 _COLLIDE = f'contype="1" conaffinity="1" friction="{FRICTION}"'
@@ -125,6 +134,12 @@ class _HField:
 _GroundPiece = _Plane | _Box | _Ramp | _HField
 
 
+class GroundSurface(Protocol):
+    """A support surface: its height (m) at world (x, y), -inf where it is absent."""
+
+    def height(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]: ...
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # The scene.
 
@@ -143,7 +158,8 @@ class TerrainScene:
     seed: int
     obstacle_geom_names: tuple[str, ...]
     obstacle_boxes: tuple[tuple[float, float, float, float, float, float], ...]
-    _ground: tuple[_GroundPiece, ...] = field(repr=False)
+    _ground: tuple[GroundSurface, ...] = field(repr=False)
+    span_x: tuple[float, float] = (0.0, 0.0)  # where the terrain lies along x (m); (0, 0) for flat ground
 
     def ground_height(self, x: ArrayLike, y: ArrayLike) -> Any:
         """Gives the true support height (m) at world (x, y): a float for scalars, an array for arrays."""
@@ -174,7 +190,12 @@ class _Builder:
         self.obstacle_boxes: list[tuple[float, float, float, float, float, float]] = []
         self.assets: list[str] = []
         self.hfields: dict[str, NDArray[np.float64]] = {}
+        self.span_x: tuple[float, float] = (0.0, 0.0)
         self._names: set[str] = set()
+
+    def span(self, x0: float, x1: float) -> None:
+        """Sets where the terrain lies along x (m), for judging a crossing and placing an auto goal."""
+        self.span_x = (float(x0), float(x1))
 
     def _name(self, name: str) -> str:
         if name in self._names:
@@ -283,127 +304,358 @@ class _Builder:
             obstacle_geom_names=tuple(self.obstacles),
             obstacle_boxes=tuple(self.obstacle_boxes),
             _ground=tuple(self.ground),
+            span_x=self.span_x,
         )
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# Parameters, one frozen dataclass per terrain (lengths m, angles deg).
+# Parameters, one frozen dataclass per terrain family (lengths m, angles deg). Each field carries its allowed range
+# (metadata "range", "unit"); constructing Params outside it raises TerrainParamError naming the parameter. The
+# allowed ranges are what the generators can build sensibly, wider than the ranges the sweeps measure.
+
+
+class TerrainParamError(ValueError):
+    """A terrain parameter that is unknown, of the wrong type or outside its allowed range; the message names it."""
+
+
+def _param(default: Any, lo: float, hi: float, unit: str = "m", *, required: bool = False) -> Any:
+    """A parameter with its allowed range [lo, hi] in `unit` (for a (min, max) pair: both ends, min ≤ max);
+    required: None (the default) is refused."""
+    return field(default=default, metadata={"range": (lo, hi), "unit": unit, "required": required})
 
 
 @dataclass(frozen=True)
-class FlatParams:
+class ParamInfo:
+    """One parameter of a terrain family: name, kind ("float", "int", "bool", "range", "float | None"), default,
+    allowed range (lo, hi) or None, unit."""
+
+    name: str
+    kind: str
+    default: Any
+    range: tuple[float, float] | None
+    unit: str
+    required: bool = False
+
+    def describe(self) -> str:
+        """Gives e.g. ``riser_m (0.02–0.3 m, default 0.15)``."""
+        lim = "" if self.range is None else f"{self.range[0]:g}–{self.range[1]:g} {self.unit}".rstrip() + ", "
+        default = self.default
+        if isinstance(default, bool):
+            default = "true" if default else "false"
+        elif isinstance(default, tuple):
+            default = f"{default[0]:g}..{default[1]:g}"
+        elif default is None:
+            default = "none: required" if self.required else "auto"
+        return f"{self.name} ({lim}default {default})"
+
+
+_KINDS = {
+    "float": "float",
+    "int": "int",
+    "bool": "bool",
+    "tuple[float, float]": "range",
+    "float | None": "float | None",
+    "str": "str",
+}
+
+
+def _number(family: str, name: str, value: Any, integer: bool) -> float:
+    ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool | np.bool_)
+    if ok and integer and not float(value).is_integer():
+        ok = False
+    if not ok:
+        want = "an integer" if integer else "a number"
+        raise TerrainParamError(f"{family}.{name}={value!r}: must be {want}")
+    if not np.isfinite(value):
+        raise TerrainParamError(f"{family}.{name}={value!r}: must be finite")
+    return float(value)
+
+
+def _check_range(
+    family: str, name: str, value: float, rng: tuple[float, float], unit: str, shown: Any
+) -> None:
+    lo, hi = rng
+    if not lo <= value <= hi:
+        raise TerrainParamError(
+            f"{family}.{name}={shown}: outside the allowed range {lo:g}–{hi:g} {unit}".rstrip()
+        )
+
+
+@dataclass(frozen=True)
+class _Params:
+    """Base of the families' Params: checks every field against its kind and range when constructed."""
+
+    family: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        fam = self.family
+        for f in dataclasses.fields(self):
+            kind = _KINDS[str(f.type)]
+            v = getattr(self, f.name)
+            rng = f.metadata.get("range")
+            unit = f.metadata.get("unit", "")
+            if kind == "str":
+                if not isinstance(v, str):
+                    raise TerrainParamError(f"{fam}.{f.name}={v!r}: must be text")
+            elif kind == "bool":
+                if not isinstance(v, bool | np.bool_):
+                    raise TerrainParamError(f"{fam}.{f.name}={v!r}: must be true or false")
+                object.__setattr__(self, f.name, bool(v))
+            elif kind == "range":
+                if isinstance(v, str) or not hasattr(v, "__len__") or len(v) != 2:
+                    raise TerrainParamError(f"{fam}.{f.name}={v!r}: must be a (min, max) pair, e.g. 0.2..0.3")
+                lo, hi = (_number(fam, f.name, x, False) for x in v)
+                shown = f"{lo:g}..{hi:g}"
+                if lo > hi:
+                    raise TerrainParamError(f"{fam}.{f.name}={shown}: min is above max")
+                if rng is not None:
+                    _check_range(fam, f.name, lo, rng, unit, shown)
+                    _check_range(fam, f.name, hi, rng, unit, shown)
+                object.__setattr__(self, f.name, (lo, hi))
+            elif kind == "float | None" and v is None:
+                if f.metadata.get("required"):
+                    raise TerrainParamError(f"{fam}.{f.name}: required ({f.metadata.get('unit', '')})")
+                continue
+            else:
+                x = _number(fam, f.name, v, kind == "int")
+                if rng is not None:
+                    _check_range(fam, f.name, x, rng, unit, f"{x:g}")
+                object.__setattr__(self, f.name, int(x) if kind == "int" else x)
+        self._check()
+
+    def _check(self) -> None:
+        """Checks between fields (each family's own); raises TerrainParamError."""
+
+
+_GOAL_DOC = "goal_x_m: x of the goal (m); auto (None): 6 m, or 1 m past the terrain if it ends beyond 5 m."
+
+
+@dataclass(frozen=True)
+class FlatParams(_Params):
     """Flat ground. goal_x_m: x of the goal (m)."""
 
-    goal_x_m: float = 6.0
+    family: ClassVar[str] = "flat"
+    goal_x_m: float | None = _param(None, 0.5, 100.0)
 
 
 @dataclass(frozen=True)
-class StairsParams:
-    """A staircase up then down with railings.
+class StairsParams(_Params):
+    """A staircase up then down, with or without railings.
 
     x_start_m: foot of the first riser (m); n_steps: risers up (and as many down); riser_m, tread_m: step rise and
-    run (m); landing_m: length of the top landing (m); width_m: stair width (m); rail_offset_m: gap between the
-    stair side and the railing (m); rail_height_m: top rail above the tread (m); mid_rail_m: middle rail above the
-    tread (m), which is at body height so the railing is a body obstacle.
+    run (m); landing_m: length of the top landing (m); width_m: stair width (m); railings: side railings on both
+    sides; rail_offset_m: gap between the stair side and the railing (m); rail_height_m: top rail above the tread
+    (m); mid_rail_m: middle rail above the tread (m), at body height so the railing is a body obstacle; goal_x_m:
+    x of the goal (m), auto: 6 m, or 1 m past the stairs if they end beyond 5 m.
     """
 
-    x_start_m: float = 1.0
-    n_steps: int = 4
-    riser_m: float = 0.15
-    tread_m: float = 0.30
-    landing_m: float = 1.2
-    width_m: float = 1.2
-    rail_offset_m: float = 0.05
-    rail_height_m: float = 0.9
-    mid_rail_m: float = 0.45
-    goal_x_m: float = 6.0
+    family: ClassVar[str] = "stairs"
+    x_start_m: float = _param(1.0, 0.6, 20.0)
+    n_steps: int = _param(4, 1, 12, "steps")
+    riser_m: float = _param(0.15, 0.02, 0.30)
+    tread_m: float = _param(0.30, 0.15, 0.80)
+    landing_m: float = _param(1.2, 0.3, 5.0)
+    width_m: float = _param(1.2, 0.6, 5.0)
+    railings: bool = True
+    rail_offset_m: float = _param(0.05, 0.0, 1.0)
+    rail_height_m: float = _param(0.9, 0.3, 1.5)
+    mid_rail_m: float = _param(0.45, 0.1, 1.2)
+    goal_x_m: float | None = _param(None, 0.5, 100.0)
+
+    def _check(self) -> None:
+        if self.railings and self.mid_rail_m >= self.rail_height_m:
+            raise TerrainParamError(
+                f"stairs.mid_rail_m={self.mid_rail_m:g}: must be below rail_height_m={self.rail_height_m:g}"
+            )
 
 
 @dataclass(frozen=True)
-class StonesParams:
+class StonesParams(_Params):
     """Stepping stones over a pit, in rows along x with two stones per row (left and right).
 
     x_start_m, x_end_m: extent of the pit (m); pit_depth_m: pit floor below the platforms (m); stone_depth_m: range
     of a stone's length along x (m); gap_m: range of the gap between rows (m); stone_width_m: range of a stone's
-    width along y (m); center_gap_m: range of the gap between the left and right stones (m); jitter_z_m: range of
-    a stone top's height offset (m); pit_half_width_m: pit half width along y (m).
+    width along y (m); center_gap_m: range of the gap between the left and right stones (m); jitter_z_m: largest
+    offset of a stone top's height (m); pit_half_width_m: pit half width along y (m); goal_x_m: as for stairs.
     """
 
-    x_start_m: float = 1.0
-    x_end_m: float = 5.0
-    pit_depth_m: float = 0.3
-    stone_depth_m: tuple[float, float] = (0.30, 0.40)
-    gap_m: tuple[float, float] = (0.20, 0.30)
-    stone_width_m: tuple[float, float] = (0.40, 0.50)
-    center_gap_m: tuple[float, float] = (0.04, 0.10)
-    jitter_z_m: float = 0.02
-    pit_half_width_m: float = 1.5
-    goal_x_m: float = 6.0
+    family: ClassVar[str] = "stones"
+    x_start_m: float = _param(1.0, 0.6, 20.0)
+    x_end_m: float = _param(5.0, 1.0, 40.0)
+    pit_depth_m: float = _param(0.3, 0.05, 2.0)
+    stone_depth_m: tuple[float, float] = _param((0.30, 0.40), 0.10, 1.0)
+    gap_m: tuple[float, float] = _param((0.20, 0.30), 0.0, 0.6)
+    stone_width_m: tuple[float, float] = _param((0.40, 0.50), 0.15, 1.5)
+    center_gap_m: tuple[float, float] = _param((0.04, 0.10), 0.0, 0.5)
+    jitter_z_m: float = _param(0.02, 0.0, 0.15)
+    pit_half_width_m: float = _param(1.5, 0.5, 5.0)
+    goal_x_m: float | None = _param(None, 0.5, 100.0)
+
+    def _check(self) -> None:
+        if self.x_end_m - self.x_start_m < 0.5:
+            raise TerrainParamError(
+                f"stones.x_end_m={self.x_end_m:g}: must be at least 0.5 m past x_start_m={self.x_start_m:g}"
+            )
+        need = self.center_gap_m[1] / 2 + 0.03 + self.stone_width_m[1]
+        if self.pit_half_width_m < need:
+            raise TerrainParamError(
+                f"stones.pit_half_width_m={self.pit_half_width_m:g}: must hold the stones, at least {need:.2f} m "
+                "(center_gap_m max / 2 + 0.03 + stone_width_m max)"
+            )
 
 
 @dataclass(frozen=True)
-class ClutterParams:
+class ClutterParams(_Params):
     """Boxes of mixed heights: low ones to step over, a wide low one to step onto, tall ones to go around.
 
-    n_low: number of low boxes; low_height_m, low_size_m: ranges of their height and side (m); platform_height_m,
-    platform_size_m: the wide low box whose top is steppable (m); tall_height_m: range of tall boxes' height (m);
-    x_range_m, y_half_m: where boxes are scattered (m).
+    n_low: number of low boxes (fewer when they do not fit); low_height_m, low_size_m: ranges of their height and
+    side (m); n_tall: tall boxes (the first across the straight line, the second off to a side); platform: whether
+    the wide low box is there; platform_height_m, platform_size_m: its height and its sides along x, y (m);
+    tall_height_m: range of tall boxes' height (m); x_range_m, y_half_m: where low boxes are scattered (m);
+    goal_x_m: as for stairs. The layout comes from the scene's seed.
     """
 
-    n_low: int = 6
-    low_height_m: tuple[float, float] = (0.04, 0.10)
-    low_size_m: tuple[float, float] = (0.08, 0.20)
-    platform_height_m: float = 0.12
-    platform_size_m: tuple[float, float] = (0.6, 0.7)
-    tall_height_m: tuple[float, float] = (0.6, 0.8)
-    x_range_m: tuple[float, float] = (1.2, 4.8)
-    y_half_m: float = 0.8
-    goal_x_m: float = 6.0
+    family: ClassVar[str] = "clutter"
+    n_low: int = _param(6, 0, 30, "boxes")
+    low_height_m: tuple[float, float] = _param((0.04, 0.10), 0.01, 0.25)
+    low_size_m: tuple[float, float] = _param((0.08, 0.20), 0.04, 0.6)
+    n_tall: int = _param(2, 0, 2, "boxes")
+    platform: bool = True
+    platform_height_m: float = _param(0.12, 0.02, 0.30)
+    platform_size_m: tuple[float, float] = _param((0.6, 0.7), 0.2, 1.5)
+    tall_height_m: tuple[float, float] = _param((0.6, 0.8), 0.3, 2.0)
+    x_range_m: tuple[float, float] = _param((1.2, 4.8), 0.6, 20.0)
+    y_half_m: float = _param(0.8, 0.2, 5.0)
+    goal_x_m: float | None = _param(None, 0.5, 100.0)
+
+    def _check(self) -> None:
+        if self.x_range_m[1] - self.x_range_m[0] < 0.2:
+            raise TerrainParamError(
+                f"clutter.x_range_m={self.x_range_m[0]:g}..{self.x_range_m[1]:g}: spans < 0.2 m"
+            )
 
 
 @dataclass(frozen=True)
-class UnderTableParams:
+class UnderTableParams(_Params):
     """A table across the way; the body passes under it, its legs are obstacles.
 
     x_center_m: table center (m); length_m, width_m: table top extent along x, y (m); clearance_m: height of the
     top's underside (m) — the robot body (top at ~0.60 m standing) must crouch to ~0.45 m body height; top_m:
-    thickness of the top (m); leg_m: side of the square legs (m).
+    thickness of the top (m); leg_m: side of the square legs (m); goal_x_m: as for stairs.
     """
 
-    x_center_m: float = 3.0
-    length_m: float = 1.2
-    width_m: float = 1.4
-    clearance_m: float = 0.60
-    top_m: float = 0.04
-    leg_m: float = 0.05
-    goal_x_m: float = 6.0
+    family: ClassVar[str] = "under-table"
+    x_center_m: float = _param(3.0, 1.5, 20.0)
+    length_m: float = _param(1.2, 0.3, 3.0)
+    width_m: float = _param(1.4, 0.6, 4.0)
+    clearance_m: float = _param(0.60, 0.30, 1.5)
+    top_m: float = _param(0.04, 0.01, 0.2)
+    leg_m: float = _param(0.05, 0.02, 0.2)
+    goal_x_m: float | None = _param(None, 0.5, 100.0)
 
 
 @dataclass(frozen=True)
-class SlopeParams:
-    """A ramp up, a plateau and a ramp down. angle_deg: slope (deg); x_start_m, run_m, plateau_m, width_m (m)."""
+class SlopeParams(_Params):
+    """A ramp up, a plateau and a ramp down. angle_deg: slope (deg); x_start_m, run_m (along x), plateau_m, width_m
+    (m); goal_x_m: as for stairs."""
 
-    angle_deg: float = 15.0
-    x_start_m: float = 1.0
-    run_m: float = 1.5
-    plateau_m: float = 1.0
-    width_m: float = 2.4
-    goal_x_m: float = 6.0
+    family: ClassVar[str] = "slope"
+    angle_deg: float = _param(15.0, 1.0, 35.0, "deg")
+    x_start_m: float = _param(1.0, 0.6, 20.0)
+    run_m: float = _param(1.5, 0.3, 5.0)
+    plateau_m: float = _param(1.0, 0.0, 5.0)
+    width_m: float = _param(2.4, 0.6, 5.0)
+    goal_x_m: float | None = _param(None, 0.5, 100.0)
 
 
 @dataclass(frozen=True)
-class RoughParams:
+class RoughParams(_Params):
     """A random height field. x_range_m, y_half_m: extent (m); amplitude_m: highest bump (m); cell_m: sample
-    spacing (m); correlation_m: bump size (m); taper_m: border over which heights fall to zero (m)."""
+    spacing (m); correlation_m: bump size (m); taper_m: border over which heights fall to zero (m); goal_x_m: as for
+    stairs."""
 
-    x_range_m: tuple[float, float] = (1.0, 5.0)
-    y_half_m: float = 1.5
-    amplitude_m: float = 0.08
-    cell_m: float = 0.04
-    correlation_m: float = 0.15
-    taper_m: float = 0.3
-    goal_x_m: float = 6.0
+    family: ClassVar[str] = "rough"
+    x_range_m: tuple[float, float] = _param((1.0, 5.0), 0.6, 20.0)
+    y_half_m: float = _param(1.5, 0.3, 5.0)
+    amplitude_m: float = _param(0.08, 0.005, 0.20)
+    cell_m: float = _param(0.04, 0.01, 0.2)
+    correlation_m: float = _param(0.15, 0.02, 1.0)
+    taper_m: float = _param(0.3, 0.0, 2.0)
+    goal_x_m: float | None = _param(None, 0.5, 100.0)
 
+    def _check(self) -> None:
+        lx = self.x_range_m[1] - self.x_range_m[0]
+        if lx < 0.2:
+            raise TerrainParamError(
+                f"rough.x_range_m={self.x_range_m[0]:g}..{self.x_range_m[1]:g}: spans < 0.2 m"
+            )
+        cells = (lx / self.cell_m + 1) * (2 * self.y_half_m / self.cell_m + 1)
+        if cells > MAX_HFIELD_CELLS:
+            raise TerrainParamError(
+                f"rough.cell_m={self.cell_m:g}: {cells:.0f} samples over the extent, more than {MAX_HFIELD_CELLS}"
+            )
+
+
+@dataclass(frozen=True)
+class MixedParams(_Params):
+    """Stairs then stepping stones: a staircase up and down (no railings by default), a stretch of floor, then a
+    pit with stepping stones. The stairs' and stones' parameters mean what they mean in stairs and stones;
+    floor_m: floor between the stairs' last riser and the pit (m); stones_m: pit length along x (m)."""
+
+    family: ClassVar[str] = "mixed"
+    x_start_m: float = _param(1.0, 0.6, 20.0)
+    n_steps: int = _param(2, 1, 12, "steps")
+    riser_m: float = _param(0.15, 0.02, 0.30)
+    tread_m: float = _param(0.30, 0.15, 0.80)
+    landing_m: float = _param(0.6, 0.3, 5.0)
+    width_m: float = _param(1.2, 0.6, 5.0)
+    railings: bool = False
+    floor_m: float = _param(0.4, 0.2, 5.0)
+    stones_m: float = _param(1.6, 0.5, 20.0)
+    pit_depth_m: float = _param(0.3, 0.05, 2.0)
+    stone_depth_m: tuple[float, float] = _param((0.30, 0.40), 0.10, 1.0)
+    gap_m: tuple[float, float] = _param((0.20, 0.30), 0.0, 0.6)
+    stone_width_m: tuple[float, float] = _param((0.40, 0.50), 0.15, 1.5)
+    center_gap_m: tuple[float, float] = _param((0.04, 0.10), 0.0, 0.5)
+    jitter_z_m: float = _param(0.02, 0.0, 0.15)
+    pit_half_width_m: float = _param(1.5, 0.5, 5.0)
+    goal_x_m: float | None = _param(None, 0.5, 100.0)
+
+    def stairs(self) -> StairsParams:
+        """Gives the staircase part as StairsParams."""
+        return StairsParams(
+            x_start_m=self.x_start_m,
+            n_steps=self.n_steps,
+            riser_m=self.riser_m,
+            tread_m=self.tread_m,
+            landing_m=self.landing_m,
+            width_m=self.width_m,
+            railings=self.railings,
+        )
+
+    def stones(self) -> StonesParams:
+        """Gives the stepping-stones part as StonesParams."""
+        x0 = _stairs_end(self.stairs()) + self.floor_m
+        return StonesParams(
+            x_start_m=x0,
+            x_end_m=x0 + self.stones_m,
+            pit_depth_m=self.pit_depth_m,
+            stone_depth_m=self.stone_depth_m,
+            gap_m=self.gap_m,
+            stone_width_m=self.stone_width_m,
+            center_gap_m=self.center_gap_m,
+            jitter_z_m=self.jitter_z_m,
+            pit_half_width_m=self.pit_half_width_m,
+        )
+
+    def _check(self) -> None:
+        try:
+            self.stones()
+        except TerrainParamError as e:
+            raise TerrainParamError(str(e).replace("stones.", "mixed.")) from None
+
+
+MAX_HFIELD_CELLS = 250_000  # samples in one height field (a rough scene's or a user heightmap's)
 
 _PARAMS: dict[str, type] = {
     "flat": FlatParams,
@@ -413,11 +665,30 @@ _PARAMS: dict[str, type] = {
     "under-table": UnderTableParams,
     "slope": SlopeParams,
     "rough": RoughParams,
+    "mixed": MixedParams,
 }
 
 
+def param_info(name: str) -> tuple[ParamInfo, ...]:
+    """Gives the parameters of terrain family `name` (in declaration order); TerrainParamError for unknown names."""
+    return tuple(_info(f) for f in dataclasses.fields(_family(name)))
+
+
+def _info(f: dataclasses.Field[Any]) -> ParamInfo:
+    md = f.metadata
+    return ParamInfo(
+        f.name, _KINDS[str(f.type)], f.default, md.get("range"), md.get("unit", ""), md.get("required", False)
+    )
+
+
+def _family(name: str) -> type:
+    if name not in _PARAMS:
+        raise TerrainParamError(f"unknown terrain {name!r}; valid names: {', '.join(TERRAIN_NAMES)}")
+    return _PARAMS[name]
+
+
 # ---------------------------------------------------------------------------------------------------------------
-# Generators.
+# Generators: each adds its geoms to the builder, sets the terrain's extent along x, and returns a description.
 
 
 def _flat(p: FlatParams, rng: np.random.Generator, b: _Builder) -> str:
@@ -425,12 +696,10 @@ def _flat(p: FlatParams, rng: np.random.Generator, b: _Builder) -> str:
     return "flat ground"
 
 
-def _stairs(p: StairsParams, rng: np.random.Generator, b: _Builder) -> str:
-    b.plane("floor", 0.0)
-    half_w = p.width_m / 2
-    y = (-half_w, half_w)
+def _stairs_segments(p: StairsParams) -> list[tuple[float, float, float]]:
+    """Gives (x0, x1, top z) of every tread and the landing."""
     x = p.x_start_m
-    segments: list[tuple[float, float, float]] = []  # (x0, x1, top z) of every tread and the landing
+    segments: list[tuple[float, float, float]] = []
     for k in range(p.n_steps):
         segments.append((x, x + p.tread_m, (k + 1) * p.riser_m))
         x += p.tread_m
@@ -439,10 +708,40 @@ def _stairs(p: StairsParams, rng: np.random.Generator, b: _Builder) -> str:
     for k in range(p.n_steps):
         segments.append((x, x + p.tread_m, (p.n_steps - 1 - k) * p.riser_m))
         x += p.tread_m
+    return segments
+
+
+def _stairs_end(p: StairsParams) -> float:
+    """Gives the x (m) where the staircase's last tread ends (the floor resumes)."""
+    return p.x_start_m + 2 * p.n_steps * p.tread_m + p.landing_m
+
+
+def _stairs(p: StairsParams, rng: np.random.Generator, b: _Builder) -> str:
+    b.plane("floor", 0.0)
+    return _staircase(p, b)
+
+
+def _staircase(p: StairsParams, b: _Builder) -> str:
+    half_w = p.width_m / 2
+    y = (-half_w, half_w)
+    segments = _stairs_segments(p)
     for k, (x0, x1, z_top) in enumerate(segments):
         if z_top > 0:
             b.box(f"stair_{k:02d}", (x0, x1), y, (0.0, z_top), "terrain_step_mat")
-    # Railings: a post at each segment's start, a top rail and a mid rail (at body height) over each segment.
+    b.span(p.x_start_m, _stairs_end(p))
+    rails = ""
+    if p.railings:
+        _railings(p, segments, b)
+        rails = f", railings at y=±{half_w + p.rail_offset_m:.2f} m"
+    return (
+        f"stairs: {p.n_steps} steps up and {p.n_steps} down, {p.riser_m * 100:.0f} cm risers, "
+        f"{p.tread_m * 100:.0f} cm treads, {p.landing_m:.1f} m landing{rails}"
+    )
+
+
+def _railings(p: StairsParams, segments: list[tuple[float, float, float]], b: _Builder) -> None:
+    """Adds a post at each segment's start, a top rail and a mid rail (at body height) over each segment."""
+    half_w = p.width_m / 2
     t = 0.04
     for side, sign in (("L", 1.0), ("R", -1.0)):
         yc = sign * (half_w + p.rail_offset_m + t / 2)
@@ -474,13 +773,13 @@ def _stairs(p: StairsParams, rng: np.random.Generator, b: _Builder) -> str:
             "terrain_obstacle_mat",
             obstacle=True,
         )
-    return (
-        f"stairs: {p.n_steps} steps up and {p.n_steps} down, {p.riser_m * 100:.0f} cm risers, "
-        f"{p.tread_m * 100:.0f} cm treads, {p.landing_m:.1f} m landing, railings at y=±{half_w + p.rail_offset_m:.2f} m"
-    )
 
 
 def _stones(p: StonesParams, rng: np.random.Generator, b: _Builder) -> str:
+    return _stone_field(p, rng, b)
+
+
+def _stone_field(p: StonesParams, rng: np.random.Generator, b: _Builder) -> str:
     b.plane("pit_floor", -p.pit_depth_m)
     big = 6.0
     b.box(
@@ -520,6 +819,7 @@ def _stones(p: StonesParams, rng: np.random.Generator, b: _Builder) -> str:
                 f"stone_{row:02d}{side}", (x, x + depth), y_span, (-p.pit_depth_m, z_top), "terrain_stone_mat"
             )
         x += depth
+    b.span(p.x_start_m, p.x_end_m)
     return (
         f"stepping stones: {n_rows} rows of two over a {p.pit_depth_m:.2f} m pit, "
         f"gaps {gaps.min():.2f}–{gaps.max():.2f} m"
@@ -536,7 +836,8 @@ def _clutter(p: ClutterParams, rng: np.random.Generator, b: _Builder) -> str:
             for a0, a1, b0, b1 in placed
         )
 
-    # Tall boxes: one across the straight line (go around), one off to a side.
+    # Tall boxes: one across the straight line (go around), one off to a side. Every draw is made whatever n_tall
+    # and platform are, so that a seed's other boxes stay where they are when those change.
     tall = [
         (float(rng.uniform(1.9, 2.2)), float(rng.uniform(-0.1, 0.1)), 0.45, 0.6),
         (
@@ -548,21 +849,18 @@ def _clutter(p: ClutterParams, rng: np.random.Generator, b: _Builder) -> str:
     ]
     for k, (xc, yc, sx, sy) in enumerate(tall):
         box = (xc - sx / 2, xc + sx / 2, yc - sy / 2, yc + sy / 2)
-        b.box(
-            f"box_tall_{k}",
-            box[:2],
-            box[2:],
-            (0.0, float(rng.uniform(*p.tall_height_m))),
-            "terrain_obstacle_mat",
-            obstacle=True,
-        )
+        height = float(rng.uniform(*p.tall_height_m))
+        if k >= p.n_tall:
+            continue
+        b.box(f"box_tall_{k}", box[:2], box[2:], (0.0, height), "terrain_obstacle_mat", obstacle=True)
         placed.append(box)
     # The wide low platform, steppable.
     xc, yc = float(rng.uniform(2.9, 3.2)), float(rng.uniform(-0.15, 0.15))
     sx, sy = p.platform_size_m
     box = (xc - sx / 2, xc + sx / 2, yc - sy / 2, yc + sy / 2)
-    b.box("box_platform", box[:2], box[2:], (0.0, p.platform_height_m), "terrain_box_mat")
-    placed.append(box)
+    if p.platform:
+        b.box("box_platform", box[:2], box[2:], (0.0, p.platform_height_m), "terrain_box_mat")
+        placed.append(box)
     # Low small boxes, to step over.
     k = 0
     for _ in range(200):
@@ -577,7 +875,14 @@ def _clutter(p: ClutterParams, rng: np.random.Generator, b: _Builder) -> str:
         b.box(f"box_low_{k}", box[:2], box[2:], (0.0, float(rng.uniform(*p.low_height_m))), "terrain_box_mat")
         placed.append(box)
         k += 1
-    return f"clutter: {k} low boxes to step over, a {p.platform_height_m:.2f} m platform, 2 tall boxes to go around"
+    half = p.low_size_m[1] / 2
+    b.span(p.x_range_m[0] - half, max([p.x_range_m[1] + half, *(bx[1] for bx in b.obstacle_boxes)]))
+    parts = [f"{k} low boxes to step over"]
+    if p.platform:
+        parts.append(f"a {p.platform_height_m:.2f} m platform")
+    if p.n_tall:
+        parts.append(f"{p.n_tall} tall box{'es' if p.n_tall > 1 else ''} to go around")
+    return "clutter: " + ", ".join(parts)
 
 
 def _under_table(p: UnderTableParams, rng: np.random.Generator, b: _Builder) -> str:
@@ -605,6 +910,7 @@ def _under_table(p: UnderTableParams, rng: np.random.Generator, b: _Builder) -> 
             "terrain_obstacle_mat",
             obstacle=True,
         )
+    b.span(x0, x1)
     return f"a table {p.length_m:.1f}×{p.width_m:.1f} m with its underside at {p.clearance_m:.2f} m"
 
 
@@ -617,8 +923,10 @@ def _slope(p: SlopeParams, rng: np.random.Generator, b: _Builder) -> str:
     x2 = x1 + p.plateau_m
     x3 = x2 + p.run_m
     b.ramp("ramp_up", (x0, x1), y, (0.0, rise), "terrain_step_mat")
-    b.box("plateau", (x1, x2), y, (0.0, rise), "terrain_step_mat")
+    if p.plateau_m > 0:
+        b.box("plateau", (x1, x2), y, (0.0, rise), "terrain_step_mat")
     b.ramp("ramp_down", (x2, x3), y, (rise, 0.0), "terrain_step_mat")
+    b.span(x0, x3)
     return f"a {p.angle_deg:.0f}° ramp up to a {rise:.2f} m plateau and down again"
 
 
@@ -640,13 +948,23 @@ def _rough(p: RoughParams, rng: np.random.Generator, b: _Builder) -> str:
     smooth /= smooth.max()
     xs = np.linspace(0.0, lx, ncol)
     ys = np.linspace(0.0, ly, nrow)
-    tx = np.clip(np.minimum(xs, lx - xs) / p.taper_m, 0.0, 1.0)
-    ty = np.clip(np.minimum(ys, ly - ys) / p.taper_m, 0.0, 1.0)
+    tx = np.clip(np.minimum(xs, lx - xs) / p.taper_m, 0.0, 1.0) if p.taper_m > 0 else np.ones_like(xs)
+    ty = np.clip(np.minimum(ys, ly - ys) / p.taper_m, 0.0, 1.0) if p.taper_m > 0 else np.ones_like(ys)
     taper = np.outer(0.5 - 0.5 * np.cos(np.pi * ty), 0.5 - 0.5 * np.cos(np.pi * tx))
     heights = smooth * taper * p.amplitude_m
     center = ((p.x_range_m[0] + p.x_range_m[1]) / 2, 0.0)
     b.hfield("rough", center, (lx / 2, ly / 2), heights, 0.0, "terrain_rough_mat")
+    b.span(*p.x_range_m)
     return f"rough ground: bumps up to {float(heights.max()) * 100:.0f} cm over x {p.x_range_m[0]:.0f}–{p.x_range_m[1]:.0f} m"
+
+
+def _mixed(p: MixedParams, rng: np.random.Generator, b: _Builder) -> str:
+    # No floor plane: the stone field's platforms are the floor (a plane at 0 would fill the pit).
+    stairs, stones = p.stairs(), p.stones()
+    first = _staircase(stairs, b)
+    second = _stone_field(stones, rng, b)
+    b.span(stairs.x_start_m, stones.x_end_m)
+    return f"{first}; then {second}"
 
 
 _GENERATORS: dict[str, Callable[[Any, np.random.Generator, _Builder], str]] = {
@@ -657,27 +975,39 @@ _GENERATORS: dict[str, Callable[[Any, np.random.Generator, _Builder], str]] = {
     "under-table": _under_table,
     "slope": _slope,
     "rough": _rough,
+    "mixed": _mixed,
 }
+
+AUTO_GOAL_X_M = 6.0  # an auto goal's x (m), unless the terrain ends beyond AUTO_GOAL_X_M - AUTO_GOAL_PAST_M
+AUTO_GOAL_PAST_M = 1.0  # then the auto goal lies this far past the terrain's end (m)
 
 
 def terrain_params(name: str, **params: Any) -> Any:
-    """Gives the frozen Params of terrain `name` with `params` overriding defaults; ValueError on unknown names."""
-    if name not in _PARAMS:
-        raise ValueError(f"unknown terrain {name!r}; valid names: {', '.join(TERRAIN_NAMES)}")
-    cls = _PARAMS[name]
-    fields = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(params) - fields)
+    """Gives the frozen Params of terrain `name` with `params` overriding defaults; TerrainParamError (a ValueError)
+    on unknown names or parameters and on values outside their allowed range, naming them."""
+    cls = _family(name)
+    fields = [f.name for f in dataclasses.fields(cls)]
+    unknown = sorted(set(params) - set(fields))
     if unknown:
-        raise ValueError(
-            f"terrain {name!r}: unknown parameter(s) {', '.join(unknown)}; valid: {', '.join(sorted(fields))}"
+        raise TerrainParamError(
+            f"terrain {name!r}: unknown parameter(s) {', '.join(unknown)}; valid: {', '.join(fields)}"
         )
     return cls(**params)
 
 
 def build_terrain(name: str, seed: int = 0, **params: Any) -> TerrainScene:
     """Gives the scene `name` generated from `params` (see the terrain's Params class) and `seed`."""
-    p = terrain_params(name, **params)
+    return build_from_params(terrain_params(name, **params), seed)
+
+
+def build_from_params(p: Any, seed: int = 0) -> TerrainScene:
+    """Gives the scene of a family's Params (StairsParams, ...) generated with `seed`."""
+    name = p.family
     rng = np.random.default_rng(seed)
     b = _Builder()
     description = _GENERATORS[name](p, rng, b)
-    return b.scene(name, description, p, seed, (float(p.goal_x_m), 0.0))
+    x_end = b.span_x[1]
+    goal_x = p.goal_x_m
+    if goal_x is None:
+        goal_x = max(AUTO_GOAL_X_M, x_end + AUTO_GOAL_PAST_M)
+    return b.scene(name, description, p, seed, (float(goal_x), 0.0))

@@ -2,7 +2,7 @@
 
 from fastapi import APIRouter
 
-from server.api import health, maneuvers, sessions, simulations, studio
+from server.api import health, maneuvers, sessions, simulations, studio, sweeps, terrains
 
 api_router = APIRouter()
 api_router.include_router(health.router)
@@ -10,5 +10,7 @@ api_router.include_router(maneuvers.router)
 api_router.include_router(simulations.router)
 api_router.include_router(sessions.router)
 api_router.include_router(studio.router)
+api_router.include_router(terrains.router)
+api_router.include_router(sweeps.router)
 
 __all__ = ["api_router"]

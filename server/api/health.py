@@ -22,14 +22,17 @@ def health(services: ServicesDep) -> dict[str, Any]:
     }
 
 
-@router.get("/terrains", summary="The terrain names and what each is")
-def terrains() -> list[dict[str, str]]:
+@router.get(
+    "/terrains",
+    summary="The terrain names, what each is, and the parameters a terrain field may override (with ranges)",
+)
+def terrains() -> list[dict[str, Any]]:
     return _terrains()
 
 
 @lru_cache(maxsize=1)
-def _terrains() -> list[dict[str, str]]:
-    from planning.terrain.scenes import TERRAIN_NAMES, build_terrain
+def _terrains() -> list[dict[str, Any]]:
+    from planning.terrain.scenes import TERRAIN_NAMES, build_terrain, param_info
 
     out = []
     for name in TERRAIN_NAMES:
@@ -37,7 +40,11 @@ def _terrains() -> list[dict[str, str]]:
             desc = str(build_terrain(name).description)
         except Exception:  # noqa: BLE001 - a description is a nicety; the name is what matters
             desc = ""
-        out.append({"name": name, "description": desc})
+        params = [
+            {"name": i.name, "kind": i.kind, "default": i.default, "range": i.range, "unit": i.unit}
+            for i in param_info(name)
+        ]
+        out.append({"name": name, "description": desc, "params": params})
     return out
 
 

@@ -24,6 +24,7 @@ from server.schemas import (
     SteerIn,
 )
 from server.services import resolve_maneuver
+from server.terrains import resolve_terrain
 
 router = APIRouter(prefix="/sessions", tags=["sessions"])
 SessionId = Annotated[str, Path(max_length=64, description="the id POST /sessions answered with")]
@@ -36,8 +37,9 @@ SessionId = Annotated[str, Path(max_length=64, description="the id POST /session
     dependencies=[WriteAccess],
     summary="A live simulated robot on a terrain, standing, stepping in real time",
 )
-async def create_session(body: SessionCreate, sessions: SessionsDep) -> JSONResponse:
-    s = await run_in_threadpool(sessions.create, body.terrain, body.mode, "api", body.maps)
+async def create_session(body: SessionCreate, sessions: SessionsDep, services: ServicesDep) -> JSONResponse:
+    terrain = await run_in_threadpool(resolve_terrain, str(body.terrain), services.settings)
+    s = await run_in_threadpool(sessions.create, terrain, body.mode, "api", body.maps)
     return JSONResponse(
         {
             "id": s.id,
@@ -136,12 +138,13 @@ def session_push(session_id: SessionId, body: SessionPushIn, sessions: SessionsD
     summary="Back to standing at the origin, optionally on another terrain (also clears a crash)",
 )
 async def session_reset(
-    session_id: SessionId, sessions: SessionsDep, body: SessionResetIn | None = None
+    session_id: SessionId, sessions: SessionsDep, services: ServicesDep, body: SessionResetIn | None = None
 ) -> dict[str, Any]:
     s = sessions.get(session_id)
-    await run_in_threadpool(
-        s.reset, body.terrain if body is not None else None, body.maps if body is not None else None
-    )
+    terrain = None
+    if body is not None and body.terrain is not None:
+        terrain = await run_in_threadpool(resolve_terrain, str(body.terrain), services.settings)
+    await run_in_threadpool(s.reset, terrain, body.maps if body is not None else None)
     return s.state()
 
 

@@ -13,6 +13,7 @@ from server.deps import ServicesDep, SimulationsDep, WriteAccess
 from server.errors import ApiError, field_error
 from server.schemas import PushIn, SimulationAccepted, SimulationCreate, SimulationPublic
 from server.services import resolve_maneuver
+from server.terrains import resolve_terrain
 
 router = APIRouter(prefix="/simulations", tags=["simulations"])
 JobId = Annotated[str, Path(max_length=64, description="the id POST /simulations answered with")]
@@ -52,8 +53,9 @@ async def create_simulation(
     body: SimulationCreate, services: ServicesDep, pool: SimulationsDep
 ) -> JSONResponse:
     pushes = _pushes(body.pushes)
+    terrain = await run_in_threadpool(resolve_terrain, str(body.terrain), services.settings)
     common = {
-        "terrain": body.terrain,
+        "terrain": terrain,
         "pushes": pushes,
         "duration": body.duration,
         "robot": services.settings.robot,

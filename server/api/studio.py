@@ -13,6 +13,7 @@ from fastapi.responses import HTMLResponse, JSONResponse
 from server.deps import ServicesDep, WriteAccess
 from server.errors import ApiError
 from server.schemas import StudioPreviewIn
+from server.terrains import resolve_terrain
 
 router = APIRouter(tags=["studio"])
 WEB_DIR = Path(__file__).resolve().parents[2] / "web"
@@ -51,8 +52,9 @@ def studio_preview(body: StudioPreviewIn, services: ServicesDep) -> JSONResponse
     if services.studio is None:
         raise ApiError(409, "the studio is not running (started with FOOTFALL_STUDIO=0)",
                        [{"field": "studio", "reason": "not running"}])  # fmt: skip
+    terrain = resolve_terrain(str(body.terrain), services.settings)
     now = time.time()
     services.preview_requests[:] = [r for r in services.preview_requests if now - r[0] < PREVIEW_TTL_S][-20:]
-    services.preview_requests.append((now, body.maneuver, body.terrain))
+    services.preview_requests.append((now, body.maneuver, terrain))
     return JSONResponse({"maneuver": body.maneuver, "terrain": body.terrain, "port": services.studio.port},
                         status_code=202)  # fmt: skip

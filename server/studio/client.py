@@ -147,7 +147,10 @@ class StudioClient:
         if self.editor.open(name):
             if self.session is not None and terrain != self.session.terrain:
                 self.session.reset(terrain)
-                self.dd_terrain.value = terrain
+                if (
+                    terrain in self.dd_terrain.options
+                ):  # a custom terrain (with parameters, a file) is not listed
+                    self.dd_terrain.value = terrain
             m = self.editor.maneuver_or_none()
             if m is not None:
                 self.start_preview(m)
@@ -224,12 +227,52 @@ class StudioClient:
                 return
             self.client.send_file_download(f"{stem}.html", html.encode("utf-8"), save_immediately=True)
 
+    def _build_custom_terrain(self) -> None:
+        """A terrain with parameters or from a file, as on the command line (uploaded files by their name)."""
+        from server.terrains import resolve_terrain, save_file
+
+        gui = self.client.gui
+        with gui.add_folder("Custom terrain", expand_by_default=False):
+            txt = gui.add_text("terrain", "stairs:riser_m=0.18,tread_m=0.28",
+                               hint="NAME:KEY=VALUE,... (footfall terrains --params), or an uploaded file: "
+                                    "room.xml, hills.npy:cell_m=0.05")  # fmt: skip
+            btn = gui.add_button("Use this terrain")
+            upload = gui.add_upload_button(
+                "Upload a terrain file", hint="an MJCF scene (.xml), a heightmap (.npy, .png) or its .yaml"
+            )
+
+        @btn.on_click
+        def _(_: Any) -> None:
+            if self.session is None or not self.authorized("change the terrain"):
+                return
+            try:
+                terrain = resolve_terrain(str(txt.value).strip(), self.services.settings)
+            except ApiError as e:
+                self.notify("Terrain not usable", e.detail, "red")
+                return
+            self.session.reset(terrain)
+
+        @upload.on_upload
+        def _(e: Any) -> None:
+            if not self.authorized("upload a terrain"):
+                return
+            f = e.target.value
+            try:
+                save_file(self.services.settings, str(f.name), bytes(f.content))
+            except ApiError as err:
+                self.notify("Upload refused", err.detail, "red")
+                return
+            if not str(f.name).endswith(".yaml"):
+                txt.value = str(f.name) + ("" if str(f.name).endswith(".xml") else ":cell_m=0.05")
+            self.notify("Uploaded", f"{f.name}: check the terrain field, then Use this terrain", "green")
+
     def _build_drive(self) -> None:
         from server.engine import steering_gaits, terrain_names
 
         gui = self.client.gui
         names = list(terrain_names())
         self.dd_terrain = gui.add_dropdown("terrain", names, initial_value="flat")
+        self._build_custom_terrain()
         # what a walk on a terrain plans on: the scene's own maps keep real time, the depth sensor's are what a robot
         # would see (slower than real time; the "depth cloud" overlay shows its scans)
         self.dd_maps = gui.add_dropdown("walk on maps", tuple(PERCEPTION), initial_value="scene (real time)")

@@ -1,0 +1,256 @@
+"""A sweep's summary: success rate per cell with a 95 % Wilson interval, failure reasons grouped, times and errors
+as percentiles; as a dict (JSON), a text table, CSV, and the grid a heat map draws."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+from collections import Counter
+from typing import Any
+
+import numpy as np
+
+from planning.sweep.spec import SweepSpec
+
+Z95 = 1.959963984540054  # the normal quantile of a two-sided 95 % interval
+
+
+def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """The Wilson score interval of a binomial rate (0, 1 when n is 0)."""
+    if n == 0:
+        return 0.0, 1.0
+    p = successes / n
+    d = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / d
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
+    return max(0.0, c - h), min(1.0, c + h)
+
+
+def pct(values: list[Any]) -> dict[str, float] | None:
+    """p10, p50, p90 and max of the values (None when there are none)."""
+    v = [float(x) for x in values if x is not None and math.isfinite(float(x))]
+    if not v:
+        return None
+    a = np.asarray(v)
+    return {
+        "p10": round(float(np.percentile(a, 10)), 4),
+        "p50": round(float(np.percentile(a, 50)), 4),
+        "p90": round(float(np.percentile(a, 90)), 4),
+        "max": round(float(a.max()), 4),
+    }
+
+
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?")
+
+
+def reason_group(reason: str | None) -> str:
+    """A failure reason with its numbers blanked, so the same failure at other times and places groups."""
+    return _NUMBER.sub("#", reason or "unknown")
+
+
+def default_by(spec: SweepSpec, cases: list[dict[str, Any]]) -> list[str]:
+    """The axes that make the cells unless the spec says: every axis with more than one value, but the seed."""
+    names = list(cases[0]["axes"]) if cases else []
+    out = [n for n in names if n != "seed" and len({_label(c["axes"][n]) for c in cases}) > 1]
+    return out
+
+
+def _label(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:g}"
+    if isinstance(v, list):
+        return "[" + ",".join(_label(x) for x in v) + "]"
+    return str(v)
+
+
+class _Binner:
+    """Labels an axis's values: each value itself, or for a sampled numeric axis one of `bins` equal bins."""
+
+    def __init__(self, values: list[Any], bins: int, sampled: bool) -> None:
+        nums = [v for v in values if isinstance(v, (int, float)) and not isinstance(v, bool)]
+        distinct = sorted(set(map(_label, values)), key=lambda s: _sort_key(s))
+        self.edges: list[float] | None = None
+        if sampled and len(nums) == len(values) and len(set(nums)) > bins:
+            lo, hi = min(nums), max(nums)
+            self.edges = list(np.linspace(lo, hi, bins + 1))
+            self.labels = [f"{self.edges[i]:.3g}–{self.edges[i + 1]:.3g}" for i in range(bins)]
+        else:
+            self.labels = distinct
+
+    def __call__(self, v: Any) -> str:
+        if self.edges is None:
+            return _label(v)
+        i = int(np.searchsorted(self.edges, float(v), side="right")) - 1
+        return self.labels[min(max(i, 0), len(self.labels) - 1)]
+
+
+def _sort_key(s: str) -> tuple[int, float, str]:
+    try:
+        return (0, float(s.split("–")[0]), s)
+    except ValueError:
+        return (1, 0.0, s)
+
+
+def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
+    done = [r for r in recs if r is not None and r["status"] == "done"]
+    crashed = [r for r in recs if r is not None and r["status"] == "crashed"]
+    reports = [r["report"] for r in done]
+    ok = sum(1 for rep in reports if rep.get("success"))
+    lo, hi = wilson(ok, len(done))
+    reasons = Counter(reason_group(rep.get("failure_reason")) for rep in reports if not rep.get("success"))
+    reasons.update(f"crashed: {reason_group((r['error'] or '').splitlines()[0])}" for r in crashed)
+    pos_err = [(rep.get("final_pose_error") or {}).get("position_m") for rep in reports]
+    return {
+        "cases": len(recs),
+        "done": len(done),
+        "crashed": len(crashed),
+        "pending": sum(1 for r in recs if r is None),
+        "successes": ok,
+        "success_rate": round(ok / len(done), 4) if done else None,
+        "ci95": [round(lo, 4), round(hi, 4)],
+        "failure_reasons": dict(reasons.most_common()),
+        "wall_s": pct([r["wall_s"] for r in done]),
+        "simulated_s": pct([rep.get("duration_s") for rep in reports]),
+        "time_to_goal_s": pct([rep.get("time_to_goal_s") for rep in reports]),
+        "time_to_cross_s": pct([rep.get("time_to_cross_s") for rep in reports]),
+        "final_position_error_m": pct(pos_err),
+        "foot_placement_error_m": pct(
+            [(rep.get("foot_placement_error_m") or {}).get("median") for rep in reports]
+        ),
+    }
+
+
+def summarize(
+    spec: SweepSpec, cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]
+) -> dict[str, Any]:
+    """The summary of the cases given their records by key (a case without a record is pending)."""
+    by = list(spec.summary.by) if spec.summary.by is not None else default_by(spec, cases)
+    names = list(cases[0]["axes"]) if cases else []
+    for a in by:
+        if a not in names:
+            raise ValueError(f"summary.by: {a!r} is not an axis of this sweep (axes: {', '.join(names)})")
+    sampled = spec.sampling != "grid"
+    binners = {a: _Binner([c["axes"][a] for c in cases], spec.summary.bins, sampled) for a in names}
+    groups: dict[tuple[str, ...], dict[str, dict[str, Any] | None]] = {}  # cell → {key: record}
+    for c in cases:
+        k = tuple(binners[a](c["axes"][a]) for a in by)
+        groups.setdefault(k, {})[c["key"]] = records.get(c["key"])
+    order = sorted(groups, key=lambda k: tuple(_sort_key(s) for s in k))
+    cells = [{"axes": dict(zip(by, k, strict=True)), **_stats(list(groups[k].values()))} for k in order]
+    multi = [n for n in names if len({_label(c["axes"][n]) for c in cases}) > 1]
+    two = by[:2] if len(by) >= 2 else (by + [n for n in multi if n not in by])[:2]
+    heat = spec.summary.heatmap or (tuple(two) if len(two) == 2 else None)
+    heatmap = None
+    if heat is not None:
+        for a in heat:
+            if a not in names:
+                raise ValueError(f"summary.heatmap: {a!r} is not an axis of this sweep")
+        xa, ya = heat
+        grid: dict[tuple[str, str], dict[str, dict[str, Any] | None]] = {}
+        for c in cases:
+            cell = grid.setdefault((binners[xa](c["axes"][xa]), binners[ya](c["axes"][ya])), {})
+            cell[c["key"]] = records.get(c["key"])
+        xs = sorted({k[0] for k in grid}, key=_sort_key)
+        ys = sorted({k[1] for k in grid}, key=_sort_key)
+        heatmap = {
+            "x": xa,
+            "y": ya,
+            "x_labels": xs,
+            "y_labels": ys,
+            "successes": [[_stats(list(grid.get((x, y), {}).values()))["successes"] for x in xs] for y in ys],
+            "done": [[_stats(list(grid.get((x, y), {}).values()))["done"] for x in xs] for y in ys],
+        }
+    return {
+        "sweep": spec.name,
+        "by": by,
+        "overall": _stats([records.get(k) for k in dict.fromkeys(c["key"] for c in cases)]),
+        "cells": cells,
+        "heatmap": heatmap,
+    }
+
+
+def _ci(c: dict[str, Any]) -> str:
+    return f"{c['ci95'][0] * 100:.0f}–{c['ci95'][1] * 100:.0f} %"
+
+
+def _rate(c: dict[str, Any]) -> str:
+    return (
+        "—" if c["success_rate"] is None else f"{c['successes']}/{c['done']} {c['success_rate'] * 100:.0f} %"
+    )
+
+
+def format_table(summary: dict[str, Any]) -> str:
+    """The summary as a text table: one row per cell, then the whole sweep and its failure reasons."""
+    by = summary["by"]
+    head = [*by, "success", "95 % CI", "crashed", "pos. error p50/p90 m", "wall s p50", "top failure"]
+    rows = []
+    for c in [*summary["cells"], {"axes": dict.fromkeys(by, ""), **summary["overall"]}]:
+        e = c["final_position_error_m"]
+        w = c["wall_s"]
+        top = next(iter(c["failure_reasons"]), "")
+        rows.append(
+            [
+                *(c["axes"][a] for a in by),
+                _rate(c),
+                _ci(c),
+                str(c["crashed"]),
+                "" if e is None else f"{e['p50']:.3f}/{e['p90']:.3f}",
+                "" if w is None else f"{w['p50']:.1f}",
+                top[:60],
+            ]
+        )
+    if by:
+        rows[-1][0] = "all"
+    else:
+        head = head[len(by) :]
+    widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(len(head))]
+    lines = ["  ".join(str(v).ljust(widths[i]) for i, v in enumerate(r)).rstrip() for r in [head, *rows]]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    lines.insert(len(lines) - 1, "  ".join("-" * w for w in widths))
+    reasons = summary["overall"]["failure_reasons"]
+    if reasons:
+        lines.append("failure reasons (numbers blanked as #):")
+        lines += [f"  {n:5d}  {r}" for r, n in reasons.items()]
+    if summary["overall"]["pending"]:
+        lines.append(f"{summary['overall']['pending']} cases have not run yet (run the sweep again to go on)")
+    return "\n".join(lines)
+
+
+def cells_csv(summary: dict[str, Any]) -> str:
+    """One CSV row per cell: its axes, counts, rate, interval, the top failure and percentiles."""
+    by = summary["by"]
+    out = io.StringIO()
+    w = csv.writer(out)
+    w.writerow(
+        [*by, "cases", "done", "crashed", "pending", "successes", "success_rate", "ci95_low", "ci95_high"]
+        + ["final_position_error_m_p50", "final_position_error_m_p90", "wall_s_p50", "top_failure_reason"]
+    )
+    for c in summary["cells"]:
+        e = c["final_position_error_m"] or {}
+        ws = c["wall_s"] or {}
+        w.writerow(
+            [*(c["axes"][a] for a in by), c["cases"], c["done"], c["crashed"], c["pending"], c["successes"]]
+            + [c["success_rate"], c["ci95"][0], c["ci95"][1], e.get("p50"), e.get("p90"), ws.get("p50")]
+            + [next(iter(c["failure_reasons"]), "")]
+        )
+    return out.getvalue()
+
+
+def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -> str:
+    """One CSV row per case: its axes, status, success, failure reason, attempts and key."""
+    names = list(cases[0]["axes"]) if cases else []
+    out = io.StringIO()
+    w = csv.writer(out)
+    w.writerow([*names, "status", "success", "failure_reason", "attempts", "wall_s", "key"])
+    for c in cases:
+        r = records.get(c["key"])
+        rep = (r or {}).get("report") or {}
+        w.writerow(
+            [*(_label(c["axes"][a]) for a in names)]
+            + [r["status"] if r else "pending", rep.get("success") if r and r["status"] == "done" else ""]
+            + [rep.get("failure_reason") or (r or {}).get("error") or "", (r or {}).get("attempts", "")]
+            + [(r or {}).get("wall_s", ""), c["key"]]
+        )
+    return out.getvalue()

@@ -1,0 +1,189 @@
+"""Loading a quadruped from its MJCF by structure: a synthetic robot written the way third-party models are (no
+names footfall knows, an unnamed free joint, feet in their own bodies, knee offsets, joints about −y, gear, meshes
+in a subfolder), position servos refused or converted, every problem in one message, falls named by body."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from planning.maneuver import load_maneuver
+from planning.maneuver.load import find_maneuver
+from planning.maneuver.scale import reference_dimensions, robot_scale, scale_to_robot
+from planning.robot import RobotDescriptionError, load_robot
+from planning.robot.check import check_robot
+from planning.sim.world import RobotState, World
+from planning.terrain.scenes import build_terrain
+
+# a cube, for a mesh geom resolved relative to the model file
+CUBE_OBJ = "\n".join(
+    [f"v {x} {y} {z}" for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)]
+    + ["f 1 2 4 3", "f 5 7 8 6", "f 1 5 6 2", "f 3 4 8 7", "f 1 3 7 5", "f 2 6 8 4"]
+)
+
+
+def _leg(name: str, sx: int, sy: int, actuated: str) -> str:
+    # the flexion axis sits 1 cm below the abduction axis, the shank starts 2 cm ahead of the thigh's end (a knee
+    # offset), the foot is a sphere in its own body; flexion and knee turn about -y (their angles are negated)
+    return f"""
+      <body name="{name}_hip" pos="{0.2 * sx} {0.05 * sy} 0">
+        <joint name="{name}_abad" axis="1 0 0" range="-0.8 0.8"/>
+        <geom type="capsule" fromto="0 0 0 0 {0.06 * sy} 0" size="0.03" contype="0" conaffinity="0"/>
+        <body name="{name}_thigh" pos="0 {0.08 * sy} -0.01">
+          <joint name="{name}_pitch" axis="0 -1 0" range="-2.5 1.5"/>
+          <geom type="capsule" fromto="0 0 0 0 0 -0.2" size="0.02"/>
+          <body name="{name}_shank" pos="0.02 0 -0.2">
+            <joint name="{name}_knee" axis="0 -1 0" range="0.6 2.6"/>
+            <geom type="capsule" fromto="0 0 0 0 0 -0.19" size="0.012"/>
+            <body name="{name}_toe" pos="0 0 -0.2">
+              <geom type="sphere" size="0.02"/>
+            </body>
+          </body>
+        </body>
+      </body>"""
+
+
+def robot_xml(actuator: str = "motor", keyframe: bool = True) -> str:
+    legs = "".join(
+        _leg(n, sx, sy, actuator)
+        for n, sx, sy in (("lf", 1, 1), ("rf", 1, -1), ("lh", -1, 1), ("rh", -1, -1))
+    )
+    acts = []
+    for n in ("lf", "rf", "lh", "rh"):
+        for j, t in (("abad", 10), ("pitch", 10), ("knee", 15)):
+            if actuator == "motor":
+                acts.append(f'<motor joint="{n}_{j}" gear="2" ctrlrange="-{t} {t}"/>')
+            else:
+                acts.append(f'<position joint="{n}_{j}" kp="50" forcerange="-{2 * t} {2 * t}"/>')
+    # the pose: flexion 0.8 and knee 1.6 about -y
+    key = (
+        '<keyframe><key name="home" qpos="0 0 0.3 1 0 0 0 ' + " ".join(["0 -0.8 1.6"] * 4) + '"/></keyframe>'
+        if keyframe
+        else ""
+    )
+    return f"""<mujoco model="critter">
+  <compiler angle="radian" meshdir="parts"/>
+  <asset><mesh name="shell" file="shell.obj"/></asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <body name="base" pos="0 0 0.4">
+      <freejoint/>
+      <geom type="box" size="0.25 0.08 0.05" mass="6"/>
+      <geom type="mesh" mesh="shell" contype="0" conaffinity="0"/>{legs}
+    </body>
+  </worldbody>
+  <actuator>{"".join(acts)}</actuator>
+  {key}
+</mujoco>"""
+
+
+def write_robot(tmp: Path, **kw: object) -> Path:
+    (tmp / "parts").mkdir(exist_ok=True)
+    (tmp / "parts" / "shell.obj").write_text(CUBE_OBJ)
+    p = tmp / "critter.xml"
+    p.write_text(robot_xml(**kw))  # type: ignore[arg-type]
+    return p
+
+
+@pytest.fixture
+def critter(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    p = write_robot(tmp_path)
+    monkeypatch.chdir(os.path.dirname(os.path.abspath(__file__)))  # meshes must not resolve against the cwd
+    return p
+
+
+def test_structure_is_detected_and_the_kinematics_match_mujoco(critter: Path) -> None:
+    r = load_robot(critter)
+    assert r.name == "critter" and r.free_joint_name == "root"
+    m = r.model
+    jname = lambda j: mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j)  # noqa: E731
+    # legs labelled by where their hips are, not by their names
+    assert [jname(r.legs[i].joint_ids[0]) for i in range(4)] == ["lf_abad", "rf_abad", "lh_abad", "rh_abad"]
+    assert mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, m.geom_bodyid[r.legs[0].foot_geom]) == "lf_toe"
+    assert r.foot_radius_m == pytest.approx(0.02)
+    np.testing.assert_allclose(r.tau_max, [[20, 20, 30]] * 4)  # gear 2 × ctrlrange
+    np.testing.assert_allclose(r.ctrl_scale, 0.5)
+    foot_err, knee_err = r.kinematics_error(100)
+    assert foot_err < 1e-9 and knee_err < 1e-9
+    # the home keyframe is the standing pose: its feet, their mean height
+    np.testing.assert_allclose(r.q_nominal, [[0.0, -0.8, 1.6]] * 4, atol=1e-6)
+    feet = np.array([r.fk_leg(i, r.q_nominal[i]) for i in range(4)])
+    assert r.standing_height_m == pytest.approx(-feet[:, 2].mean() + 0.02)
+
+
+def test_jacobian_matches_finite_differences_with_offsets_and_negative_axes(critter: Path) -> None:
+    r = load_robot(critter)
+    rng = np.random.default_rng(1)
+    for leg in range(4):
+        for _ in range(20):
+            q = r.q_min[leg] + rng.random(3) * (r.q_max[leg] - r.q_min[leg])
+            J = r.jacobian_leg(leg, q)
+            Jn = np.column_stack(
+                [(r.fk_leg(leg, q + 1e-6 * e) - r.fk_leg(leg, q - 1e-6 * e)) / 2e-6 for e in np.eye(3)]
+            )
+            np.testing.assert_allclose(J, Jn, atol=1e-7)
+            p = r.fk_leg(leg, q)
+            q2, ok = r.ik_leg_many(leg, p[None, :])
+            if ok[0]:
+                np.testing.assert_allclose(r.fk_leg(leg, q2[0]), p, atol=1e-9)
+
+
+def test_position_servos_are_refused_naming_each_or_converted_when_asked(tmp_path: Path) -> None:
+    p = write_robot(tmp_path, actuator="position")
+    with pytest.raises(RobotDescriptionError) as e:
+        load_robot(p)
+    msg = str(e.value)
+    assert "12 problem(s)" in msg and "position servo (kp=50)" in msg and "'rh_knee'" in msg
+    assert "\n" not in msg
+    (tmp_path / "critter.footfall.yaml").write_text("actuators: convert\nname: servo-critter\n")
+    r = load_robot(p)
+    assert r.name == "servo-critter"
+    np.testing.assert_allclose(r.tau_max, [[20, 20, 30]] * 4)  # the servos' forcerange
+    a = r.legs[0].actuator_ids[0]
+    assert r.model.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE
+
+
+def test_robot_check_reports_detection_and_problems(critter: Path, tmp_path: Path) -> None:
+    ok, text = check_robot(critter)
+    assert ok, text
+    assert "analytic vs MuJoCo kinematics over 200 poses" in text and "standing (keyframe)" in text
+    assert "world geom 'floor' dropped" in text
+    bad = tmp_path / "three.xml"
+    bad.write_text(robot_xml(keyframe=False).replace("<freejoint/>", ""))
+    ok, text = check_robot(bad)
+    assert not ok and "needs exactly one free joint" in text
+
+
+def test_without_a_keyframe_the_stance_is_guessed_under_the_hips(tmp_path: Path) -> None:
+    r = load_robot(write_robot(tmp_path, keyframe=False))
+    assert r.standing_source == "guessed"
+    np.testing.assert_allclose(r.nominal_foot_body[:, 0], r.p_body_hip[:, 0], atol=1e-9)
+    assert 0.5 * (r.l_upper + r.l_lower) < r.standing_height_m < r.l_upper + r.l_lower
+
+
+def test_a_fall_names_the_body_that_touched(critter: Path) -> None:
+    r = load_robot(critter)
+    w = World(r, build_terrain("flat"))
+    w.reset(height=0.04)  # the base box (5 cm half-height) pressed into the ground, the shanks too
+    s = w.read_state(RobotState())
+    assert s.bad_contact in {"base", "lf_shank", "rf_shank", "lh_shank", "rh_shank"}
+    assert s.knee_contact.any()
+
+
+def test_maneuvers_scale_to_the_robot() -> None:
+    spot, go1 = load_robot("spot"), load_robot("go1")
+    stand = load_maneuver(find_maneuver("stand"))
+    assert scale_to_robot(stand, spot) is stand
+    s = robot_scale(go1)
+    sx0, sy0, h0 = reference_dimensions()
+    assert s.z == pytest.approx(go1.standing_height_m / h0)
+    scaled = scale_to_robot(stand, go1)
+    assert scaled.body[0].position[2] == pytest.approx(go1.standing_height_m)
+    walk = load_maneuver(find_maneuver("walk-forward"))
+    g0, g1 = walk.gaits[0], scale_to_robot(walk, go1).gaits[0]
+    assert g1.step[0] == pytest.approx(g0.step[0] * go1.nominal_stance_xy[0] / sx0)
+    assert g1.cycle == g0.cycle

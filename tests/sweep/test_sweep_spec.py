@@ -1,0 +1,117 @@
+"""The sweep spec format (footfall/sweep@1): loading, errors naming the field, expansion into cases, keys."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from planning.sweep import SweepSpecError, case_key, expand, parse_spec, sweep_json_schema
+from planning.sweep.spec import SHIPPED_SWEEPS, load_spec
+from server.cli import main
+
+
+def _spec(**kw):
+    return parse_spec({"format": "footfall/sweep@1", "name": "t", "run": {"probe": {}}, **kw})
+
+
+def test_grid_is_the_product_of_the_axes() -> None:
+    spec = _spec(axes={"push_impulse_ns": [0, 10, 20], "push_direction_deg": {"min": 0, "max": 270, "step": 90},
+                       "seed": {"min": 0, "max": 1, "integer": True}})  # fmt: skip
+    cases = expand(spec)
+    assert len(cases) == 3 * 4 * 2
+    assert {c["axes"]["push_direction_deg"] for c in cases} == {0.0, 90.0, 180.0, 270.0}
+    assert {c["params"]["seed"] for c in cases} == {0, 1}
+    assert len({c["key"] for c in cases}) == len(cases)
+
+
+def test_random_sampling_is_reproducible_and_within_ranges() -> None:
+    axes = {"friction": {"min": 0.3, "max": 0.9}, "seed": {"min": 0, "max": 99, "integer": True}}
+    a = expand(_spec(axes=axes, sampling={"random": 25, "seed": 7}))
+    b = expand(_spec(axes=axes, sampling={"random": 25, "seed": 7}))
+    c = expand(_spec(axes=axes, sampling={"random": 25, "seed": 8}))
+    assert [x["key"] for x in a] == [x["key"] for x in b] != [x["key"] for x in c]
+    assert all(0.3 <= x["params"]["friction"] <= 0.9 for x in a)
+    assert all(isinstance(x["params"]["seed"], int) for x in a)
+
+
+def test_terrain_parameters_are_checked_and_coerced() -> None:
+    spec = _spec(defaults={"terrain": "stairs"}, axes={"terrain.riser_m": {"min": 0.1, "max": 0.2, "count": 3},
+                                                        "terrain.n_steps": [3, 4.0]})  # fmt: skip
+    cases = expand(spec)
+    assert sorted({c["params"]["terrain_params"]["riser_m"] for c in cases}) == [0.1, 0.15, 0.2]
+    assert {type(c["params"]["terrain_params"]["n_steps"]) for c in cases} == {int}
+
+
+@pytest.mark.parametrize(
+    ("doc", "needle"),
+    [
+        ({"axes": {"wind": [1]}}, "axes.wind: unknown axis"),
+        ({"axes": {"friction": {"min": 1, "max": 0}}}, "max 0.0 is below min 1.0"),
+        (
+            {"axes": {"friction": {"min": 0.2, "max": 0.9}}},
+            "axes.friction: a range in a grid needs count or step",
+        ),
+        ({"axes": {"terrain": ["moon"]}}, "unknown terrain 'moon'"),
+        ({"defaults": {"terrain": "stairs"}, "axes": {"terrain.riser": [0.1]}}, "has no parameter riser"),
+        (
+            {"defaults": {"terrain": "stairs"}, "axes": {"terrain.n_steps": [2.5]}},
+            "2.5 is not a whole number",
+        ),
+        ({"defaults": {"robot": "atlas"}}, "robot:"),
+        ({"axes": {"seed": [-1]}}, "axes.seed: -1 is not a whole number"),
+        ({"run": {"walk": {}, "probe": {}}}, "give exactly one of maneuver, walk and probe"),
+        ({"run": {"maneuver": "no-such"}}, "run.maneuver: "),
+        ({"axes": {"push_impulse_ns": [0]}, "sampling": {"random": 0}}, "sampling"),
+    ],
+)
+def test_bad_specs_name_the_field(doc, needle) -> None:
+    base = {"format": "footfall/sweep@1", "name": "t", "run": {"probe": {}}}
+    with pytest.raises(SweepSpecError) as e:
+        expand(parse_spec({**base, **doc}))
+    assert needle in str(e.value)
+
+
+def test_key_follows_params_and_code_version() -> None:
+    p = expand(_spec())[0]["params"]
+    assert case_key(p, "v1") == case_key(json.loads(json.dumps(p)), "v1")
+    assert case_key(p, "v1") != case_key(p, "v2")
+    assert case_key(p, "v1") != case_key({**p, "seed": 1}, "v1")
+
+
+def test_schema_and_shipped_specs_load() -> None:
+    schema = sweep_json_schema()
+    assert schema["properties"]["format"]["const"] == "footfall/sweep@1"
+    assert "axes" in schema["properties"]
+    shipped = sorted(SHIPPED_SWEEPS.glob("*.yaml"))
+    assert len(shipped) >= 6 + 4
+    for path in shipped:
+        spec = load_spec(path)
+        assert spec.name == path.stem, path
+
+
+def test_cli_bad_spec_is_one_line_and_exit_2(tmp_path, capsys) -> None:
+    p = tmp_path / "s.yaml"
+    p.write_text("format: footfall/sweep@1\nname: s\nrun: {probe: {}}\naxes: {push_impulse_ns: {min: 0}}\n")
+    assert main(["sweep", str(p), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "axes.push_impulse_ns" in err and "max" in err
+    assert len(err.splitlines()) == 1
+
+
+def test_shipped_specs_expand_and_summarize() -> None:
+    from planning.sweep import summarize
+
+    for path in sorted(SHIPPED_SWEEPS.glob("*.yaml")):
+        spec = load_spec(path)
+        cases = expand(spec)
+        assert 1 <= len({c["key"] for c in cases}) <= 40, path  # small: each runs in minutes
+        s = summarize(spec, cases, {})
+        assert s["overall"]["pending"] == len({c["key"] for c in cases})
+
+
+def test_per_run_axes_replace_the_sweeps() -> None:
+    spec = parse_spec({"format": "footfall/sweep@1", "name": "t", "axes": {"seed": [0, 1, 2]},
+                       "run": [{"label": "a", "probe": {}}, {"label": "b", "probe": {}, "axes": {"seed": [5]}}]})  # fmt: skip
+    cases = expand(spec)
+    assert [(c["axes"]["run"], c["axes"]["seed"]) for c in cases] == [("a", 0), ("a", 1), ("a", 2), ("b", 5)]

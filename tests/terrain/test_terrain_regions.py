@@ -1,0 +1,228 @@
+"""Steppable regions: a stair tread, a stone's top, the floor between boxes and a slope each come out as one planar
+region, covered by convex polygons that keep a foot's sole on it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from planning.robot import load_robot
+from planning.terrain.maps import TerrainMaps, maps_from_grids, maps_from_scene
+from planning.terrain.regions import (
+    ConvexRegion,
+    RegionParams,
+    SteppableRegions,
+    convex_around,
+    segment_regions,
+)
+from planning.terrain.scenes import build_terrain
+
+RES = 0.03
+PARAMS = RegionParams(foot_radius_m=0.02, edge_margin_m=0.02)
+
+
+def _grid(nx: int, ny: int, origin: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    xs = origin[0] + np.arange(nx) * RES
+    ys = origin[1] + np.arange(ny) * RES
+    return np.broadcast_to(xs[:, None], (nx, ny)), np.broadcast_to(ys[None, :], (nx, ny))
+
+
+def _maps(h: np.ndarray, step: np.ndarray | None = None) -> TerrainMaps:
+    return maps_from_grids((0.0, 0.0), RES, h, np.zeros(h.shape, bool) if step is None else step)
+
+
+def _assert_polygons_inside(regions: SteppableRegions, maps: TerrainMaps) -> None:
+    """Every polygon's vertices (and points inside) lie on its own region, inset from its edge: a foot centred
+    anywhere in it keeps its sole (foot radius) off the region's edge."""
+    for poly in regions.polygons:
+        pts = np.vstack([poly.vertices, 0.5 * (poly.vertices + poly.seed)])
+        for x, y in pts:
+            # a foot centred here: its rim, 8 points, on cells of the same region
+            for a in np.linspace(0.0, 2 * np.pi, 8, endpoint=False):
+                r = regions.params.foot_radius_m
+                assert regions.label_at(x + r * math.cos(a), y + r * math.sin(a)) == poly.label
+
+
+def test_stair_treads_are_one_region_each_with_a_level_plane() -> None:
+    X, _ = _grid(100, 50)
+    # floor, then 3 treads of 0.30 m rising 0.15 m each from x = 0.9 m, then a landing
+    k = np.clip(np.floor((X - 0.915) / 0.30) + 1, 0, 4)  # risers between cell centres
+    h = 0.15 * k
+    maps = _maps(h)
+    regions = segment_regions(maps, PARAMS)
+    labels = {regions.label_at(x, 0.75) for x in (0.45, 1.05, 1.35, 1.65, 2.5)}
+    assert 0 not in labels and len(labels) == 5
+    # each tread its own region, level, at its height
+    for x, z in ((1.05, 0.15), (1.35, 0.30), (1.65, 0.45)):
+        lab = regions.label_at(x, 0.75)
+        assert regions.slope_deg(lab) < 1.0
+        assert regions.z0[lab] == pytest.approx(z, abs=1e-9)
+        polys = regions.polygons_of(lab)
+        assert polys, f"tread at x={x} has no polygon"
+        # the tread is 0.30 m deep: a polygon along it, inset from its riser and nosing
+        xmin = min(float(p.vertices[:, 0].min()) for p in polys)
+        xmax = max(float(p.vertices[:, 0].max()) for p in polys)
+        # (the cell at the riser's foot is cut: the polygon starts a cell further from the riser)
+        assert xmax - xmin == pytest.approx(0.30 - RES - 2 * PARAMS.inset_m, abs=RES)
+        assert max(p.area_m2 for p in polys) > 0.15 * 1.2
+    _assert_polygons_inside(regions, maps)
+
+
+def test_a_stone_top_is_a_region_of_its_own_and_its_polygon_keeps_off_its_edges() -> None:
+    X, Y = _grid(80, 80)
+    h = np.full(X.shape, -0.30)  # the pit
+    stone = (np.abs(X - 1.2) <= 0.15) & (np.abs(Y - 1.2) <= 0.20)
+    h[stone] = 0.02
+    maps = _maps(h)
+    regions = segment_regions(maps, PARAMS)
+    lab = regions.label_at(1.2, 1.2)
+    assert lab != 0 and lab != regions.label_at(0.3, 0.3)
+    assert regions.z0[lab] == pytest.approx(0.02)
+    polys = regions.polygons_of(lab)
+    assert len(polys) == 1
+    v = polys[0].vertices
+    # the stone spans 1.05..1.35 × 1.0..1.4 (cell centres 1.05.. within); the polygon is inset by the foot + margin
+    assert v[:, 0].min() >= 1.05 - RES / 2 + PARAMS.inset_m - 1e-6
+    assert v[:, 0].max() <= 1.35 + RES / 2 - PARAMS.inset_m + 1e-6
+    assert v[:, 1].min() >= 1.0 - RES / 2 + PARAMS.inset_m - 1e-6
+    assert v[:, 1].max() <= 1.4 + RES / 2 - PARAMS.inset_m + 1e-6
+    assert polys[0].area_m2 > 0.6 * (0.30 - 2 * PARAMS.inset_m) * (0.40 - 2 * PARAMS.inset_m)
+    _assert_polygons_inside(regions, maps)
+
+
+def test_the_floor_between_boxes_is_one_region_covered_by_several_convex_polygons() -> None:
+    X, Y = _grid(90, 90)
+    h = np.zeros(X.shape)
+    boxes = [(0.8, 0.8, 0.10), (1.8, 1.4, 0.10), (1.2, 2.0, 0.6)]
+    for bx, by, bz in boxes:
+        h[(np.abs(X - bx) <= 0.15) & (np.abs(Y - by) <= 0.15)] = bz
+    maps = _maps(h)
+    regions = segment_regions(maps, PARAMS)
+    floor = regions.label_at(0.2, 0.2)
+    assert floor != 0
+    for x, y in ((2.5, 2.5), (0.2, 2.5), (2.5, 0.2), (1.3, 1.1)):
+        assert regions.label_at(x, y) == floor
+    for bx, by, _ in boxes:
+        assert regions.label_at(bx, by) not in (0, floor)  # a box top is a region of its own
+    polys = regions.polygons_of(floor)
+    assert 2 <= len(polys) <= PARAMS.max_polygons
+    # the convex pieces cover most of the floor's inset and never reach over a box
+    xs, ys = maps.cell_centers()
+    inset = np.column_stack(
+        [np.broadcast_to(xs[:, None], X.shape)[regions.inset & (regions.labels == floor)],
+         np.broadcast_to(ys[None, :], X.shape)[regions.inset & (regions.labels == floor)]]
+    )  # fmt: skip
+    covered = np.zeros(len(inset), bool)
+    for poly in polys:
+        covered |= poly.contains(inset, 1e-6)
+    assert covered.mean() >= 0.6
+    _assert_polygons_inside(regions, maps)
+
+
+@pytest.mark.parametrize("angle_deg", [5.0, 15.0, 25.0])
+def test_a_slope_is_one_region_with_its_incline(angle_deg: float) -> None:
+    X, _ = _grid(100, 60)
+    rise = np.clip(X - 0.9, 0.0, 1.2) * math.tan(math.radians(angle_deg))
+    h = rise
+    maps = _maps(h)
+    regions = segment_regions(maps, PARAMS)
+    lab = regions.label_at(1.5, 0.9)
+    assert lab != 0
+    # no riser anywhere: floor, ramp and plateau are one steppable region (the kinks are not edges)
+    assert regions.label_at(0.3, 0.9) == lab == regions.label_at(2.6, 0.9)
+    ramp = convex_around(regions, lab, np.array([1.5, 0.9]))
+    assert ramp is not None and bool(ramp.contains(np.array([1.5, 0.9])))
+    # the plane of a region of ramp cells alone has the slope's angle
+    ramp_only = _maps(np.where((X > 0.95) & (X < 2.05), h, -1.0))
+    r2 = segment_regions(ramp_only, PARAMS)
+    assert r2.slope_deg(r2.label_at(1.5, 0.9)) == pytest.approx(angle_deg, abs=0.5)
+    assert r2.roughness_m[r2.label_at(1.5, 0.9)] < 1e-6
+
+
+def test_too_steep_ground_and_step_obstacles_are_not_steppable() -> None:
+    X, _ = _grid(60, 40)
+    h = np.clip(X - 0.6, 0.0, None) * math.tan(math.radians(45.0))
+    step = np.zeros(X.shape, bool)
+    step[5:10, :] = True
+    regions = segment_regions(_maps(h, step), PARAMS)
+    assert regions.label_at(1.2, 0.6) == 0  # 45° is steeper than 35°
+    assert regions.label_at(0.2, 0.6) == 0  # a step obstacle
+    assert regions.label_at(0.45, 0.6) != 0
+
+
+def test_a_patch_too_small_for_a_foot_is_dropped() -> None:
+    X, Y = _grid(40, 40)
+    h = np.full(X.shape, -0.3)
+    h[(np.abs(X - 0.6) <= 0.03) & (np.abs(Y - 0.6) <= 0.03)] = 0.0  # a 9 cm post top
+    regions = segment_regions(_maps(h), PARAMS)
+    assert regions.label_at(0.6, 0.6) == 0
+
+
+def test_convex_around_a_point_contains_its_nearest_inset_cell_and_only_its_region() -> None:
+    X, Y = _grid(80, 80)
+    h = np.zeros(X.shape)
+    h[(np.abs(X - 1.2) <= 0.3) & (np.abs(Y - 1.2) <= 0.3)] = 0.12  # a platform
+    maps = _maps(h)
+    regions = segment_regions(maps, PARAMS)
+    floor = regions.label_at(0.3, 0.3)
+    # a nominal foothold on the platform's edge, asked on the floor: the polygon lies on the floor near it
+    poly = convex_around(regions, floor, np.array([0.9, 1.2]))
+    assert poly is not None
+    assert poly.distance(np.array([0.9, 1.2])) < 0.12
+    for x, y in poly.vertices:
+        assert regions.label_at(x, y) == floor
+    top = convex_around(regions, regions.label_at(1.2, 1.2), np.array([0.9, 1.2]))
+    assert top is not None and top.vertices[:, 0].min() >= 0.9 + PARAMS.inset_m - 1e-6
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.floats(0.6, 1.8), st.floats(0.6, 1.8), st.floats(0.1, 0.4), st.floats(0.1, 0.4), st.floats(-0.4, 0.4)
+)
+def test_a_random_block_gives_a_polygon_inside_its_top(
+    cx: float, cy: float, hx: float, hy: float, z: float
+) -> None:
+    X, Y = _grid(82, 82)
+    h = np.full(X.shape, -0.5 if z > -0.1 else 0.5)
+    top = (np.abs(X - cx) <= hx) & (np.abs(Y - cy) <= hy)
+    h[top] = z
+    maps = _maps(h)
+    regions = segment_regions(maps, PARAMS)
+    lab = regions.label_at(cx, cy)
+    assert lab != 0
+    polys = regions.polygons_of(lab)
+    assert polys
+    ix, iy = np.nonzero(top)
+    xs, ys = maps.cell_centers()
+    lo = np.array([xs[ix].min(), ys[iy].min()]) - RES / 2 + PARAMS.inset_m - 1e-6
+    hi = np.array([xs[ix].max(), ys[iy].max()]) + RES / 2 - PARAMS.inset_m + 1e-6
+    for poly in polys:
+        assert isinstance(poly, ConvexRegion)
+        assert np.all(poly.vertices >= lo) and np.all(poly.vertices <= hi)
+        # convex, counter-clockwise, and its half-planes hold at its vertices
+        e = np.roll(poly.vertices, -1, axis=0) - poly.vertices
+        cross = e[:, 0] * np.roll(e[:, 1], -1) - e[:, 1] * np.roll(e[:, 0], -1)
+        assert np.all(cross >= -1e-9)
+        assert np.all(poly.vertices @ poly.A.T <= poly.b[None, :] + 1e-9)
+
+
+def test_from_robot_insets_by_the_foot_radius() -> None:
+    robot = load_robot("spot")
+    p = RegionParams.from_robot(robot, edge_margin_m=0.01)
+    assert p.foot_radius_m == pytest.approx(robot.foot_radius_m)
+    assert p.inset_m == pytest.approx(robot.foot_radius_m + 0.01)
+
+
+@pytest.mark.parametrize("name", ["stairs", "stones", "clutter", "slope"])
+def test_scene_maps_give_regions_where_feet_go(name: str) -> None:
+    scene = build_terrain(name, seed=0)
+    maps = maps_from_scene(scene, center_xy=(2.5, 0.0), half_extent_m=2.0)
+    regions = segment_regions(maps, PARAMS)
+    assert regions.n_regions >= 1 and regions.polygons
+    # the start (flat floor before the terrain) is steppable
+    assert regions.label_at(0.5, 0.0) != 0
+    _assert_polygons_inside(regions, maps)
