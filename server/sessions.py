@@ -12,6 +12,9 @@ alive so a reset can revive it, and nothing propagates to the server. Sessions n
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
+import gc
 import json
 import logging
 import secrets
@@ -61,6 +64,27 @@ class Sim(Protocol):
 
 
 SimFactory = Callable[[Any, str, str], Sim]  # (maneuver, terrain, robot) -> Sim
+
+
+def _malloc_trim() -> Callable[[int], int] | None:
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        trim: Callable[[int], int] = libc.malloc_trim
+    except (OSError, AttributeError):  # not glibc: nothing to trim
+        return None
+    return trim
+
+
+_TRIM = _malloc_trim()
+
+
+def release_memory() -> None:
+    """Returns the memory of an ended session to the system: collects its cycles, then asks glibc's allocator to
+    give back the free pages it keeps (MuJoCo's and numpy's freed buffers stay in its arenas otherwise: the server
+    grew 2.5-3.8 MB per session before)."""
+    gc.collect()
+    if _TRIM is not None:
+        _TRIM(0)
 
 
 class SessionError(Exception):
@@ -538,6 +562,8 @@ class SessionManager:
         if s is None:
             raise SessionNotFound(f"no session {session_id[:40]!r}", field="id")
         s.stop()
+        del s
+        release_memory()
         log.info("session %s ended", session_id)
 
     def list_sessions(self) -> list[LiveSession]:
@@ -564,6 +590,7 @@ class SessionManager:
     def _reap_loop(self) -> None:
         while not self._stop.wait(self.settings.reaper_period_s):
             try:
-                self.reap()
+                if self.reap():
+                    release_memory()
             except Exception:  # noqa: BLE001 - the reaper must outlive any one bad session
                 log.exception("reaper")

@@ -1,4 +1,5 @@
-"""Issue 24, item 5: studio tabs take a session slot only when they may drive, and never the API's last one."""
+"""Issue 24 in the studio: tabs take a session slot only when they may drive (never the API's last one), and
+the studio validates with the same function as the CLI and REST."""
 
 from __future__ import annotations
 
@@ -59,3 +60,30 @@ def test_studio_tabs_leave_a_slot_for_the_api(tmp_path: Path) -> None:
         finally:
             for t in tabs:
                 t.close()
+
+
+def test_the_studio_validates_as_the_cli_and_rest_do(tmp_path: Path) -> None:
+    """Item 3: the studio's check is the same function: a 2 s flight fails its dry solve there too."""
+    import yaml
+    from test_server_reliability import FLIGHT
+
+    s = Settings(data_dir=tmp_path, viewer_port=0, max_sessions=2)
+    app = create_app(s, sim_factory=FakeSim, sim_runner=fake_runner, with_studio=True)
+    with TestClient(app, raise_server_exceptions=False) as client:
+        studio = app.state.services.studio
+        tab = FakeBrowser(studio.port)
+        try:
+            assert wait_for(lambda: client.get("/studio").json()["clients"] == 1, 30.0)
+            sc = next(iter(studio.clients.values()))
+            assert wait_for(lambda: getattr(sc, "ready", False), 30.0)
+            ed = sc.editor
+            ed.document = lambda: (yaml.safe_load(FLIGHT), [], [])
+            result = ed.validate_now()
+            assert result is not None and not result.ok
+            assert result.failures and all("no feasible plan" in p.message for p in result.failures)
+            rest = client.post(
+                "/maneuvers/validate", content=FLIGHT, headers={"Content-Type": "application/yaml"}
+            )
+            assert {f["message"] for f in rest.json()["failures"]} == {p.message for p in result.failures}
+        finally:
+            tab.close()
