@@ -15,14 +15,16 @@ from server.deps import ServicesDep, WriteAccess
 
 router = APIRouter(prefix="/terrain-files", tags=["terrains"])
 # the rule of terrains.check_file_name as a JSON Schema pattern (no '..': dot-separated parts), so the description
-# and the check agree (the OpenAPI fuzz test holds them to it)
+# and the check agree (the OpenAPI fuzz test holds them to it); the check's message names the field `name`
 FileName = Annotated[
     str,
     Path(
-        max_length=83,
-        pattern=r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*\.(xml|npy|png|yaml)$",
         description=f"the terrain file's name: {terrains.FILE_NAME_RULE}",
-    ),
+        json_schema_extra={
+            "pattern": r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*\.(xml|npy|png|yaml)$",
+            "maxLength": terrains.MAX_FILE_NAME,
+        },
+    ),  # fmt: skip
 ]
 
 
