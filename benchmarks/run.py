@@ -213,6 +213,15 @@ def run_benchmarks(
         )
         say("bench: highest forward speed trotted without a fall")
         out["robustness"]["fastest_trot_mps"] = fastest_trot()
+    if want("speed") and not quick:
+        from benchmarks.speed import bench_speed
+
+        out["speed"] = bench_speed(progress=say)
+    # the same ramps steered by the centroidal solver instead of the balance QP (only when named)
+    if only is not None and "speed_centroidal" in only and not quick:
+        from benchmarks.speed import bench_speed
+
+        out["speed_centroidal"] = bench_speed(centroidal=True, progress=say)
     if want("maneuvers") and not quick:
         say("bench: every shipped maneuver in MuJoCo")
         from planning.maneuver import list_library
@@ -316,6 +325,12 @@ def format_table(result: dict[str, Any]) -> str:
             lines.append(
                 f"{'':24s} perception in the loop: p50 {pe['p50']} ms p99 {pe['p99']} ms, {pe['points']} points a scan"
             )
+    for name in ("speed", "speed_centroidal"):
+        if result.get(name):
+            from benchmarks.speed import format_speed_table
+
+            lines.append(f"{name} (top speed held: ramped until a fall or > 10 % tracking error)")
+            lines.append(format_speed_table(result[name]))
     for name in ("stairs_variants", "clutter_variants", "clutter_variants_shifted", "stones_variants"):
         sv = result.get(name)
         if not sv:

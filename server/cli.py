@@ -71,12 +71,14 @@ def _parse_pushes(specs: list[str] | None) -> list[Any]:
     return out
 
 
-def _check_terrain(text: str) -> None:
+def _check_terrain(text: str, seed: int) -> None:
     """Builds the terrain once (a name, a name with parameters, or a file) so that a bad one is a usage error."""
     from planning.terrain.spec import TerrainSpecError, load_terrain
 
+    if not 0 <= seed < 2**32:
+        raise UsageError(f"--seed {seed}: must be within 0 to 2^32 - 1")
     try:
-        load_terrain(text)
+        load_terrain(text, seed)
     except TerrainSpecError as e:
         raise UsageError(f"--terrain {text!r}: {e}") from None
 
@@ -144,7 +146,7 @@ def cmd_run(a: argparse.Namespace) -> int:
     from planning.maneuver import check_maneuver
     from planning.sim.run import RunOptions, run_maneuver
 
-    _check_terrain(a.terrain)
+    _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     if a.duration is not None and not (0 < a.duration <= 600):
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
@@ -157,7 +159,12 @@ def cmd_run(a: argparse.Namespace) -> int:
         )
     progress = _Progress(maneuver.name)
     opts = RunOptions(
-        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+        terrain=a.terrain,
+        pushes=pushes,
+        duration_s=a.duration,
+        realtime=a.realtime,
+        robot=a.robot,
+        seed=a.seed,
     )
     report = run_maneuver(maneuver, opts, progress=progress)
     progress.done()
@@ -200,7 +207,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
     from planning.sim.run import RunOptions, WalkCommand, run_walk
     from planning.steps.gait import GAIT_NAMES
 
-    _check_terrain(a.terrain)
+    _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     goal = _parse_goal(a.goal)
     if a.gait not in GAIT_NAMES or a.gait == "stand":
@@ -227,9 +234,15 @@ def cmd_walk(a: argparse.Namespace) -> int:
         centroidal=a.solver == "centroidal",
         terrain_aware=False if a.maps == "off" else None,
         terrain_sensor=a.maps == "sensor",
+        terrain_pipeline=a.terrain_pipeline,
     )
     opts = RunOptions(
-        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+        terrain=a.terrain,
+        pushes=pushes,
+        duration_s=a.duration,
+        realtime=a.realtime,
+        robot=a.robot,
+        seed=a.seed,
     )
     progress = _Progress("walk")
     report = run_walk(cmd, opts, progress=progress)
@@ -293,7 +306,14 @@ def cmd_serve(a: argparse.Namespace) -> int:
         from server.app import serve
     except ImportError as e:  # the service lands with its issue
         raise UsageError(f"serve is not available in this build: {e}") from None
-    overrides = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    overrides: dict[str, Any] = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    if a.robot is not None:
+        _robot(a.robot)  # a robot that does not load is a usage error now, not a failing service later
+        p = Path(a.robot).expanduser()
+        overrides["robot"] = str(p.resolve()) if p.suffix.lower() in (".xml", ".yaml", ".yml") else a.robot
+    if a.address and a.backend != "ray":
+        raise UsageError("--address is for --backend ray")
+    overrides.update(backend=a.backend, ray_address=a.address)
     serve(host=a.host, port=a.port, viewer_port=a.viewer_port, **overrides)
     return EXIT_OK
 
@@ -307,6 +327,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="simulate a maneuver in MuJoCo (headless unless --realtime)")
     r.add_argument("maneuver", metavar="MANEUVER", help="a library name (footfall run stand) or a .yaml path")
     r.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
+    r.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
     r.add_argument(
         "--push",
         action="append",
@@ -351,6 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--duration", type=float, metavar="S", help="simulated seconds (default 10, 30 with --goal)"
     )
     w.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
+    w.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
     w.add_argument(
         "--maps",
         default="sensor",
@@ -358,15 +380,22 @@ def build_parser() -> argparse.ArgumentParser:
         help="on a terrain: sensor (the simulated depth sensor, default), truth (the scene's own maps: perfect "
         "perception) or off (walk blind)",
     )
+    w.add_argument(
+        "--terrain-pipeline",
+        choices=("modes", "regions"),
+        default="modes",
+        help="on a terrain: modes (the stairs, stones and clutter rules, default) or regions (the unified "
+        "pipeline: steppable regions and footholds by the step QP inside them; see the README's Terrain section)",
+    )
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
     w.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
-    w.add_argument("--robot", default="spot", help="robot description")
+    w.add_argument("--robot", default="spot", help="robot: spot (default), go1 or an MJCF file (PATH.xml)")
     w.set_defaults(fn=cmd_walk)
 
     v = sub.add_parser("validate", help="check a maneuver without simulating (warnings and failures)")
     v.add_argument("maneuver", metavar="MANEUVER", help="a library name or a .yaml path")
-    v.add_argument("--robot", default="spot", help="robot description to check reach against")
+    v.add_argument("--robot", default="spot", help="robot to check reach against (a name or PATH.xml)")
     v.add_argument(
         "--no-solve",
         action="store_true",
@@ -396,7 +425,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         metavar="STAGE",
         help="run only this stage (repeatable): physics_step, stance_handler, swing_select, step_selection_25, "
-        "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, maneuvers "
+        "step_selection_100, step_qp, centroidal_tick, perception, closed_loop, tracking, robustness, speed (top "
+        "speed per gait and direction: the command ramped until a fall or > 10 %% tracking error), "
+        "speed_centroidal (the same steered by the centroidal solver; only when named), maneuvers "
         "(every shipped maneuver), terrain (every terrain crossing), stairs_variants (the stairs with the goal "
         "moved sideways by −8 to +8 cm, every centimetre, with the sensor and on ground-truth maps), clutter_variants "
         "(twelve clutter layouts with the sensor, twelve on ground-truth maps; only when named), "
@@ -420,6 +451,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--data-dir", help="where user maneuvers live (default ~/.local/share/footfall, or FOOTFALL_DATA_DIR)"
     )
+    s.add_argument(
+        "--robot",
+        help="the robot of the sessions and simulations: spot, go1 or an MJCF file (or FOOTFALL_ROBOT)",
+    )
+    s.add_argument("--backend", choices=("local", "ray"), help="where queued simulations and sweeps run: local "
+                   "worker processes (default, or FOOTFALL_BACKEND) or Ray tasks")  # fmt: skip
+    s.add_argument("--address", metavar="ADDR", help="with --backend ray: the cluster (default: a local Ray)")
     s.set_defaults(fn=cmd_serve)
     return p
 

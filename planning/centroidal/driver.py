@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -19,8 +20,16 @@ class SolverDriver:
     budget, so headless runs are deterministic whatever the machine's load).
     """
 
-    def __init__(self, robot: Any, budget_ms: float | None = None, max_age_s: float = 0.05) -> None:
-        params = CentroidalParams(time_budget_ms=math.inf if budget_ms is None else budget_ms)
+    def __init__(
+        self,
+        robot: Any,
+        budget_ms: float | None = None,
+        max_age_s: float = 0.05,
+        params: CentroidalParams | None = None,
+    ) -> None:
+        params = replace(
+            params or CentroidalParams(), time_budget_ms=math.inf if budget_ms is None else budget_ms
+        )
         self.solver = CentroidalSolver(params, robot=robot)
         self.max_age_s = max_age_s
         self.solution: CentroidalSolution | None = None

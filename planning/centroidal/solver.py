@@ -74,6 +74,11 @@ class CentroidalParams:
     passes, redone on every matrix update (each pass is a sweep over P and A): 4 take the same ADMM iterations
     as OSQP's default 10 here, for about a third less update time. alpha: ADMM over-relaxation; warm-started
     from the previous tick, 1.4 needs about 15 iterations where OSQP's default 1.6 needs 20 (same solutions).
+    max_tick_iterations / max_tick_solves: the work one tick may do, counted (so bounded alike on any machine and
+    load): ADMM iterations over all its QP solves (cut rounds, whole schedules, the tight fallback) and the number
+    of those solves; None: unbounded. A tick that runs out returns its last answer with the cuts it still needs
+    ("cuts_unsatisfied", not ``ok``) or, with no answer at all, "max_iter"; the driver keeps the last good one.
+    A cold start (no previous solution: the first tick, or after a solver error or reset) is not bounded.
     """
 
     max_knots: int = 24
@@ -98,6 +103,8 @@ class CentroidalParams:
     polish: bool = True
     scaling: int = 4
     alpha: float = 1.4
+    max_tick_iterations: int | None = None
+    max_tick_solves: int | None = None
 
 
 @dataclass(frozen=True)
@@ -224,6 +231,7 @@ class QPSnapshot:
 
 
 _C_WHOLE = 0.01  # a window's contact variable within this of 0 or 1 counts as whole
+_MIN_SOLVE_ITERATIONS = 10  # a tick with fewer ADMM iterations left than this starts no further solve
 
 
 @dataclass
@@ -391,6 +399,11 @@ class CentroidalSolver:
         self._instances = [_Instance(k, p) for k in sizes]
         self._bind(self._instances[-1])
         self._prev: _Previous | None = None
+        # the work the current tick has left (max_tick_iterations, max_tick_solves), and its solves' max_iter
+        self._iters_left: float = math.inf
+        self._solves_left: float = math.inf
+        self._max_iter_now = p.max_iter
+        self._tick_iterations = 0
         self.last_snapshot: QPSnapshot | None = None
         self.last_info: list[Any] = []
 
@@ -904,6 +917,13 @@ class CentroidalSolver:
         x_ws[L.i_d] = tk.d
 
         tq = time.perf_counter()
+        # a cold start (no previous solution to warm-start from: the stage's first tick, or after a reset) is not
+        # bounded; every later tick is
+        bounded = self._prev is not None
+        mi, ms = self.params.max_tick_iterations, self.params.max_tick_solves
+        self._iters_left = mi if bounded and mi is not None else math.inf
+        self._solves_left = ms if bounded and ms is not None else math.inf
+        self._tick_iterations = 0
         self._qp.update(q=self._q, l=self._l, u=self._u, Px=self._Px[L.P_order], Ax=self._Ax[L.A_order])
         self._qp.warm_start(x=x_ws)
         res = self._run_qp()
@@ -920,7 +940,7 @@ class CentroidalSolver:
                 run = self._snap_timing(tk, run, t0) or run
         res, t_qp = run.res, run.t_qp
         self.last_snapshot = run.snapshot
-        qp_iter = int(sum(int(i.iter) for i in self.last_info))
+        qp_iter = self._tick_iterations  # every ADMM iteration of the tick (the tight fallback's too)
         status_val = int(res.info.status_val)
         if status_val not in (1, 2):
             # No answer: the last good solution stays the linearization point for the next tick.
@@ -968,7 +988,11 @@ class CentroidalSolver:
             len_viol, cone_viol, new_len, new_cone = self._violations(sol, tk)
             if not (new_len.any() or new_cone.any()):
                 break
-            if rounds >= prm.max_cut_rounds or (time.perf_counter() - t0) * 1e3 > prm.time_budget_ms:
+            if (
+                rounds >= prm.max_cut_rounds
+                or (time.perf_counter() - t0) * 1e3 > prm.time_budget_ms
+                or not self._work_left()
+            ):
                 break
             rounds += 1
             n_cuts += int(new_len.sum() + new_cone.sum())
@@ -977,9 +1001,14 @@ class CentroidalSolver:
             tq = time.perf_counter()
             self._qp.update(l=self._l, u=self._u, Ax=self._Ax[L.A_order])
             self._qp.warm_start(x=res.x)
+            before = res
             res = self._run_qp()
             t_qp += (time.perf_counter() - tq) * 1e3
             self.last_info.append(res.info)
+            if int(res.info.status_val) not in (1, 2) and not self._work_left():
+                # the tick's work ran out inside the re-solve: the answer before it stands, its cuts unsatisfied
+                res = before
+                break
         snap = QPSnapshot(self._Px.copy(), self._Ax.copy(), self._q.copy(), self._l.copy(), self._u.copy(), tk.K,
                           tk.N, tk.Fs, self.L, None if res.x is None else np.array(res.x))  # fmt: skip
         return _Run(res, sol, rounds, n_cuts, len_viol, cone_viol, t_qp, snap)
@@ -1011,8 +1040,10 @@ class CentroidalSolver:
         r_cb = L.r_cb[:N]
         floor = float(run.res.info.obj_val)  # the relaxation's optimum: no whole schedule does better
         # A schedule that does not solve mostly runs to max_iter (infeasibility is slow to detect): cap it.
-        self._qp.update_settings(max_iter=max(self.params.max_iter // 4, 50))
+        self._max_iter_now = max(self.params.max_iter // 4, 50)
         for cf in cands:
+            if not self._work_left():
+                break
             if best is not None and (
                 float(best.res.info.obj_val) <= floor + 1e-4 * max(1.0, abs(floor))
                 or (time.perf_counter() - t0) * 1e3 > self.params.time_budget_ms
@@ -1033,7 +1064,7 @@ class CentroidalSolver:
                 continue
             if best is None or float(got.res.info.obj_val) < float(best.res.info.obj_val):
                 best = got
-        self._qp.update_settings(max_iter=self.params.max_iter)
+        self._max_iter_now = self.params.max_iter
         if best is None:  # no whole schedule solves: the relaxed answer, out of reach, is not ``ok``
             self._l[r_cb] = sch.c_lo
             self._u[r_cb] = sch.c_hi
@@ -1042,19 +1073,39 @@ class CentroidalSolver:
             return replace(run, len_viol=max(run.len_viol, lean), snapshot=snap)
         return replace(best, t_qp=run.t_qp)
 
+    def _work_left(self) -> bool:
+        """Whether the tick may run another QP solve (max_tick_iterations, max_tick_solves)."""
+        return self._solves_left >= 1 and self._iters_left >= _MIN_SOLVE_ITERATIONS
+
+    def _iteration_cap(self, max_iter: int) -> int:
+        return int(min(max_iter, max(self._iters_left, 1)))
+
     def _run_qp(self) -> Any:
-        """Solves the QP as it stands; when polishing fails (a degenerate active set), goes on to the tight
-        tolerance from where ADMM stopped, so the forces are accurate either way."""
+        """Solves the QP as it stands (at most _max_iter_now ADMM iterations, and what the tick has left); when
+        polishing fails (a degenerate active set), goes on to the tight tolerance from where ADMM stopped, so the
+        forces are accurate either way."""
         p = self.params
+        cap = self._iteration_cap(self._max_iter_now)
+        self._qp.update_settings(max_iter=cap)
         res = self._qp.solve(raise_error=False)
+        self._solves_left -= 1
+        self._iters_left -= int(res.info.iter)
+        self._tick_iterations += int(res.info.iter)
         if (
             p.polish
             and int(res.info.status_val) == 1
             and int(res.info.status_polish) != 1
             and p.eps_fallback < p.eps_abs
         ):
-            self._qp.update_settings(eps_abs=p.eps_fallback, eps_rel=p.eps_fallback, polishing=False)
+            self._qp.update_settings(
+                eps_abs=p.eps_fallback,
+                eps_rel=p.eps_fallback,
+                polishing=False,
+                max_iter=self._iteration_cap(cap),
+            )
             res = self._qp.solve(raise_error=False)
+            self._iters_left -= int(res.info.iter)
+            self._tick_iterations += int(res.info.iter)
             self._qp.update_settings(eps_abs=p.eps_abs, eps_rel=p.eps_rel, polishing=True)
         return res
 

@@ -17,6 +17,8 @@ class SteeringParams:
     max_vx_back_mps: backward speed limit, m/s. max_vy_mps: lateral speed limit, m/s.
     max_yaw_rate_rps: rad/s. max_accel_x_mps2, max_accel_y_mps2: m/s². max_yaw_accel_rps2: rad/s².
     tau_s: first-order smoothing time constant, s (0 = no smoothing).
+    gait_limits: each gait's own max_speed_mps caps the command (off: only the limits here apply; the speed bench
+    turns it off to find what the robot can do).
     """
 
     max_vx_mps: float = 1.6
@@ -27,10 +29,11 @@ class SteeringParams:
     max_accel_y_mps2: float = 1.0
     max_yaw_accel_rps2: float = 3.0
     tau_s: float = 0.15
+    gait_limits: bool = True
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
-            if not (math.isfinite(value) and value >= 0.0):
+            if name != "gait_limits" and not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"SteeringParams.{name}: must be finite and >= 0, got {value}")
 
 
@@ -51,6 +54,8 @@ class SteeringFilter:
     def limit(self, cmd: SteeringCommand, gait: Gait | None = None) -> SteeringCommand:
         """Returns cmd clamped to the speed limits (and to the gait's max speed; a stand allows no motion)."""
         p = self.params
+        if not p.gait_limits:
+            gait = None if gait is None or not gait.is_stand else gait
         vx_max = p.max_vx_mps if gait is None else min(p.max_vx_mps, gait.max_speed_mps)
         scale = 1.0 if gait is None or p.max_vx_mps == 0.0 else vx_max / p.max_vx_mps
         return SteeringCommand(

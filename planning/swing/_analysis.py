@@ -29,9 +29,13 @@ class OtherLeg:
     leg: int
     foot_center: np.ndarray  # (K,3) or (1,3) world, m
     shank: np.ndarray  # (3,) knee − foot center, world, m
-    xy_box: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # x/y extent of the lower leg, m
+    xy_box: tuple[
+        float, ...
+    ] = ()  # x/y extent of the lower leg (x_min, x_max, y_min, y_max), m; computed if not given
 
     def __post_init__(self) -> None:
+        if self.xy_box:
+            return
         fc = self.foot_center
         sx, sy = float(self.shank[0]), float(self.shank[1])
         if len(fc) == 1:
@@ -77,6 +81,12 @@ class LegProblem:
     z_gentlest_ok: bool = False  # it arrives on time
     poses: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # body pose at ts[k], by k
     hold: Hold | None = None  # rise first: the foot waits in x and y until it clears the terrain ahead
+    hip_z_min: float = math.inf  # lowest hip over the swing, m
+    z_v_z1: tuple[float, float, float] = (
+        math.nan,
+        math.nan,
+        math.nan,
+    )  # start height m, vertical velocity m/s, target height m
 
 
 @dataclass(slots=True)
@@ -163,6 +173,7 @@ class Analyzer:
         self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
         self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
         self._knee_idx_cache: dict[int, np.ndarray] = {}
+        self._no_obstacle_cache: dict[int, np.ndarray] = {}
         # per leg: the knee probe grid's fore-aft offsets (every ~4 cm) and its two lateral offsets (hip, foot)
         fore = np.linspace(-self.knee_reach, self.knee_reach, 17)
         self._knee_grid = [(fore, np.array([0.0, float(robot.abd_offset[leg])])) for leg in range(4)]
@@ -180,7 +191,7 @@ class Analyzer:
         """Ground under the samples and which samples are over an obstacle (above the reference surface)."""
         if prob.flat_height is not None:
             g = np.full(len(xw), prob.flat_height)
-            return g, g  # flat ground is never an obstacle
+            return g, g  # flat ground is never an obstacle (analyze knows it: flat_height is set)
         g = np.asarray(prob.ground(xw, yw), dtype=float)
         p0, p1 = prob.p_start, prob.p_target
         d = p1[:2] - p0[:2]
@@ -215,11 +226,13 @@ class Analyzer:
             return Verdict(Tier.VIOLATES_CONSTRAINTS, (0.0,), u_total, miss)
         xw, yw = self.world_xy(prob, hp)
         g, h_ref = self._terrain(prob, xw, yw)
-        obstacle = g > h_ref + pr.obstacle_step_m
-        ring_g = self._ring_ground(prob, xw, yw, h_ref)
-        v = Verdict(
-            Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g, bool(obstacle.any())
-        )
+        if prob.flat_height is None:
+            obstacle = g > h_ref + pr.obstacle_step_m
+            ring_g = self._ring_ground(prob, xw, yw, h_ref)
+            any_obstacle = bool(obstacle.any())
+        else:  # flat ground is never an obstacle
+            obstacle, ring_g, any_obstacle = self._no_obstacle(len(xw)), None, False
+        v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g, any_obstacle)
         zs = prob.zs_aggressive
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         v.near_others = self._near_others(prob, xw, yw)
@@ -278,9 +291,9 @@ class Analyzer:
     def gentlest(self, prob: LegProblem) -> tuple[Poly1D, np.ndarray]:
         """The gentlest vertical policy's trajectory for this leg and its samples (computed once per leg)."""
         if prob.z_gentlest is None or prob.zs_gentlest is None:
-            p0, v0, p1 = prob.p_start, prob.v_start, prob.p_target
+            z0, vz0, z1 = prob.z_v_z1
             prob.z_gentlest, prob.z_gentlest_ok = vertical(
-                self.family[0], prob.ctx.t0, p0[2], v0[2], p1[2], prob.ctx.t_end, prob.z_ceiling, prob.z_ref
+                self.family[0], prob.ctx.t0, z0, vz0, z1, prob.ctx.t_end, prob.z_ceiling, prob.z_ref
             )
             prob.zs_gentlest = prob.z_gentlest.sample_many(prob.ts)
         return prob.z_gentlest, prob.zs_gentlest
@@ -340,11 +353,19 @@ class Analyzer:
                 prob.g_knee_max = float(np.max(prob.ground(px, py)))
         # on flat ground g is all flat_height (= g_knee_max)
         g_max = prob.g_knee_max if prob.flat_height is not None else max(prob.g_knee_max, float(g.max()))
-        terrain = float(prob.hips[:, 2].min()) - self.knee_reach - g_max < pr.knee_radius_m
+        terrain = prob.hip_z_min - self.knee_reach - g_max < pr.knee_radius_m
         idx = self._knee_idx(len(near))
         if not terrain:
             idx = idx[near[idx]]
         return idx, terrain
+
+    def _no_obstacle(self, K: int) -> np.ndarray:
+        """K samples none of which is over an obstacle (cached per K; read-only)."""
+        a = self._no_obstacle_cache.get(K)
+        if a is None:
+            a = self._no_obstacle_cache[K] = np.zeros(K, dtype=bool)
+            a.flags.writeable = False
+        return a
 
     def _knee_idx(self, K: int) -> np.ndarray:
         """The knee_samples interior sample indices of K samples, evenly spread (cached per K; read-only)."""

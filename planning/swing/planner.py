@@ -71,6 +71,9 @@ from planning.swing.types import (
 )
 
 _WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
+_SHANK_CACHE_M = 0.005  # a leg's shank is recomputed once its foot moved this far in the body frame (m)
+# other legs as obstacles and their keep-out areas (heading frame), in one order
+_Obstacles = tuple[tuple[OtherLeg, ...] | list[OtherLeg], tuple[AABB, ...] | list[AABB]]
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,7 +172,9 @@ class SwingPlanner:
         self._previous: list[str | None] = [None] * 4
         self._last_plan: list[SwingPlan | None] = [None] * 4
         self._trip: list[TripEvent | None] = [None] * 4
-        self._shank_cache: list[tuple[np.ndarray, np.ndarray] | None] = [None] * 4
+        # per leg: the body-frame foot center the shank was last computed for, and that shank (NaN: none yet)
+        self._sc_foot = np.full((4, 3), np.nan)
+        self._sc_shank = np.zeros((4, 3))
         self._z_liftoff: list[float | None] = [None] * 4  # lift-off height of the current swing, m
         # lift-off place (x, y) of the current swing, m
         self._xy_liftoff: list[np.ndarray | None] = [None] * 4
@@ -207,7 +212,7 @@ class SwingPlanner:
         self._previous = [None] * 4
         self._last_plan = [None] * 4
         self._trip = [None] * 4
-        self._shank_cache = [None] * 4
+        self._sc_foot[:] = np.nan
         self._z_liftoff = [None] * 4
         self._xy_liftoff = [None] * 4
         self._z_top = [None] * 4
@@ -215,6 +220,8 @@ class SwingPlanner:
         self._z_clear = [None] * 4
 
     def _forget(self, leg: int) -> None:
+        if self._z_liftoff[leg] is None and self._last_plan[leg] is None and self._trip[leg] is None:
+            return  # nothing remembered (a leg in stance, forgotten on an earlier tick)
         self._previous[leg] = None
         self._last_plan[leg] = None
         self._trip[leg] = None
@@ -239,14 +246,7 @@ class SwingPlanner:
         of the legs in stance, by leg index. body: the body's predicted motion (defaults to standing still at
         the nominal height over the origin).
         """
-        stance: dict[int, np.ndarray] = {}
-        for k, v in (stance_feet_world or {}).items():
-            a = np.asarray(v, dtype=float)
-            if not (0 <= int(k) < 4) or a.shape != (3,) or not np.isfinite(a).all():
-                raise ValueError(
-                    f"plan: stance_feet_world[{k!r}]: needs a leg index 0..3 and 3 finite numbers"
-                )
-            stance[int(k)] = a
+        stance = self._checked_stance(stance_feet_world or {})
         seen = set()
         for r in legs:
             if r.leg in seen:
@@ -270,11 +270,17 @@ class SwingPlanner:
         order = sorted(legs, key=lambda r: r.t_touchdown)
         by_leg = {r.leg: r for r in order}
         planned: dict[int, SwingPlan] = {}
+        yaw = body.yaw
+        c, s = math.cos(yaw), math.sin(yaw)
+        # the stance legs as obstacles: the same for every swing leg of this tick, set up once for all of them
+        fixed = self._stance_obstacles(stance, body, t_now, c, s)
         for req in order:
-            plan = self._plan_leg(t_now, req, ground, stance, body, planned)
+            plan = self._plan_leg(t_now, req, ground, stance, body, planned, fixed)
             blame = plan.colliding_leg
             if plan.tier in (Tier.SELF_COLLISION, Tier.KNEE_SELF_COLLISION) and blame in planned:
-                plan = self._replan_earlier(t_now, req, by_leg[blame], plan, ground, stance, body, planned)
+                plan = self._replan_earlier(
+                    t_now, req, by_leg[blame], plan, ground, stance, body, planned, fixed
+                )
             planned[req.leg] = plan
         for leg, p in planned.items():
             if self._z_top[leg] is None and p.vertical_policy != "LateTouchdown":
@@ -293,17 +299,18 @@ class SwingPlanner:
         stance: dict[int, np.ndarray],
         body: BodyMotion,
         planned: dict[int, SwingPlan],
+        fixed: _Obstacles,
     ) -> SwingPlan:
         """The later leg cannot avoid an earlier one: replan the earlier leg around the later leg's own
         unobstructed plan, then the later leg again; keep the change only when the later leg does better.
         Updates ``planned`` in place; returns the later leg's plan."""
         j = earlier_req.leg
         earlier = planned.pop(j)
-        free = self._plan_leg(t_now, req, ground, stance, body, planned)
-        redo = self._plan_leg(t_now, earlier_req, ground, stance, body, {**planned, req.leg: free})
+        free = self._plan_leg(t_now, req, ground, stance, body, planned, fixed)
+        redo = self._plan_leg(t_now, earlier_req, ground, stance, body, {**planned, req.leg: free}, fixed)
         if redo.tier <= earlier.tier:
             planned[j] = redo
-            again = self._plan_leg(t_now, req, ground, stance, body, planned)
+            again = self._plan_leg(t_now, req, ground, stance, body, planned, fixed)
             if again.tier < plan.tier:
                 return again
         planned[j] = earlier
@@ -329,6 +336,7 @@ class SwingPlanner:
         stance: dict[int, np.ndarray],
         body: BodyMotion,
         planned: dict[int, SwingPlan],
+        fixed: _Obstacles,
     ) -> SwingPlan:
         pr = self.params
         leg = req.leg
@@ -349,7 +357,7 @@ class SwingPlanner:
         c, s = math.cos(yaw), math.sin(yaw)
         if horizon <= 0.0:
             return self._late(t_now, req, c, s)
-        prob = self._problem(t_now, req, ground, stance, body, planned, c, s)
+        prob = self._problem(t_now, req, ground, fixed, body, planned, c, s)
         trip = self._trip[leg]
         if trip is not None and t_now - trip.t_s > max(pr.trip_response_s, pr.recent_trip_s):
             trip = self._trip[leg] = None
@@ -367,7 +375,7 @@ class SwingPlanner:
         t_now: float,
         req: SwingRequest,
         ground: GroundHeightFn,
-        stance: dict[int, np.ndarray],
+        fixed: _Obstacles,
         body: BodyMotion,
         planned: dict[int, SwingPlan],
         c: float,
@@ -377,28 +385,29 @@ class SwingPlanner:
         leg = req.leg
         ts = _linspace(t_now, req.t_touchdown, self._ramp)
         hips = body.hip_world_many(ts, self._hips_body[leg])
-        others: list[OtherLeg] = []
-        keepouts: list[AABB] = []
+        others: list[OtherLeg] = list(fixed[0])
+        keepouts: list[AABB] = list(fixed[1])
         r = pr.keepout_radius_m
         rf = self.robot.foot_radius_m
-        for j, p_foot in stance.items():
-            shank = self._shank(j, p_foot, body, t_now)
-            fc = (p_foot + self._up_rf)[None, :]
-            others.append(OtherLeg(j, fc, shank))
-            keepouts.append(self._keepout(fc[0], shank, c, s, r))
         for j, p in planned.items():
             shank = self._shank(j, p.p_touchdown, body, p.t_touchdown)
             fc = p.positions(ts)
             fc[:, 2] += rf
             others.append(OtherLeg(j, fc, shank))
             keepouts.append(self._keepout(p.p_touchdown + self._up_rf, shank, c, s, r))
-        p0 = _heading(req.p_world_foot, c, s)
-        p1 = _heading(req.p_touchdown, c, s)
+        # the request's numbers as floats once (NumPy scalar arithmetic is several times slower)
+        (x0, y0, z0), (vx0, vy0, vz0), (x1, y1, z1) = (
+            req.p_world_foot.tolist(),
+            req.v_world_foot.tolist(),
+            req.p_touchdown.tolist(),
+        )
+        p0 = (c * x0 + s * y0, c * y0 - s * x0)
+        p1 = (c * x1 + s * y1, c * y1 - s * x1)
         ctx = LegCtx(
             t0=t_now,
             t_end=req.t_touchdown,
             p0=p0,
-            v0=_heading(req.v_world_foot, c, s),
+            v0=(c * vx0 + s * vy0, c * vy0 - s * vx0),
             p1=p1,
             v_max=pr.v_max_xy_mps,
             a_max=pr.a_max_xy_mps2,
@@ -407,12 +416,13 @@ class SwingPlanner:
             time_split_frac=pr.time_split_frac,
             blocked=blocked_keepouts(p0, p1, keepouts),
         )
-        z_ceiling = float(hips[:, 2].min()) - self.robot.min_leg_length_m - pr.hip_clearance_m
+        hip_z_min = float(hips[:, 2].min())
+        z_ceiling = hip_z_min - self.robot.min_leg_length_m - pr.hip_clearance_m
         g_way, g_obstacle = self._ground_on_way(req, ground)
         if pr.terrain_apex_m is not None and np.isfinite(g_way):
             # On mapped terrain the swing rises no higher than needed over the highest ground on its way: a foot
             # high in the air lands late.
-            z_ceiling = min(z_ceiling, max(g_way, float(req.p_world_foot[2])) + pr.terrain_apex_m)
+            z_ceiling = min(z_ceiling, max(g_way, z0) + pr.terrain_apex_m)
         z_top = self._z_top[leg]
         if z_top is not None and self._trip[leg] is None:
             # A replan keeps the first plan's apex, unless terrain on the way needs more (seen late, or the target
@@ -420,7 +430,6 @@ class SwingPlanner:
             z_cap = max(z_top + pr.apex_tolerance_m, g_obstacle + pr.obstacle_apex_m)
             z_ceiling = min(z_ceiling, z_cap)
         agg = self.family[-1]
-        z0, vz0, z1 = float(req.p_world_foot[2]), float(req.v_world_foot[2]), float(req.p_touchdown[2])
         z_ref = self._z_liftoff[leg]
         z_ref = z0 if z_ref is None else z_ref
         if z1 < z_ref - pr.rise_first_above_m:
@@ -482,6 +491,8 @@ class SwingPlanner:
             z_ref=z_ref,
             z_ceiling=z_ceiling,
             hold=hold,
+            hip_z_min=hip_z_min,
+            z_v_z1=(z0, vz0, z1),
         )
 
     def _rise_first_height(
@@ -542,13 +553,38 @@ class SwingPlanner:
         )
         return float(g.max()), g_obstacle
 
-    def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
-        """Knee minus foot center (3,) world, through the leg IK; cached while the foot moves < 5 mm in the body."""
-        p_b, R = body.pose_at(t)
-        p_body_foot = R.T @ (p_foot_world + self._up_rf - p_b)
-        cached = self._shank_cache[leg]
-        if cached is not None and float(np.abs(cached[0] - p_body_foot).max()) < 0.005:
-            return R @ cached[1]
+    def _checked_stance(self, feet: Mapping[int, np.ndarray]) -> dict[int, np.ndarray]:
+        """The stance feet as (3,) float arrays by leg index; a clear error naming the first bad entry."""
+        if not feet:
+            return {}
+        keys = list(feet)
+        try:
+            arr = np.array([feet[k] for k in keys], dtype=float)
+            ok = arr.shape == (len(keys), 3) and bool(np.isfinite(arr).all())
+            ok = ok and all(0 <= int(k) < 4 for k in keys)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            for k in keys:
+                try:
+                    a = np.asarray(feet[k], dtype=float)
+                    good = 0 <= int(k) < 4 and a.shape == (3,) and bool(np.isfinite(a).all())
+                except (TypeError, ValueError):
+                    good = False
+                if not good:
+                    raise ValueError(
+                        f"plan: stance_feet_world[{k!r}]: needs a leg index 0..3 and 3 finite numbers"
+                    )
+        return {int(k): arr[i] for i, k in enumerate(keys)}
+
+    def _shank_body(self, leg: int, p_body_foot: np.ndarray) -> np.ndarray:
+        """Knee minus foot center (3,) in the body frame, through the leg IK; cached per leg while the foot moves
+        less than shank_cache_m in the body."""
+        if float(np.abs(self._sc_foot[leg] - p_body_foot).max()) < _SHANK_CACHE_M:
+            return self._sc_shank[leg]
+        return self._shank_ik(leg, p_body_foot)
+
+    def _shank_ik(self, leg: int, p_body_foot: np.ndarray) -> np.ndarray:
         try:
             q = self.robot.ik_leg(leg, p_body_foot)
             shank_body = self.robot.knee_body(leg, q) - p_body_foot
@@ -557,8 +593,44 @@ class SwingPlanner:
             shank_body = np.array(
                 [0.0, 0.0, min(-p_body_foot[2], self.robot.l_upper + self.robot.l_lower) * 0.5]
             )
-        self._shank_cache[leg] = (p_body_foot, shank_body)
-        return R @ shank_body
+        self._sc_foot[leg] = p_body_foot
+        self._sc_shank[leg] = shank_body
+        return self._sc_shank[leg]
+
+    def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
+        """Knee minus foot center (3,) world, through the leg IK (cached, see _shank_body)."""
+        p_b, R = body.pose_at(t)
+        return R @ self._shank_body(leg, R.T @ (p_foot_world + self._up_rf - p_b))
+
+    def _stance_obstacles(
+        self, stance: dict[int, np.ndarray], body: BodyMotion, t: float, c: float, s: float
+    ) -> _Obstacles:
+        """The stance legs as obstacles (foot center to knee) and their keep-out areas in the heading frame, all
+        legs at once."""
+        if not stance:
+            return (), ()
+        legs = list(stance)
+        fc = np.array([stance[j] for j in legs])
+        fc += self._up_rf  # (n,3) foot centers, world
+        p_b, R = body.pose_at(t)
+        pbf = (fc - p_b) @ R  # body frame
+        stale = ~(np.abs(self._sc_foot[legs] - pbf).max(axis=1) < _SHANK_CACHE_M)
+        if stale.any():
+            for i in np.flatnonzero(stale).tolist():
+                self._shank_ik(legs[i], pbf[i].copy())
+        shank = self._sc_shank[legs] @ R.T  # (n,3) world
+        r = self.params.keepout_radius_m
+        others = []
+        boxes = []
+        # a handful of legs: plain float arithmetic beats NumPy calls on arrays this small
+        for i, (x, y, _, sx, sy, _) in enumerate(np.hstack((fc, shank)).tolist()):
+            x1, y1 = x + sx, y + sy
+            others.append(
+                OtherLeg(legs[i], fc[i : i + 1], shank[i], (min(x, x1), max(x, x1), min(y, y1), max(y, y1)))
+            )
+            ax, ay, bx, by = c * x + s * y, c * y - s * x, c * x1 + s * y1, c * y1 - s * x1
+            boxes.append((min(ax, bx) - r, max(ax, bx) + r, min(ay, by) - r, max(ay, by) + r))
+        return others, boxes
 
     @staticmethod
     def _keepout(fc: np.ndarray, shank: np.ndarray, c: float, s: float, r: float) -> AABB:
@@ -635,8 +707,7 @@ class SwingPlanner:
         evaluations = choice.evaluations
         z_poly, z_name = prob.z_aggressive, self.family[-1].name
         if choice.verdict.tier == Tier.SUCCESS and not force_aggressive:
-            z0, vz0 = float(req.p_world_foot[2]), float(req.v_world_foot[2])
-            z1 = float(req.p_touchdown[2])
+            z0, vz0, z1 = prob.z_v_z1
             for i, spec in enumerate(self.family):
                 evaluations += 1
                 if i == len(self.family) - 1:
@@ -728,7 +799,7 @@ class SwingPlanner:
             hp = stop_forward(c)
             v = self.analyzer.analyze(prob, hp, undesirability_h(hp, pr))
             z0, vz0 = float(req.p_world_foot[2]), float(req.v_world_foot[2])
-            z_ceiling = float(prob.hips[:, 2].min()) - self.robot.min_leg_length_m - pr.hip_clearance_m
+            z_ceiling = prob.hip_z_min - self.robot.min_leg_length_m - pr.hip_clearance_m
             # above where it tripped (not above where it is now: replans every tick would ratchet it up)
             z_trip = self._trip_z.get(leg)
             if z_trip is None or z_trip[0] != trip.t_s:

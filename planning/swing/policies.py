@@ -11,6 +11,7 @@ are special horizontal policies outside the normal set.
 
 from __future__ import annotations
 
+import functools
 import heapq
 import math
 from collections.abc import Callable
@@ -365,7 +366,8 @@ DEFAULT_POLICY = "BangBangWait"
 _DETOURS = frozenset(n for n in HORIZONTAL_NAMES if n.startswith(("SwingAround", "Wiggle")))
 
 
-def policy_order(blocked: bool, previous: str | None) -> list[int]:
+@functools.cache
+def policy_order(blocked: bool, previous: str | None) -> tuple[int, ...]:
     """Returns indices into HORIZONTAL_POLICIES in the order to try: last tick's choice first, detours first
     when the straight route is blocked, and detours not at all when it is not."""
     names = list(HORIZONTAL_NAMES)
@@ -376,7 +378,7 @@ def policy_order(blocked: bool, previous: str | None) -> list[int]:
     if previous in order:
         order.remove(previous)
         order.insert(0, previous)
-    return [HORIZONTAL_NAMES.index(n) for n in order]
+    return tuple(HORIZONTAL_NAMES.index(n) for n in order)
 
 
 # ---- rise first (a riser or a box between lift-off and touchdown) ---------------------------------------------

@@ -128,6 +128,8 @@ class BodyMotion:
     def pose_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Returns (p_world_body (3,), R_world_body (3,3)) at time t (s)."""
         dt = t - self.t0
+        if dt == 0.0:
+            return self.p_world_body.copy(), self.R_world_body
         R = self.R_world_body if self.yaw_rate == 0.0 else _rz(self.yaw_rate * dt) @ self.R_world_body
         return self.p_world_body + self.v_world_body * dt, R
 

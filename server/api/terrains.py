@@ -21,7 +21,7 @@ FileName = Annotated[
     Path(
         description=f"the terrain file's name: {terrains.FILE_NAME_RULE}",
         json_schema_extra={
-            "pattern": r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*\.(xml|npy|png|yaml)$",
+            "pattern": r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*\.(xml|npy|png|yaml|stl|obj)$",
             "maxLength": terrains.MAX_FILE_NAME,
         },
     ),  # fmt: skip
@@ -37,8 +37,8 @@ def list_terrain_files(services: ServicesDep) -> list[dict[str, Any]]:
     "/{name}",
     dependencies=[WriteAccess],
     responses={201: {"description": "uploaded (200: replaced)"}},
-    summary="Upload a terrain file: an MJCF scene (.xml), a heightmap (.npy, .png) or a heightmap's options "
-    "(.yaml, same name); the body is the file's bytes",
+    summary="Upload a terrain file: an MJCF scene (.xml) and its meshes (.stl, .obj), a heightmap (.npy, .png) "
+    "or a heightmap's options (.yaml, same name); the body is the file's bytes",
     openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {"type": "string",
                                                                                      "format": "binary"}}}}},
 )  # fmt: skip

@@ -51,3 +51,14 @@ def test_bad_input_names_the_field() -> None:
         SteeringFilter().update(SteeringCommand(), -1.0)
     with pytest.raises(ValueError, match="tau_s"):
         SteeringParams(tau_s=-1.0)
+
+
+def test_gait_limits_can_be_lifted_but_a_stand_stays_still() -> None:
+    cmd = SteeringCommand(3.0, 1.0, 2.0)
+    capped = SteeringFilter().limit(cmd, GAITS["walk"])
+    assert capped.vx == GAITS["walk"].max_speed_mps
+    lifted = SteeringFilter(
+        SteeringParams(max_vx_mps=4.0, max_vy_mps=2.0, max_yaw_rate_rps=3.0, gait_limits=False)
+    )
+    assert lifted.limit(cmd, GAITS["walk"]) == SteeringCommand(3.0, 1.0, 2.0)
+    assert lifted.limit(cmd, GAITS["stand"]) == SteeringCommand(0.0, 0.0, 0.0)

@@ -85,7 +85,9 @@ def test_random_swings_keep_the_invariants(
     assert 2 <= plan.evaluations <= planner.max_evaluations
     # The tier order is respected: no policy would have landed in a better tier (on a step up over terrain that
     # must be cleared first, the candidates are the policies after the rise-first hold, as in the planner).
-    prob = planner._problem(0.0, req, ground, stance, body, {}, c, s)
+    prob = planner._problem(
+        0.0, req, ground, planner._stance_obstacles(stance, body, 0.0, c, s), body, {}, c, s
+    )
     tiers = []
     for _, fn in HORIZONTAL_POLICIES:
         hp = fn(prob.ctx if prob.hold is None else prob.hold.ctx)
@@ -175,7 +177,9 @@ def test_crossing_leg_goes_around_the_keepout(planner, robot, standing_body):
     assert np.hypot(*(pts[:, :2] - fr).T).min() >= P.keepout_radius_m - 1e-3
     # The straight route would have hit the other leg.
     c, s = 1.0, 0.0
-    prob = planner._problem(0.0, req, flat_ground, stance, body, {}, c, s)
+    prob = planner._problem(
+        0.0, req, flat_ground, planner._stance_obstacles(stance, body, 0.0, c, s), body, {}, c, s
+    )
     cubic = HORIZONTAL_POLICIES[0][1](prob.ctx)
     assert planner.analyzer.analyze(prob, cubic, 0.0).tier == Tier.SELF_COLLISION
 

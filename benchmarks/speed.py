@@ -1,0 +1,181 @@
+"""The `speed` stage of `footfall bench`: top speeds per gait and direction on flat ground.
+
+One run per gait and direction: the command is ramped in levels (held ``hold_s`` each, the velocity measured over
+its last ``measure_s``) until the robot falls or its mean velocity misses the command by more than
+``max_error_frac``; the top speed is the last level it held. Commands go through the planner's filter (its
+smoothing and acceleration limits, as the joystick's do) with its speed limits lifted (UNLIMITED): the ramp finds
+what the robot can do, not what the joystick allows (trot 1.6 m/s forward, 0.6 m/s sideways, 1.2 rad/s).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+#: Spot's published top speed (Boston Dynamics' specification): forward, m/s.
+SPOT_PUBLISHED = {"forward": 1.6}
+
+GAITS = ("trot", "pace", "bound", "walk")
+
+#: The steering limits during a ramp: above anything the robot reaches (m/s, rad/s), gaits' own limits off.
+UNLIMITED = {"max_vx_mps": 5.0, "max_vy_mps": 3.0, "max_yaw_rate_rps": 5.0, "gait_limits": False}
+
+
+@dataclass(frozen=True)
+class Direction:
+    """A direction to ramp: which command axis (0 vx, 1 vy, 2 yaw rate), its unit and its levels."""
+
+    name: str
+    axis: int
+    unit: str
+    start: float
+    step: float
+    stop: float
+
+    def levels(self) -> list[float]:
+        n = int(math.floor((self.stop - self.start) / self.step + 1e-9)) + 1
+        return [round(self.start + k * self.step, 6) for k in range(n)]
+
+
+DIRECTIONS = (
+    Direction("forward", 0, "m/s", 0.4, 0.2, 2.6),
+    Direction("sideways", 1, "m/s", 0.2, 0.1, 1.4),
+    Direction("turning", 2, "rad/s", 0.5, 0.25, 3.0),
+)
+
+
+@dataclass(frozen=True)
+class RampResult:
+    """The top speed held (None: not even the first level) and why the ramp stopped at the next level."""
+
+    gait: str
+    direction: str
+    unit: str
+    top: float | None
+    stopped_by: str  # "fall", "tracking" or "end of ramp"
+    at: float | None  # the level that stopped it
+    mean_at_stop: float | None  # the mean velocity measured at that level (None after a fall)
+    levels: list[tuple[float, float]]  # (command, mean measured) per level held
+    centroidal: bool
+    sim_s: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "top": self.top,
+            "unit": self.unit,
+            "stopped_by": self.stopped_by,
+            "at": self.at,
+            "mean_at_stop": self.mean_at_stop,
+            "levels": [[c, round(m, 4)] for c, m in self.levels],
+            "solver": "centroidal" if self.centroidal else "balance",
+            "sim_s": round(self.sim_s, 2),
+        }
+
+
+def ramp(
+    gait: str,
+    direction: Direction,
+    hold_s: float = 3.0,
+    measure_s: float = 1.5,
+    max_error_frac: float = 0.10,
+    centroidal: bool = False,
+    levels: list[float] | None = None,
+) -> RampResult:
+    """Ramps one command axis through its levels in one run; returns the top level held."""
+    from planning.sim.run import RunOptions, WalkCommand, WalkSession
+
+    if not 0.0 < measure_s <= hold_s:
+        raise ValueError(f"ramp: measure_s must be in (0, hold_s], got {measure_s} (hold_s {hold_s})")
+    sess = WalkSession(WalkCommand(gait=gait, centroidal=centroidal), RunOptions(duration_s=1e9))
+    # what the robot can do, not what the joystick allows: the steering limits (and each gait's own) lifted
+    steering = sess.controller.planner.steering
+    steering.params = replace(steering.params, **UNLIMITED)
+    rec = sess.recorder
+    held: list[tuple[float, float]] = []
+    top: float | None = None
+    stopped_by, at, mean_at = "end of ramp", None, None
+    for level in levels if levels is not None else direction.levels():
+        cmd = [0.0, 0.0, 0.0]
+        cmd[direction.axis] = level
+        sess.controller.steer(*cmd)
+        sess.loop.run(hold_s)
+        if sess.loop.fell:
+            stopped_by, at = "fall", level
+            break
+        t = np.asarray(rec.t)
+        keep = t >= t[-1] - measure_s
+        if direction.axis < 2:
+            mean = float(np.mean([rec.v_body[k][direction.axis] for k in np.flatnonzero(keep)]))
+        else:
+            mean = float(np.mean(np.asarray(rec.yaw_rate)[keep]))
+        if abs(mean - level) > max_error_frac * abs(level):
+            stopped_by, at, mean_at = "tracking", level, mean
+            break
+        held.append((level, mean))
+        top = level
+    return RampResult(
+        gait, direction.name, direction.unit, top, stopped_by, at, mean_at, held, centroidal, sess.world.t
+    )
+
+
+def bench_speed(
+    gaits: tuple[str, ...] = GAITS,
+    directions: tuple[Direction, ...] = DIRECTIONS,
+    centroidal: bool = False,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """Returns {gait: {direction: ramp result}} and Spot's published figures beside them."""
+    out: dict[str, Any] = {}
+    for g in gaits:
+        out[g] = {}
+        for d in directions:
+            if progress is not None:
+                progress(f"bench: speed, {g} {d.name}")
+            out[g][d.name] = ramp(g, d, centroidal=centroidal).as_dict()
+    return {
+        "by_gait": out,
+        "spot_published": dict(SPOT_PUBLISHED),
+        "criterion": "fall or > 10 % tracking error",
+    }
+
+
+def format_speed_table(result: dict[str, Any]) -> str:
+    """The top speeds as a Markdown table, Spot's published figures beside them."""
+    by_gait = result["by_gait"]
+    dirs = [d.name for d in DIRECTIONS if any(d.name in v for v in by_gait.values())]
+    units = {d.name: d.unit for d in DIRECTIONS}
+    lines = [
+        "| gait | " + " | ".join(f"{d} ({units[d]})" for d in dirs) + " |",
+        "| --- |" + " --- |" * len(dirs),
+    ]
+    for g, row in by_gait.items():
+        cells = []
+        for d in dirs:
+            r = row.get(d)
+            if r is None:
+                cells.append("")
+                continue
+            top = "–" if r["top"] is None else f"{r['top']:g}"
+            why = {"fall": "falls", "tracking": "tracks > 10 % off", "end of ramp": "ramp ended"}[
+                r["stopped_by"]
+            ]
+            cells.append(top if r["at"] is None else f"{top} ({r['at']:g} {why})")
+        lines.append(f"| {g} | " + " | ".join(cells) + " |")
+    spot = result.get("spot_published", {})
+    lines.append(
+        "| Spot (published) | " + " | ".join(f"{spot[d]:g}" if d in spot else "–" for d in dirs) + " |"
+    )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import json
+    import sys
+
+    res = bench_speed(progress=lambda m: print(m, file=sys.stderr))
+    print(json.dumps(res, indent=2))
+    print(format_speed_table(res))
