@@ -21,6 +21,7 @@ from planning.stance import StanceHandler
 from planning.swing import (
     TIER_RGB,
     BodyMotion,
+    GroundHeightFn,
     SwingPlan,
     SwingPlanner,
     SwingRequest,
@@ -125,7 +126,7 @@ class Handler:
         self.trip_log: list[
             tuple[int, TripEvent]
         ] = []  # (leg, trip) in time order  # (K,4) [t, x, y, z] of each leg's current swing
-        self.ground = None
+        self.ground: GroundHeightFn | None = None  # the terrain the swings clear (None: flat)
         self._initialized = False
 
     # ---- phases (500 Hz) -------------------------------------------------------------------------------------

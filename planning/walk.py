@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +27,9 @@ from planning.steps.centroidal import StepPathProblems
 from planning.steps.gait import get_gait
 from planning.steps.select import Selection
 from planning.swing.params import SwingParams
+
+if TYPE_CHECKING:  # the terrain stack is imported only by the walks that use it
+    from planning.terrain.decision import TerrainPipeline, TerrainView
 
 
 @dataclass(frozen=True)
@@ -125,6 +128,11 @@ class WalkController:
         self.foothold_filter: Callable[[RobotState, Selection], Selection] | None = None
         # what the terrain stack draws in the studio (its maps, body path, step-QP footholds), when it runs
         self.navigator_overlays: Callable[[], dict[str, dict[str, Any]]] | None = None
+        # The unified terrain pipeline (planning.terrain.decision), when walking on it: the controller asks it for
+        # a decision every step-plan tick and applies it (use_terrain).
+        self.terrain: TerrainPipeline | None = None
+        self._fast_gait = gait
+        self._gait_since = -np.inf
         self.f_des = np.zeros((4, 3))
         self.height = robot.standing_height_m
         self.pitch = 0.0  # body pitch target, rad (positive: nose down), e.g. along a slope or a stair
@@ -145,6 +153,46 @@ class WalkController:
         ]
         if p.use_centroidal:
             self.stages.insert(1, Stage("centroidal", p.centroidal_rate_hz, self._centroidal))
+
+    def use_terrain(self, terrain: TerrainPipeline) -> None:
+        """Walks on the unified terrain pipeline: its perception and body-path stages run first, and every
+        step-plan tick the controller applies its decision (command, gait, body height and pitch, swing ground)
+        and its footholds."""
+        self.terrain = terrain
+        self._fast_gait = self.gait
+        if terrain.goal is not None:
+            self.set_goal(*terrain.goal)
+        self.navigator_overlays = terrain.overlays
+        self.stages[:0] = [
+            Stage(
+                "perception", terrain.params.perception_rate_hz, lambda s: terrain.perceive(s.p_world_body)
+            ),
+            Stage("body_path", 10.0, lambda s: terrain.plan_path(s.p_world_body, s.yaw, s.t)),
+        ]
+
+    def _terrain_view(self, s: RobotState) -> TerrainView:
+        from planning.terrain.decision import TerrainView
+
+        return TerrainView(
+            t_s=s.t,
+            p_world_body=s.p_world_body.copy(),
+            yaw=s.yaw,
+            p_world_foot=s.p_world_foot.copy(),
+            v_world_foot=s.v_world_foot.copy(),
+            stance=self.handler.stance.copy(),
+            z_contact=float(np.mean(self.handler.p_contact[:, 2])),
+            gait=self.gait,
+            gait_since_s=self._gait_since,
+            fast_gait=self._fast_gait,
+            operator=self.command,
+            goal=None if self.goal is None else self.goal.copy(),
+            pitch_rad=self.pitch,
+            height_m=self.height,
+            foot_radius_m=self.robot.foot_radius_m,
+            standing_height_m=self.robot.standing_height_m,
+            p_body_hip=np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2],
+            dt_s=1.0 / self.params.step_rate_hz,
+        )
 
     # ---- inputs -----------------------------------------------------------------------------------------------
     def steer(self, vx: float, vy: float, yaw_rate: float) -> None:
@@ -204,7 +252,20 @@ class WalkController:
             if s.t - self._trot_since >= clock.gait.cycle_s:  # one full trot cycle, then on to the asked gait
                 self.planner.set_gait(self._then_gait)
                 self._then_gait, self._trot_since = None, None
-        if self.command_source is not None:
+        view = None
+        decision = None
+        if self.terrain is not None:
+            view = self._terrain_view(s)
+            decision = self.terrain.decide(view)
+        if decision is not None:
+            if decision.gait != self.gait:
+                self.set_gait(decision.gait)
+                self._gait_since = s.t
+            self.height = decision.body_height_m
+            self.pitch = decision.body_pitch_rad
+            self.handler.ground = decision.swing_ground
+            cmd = decision.command
+        elif self.command_source is not None:
             cmd = self.command_source(s)
         elif self.goal is not None:
             cmd = self._goal_command(s)
@@ -213,13 +274,16 @@ class WalkController:
         if self.maps is not None:
             swing_maps = self.maps if self.swing_maps is None else self.swing_maps
             self.handler.ground = swing_maps.height_at
-        sel = self.planner.tick(cmd, self._walk_state(s), self.maps)
+        maps = self.maps if self.terrain is None else self.terrain.maps
+        sel = self.planner.tick(cmd, self._walk_state(s), maps)
         self._swing_for_speed()
         if self.reference_only:
             ref = sel.candidates[0]
             sel = Selection(ref, 0.0, sel.scores, 0, sel.candidates, sel.xi_td, sel.xi_td_reference, True, 1)
         if self.foothold_filter is not None:
             sel = self.foothold_filter(s, sel)
+        if self.terrain is not None and view is not None:
+            sel = self.terrain.footholds(view, sel)
         self.plan.update(sel)
 
     def _swing_for_speed(self) -> None:

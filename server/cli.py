@@ -71,12 +71,14 @@ def _parse_pushes(specs: list[str] | None) -> list[Any]:
     return out
 
 
-def _check_terrain(text: str) -> None:
+def _check_terrain(text: str, seed: int) -> None:
     """Builds the terrain once (a name, a name with parameters, or a file) so that a bad one is a usage error."""
     from planning.terrain.spec import TerrainSpecError, load_terrain
 
+    if not 0 <= seed < 2**32:
+        raise UsageError(f"--seed {seed}: must be within 0 to 2^32 - 1")
     try:
-        load_terrain(text)
+        load_terrain(text, seed)
     except TerrainSpecError as e:
         raise UsageError(f"--terrain {text!r}: {e}") from None
 
@@ -144,7 +146,7 @@ def cmd_run(a: argparse.Namespace) -> int:
     from planning.maneuver import validate_maneuver
     from planning.sim.run import RunOptions, run_maneuver
 
-    _check_terrain(a.terrain)
+    _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     if a.duration is not None and not (0 < a.duration <= 600):
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
@@ -157,7 +159,12 @@ def cmd_run(a: argparse.Namespace) -> int:
         )
     progress = _Progress(maneuver.name)
     opts = RunOptions(
-        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+        terrain=a.terrain,
+        pushes=pushes,
+        duration_s=a.duration,
+        realtime=a.realtime,
+        robot=a.robot,
+        seed=a.seed,
     )
     report = run_maneuver(maneuver, opts, progress=progress)
     progress.done()
@@ -200,7 +207,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
     from planning.sim.run import RunOptions, WalkCommand, run_walk
     from planning.steps.gait import GAIT_NAMES
 
-    _check_terrain(a.terrain)
+    _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     goal = _parse_goal(a.goal)
     if a.gait not in GAIT_NAMES or a.gait == "stand":
@@ -227,9 +234,15 @@ def cmd_walk(a: argparse.Namespace) -> int:
         centroidal=a.solver == "centroidal",
         terrain_aware=False if a.maps == "off" else None,
         terrain_sensor=a.maps == "sensor",
+        terrain_pipeline=a.terrain_pipeline,
     )
     opts = RunOptions(
-        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+        terrain=a.terrain,
+        pushes=pushes,
+        duration_s=a.duration,
+        realtime=a.realtime,
+        robot=a.robot,
+        seed=a.seed,
     )
     progress = _Progress("walk")
     report = run_walk(cmd, opts, progress=progress)
@@ -288,7 +301,10 @@ def cmd_serve(a: argparse.Namespace) -> int:
         from server.app import serve
     except ImportError as e:  # the service lands with its issue
         raise UsageError(f"serve is not available in this build: {e}") from None
-    overrides = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    overrides: dict[str, Any] = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    if a.address and a.backend != "ray":
+        raise UsageError("--address is for --backend ray")
+    overrides.update(backend=a.backend, ray_address=a.address)
     serve(host=a.host, port=a.port, viewer_port=a.viewer_port, **overrides)
     return EXIT_OK
 
@@ -302,6 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="simulate a maneuver in MuJoCo (headless unless --realtime)")
     r.add_argument("maneuver", metavar="MANEUVER", help="a library name (footfall run stand) or a .yaml path")
     r.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
+    r.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
     r.add_argument(
         "--push",
         action="append",
@@ -346,12 +363,20 @@ def build_parser() -> argparse.ArgumentParser:
         "--duration", type=float, metavar="S", help="simulated seconds (default 10, 30 with --goal)"
     )
     w.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
+    w.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
     w.add_argument(
         "--maps",
         default="sensor",
         metavar="SOURCE",
         help="on a terrain: sensor (the simulated depth sensor, default), truth (the scene's own maps: perfect "
         "perception) or off (walk blind)",
+    )
+    w.add_argument(
+        "--terrain-pipeline",
+        choices=("modes", "regions"),
+        default="modes",
+        help="on a terrain: modes (the stairs, stones and clutter rules, default) or regions (the unified "
+        "pipeline: steppable regions and footholds by the step QP inside them; see the README's Terrain section)",
     )
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
@@ -417,6 +442,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--data-dir", help="where user maneuvers live (default ~/.local/share/footfall, or FOOTFALL_DATA_DIR)"
     )
+    s.add_argument("--backend", choices=("local", "ray"), help="where queued simulations and sweeps run: local "
+                   "worker processes (default, or FOOTFALL_BACKEND) or Ray tasks")  # fmt: skip
+    s.add_argument("--address", metavar="ADDR", help="with --backend ray: the cluster (default: a local Ray)")
     s.set_defaults(fn=cmd_serve)
     return p
 

@@ -234,8 +234,15 @@ class LiveSim:
         return self.session.loop.failure_reason
 
     def step(self) -> None:
-        """Advances one physics tick (2 ms); raises FloatingPointError when the simulation diverges."""
-        s = self.session.loop.step()
+        """Advances one physics tick (2 ms); raises FloatingPointError when the simulation diverges. After a fall the
+        controller stops and the robot goes limp (zero joint torques): it lies where it fell instead of thrashing."""
+        loop = self.session.loop
+        if loop.fell:
+            self.world.set_torques(np.zeros((4, 3)))
+            self.world.step()
+            s = self.world.read_state(loop.state)
+        else:
+            s = loop.step()
         if not np.isfinite(s.p_world_body).all():
             raise FloatingPointError(
                 f"the simulation diverged at t = {self.t:.3f} s (non-finite body position)"

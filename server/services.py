@@ -32,6 +32,7 @@ class Services:
     sessions: SessionManager
     simulations: SimulationPool
     studio: Any = None
+    sweeps: Any = None  # server.sweeps.SweepManager, made on first use (server.sweeps.manager_of)
     preview_requests: list[tuple[float, str, str]] = field(
         default_factory=list
     )  # (wall time, maneuver, terrain)

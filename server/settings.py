@@ -17,6 +17,8 @@ Environment variables (all optional):
 | ``FOOTFALL_MAX_BODY_BYTES`` | ``262144`` | largest request body, bytes |
 | ``FOOTFALL_ROBOT`` | ``spot`` | robot description the sessions and validation use |
 | ``FOOTFALL_STUDIO`` | ``1`` | ``0``: REST API only, no viser studio |
+| ``FOOTFALL_BACKEND`` | ``local`` | ``ray``: queued simulations and sweeps run as Ray tasks (``footfall serve --backend``) |
+| ``FOOTFALL_RAY_ADDRESS`` | unset | the Ray cluster to use (unset: a local Ray started by the server) |
 """
 
 from __future__ import annotations
@@ -79,6 +81,8 @@ class Settings:
     max_queued_simulations: int = 16
     max_kept_simulations: int = 200  # finished simulations remembered for GET /simulations/{id}
     max_sim_duration_s: float = 120.0
+    backend: str = "local"  # where queued simulations and sweeps run: local worker processes, or "ray"
+    ray_address: str | None = None  # backend ray: the cluster (None: a local Ray started on first use)
 
     @property
     def user_dir(self) -> Path:
@@ -105,6 +109,8 @@ class Settings:
         for name in positive:
             if getattr(self, name) <= 0:
                 raise SettingsError(f"{name}: must be positive, got {getattr(self, name)}")
+        if self.backend not in ("local", "ray"):
+            raise SettingsError(f"backend: {self.backend!r} is not local or ray")
         if self.api_token is not None and len(self.api_token) < 8:
             raise SettingsError("FOOTFALL_API_TOKEN: must be at least 8 characters")
         return self
@@ -151,5 +157,7 @@ class Settings:
         read("FOOTFALL_SIM_WORKERS", "sim_workers", int)
         read("FOOTFALL_MAX_QUEUED", "max_queued_simulations", int)
         read("FOOTFALL_MAX_BODY_BYTES", "max_body_bytes", int)
+        read("FOOTFALL_BACKEND", "backend", str)
+        read("FOOTFALL_RAY_ADDRESS", "ray_address", str)
         values.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**values).check()

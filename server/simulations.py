@@ -106,6 +106,7 @@ class SimulationPool:
         self._progress: Any = None
         self._drain: threading.Thread | None = None
         self._closed = False
+        self._ray_task: Any = None
 
     # ---- public ---------------------------------------------------------------------------------------------------
     def submit(self, request: dict[str, Any], payload: dict[str, Any]) -> Job:
@@ -170,6 +171,18 @@ class SimulationPool:
             )
         return self._executor
 
+    def _submit(self, payload: dict[str, Any]) -> Future[dict[str, Any]]:
+        """Starts one job: on a worker process of the pool, or (backend ray) as a Ray task, retried once if its
+        worker dies."""
+        if self.settings.backend == "ray":
+            if self._ray_task is None:
+                from planning.sweep.backends import RayBackend
+
+                ray = RayBackend(self.settings.ray_address).init()
+                self._ray_task = ray.remote(num_cpus=1, max_retries=1)(self.runner)
+            return self._ray_task.remote(payload).future()  # type: ignore[no-any-return]
+        return self._ensure_executor().submit(self.runner, payload)
+
     def _dispatch(self) -> None:
         with self._lock:
             if self._closed:
@@ -179,7 +192,7 @@ class SimulationPool:
                 if job is None:
                     continue
                 try:
-                    fut = self._ensure_executor().submit(self.runner, job.payload)
+                    fut = self._submit(job.payload)
                 except (BrokenProcessPool, RuntimeError) as e:
                     self._executor = None
                     job.status, job.error, job.finished = (

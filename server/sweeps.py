@@ -164,8 +164,11 @@ class SweepManager:
         self._closed = False
 
     # ---- public ---------------------------------------------------------------------------------------------------
-    def prepare(self, doc: Any) -> tuple[SweepSpec, list[dict[str, Any]]]:
-        """Parses, checks and expands a spec document (slow-ish: loads maneuvers); raises SweepRejected."""
+    def prepare(
+        self, doc: Any, inline: dict[str, dict[str, Any]] | None = None
+    ) -> tuple[SweepSpec, list[dict[str, Any]]]:
+        """Parses, checks and expands a spec document (slow-ish: loads maneuvers); raises SweepRejected.
+        inline: maneuver documents by name that win over the library (the studio's open, maybe unsaved, one)."""
         from planning.sweep.cases import expand, maneuver_doc
 
         try:
@@ -176,8 +179,11 @@ class SweepManager:
         from planning.maneuver.load import SHIPPED_LIBRARY
 
         dirs = (self.settings.library_dir or SHIPPED_LIBRARY, self.settings.user_dir)
+        known = dict(inline or {})
         try:
-            cases = expand(spec, maneuvers=lambda name: maneuver_doc(name, dirs, allow_paths=False))
+            cases = expand(
+                spec, maneuvers=lambda name: known.get(name) or maneuver_doc(name, dirs, allow_paths=False)
+            )
         except SweepSpecError as e:
             raise SweepRejected([_split(p) for p in e.problems]) from None
         runs = len({c["key"] for c in cases})
@@ -294,6 +300,15 @@ class SweepManager:
         job.finished = time.time()
 
 
+def manager_of(services: Any) -> SweepManager:
+    """The service's sweep manager (one per app, for the REST routes and the studio alike), made on first use."""
+    manager = getattr(services, "sweeps", None)
+    if manager is None:
+        manager = SweepManager(services.settings)
+        services.sweeps = manager
+    return manager
+
+
 def _split(problem: str) -> tuple[str, str]:
     head, sep, rest = problem.partition(": ")
     if sep and " " not in head.strip():
@@ -302,6 +317,9 @@ def _split(problem: str) -> tuple[str, str]:
 
 
 def _local_backend(settings: Settings) -> Any:
-    from planning.sweep.backends import LocalBackend
+    """Local worker processes (sim_workers of them), or Ray tasks with backend ray."""
+    from planning.sweep.backends import LocalBackend, RayBackend
 
+    if settings.backend == "ray":
+        return RayBackend(settings.ray_address)
     return LocalBackend(workers=max(1, settings.sim_workers))

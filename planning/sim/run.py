@@ -361,6 +361,9 @@ class WalkCommand:
     # than flat. terrain_sensor: maps from the simulated depth sensor (False: the scene's ground truth).
     terrain_aware: bool | None = None
     terrain_sensor: bool = True
+    # which terrain stack: "modes" (the navigator's stairs/stones/clutter rules) or "regions" (the unified
+    # pipeline: steppable regions, footholds by the step QP inside them; planning.terrain.decision)
+    terrain_pipeline: str = "modes"
     stop_at_goal: bool = False  # end the run once the body has held within half the goal tolerance for 1 s
     sensor_noise_m: float | None = None  # the depth sensor's range noise floor (1σ, m; None: SensorParams')
 
@@ -403,9 +406,26 @@ class WalkSession(_Session):
                 params = dataclasses.replace(
                     params, perception=dataclasses.replace(perception, sensor=sensor)
                 )
-            self.navigator = attach_navigator(
-                self.controller, self.world.model, self.world.data, command.goal, self.scene, params
-            )
+            if command.terrain_pipeline == "regions":
+                from planning.terrain.decision import PipelineParams, TerrainPipeline
+
+                self.navigator = TerrainPipeline(
+                    self.robot,
+                    self.world.model,
+                    self.world.data,
+                    command.goal,
+                    self.scene,
+                    PipelineParams(use_sensor=command.terrain_sensor, perception=params.perception),
+                )
+                self.controller.use_terrain(self.navigator)
+            elif command.terrain_pipeline == "modes":
+                self.navigator = attach_navigator(
+                    self.controller, self.world.model, self.world.data, command.goal, self.scene, params
+                )
+            else:
+                raise ValueError(
+                    f"WalkCommand.terrain_pipeline: {command.terrain_pipeline!r} is not one of modes, regions"
+                )
             self.collisions = BodyCollisionMonitor(self.world)
             monitors.append(self.collisions)
         self._t_at_goal: float | None = None

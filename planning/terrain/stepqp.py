@@ -338,14 +338,23 @@ class StepQP:
 
     # -- the replan ---------------------------------------------------------------------------------------------
 
-    def solve(self, req: StepRequest, maps: TerrainMaps | None) -> StepPlan:
-        """Gives the step plan for `req` on `maps` (None: no terrain constraints)."""
+    def solve(
+        self,
+        req: StepRequest,
+        maps: TerrainMaps | None,
+        regions: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] | None = None,
+    ) -> StepPlan:
+        """Gives the step plan for `req` on `maps` (None: no terrain constraints).
+
+        regions: per slot (K) a convex region (A (m, 2), b (m,): A p <= b; None: the slot is free) in which the
+        foothold must lie (hard, the step_keep family; the margin family pulls it margin_m - keep_clearance_m
+        further in, soft). With regions the keep-out planes are not searched and there is no snapping: one solve."""
         t0 = time.perf_counter()
         p = self.params
         K = self.K
         self._check(req)
         legs = np.asarray(req.legs, dtype=np.intp)
-        if maps is not None and p.snap_search_m > 0.0:
+        if maps is not None and p.snap_search_m > 0.0 and regions is None:
             req = self._snap(req, legs, maps)
         self._fixed_feet = np.asarray(req.p_feet, dtype=np.float64)
         # Cost toward the nominal footholds.
@@ -365,6 +374,14 @@ class StepQP:
             carried.append(match)
         self._retargets = [0] * K
         self._tried: list[list[NDArray[np.float64]]] = [[] for _ in range(K)]
+        if regions is not None:
+            if len(regions) != K:
+                raise ValueError(
+                    f"StepQP.solve: regions: need {K} entries (one per slot), got {len(regions)}"
+                )
+            carried = [
+                [] if r is None else _region_planes(r, p.keep_clearance_m, p.keep_planes) for r in regions
+            ]
         for k in range(K):
             self._keep_planes[k] = carried[k]
             for i in range(p.keep_planes):
@@ -391,7 +408,7 @@ class StepQP:
                 break
             x = res.x
             self._x_prev = x.copy()
-            if maps is None or not self._add_keep_outs(x, req, maps):
+            if maps is None or regions is not None or not self._add_keep_outs(x, req, maps):
                 break
         if x is None:
             x = np.concatenate([req.p_nominal.reshape(-1), np.zeros(self.n_var - 2 * K)])
@@ -848,6 +865,20 @@ def snap_footholds(
             p_out[k] = best
             moved[k] = True
     return p_out, moved
+
+
+def _region_planes(
+    region: tuple[NDArray[np.float64], NDArray[np.float64]], clearance_m: float, max_planes: int
+) -> list[tuple[NDArray[np.float64], float]]:
+    """Gives a convex region A p <= b as keep rows (g, b'): g·p >= b' + clearance_m is -A_i·p >= -b_i."""
+    A, b = np.asarray(region[0], dtype=np.float64), np.asarray(region[1], dtype=np.float64)
+    if A.ndim != 2 or A.shape[1] != 2 or b.shape != (A.shape[0],):
+        raise ValueError(f"StepQP.solve: a region needs A (m, 2) and b (m,), got {A.shape} and {b.shape}")
+    if A.shape[0] > max_planes:
+        raise ValueError(
+            f"StepQP.solve: a region has {A.shape[0]} half-planes, more than keep_planes ({max_planes})"
+        )
+    return [(-A[i].copy(), float(-b[i] - clearance_m)) for i in range(A.shape[0])]
 
 
 def _unit(g: NDArray[np.float64], fallback: NDArray[np.float64]) -> NDArray[np.float64]:

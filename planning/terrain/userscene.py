@@ -391,8 +391,9 @@ _FILE_ATTRS = ("file", "meshdir", "texturedir", "assetdir", "filefront", "fileba
 
 
 def check_file_references(path: Path, root: Path | None = None) -> None:
-    """Raises UserTerrainError if the MJCF at `path` names a file outside `root` (default: its own directory):
-    an absolute path, a '..' step, or a symbolic link leading out. Includes are followed and checked in turn."""
+    """Raises UserTerrainError if the MJCF at `path` names a file that may lie outside `root` (default: its own
+    directory): an absolute path, any '..' step (MuJoCo resolves some references from the main file's directory,
+    some from an asset directory, so none may climb), or a symbolic link leading out. Includes are followed."""
     root = (root or path.parent).resolve()
     seen: set[Path] = set()
     todo = [path]
@@ -413,10 +414,12 @@ def check_file_references(path: Path, root: Path | None = None) -> None:
                 ref = el.get(attr)
                 if ref is None:
                     continue
-                target = (f.parent / ref).resolve()
-                if Path(ref).is_absolute() or not target.is_relative_to(root):
+                p = Path(ref)
+                inside = all((base / p).resolve().is_relative_to(root) for base in (f.parent, path.parent))
+                if p.is_absolute() or ".." in p.parts or "\\" in ref or not inside:
                     raise UserTerrainError(
-                        f"{f}: <{el.tag} {attr}={ref!r}> names a file outside the scene's directory {root}"
+                        f"{f}: <{el.tag} {attr}={ref!r}> names a file outside the scene's directory (references "
+                        "are relative, without '..')"
                     )
                 if el.tag == "include" and attr == "file":
                     todo.append(f.parent / ref)

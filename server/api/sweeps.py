@@ -6,25 +6,22 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Body, Depends, Path, Request
+from fastapi import APIRouter, Body, Depends, Path
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse, Response
 
-from server.deps import SettingsDep, WriteAccess
+from server.deps import ServicesDep, WriteAccess
 from server.errors import ApiError, error_body
-from server.sweeps import SweepJob, SweepManager, SweepQueueFull, SweepRejected
+from server.sweeps import SweepJob, SweepManager, SweepQueueFull, SweepRejected, manager_of
 
 router = APIRouter(prefix="/sweeps", tags=["sweeps"])
 SweepId = Annotated[str, Path(max_length=64, description="the id POST /sweeps answered with")]
 CaseKey = Annotated[str, Path(max_length=64, description="a case's key (GET /sweeps/{id}/cases)")]
 
 
-async def get_sweeps(request: Request, settings: SettingsDep) -> SweepManager:
+async def get_sweeps(services: ServicesDep) -> SweepManager:
     """The app's sweep manager, made on first use (and shut down with the app's services)."""
-    manager = getattr(request.app.state, "sweeps", None)
-    if manager is None:
-        manager = request.app.state.sweeps = SweepManager(settings)
-    return manager  # type: ignore[no-any-return]
+    return manager_of(services)
 
 
 SweepsDep = Annotated[SweepManager, Depends(get_sweeps)]

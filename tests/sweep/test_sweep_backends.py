@@ -76,3 +76,32 @@ def test_a_killed_ray_worker_case_is_retried_and_every_case_accounted_for(tmp_pa
     records = [store.get(c["key"]) for c in expand(spec)]
     assert all(r is not None and r["status"] == "done" for r in records)
     assert sorted(r["attempts"] for r in records) == [1, 1, 1, 2]
+
+
+def test_the_server_on_ray_runs_simulations_and_sweeps(tmp_path, ray_backend) -> None:
+    from fastapi.testclient import TestClient
+
+    from server.app import create_app
+    from server.settings import Settings
+
+    app = create_app(Settings(data_dir=tmp_path / "data", backend="ray", studio=False))
+    with TestClient(app) as c:
+        r = c.post("/simulations", json={"maneuver": "stand", "duration": 0.3})
+        assert r.status_code == 202, r.text
+        sim = r.json()["id"]
+        s = c.post("/sweeps", json={"format": "footfall/sweep@1", "name": "p", "run": {"probe": {}},
+                                    "axes": {"seed": [0, 1, 2]}})  # fmt: skip
+        assert s.status_code == 202, s.text
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            job = c.get(f"/simulations/{sim}").json()
+            sweep = c.get(f"/sweeps/{s.json()['id']}").json()
+            if job["status"] in ("done", "failed") and sweep["status"] in ("done", "failed"):
+                break
+            time.sleep(0.2)
+        assert job["status"] == "done", job["error"]
+        assert job["report"]["duration_s"] == pytest.approx(0.3, abs=0.01)
+        assert sweep["status"] == "done" and sweep["progress"]["done"] == 3
+        cases = c.get(f"/sweeps/{s.json()['id']}/cases").json()
+        rec = c.get(f"/sweeps/{s.json()['id']}/cases/{cases[0]['key']}").json()
+        assert rec["backend"] == "ray" and rec["worker"] != os.getpid()

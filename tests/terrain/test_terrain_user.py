@@ -265,6 +265,20 @@ def test_mjcf_includes_work_within_the_scene_directory(tmp_path: Path) -> None:
     assert scene.ground_height(2.0, 0.0) == pytest.approx(0.2)
 
 
+def test_a_nested_include_may_not_climb_out(tmp_path: Path) -> None:
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "more.xml").write_text('<mujoco><include file="../../outside.xml"/></mujoco>')
+    (tmp_path / "main.xml").write_text('<mujoco><include file="parts/more.xml"/></mujoco>')
+    with pytest.raises(
+        TerrainSpecError, match=r"more\.xml: <include file='\.\./\.\./outside\.xml'> names a file"
+    ):
+        load_terrain(str(tmp_path / "main.xml"))
+    # climbing back into the scene's directory is refused too: MuJoCo may resolve it from another directory
+    (tmp_path / "parts" / "more.xml").write_text('<mujoco><include file="../main2.xml"/></mujoco>')
+    with pytest.raises(TerrainSpecError, match=r"without '\.\.'"):
+        load_terrain(str(tmp_path / "main.xml"))
+
+
 @pytest.mark.parametrize(
     ("xml", "match"),
     [

@@ -1,0 +1,760 @@
+"""The unified terrain pipeline's decisions: what the walk controller asks its terrain stack each step-plan tick.
+
+One rule everywhere, nothing keyed on what a terrain is called or looks like:
+
+- ``decide(view, world, last, params) -> TerrainDecision``: the body command along the body path (or the
+  operator's), its speed capped by how far the last footholds had to move off their nominal places (the regions'
+  room: a foothold sent far from where the capture-point selection wanted it means small regions or gaps, so the
+  body slows), the gait (the slow gait below a speed share), the body height (standing, above the footholds'
+  plane, lowered under an overhang) and pitch (the slope of that plane along the heading), and the swing
+  constraint (the ground-height map dilated by the foot's radius: every swing clears the height profile and the
+  edges along its way by the foot's radius, with the swing planner's own clearance on top);
+- ``choose_footholds(view, path, world, memory, qp, params) -> FootholdDecision``: for each of the next K
+  touchdowns a steppable region (the inset cells within search_m of the nominal foothold, the nearest region whose
+  height is within reach of the leg's last foothold, distance plus w_height × the height change; the previous
+  choice kept unless another is better by keep_m), a convex polygon of it grown around the nominal foothold, and
+  the step QP with those polygons as hard constraints plus its reach, self-collision, CoP and balance rows.
+
+Both are functions of typed inputs; the controller applies what they give. ``TerrainPipeline`` holds what lives
+across ticks (perception, maps and regions, body path, the QP's warm start, the foothold memory) and is what the
+controller calls.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from planning.steps import SteeringCommand
+from planning.steps.gait import get_gait
+from planning.steps.select import Selection
+from planning.steps.state import StepPath, rotate_yaw
+from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
+from planning.terrain.maps import TerrainMaps, maps_from_scene
+from planning.terrain.overlays import map_overlays, plan_overlays
+from planning.terrain.perception import Perception, PerceptionParams
+from planning.terrain.regions import (
+    ConvexRegion,
+    RegionParams,
+    SteppableRegions,
+    convex_around,
+    segment_regions,
+)
+from planning.terrain.scenes import TerrainScene
+from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
+
+
+@dataclass(frozen=True)
+class DecisionParams:
+    """The unified pipeline's decisions (lengths m, times s, speeds m/s, angles rad).
+
+    regions: segmentation (its foot radius is replaced by the robot's); search_m: regions are looked for within this
+    of a nominal foothold; window_m: a foothold's polygon is grown from the region's cells within this of it;
+    w_height: the distance (m) a metre of height change from the leg's last foothold costs in the region choice;
+    max_rise_m: a region higher or lower than the leg's last foothold by more than this is out of reach; keep_m: the
+    previous region of a touchdown is kept unless another costs this much less; freeze_s: a touchdown closer than
+    this keeps its last foothold; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
+    max to min as the largest move of a next foothold off its nominal grows to this; slow_gait, slow_below: the
+    gait below this share of max speed (with slow_hysteresis above it to leave); lookahead_m, yaw_gain,
+    max_yaw_rate_rps, goal_gain, goal_tolerance_m: path following; max_pitch_rad, max_pitch_rate_rps: body pitch;
+    max_height_offset_m: the body's offset from the footholds' plane above the mean contact height at most this;
+    min_height_m, body_top_m, head_margin_m, crouch_ahead_m, ceiling_above_m: under an overhang within crouch_ahead_m
+    the body height is lowered to keep body_top_m + head_margin_m under it, down to min_height_m (overhangs at
+    least ceiling_above_m above the ground count); swing_margin_m: the swing ground is dilated by the foot radius
+    plus this; path_rate_hz: body path replans."""
+
+    regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
+    search_m: float = 0.30
+    window_m: float = 0.45
+    w_height: float = 0.3
+    max_rise_m: float = 0.25
+    keep_m: float = 0.05
+    freeze_s: float = 0.04
+    max_speed_mps: float = 0.5
+    min_speed_mps: float = 0.2
+    shift_slow_m: float = 0.15
+    slow_gait: str | None = "crawl"
+    slow_gap_m: float = 0.25
+    gap_behind_m: float = 0.3
+    gap_ahead_m: float = 0.8
+    climb_gaits: tuple[str, ...] = ("climb", "stairs")
+    max_stride_m: float = 0.3
+    base_swing_s: float = 0.2
+    rise_speed_mps: float = 0.75
+    gait_hold_s: float = 2.0
+    lookahead_m: float = 0.45
+    yaw_gain: float = 1.2
+    max_yaw_rate_rps: float = 0.5
+    goal_gain: float = 0.8
+    goal_tolerance_m: float = 0.06
+    max_pitch_rad: float = 0.45
+    max_pitch_rate_rps: float = 0.6
+    max_height_offset_m: float = 0.15
+    min_height_m: float = 0.38
+    body_top_m: float = 0.10
+    head_margin_m: float = 0.04
+    crouch_ahead_m: float = 0.7
+    ceiling_above_m: float = 0.30
+    swing_margin_m: float = 0.01
+    path_rate_hz: float = 2.0
+
+
+# ---- typed inputs and outputs ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class TerrainView:
+    """What the decisions read of the controller and the robot (world frame, m, rad, s).
+
+    t_s: now; p_world_body (3,), yaw; p_world_foot (4, 3): foot centres; stance (4,): feet down; z_contact: the
+    mean contact height the controller holds its body height above; gait: the gait walked; operator:
+    the operator's command (used when there is no goal); goal (2,) or None; pitch_rad: the pitch target now;
+    foot_radius_m, standing_height_m, p_body_hip (4, 2): from the RobotModel; dt_s: the step-plan period."""
+
+    t_s: float
+    p_world_body: NDArray[np.float64]
+    yaw: float
+    p_world_foot: NDArray[np.float64]
+    v_world_foot: NDArray[np.float64]
+    stance: NDArray[np.bool_]
+    z_contact: float
+    gait: str
+    gait_since_s: float
+    fast_gait: str
+    operator: SteeringCommand
+    goal: NDArray[np.float64] | None
+    pitch_rad: float
+    height_m: float
+    foot_radius_m: float
+    standing_height_m: float
+    p_body_hip: NDArray[np.float64]
+    dt_s: float
+
+
+@dataclass(frozen=True, eq=False)
+class HeightGrid:
+    """A height field (m) on a grid like the maps' ([ix, iy], cell centres at origin + index × resolution)."""
+
+    origin_xy: tuple[float, float]
+    resolution_m: float
+    height: NDArray[np.float64]
+
+    def __call__(self, x: Any, y: Any) -> Any:
+        """Gives the height (m) at world (x, y), the nearest cell's (border cells beyond the grid)."""
+        nx, ny = self.height.shape
+        ix = np.clip(
+            np.rint((np.asarray(x, dtype=np.float64) - self.origin_xy[0]) / self.resolution_m), 0, nx - 1
+        )
+        iy = np.clip(
+            np.rint((np.asarray(y, dtype=np.float64) - self.origin_xy[1]) / self.resolution_m), 0, ny - 1
+        )
+        v = self.height[ix.astype(np.intp), iy.astype(np.intp)]
+        return v.item() if np.ndim(v) == 0 else v
+
+
+@dataclass(frozen=True, eq=False)
+class TerrainWorld:
+    """What the pipeline knows of the terrain at one moment: the maps, their regions, the swing ground, the body
+    path (None: none yet or steered)."""
+
+    maps: TerrainMaps
+    regions: SteppableRegions
+    swing_ground: HeightGrid
+    path: BodyPath | None
+
+
+@dataclass(frozen=True, eq=False)
+class FootholdMemory:
+    """Per leg: the touchdown time (s, nan: none) of its next touchdown as last decided, the foothold chosen for it
+    (3,), and the height (m) of its last stance foothold."""
+
+    t_touchdown: NDArray[np.float64]
+    p_chosen: NDArray[np.float64]
+    z_stance: NDArray[np.float64]
+
+    @staticmethod
+    def empty() -> FootholdMemory:
+        return FootholdMemory(np.full(4, np.nan), np.full((4, 3), np.nan), np.full(4, np.nan))
+
+
+@dataclass(frozen=True, eq=False)
+class FootholdDecision:
+    """The footholds decided for a step path: p_world_touchdown (N, 3) in the path's order; regions: the polygon
+    of each QP slot (None: free); plan: the step QP's answer (None: not solved); max_shift_m: the largest move of a
+    next touchdown off its nominal; memory: what the next decision keeps."""
+
+    p_world_touchdown: NDArray[np.float64]
+    regions: tuple[ConvexRegion | None, ...]
+    plan: StepPlan | None
+    max_shift_m: float
+    memory: FootholdMemory
+
+
+@dataclass(frozen=True, eq=False)
+class TerrainDecision:
+    """What the controller applies this tick: the body command (body frame), the gait, the body height above the
+    mean contact height and the pitch target (positive nose down), the ground the swings clear, and the speed cap
+    it came from."""
+
+    command: SteeringCommand
+    gait: str
+    body_height_m: float
+    body_pitch_rad: float
+    swing_ground: HeightGrid
+    speed_cap_mps: float
+
+
+# ---- the decisions ---------------------------------------------------------------------------------------------
+
+
+def decide(
+    view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, params: DecisionParams
+) -> TerrainDecision:
+    """Gives the body command, gait, body height and pitch and the swing ground (see the module docstring)."""
+    p = params
+    shift = 0.0 if last is None else last.max_shift_m
+    frac = float(np.clip(1.0 - shift / max(p.shift_slow_m, 1e-9), 0.0, 1.0))
+    lo = p.min_speed_mps / max(p.max_speed_mps, 1e-9)
+    share = lo + (1.0 - lo) * frac
+    cap = p.max_speed_mps * share
+    gait = cadence(view, world, last, p)
+    cap = min(cap, p.max_stride_m / get_gait(gait).cycle_s)
+    command = (
+        follow_path(view, world.path, cap, p) if view.goal is not None else capped(view.operator, cap, p)
+    )
+    offset, slope = footholds_plane(view, last)
+    pitch_target = float(np.clip(-math.atan(slope), -p.max_pitch_rad, p.max_pitch_rad))
+    step = p.max_pitch_rate_rps * view.dt_s
+    pitch = view.pitch_rad + float(np.clip(pitch_target - view.pitch_rad, -step, step))
+    height = view.standing_height_m + float(np.clip(offset, -p.max_height_offset_m, p.max_height_offset_m))
+    height = min(height, crouch_height(view, world.maps, p))
+    return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap)
+
+
+def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, p: DecisionParams) -> str:
+    """Gives the gait: the slow gait where a gap longer than slow_gap_m lies on the feet's lines ahead (gap_ahead);
+    else the first of the walk's own gait and then climb_gaits whose swing lasts long enough to rise over the
+    ground above the straight line of the next swings (swing_hump; base_swing_s + rise / rise_speed_mps); a gait
+    switch is held for gait_hold_s."""
+    if view.t_s - view.gait_since_s < p.gait_hold_s:
+        return view.gait
+    if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
+        return p.slow_gait
+    rise = swing_hump(view, world, last)
+    need = p.base_swing_s + rise / p.rise_speed_mps
+    for name in (view.fast_gait, *p.climb_gaits):
+        if get_gait(name).swing_s >= need - 1e-9:
+            return name
+    return p.climb_gaits[-1] if p.climb_gaits else view.fast_gait
+
+
+def swing_hump(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None) -> float:
+    """Gives how far (m) the ground (the swing ground) rises above the straight line from each foot to its chosen
+    next foothold, the most over the legs: what a swing must rise over beyond the step's own height change (a
+    riser's nosing, a box's edge; about 0 on a slope or over a gap)."""
+    if last is None:
+        return 0.0
+    chosen = last.memory.p_chosen
+    ok = np.all(np.isfinite(chosen), axis=1)
+    if not ok.any():
+        return 0.0
+    a = view.p_world_foot[ok].copy()
+    a[:, 2] -= view.foot_radius_m
+    b = chosen[ok]
+    u = np.linspace(0.1, 0.9, 9)[None, :, None]
+    pts = a[:, None, :] * (1.0 - u) + b[:, None, :] * u
+    g = np.asarray(world.swing_ground(pts[..., 0], pts[..., 1]), dtype=np.float64)
+    return float(max(np.max(g - pts[..., 2]), 0.0))
+
+
+def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> float:
+    """Gives the longest run (m) without a region a foot can take (the regions' insets), along the left and right
+    feet's lines from gap_behind_m behind to gap_ahead_m ahead of the body, along its heading: the width of the
+    widest gap a step must cross (a riser's edge band, a pit between stones, the floor around a box)."""
+    regions = world.regions
+    res = regions.resolution_m
+    s = np.arange(-p.gap_behind_m, p.gap_ahead_m + 1e-9, res)
+    c, sn = math.cos(view.yaw), math.sin(view.yaw)
+    lat = np.array([float(np.mean(view.p_body_hip[[0, 2], 1])), float(np.mean(view.p_body_hip[[1, 3], 1]))])
+    x = view.p_world_body[0] + s[None, :] * c - lat[:, None] * sn
+    y = view.p_world_body[1] + s[None, :] * sn + lat[:, None] * c
+    nx, ny = regions.labels.shape
+    ix = np.rint((x - regions.origin_xy[0]) / res).astype(np.intp)
+    iy = np.rint((y - regions.origin_xy[1]) / res).astype(np.intp)
+    on = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+    ok = np.where(on, regions.inset[np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)], True)
+    longest = 0
+    for row in ok:
+        # runs of False: from the positions where the row changes
+        edges = np.flatnonzero(np.diff(np.concatenate([[1], row.astype(np.int8), [1]])))
+        if edges.size:
+            longest = max(longest, int(np.max(edges[1::2] - edges[::2])))
+    return longest * res
+
+
+def capped(cmd: SteeringCommand, cap: float, p: DecisionParams) -> SteeringCommand:
+    """Gives the operator's command with its speed within cap and its yaw rate within max_yaw_rate_rps."""
+    speed = float(math.hypot(cmd.vx, cmd.vy))
+    k = min(1.0, cap / speed) if speed > 1e-9 else 1.0
+    return SteeringCommand(
+        cmd.vx * k, cmd.vy * k, float(np.clip(cmd.yaw_rate, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
+    )
+
+
+def follow_path(view: TerrainView, path: BodyPath | None, cap: float, p: DecisionParams) -> SteeringCommand:
+    """Gives the body command (body frame) that pursues the point lookahead_m ahead on the body path (the goal at
+    its end), at the speed cap (slower near the goal), turning toward the path's yaw."""
+    assert view.goal is not None
+    xy = view.p_world_body[:2]
+    dist = float(np.linalg.norm(view.goal - xy))
+    if dist < p.goal_tolerance_m:
+        return SteeringCommand()
+    speed = min(cap, p.goal_gain * dist)
+    if path is None or path.length_m < 1e-6:
+        target, yaw_des = view.goal, view.yaw
+    else:
+        k = int(np.argmin(np.sum((path.xy - xy) ** 2, axis=1)))
+        s_ahead = float(path.s[k]) + p.lookahead_m
+        target = path.pose_at(s_ahead)[0] if s_ahead < path.length_m else view.goal
+        yaw_des = float(path.yaw[k]) if dist > 0.5 else view.yaw
+    d = np.asarray(target, dtype=np.float64) - xy
+    n = float(np.linalg.norm(d))
+    if n < 1e-9:
+        return SteeringCommand()
+    v_body = rotate_yaw(-view.yaw, d / n * speed)
+    dyaw = float((yaw_des - view.yaw + np.pi) % (2 * np.pi) - np.pi)
+    wz = float(np.clip(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
+    return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
+
+
+def footholds_plane(view: TerrainView, last: FootholdDecision | None) -> tuple[float, float]:
+    """Gives the plane through the support (stance feet, and for a swinging leg its chosen touchdown): its height
+    at the body above the mean contact height (m), and its slope along the heading (m/m, positive uphill)."""
+    pts = view.p_world_foot.copy()
+    pts[:, 2] -= view.foot_radius_m
+    if last is not None:
+        chosen = last.memory.p_chosen
+        use = ~view.stance & np.all(np.isfinite(chosen), axis=1)
+        pts[use] = chosen[use]
+    A = np.column_stack([pts[:, 0], pts[:, 1], np.ones(4)])
+    coef, *_ = np.linalg.lstsq(A, pts[:, 2], rcond=None)
+    a, b, c = (float(v) for v in coef)
+    xy = view.p_world_body[:2]
+    z_plane = a * float(xy[0]) + b * float(xy[1]) + c
+    slope = a * math.cos(view.yaw) + b * math.sin(view.yaw)
+    return z_plane - view.z_contact, slope
+
+
+def crouch_height(view: TerrainView, maps: TerrainMaps, p: DecisionParams) -> float:
+    """Gives the highest body height (m) that keeps the body's top under the overhangs around and ahead of the
+    body (the clearance map; +inf-free: the standing height)."""
+    d = np.linspace(-p.crouch_ahead_m, p.crouch_ahead_m, 15)
+    lat = np.array([-0.12, 0.0, 0.12])
+    xy = view.p_world_body[:2] + rotate_yaw(
+        view.yaw, np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1)
+    )
+    xy = xy.reshape(-1, 2)
+    c = np.asarray(maps.clearance_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+    wall = np.asarray(maps.no_body(xy[:, 0], xy[:, 1]), dtype=bool)
+    h_cell = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+    z_feet = view.z_contact
+    rel = np.where(wall, np.inf, h_cell + c) - np.maximum(h_cell, z_feet)
+    clear = float(np.min(np.where(rel >= p.ceiling_above_m, rel, np.inf)))
+    if not np.isfinite(clear):
+        return view.standing_height_m
+    return float(np.clip(clear - p.body_top_m - p.head_margin_m, p.min_height_m, view.standing_height_m))
+
+
+def swing_ground(maps: TerrainMaps, radius_m: float) -> HeightGrid:
+    """Gives the ground-height map dilated by radius_m (the highest ground within it): what a foot of that radius
+    must clear."""
+    res = maps.resolution_m
+    r = max(int(math.ceil(radius_m / res - 1e-9)), 0)
+    i = np.arange(-r, r + 1)
+    disk = (i[:, None] ** 2 + i[None, :] ** 2) * res * res <= radius_m**2 + 1e-12
+    h = (
+        ndimage.maximum_filter(maps.ground_height, footprint=disk, mode="nearest")
+        if r
+        else maps.ground_height
+    )
+    return HeightGrid(maps.origin_xy, res, np.asarray(h, dtype=np.float64))
+
+
+def choose_region(
+    regions: SteppableRegions,
+    maps: TerrainMaps,
+    xy: NDArray[np.float64],
+    z_ref: float,
+    keep_xy: NDArray[np.float64] | None,
+    p: DecisionParams,
+    in_flight: bool = False,
+) -> int:
+    """Gives the region (label; 0: none) for a foothold whose nominal place is xy (2,), for a leg whose last
+    foothold was at height z_ref (m): among the regions with an inset cell within search_m, those within
+    max_rise_m of z_ref, the one of least distance + w_height × |height change|; the region under keep_xy (the
+    previous choice) is kept unless another costs keep_m less, and while the foot is in flight (in_flight) as long
+    as it is within reach at all: a swing commits to its region at liftoff."""
+    res = regions.resolution_m
+    ox, oy = regions.origin_xy
+    w = int(math.ceil(p.search_m / res))
+    nx, ny = regions.labels.shape
+    cx = int(round((float(xy[0]) - ox) / res))
+    cy = int(round((float(xy[1]) - oy) / res))
+    i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
+    if i0 >= i1 or j0 >= j1:
+        return 0
+    lab = np.where(regions.inset[i0:i1, j0:j1], regions.labels[i0:i1, j0:j1], 0)
+    ci, cj = np.nonzero(lab)
+    if ci.size == 0:
+        return 0
+    labs = lab[ci, cj]
+    dx = ox + (i0 + ci) * res - float(xy[0])
+    dy = oy + (j0 + cj) * res - float(xy[1])
+    dist = np.hypot(dx, dy)
+    dz = np.abs(maps.ground_height[i0 + ci, j0 + cj] - z_ref)
+    cost = np.where((dist <= p.search_m) & (dz <= p.max_rise_m), dist + p.w_height * dz, np.inf)
+    best = np.full(int(labs.max()) + 1, np.inf)
+    np.minimum.at(best, labs, cost)
+    choice = int(np.argmin(best))
+    if not np.isfinite(best[choice]):
+        return 0
+    if keep_xy is not None:
+        prev = regions.label_at(float(keep_xy[0]), float(keep_xy[1]))
+        if 0 < prev < best.size and best[prev] <= best[choice] + (np.inf if in_flight else p.keep_m):
+            return prev
+    return choice
+
+
+def step_request(
+    view: TerrainView, path: StepPath, order: NDArray[np.intp], hip_height_m: float
+) -> StepRequest | None:
+    """Gives the step QP's request for the path's touchdowns `order` (nominal = the selected footholds); None
+    when they are not every leg once per 4 slots."""
+    legs = path.leg[order].astype(np.intp)
+    K = legs.size
+    if any(legs[k] != legs[k - 4] for k in range(4, K)) or sorted(legs[:4].tolist()) != [0, 1, 2, 3]:
+        return None
+    t_now = view.t_s
+    t_td = path.t_touchdown[order] - t_now
+    t_lo = np.empty(K)
+    for j, k in enumerate(order):
+        leg = int(path.leg[k])
+        prev = [i for i in order[:j] if path.leg[i] == leg]
+        if prev:
+            t_lo[j] = path.t_liftoff[prev[-1]] - t_now
+        else:
+            lo = path.t_liftoff_now[leg]
+            t_lo[j] = -1.0 if np.isnan(lo) else min(float(lo) - t_now, float(t_td[j]) - 1e-3)
+    body = path.body
+    t_abs = path.t_touchdown[order]
+    later = np.array([t_abs[t_abs > t + 1e-6].min() if np.any(t_abs > t + 1e-6) else t + 0.2 for t in t_abs])
+    t_mid = 0.5 * (t_abs + later)
+    p_hip = body.position(t_abs) + rotate_yaw(body.yaw(t_abs), view.p_body_hip[legs])
+    return StepRequest(
+        legs=legs,
+        t_liftoff=t_lo,
+        t_touchdown=np.maximum(t_td, 1e-3),
+        p_nominal=path.p_world_touchdown[order, :2].copy(),
+        p_hip=p_hip,
+        hip_height=np.full(K, hip_height_m),
+        c_body=body.position(t_mid),
+        yaw_body=np.asarray(body.yaw(t_mid), dtype=np.float64),
+        p_feet=view.p_world_foot[:, :2].copy(),
+        v_feet=view.v_world_foot[:, :2].copy(),
+        t_now=float(t_now),
+    )
+
+
+def choose_footholds(
+    view: TerrainView,
+    path: StepPath,
+    world: TerrainWorld,
+    memory: FootholdMemory,
+    qp: StepQP,
+    params: DecisionParams,
+    polygon_cache: dict[tuple[int, int, int], ConvexRegion | None] | None = None,
+) -> FootholdDecision:
+    """Gives the footholds of the path's next K touchdowns: a region each, a polygon of it around the nominal
+    foothold, the step QP inside those polygons (see the module docstring). qp holds the warm start;
+    polygon_cache (keyed by region and nominal cell, valid for one regions object) saves regrowing polygons."""
+    p = params
+    maps, regions = world.maps, world.regions
+    K = qp.K
+    p_new = path.p_world_touchdown.copy()
+    z_stance = memory.z_stance.copy()
+    feet_z = view.p_world_foot[:, 2] - view.foot_radius_m
+    z_stance[view.stance] = feet_z[view.stance]
+    z_stance = np.where(np.isfinite(z_stance), z_stance, feet_z)
+    t_td_next, _ = path.next_touchdowns()
+    mem_t = np.full(4, np.nan)
+    mem_p = np.full((4, 3), np.nan)
+    empty = FootholdDecision(p_new, (), None, 0.0, FootholdMemory(mem_t, mem_p, z_stance))
+    if path.n_touchdowns < K:
+        return empty
+    order = np.lexsort((path.leg, path.t_touchdown))[:K]
+    legs = path.leg[order].astype(np.intp)
+    same = np.abs(memory.t_touchdown - t_td_next) < 0.15
+    polys: list[ConvexRegion | None] = []
+    z_ref = z_stance.copy()
+    cache = {} if polygon_cache is None else polygon_cache
+    res = regions.resolution_m
+    for j, k in enumerate(order):
+        leg = int(legs[j])
+        nom = path.p_world_touchdown[k, :2]
+        first = j < 4
+        keep = (
+            memory.p_chosen[leg, :2]
+            if first and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
+            else None
+        )
+        flying = first and not bool(view.stance[leg])
+        label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying)
+        poly = None
+        if label:
+            key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
+            if key not in cache:
+                cache[key] = convex_around(regions, label, nom, p.window_m)
+            poly = cache[key]
+        polys.append(poly)
+        if poly is not None:
+            z_ref[leg] = float(poly.height_at(poly.project(nom)))
+    req = step_request(view, path, order, view.height_m)
+    plan = None
+    if req is not None:
+        plan = qp.solve(req, maps, [None if q is None else (q.A, q.b) for q in polys])
+        if not np.all(np.isfinite(plan.footholds)):
+            plan = None
+    t_rel = path.t_touchdown[order] - view.t_s
+    shift = 0.0
+    for j, k in enumerate(order):
+        leg = int(legs[j])
+        held = j < 4 and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
+        if t_rel[j] < p.freeze_s and held:
+            p_new[k] = memory.p_chosen[leg]
+        elif plan is not None:
+            xy = plan.footholds[j, :2]
+            p_new[k, :2] = xy
+            p_new[k, 2] = float(maps.height_at(float(xy[0]), float(xy[1])))
+        if j < 4:
+            shift = max(shift, float(np.linalg.norm(p_new[k, :2] - path.p_world_touchdown[k, :2])))
+            mem_t[leg] = float(path.t_touchdown[k])
+            mem_p[leg] = p_new[k]
+    return FootholdDecision(p_new, tuple(polys), plan, shift, FootholdMemory(mem_t, mem_p, z_stance))
+
+
+# ---- the stack the controller calls ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PipelineParams:
+    """The unified terrain pipeline. use_sensor: maps from the depth sensor (False: the scene's ground truth,
+    re-centred on the body every truth_recenter_m); perception_rate_hz: scans (maps and regions) a second."""
+
+    use_sensor: bool = True
+    truth_half_extent_m: float = 2.5
+    truth_recenter_m: float = 0.8
+    perception_rate_hz: float = 10.0
+    perception: PerceptionParams = field(default_factory=PerceptionParams)
+    path: BodyPathParams = field(default_factory=BodyPathParams)
+    decision: DecisionParams = field(default_factory=DecisionParams)
+    step_qp: StepQPParams = field(default_factory=lambda: _regions_qp())
+
+
+def _regions_qp() -> StepQPParams:
+    """The step QP of the regions pipeline: room for a polygon's half-planes per slot, and a region's rows (the
+    step_keep family) harder than reach: a foot goes to its region even where its reachable rectangle, an estimate
+    from its speed now, says it is late; a front and a hind foot may share a stone (15 cm apart along the body,
+    not 25)."""
+    w = list(StepQPParams().weights)
+    w[2] = 3e4
+    return StepQPParams(keep_planes=12, weights=tuple(w), self_longitudinal_m=0.15)
+
+
+def _p(values: list[float], q: float) -> float | None:
+    return None if not values else round(float(np.percentile(values, q)), 3)
+
+
+@dataclass
+class PipelineStats:
+    """What the pipeline did in a run (the run report's `navigator` section)."""
+
+    scans: int = 0
+    body_paths: int = 0
+    qp_solves: int = 0
+    qp_ms: list[float] = field(default_factory=list)
+    qp_bare_ms: list[float] = field(default_factory=list)
+    perception_ms: list[float] = field(default_factory=list)
+    regions_ms: list[float] = field(default_factory=list)
+    footholds_ms: list[float] = field(default_factory=list)
+    gait_switches: int = 0
+    min_height_m: float = np.inf
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "pipeline": "regions",
+            "scans": self.scans,
+            "body_paths": self.body_paths,
+            "step_qp_solves": self.qp_solves,
+            "step_qp_ms_p50": _p(self.qp_ms, 50),
+            "step_qp_ms_p99": _p(self.qp_ms, 99),
+            "step_qp_bare_solver_ms_p50": _p(self.qp_bare_ms, 50),
+            "step_qp_bare_solver_ms_p99": _p(self.qp_bare_ms, 99),
+            "perception_ms_p50": _p(self.perception_ms, 50),
+            "perception_ms_p99": _p(self.perception_ms, 99),
+            "regions_ms_p50": _p(self.regions_ms, 50),
+            "footholds_ms_p50": _p(self.footholds_ms, 50),
+            "footholds_ms_p99": _p(self.footholds_ms, 99),
+            "gait_switches": self.gait_switches,
+            "min_body_height_target_m": None
+            if not np.isfinite(self.min_height_m)
+            else round(self.min_height_m, 3),
+        }
+
+
+class TerrainPipeline:
+    """The unified terrain stack a WalkController calls (``WalkController.use_terrain``): `perceive` and
+    `plan_path` at their rates, `decide` and `footholds` every step-plan tick. It never writes into the controller."""
+
+    def __init__(
+        self,
+        robot: Any,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        goal_xy: tuple[float, float] | None,
+        scene: TerrainScene | None = None,
+        params: PipelineParams | None = None,
+        body: str = "trunk",
+    ) -> None:
+        self.params = p = params or PipelineParams()
+        if goal_xy is not None and not np.all(np.isfinite(goal_xy)):
+            raise ValueError(f"TerrainPipeline.goal_xy: must be finite, got {goal_xy}")
+        if not p.use_sensor and scene is None:
+            raise ValueError("TerrainPipeline: use_sensor=False needs the scene (ground-truth maps)")
+        self.robot = robot
+        self.data = data
+        self.scene = scene
+        self.goal = None if goal_xy is None else np.asarray(goal_xy, dtype=np.float64).reshape(2)
+        self.decision_params = dataclasses.replace(
+            p.decision,
+            regions=dataclasses.replace(p.decision.regions, foot_radius_m=float(robot.foot_radius_m)),
+        )
+        if self.decision_params.regions.max_planes + 4 > p.step_qp.keep_planes:
+            raise ValueError(
+                "PipelineParams: step_qp.keep_planes must hold a region's polygon (regions.max_planes + 4 edges)"
+            )
+        self.perception = Perception(model, body, p.perception) if p.use_sensor else None
+        self.qp = StepQP(p.step_qp)
+        self.world: TerrainWorld | None = None
+        self.path: BodyPath | None = None
+        self.memory = FootholdMemory.empty()
+        self.last: FootholdDecision | None = None
+        self.stats = PipelineStats()
+        self._polygons: dict[tuple[int, int, int], ConvexRegion | None] = {}
+        self._truth_center: NDArray[np.float64] | None = None
+        self._truth_maps: TerrainMaps | None = None
+        self._t_path = -np.inf
+        self._scan_xy = np.zeros(2)
+        self._overlay_maps: TerrainMaps | None = None
+        self._overlay_outlines: dict[str, dict[str, Any]] = {}
+
+    @property
+    def maps(self) -> TerrainMaps | None:
+        return None if self.world is None else self.world.maps
+
+    def perceive(self, p_world_body: NDArray[np.float64]) -> None:
+        """Scans (or re-centres the ground-truth maps) and segments the regions."""
+        import time
+
+        p = self.params
+        t0 = time.perf_counter()
+        if self.perception is not None:
+            maps = self.perception.scan_now(self.data)
+        else:
+            xy = p_world_body[:2]
+            if self._truth_center is None or np.linalg.norm(xy - self._truth_center) > p.truth_recenter_m:
+                assert self.scene is not None
+                self._truth_center = np.array(xy, dtype=np.float64)
+                self._truth_maps = maps_from_scene(
+                    self.scene, (float(xy[0]), float(xy[1])), p.truth_half_extent_m
+                )
+            assert self._truth_maps is not None
+            maps = self._truth_maps
+        regions = segment_regions(maps, self.decision_params.regions, cover=False)
+        ground = swing_ground(
+            maps, self.decision_params.regions.foot_radius_m + self.decision_params.swing_margin_m
+        )
+        self.world = TerrainWorld(maps, regions, ground, self.path)
+        self._polygons = {}
+        self._scan_xy = np.array(p_world_body[:2], dtype=np.float64)
+        self.stats.scans += 1
+        self.stats.regions_ms.append(regions.elapsed_ms)
+        self.stats.perception_ms.append((time.perf_counter() - t0) * 1e3)
+
+    def plan_path(self, p_world_body: NDArray[np.float64], yaw: float, t_s: float) -> None:
+        """Replans the body path to the goal at path_rate_hz, and sooner when its sweep hits a body obstacle."""
+        if self.world is None or self.goal is None:
+            return
+        due = t_s - self._t_path >= 1.0 / self.decision_params.path_rate_hz - 1e-9
+        if not due and self.path is not None:
+            path = self.path
+            k = min(int(np.argmin(np.sum((path.xy - p_world_body[:2]) ** 2, axis=1))), len(path.s) - 1)
+            rest = BodyPath(
+                path.xy[k:], path.yaw[k:], path.s[k:] - path.s[k], path.method, path.valid, np.inf
+            )
+            if sweep_clearance(self.world.maps, rest, self.params.path) >= 0.0:
+                return
+        self._t_path = t_s
+        self.path = plan_body_path(self.world.maps, p_world_body[:2], yaw, self.goal, self.params.path)
+        self.world = dataclasses.replace(self.world, path=self.path)
+        self.stats.body_paths += 1
+
+    def decide(self, view: TerrainView) -> TerrainDecision | None:
+        """Gives this tick's decision (None before the first maps)."""
+        if self.world is None:
+            return None
+        d = decide(view, self.world, self.last, self.decision_params)
+        if d.gait != view.gait:
+            self.stats.gait_switches += 1
+        self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)
+        return d
+
+    def footholds(self, view: TerrainView, sel: Selection) -> Selection:
+        """Gives the selection with its touchdowns on the regions (see choose_footholds)."""
+        import time
+
+        if self.world is None:
+            return sel
+        t0 = time.perf_counter()
+        d = choose_footholds(
+            view, sel.path, self.world, self.memory, self.qp, self.decision_params, self._polygons
+        )
+        self.memory = d.memory
+        self.last = d
+        if d.plan is not None or self.qp.last_bare_ms:
+            self.stats.qp_solves += 1
+        if d.plan is not None:
+            self.stats.qp_ms.append(d.plan.solve_ms)
+            self.stats.qp_bare_ms.append(d.plan.bare_solver_ms)
+        self.stats.footholds_ms.append((time.perf_counter() - t0) * 1e3)
+        return dataclasses.replace(
+            sel, path=sel.path.with_touchdowns(d.p_world_touchdown, sel.path.kind + "+regions")
+        )
+
+    def overlays(self) -> dict[str, dict[str, Any]]:
+        """The studio's terrain overlays: the maps' outlines, the body path, the step QP's footholds, the scan."""
+        maps = self.maps
+        if maps is None:
+            return {}
+        if self._overlay_maps is not maps:
+            self._overlay_maps = maps
+            self._overlay_outlines = map_overlays(maps, self._scan_xy)
+        cloud = self.perception.last_cloud if self.perception is not None else None
+        plan = None if self.last is None else self.last.plan
+        return {**self._overlay_outlines, **plan_overlays(maps, self.path, plan, cloud)}

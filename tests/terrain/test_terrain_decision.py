@@ -1,0 +1,165 @@
+"""The unified pipeline's decisions: region choice, the step QP inside regions, the decision's body posture and
+speed, the swing ground. Pure functions on synthetic maps (the closed loop is tests/terrain_walk)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from planning.steps import SteeringCommand
+from planning.terrain.bodypath import plan_body_path
+from planning.terrain.cadence import CADENCES, CadenceParams, make_request
+from planning.terrain.decision import (
+    DecisionParams,
+    FootholdDecision,
+    FootholdMemory,
+    TerrainView,
+    TerrainWorld,
+    choose_region,
+    decide,
+    swing_ground,
+)
+from planning.terrain.maps import maps_from_grids
+from planning.terrain.regions import RegionParams, convex_around, segment_regions
+from planning.terrain.stepqp import StepQP, StepQPParams
+
+RES = 0.03
+P = DecisionParams(regions=RegionParams(foot_radius_m=0.02, max_planes=8))
+
+
+def _stones() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A platform up to x = 0.6 m, a pit 0.3 m deep, a stone at 0.85–1.15 m, the far platform from 1.4 m."""
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (110, 60))
+    h = np.where((X < 0.6) | (X > 1.4) | ((X > 0.85) & (X < 1.15)), 0.0, -0.3)
+    return xs, ys, np.asarray(h, dtype=np.float64)
+
+
+def _world(xs: np.ndarray, ys: np.ndarray, h: np.ndarray) -> TerrainWorld:
+    maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    regions = segment_regions(maps, P.regions, cover=False)
+    return TerrainWorld(maps, regions, swing_ground(maps, 0.03), None)
+
+
+def test_a_foothold_over_the_pit_goes_to_the_nearest_region_in_reach_never_the_pit_floor() -> None:
+    world = _world(*_stones())
+    regions, maps = world.regions, world.maps
+    pit = regions.label_at(0.75, 0.0)
+    stone = regions.label_at(1.0, 0.0)
+    near = regions.label_at(0.3, 0.0)
+    assert pit and stone and near and len({pit, stone, near}) == 3
+    # nominal in the pit, nearer the stone: the stone (the pit floor is 0.3 m down, beyond max_rise_m)
+    assert choose_region(regions, maps, np.array([0.78, 0.0]), 0.0, None, P) == stone
+    # nearer the platform: the platform
+    assert choose_region(regions, maps, np.array([0.64, 0.0]), 0.0, None, P) == near
+    # a leg standing in the pit (z_ref -0.3) may stay on the pit floor
+    assert choose_region(regions, maps, np.array([0.75, 0.0]), -0.3, None, P) == pit
+    # nothing steppable within search_m: none
+    assert choose_region(regions, maps, np.array([0.75, 2.5]), 0.0, None, P) == 0
+
+
+def test_the_previous_region_is_kept_unless_clearly_worse_and_always_in_flight() -> None:
+    world = _world(*_stones())
+    regions, maps = world.regions, world.maps
+    stone = regions.label_at(1.0, 0.0)
+    near = regions.label_at(0.3, 0.0)
+    # about halfway: slightly nearer the platform, but the stone was chosen before: kept
+    xy = np.array([0.72, 0.0])
+    assert choose_region(regions, maps, xy, 0.0, None, P) == near
+    assert choose_region(regions, maps, xy, 0.0, np.array([1.0, 0.0]), P) == stone
+    # clearly nearer the platform: switches, unless the foot is in the air
+    xy = np.array([0.6, 0.0])
+    assert choose_region(regions, maps, xy, 0.0, np.array([1.0, 0.0]), P) == near
+    assert choose_region(regions, maps, xy, 0.0, np.array([1.0, 0.0]), P, in_flight=True) == stone
+
+
+def test_the_step_qp_keeps_every_foothold_inside_its_region() -> None:
+    world = _world(*_stones())
+    path = plan_body_path(None, (0.0, 0.0), 0.0, (4.0, 0.0))
+    cp = CadenceParams()
+    cad = next(c for c in CADENCES if c.name == "medium")
+    xy, _ = path.pose_at(0.45)
+    req = make_request(cad, path, cp, 8, np.asarray(cp.feet_body_xy) + xy, s_now_m=0.45, phase_s=0.05)
+    polys = []
+    for k in range(8):
+        lab = choose_region(world.regions, world.maps, req.p_nominal[k], 0.0, None, P)
+        polys.append(None if not lab else convex_around(world.regions, lab, req.p_nominal[k], P.window_m))
+    assert any(p is not None and not bool(p.contains(req.p_nominal[k])) for k, p in enumerate(polys))
+    w = list(StepQPParams().weights)
+    w[2] = 3e4
+    qp = StepQP(StepQPParams(keep_planes=12, weights=tuple(w), self_longitudinal_m=0.15))
+    plan = qp.solve(req, world.maps, [None if p is None else (p.A, p.b) for p in polys])
+    assert plan.rounds == 1
+    for k, poly in enumerate(polys):
+        if poly is not None:
+            assert bool(poly.contains(plan.footholds[k, :2], 2e-3)), (k, plan.footholds[k], poly.vertices)
+    assert "reach_oct" not in plan.hard_softened
+    # the same request again, warm: the same footholds (within the solver's tolerance)
+    again = qp.solve(req, world.maps, [None if p is None else (p.A, p.b) for p in polys])
+    np.testing.assert_allclose(again.footholds, plan.footholds, atol=5e-3)
+    with pytest.raises(ValueError, match="regions: need 8"):
+        qp.solve(req, world.maps, polys[:3])  # type: ignore[arg-type]
+
+
+def _view(feet_z: np.ndarray, feet_x: np.ndarray, goal: np.ndarray | None = None) -> TerrainView:
+    feet = np.column_stack([feet_x, [0.15, -0.15, 0.15, -0.15], feet_z + 0.02])
+    return TerrainView(
+        t_s=1.0,
+        p_world_body=np.array([0.0, 0.0, 0.55]),
+        yaw=0.0,
+        p_world_foot=feet,
+        v_world_foot=np.zeros((4, 3)),
+        stance=np.ones(4, bool),
+        z_contact=float(np.mean(feet[:, 2])),
+        gait="trot",
+        gait_since_s=-10.0,
+        fast_gait="trot",
+        operator=SteeringCommand(0.5, 0.0, 0.0),
+        goal=goal,
+        pitch_rad=0.0,
+        height_m=0.52,
+        foot_radius_m=0.02,
+        standing_height_m=0.52,
+        p_body_hip=np.array([[0.3, 0.1], [0.3, -0.1], [-0.3, 0.1], [-0.3, -0.1]]),
+        dt_s=0.01,
+    )
+
+
+def test_the_decision_pitches_the_body_with_its_footholds_plane_and_slows_for_moved_footholds() -> None:
+    world = _world(*_stones())
+    params = dataclass_replace(P, max_pitch_rate_rps=100.0)
+    # front feet 0.2 m higher than the hind feet, 0.6 m apart: 18° uphill
+    view = _view(np.array([0.2, 0.2, 0.0, 0.0]), np.array([0.3, 0.3, -0.3, -0.3]))
+    d = decide(view, world, None, params)
+    assert d.body_pitch_rad == pytest.approx(-math.atan(0.2 / 0.6), abs=1e-6)  # nose up
+    assert d.body_height_m == pytest.approx(0.52 + 0.1 - view.z_contact + 0.0 + 0.0, abs=1e-6)
+    assert d.command.vx == pytest.approx(params.max_speed_mps)
+    # a foothold moved 10 cm off its nominal: slower, the same rule on any terrain
+    mem = FootholdMemory.empty()
+    last = FootholdDecision(np.zeros((0, 3)), (), None, 0.10, mem)
+    slow = decide(view, world, last, params)
+    assert params.min_speed_mps < slow.command.vx < params.max_speed_mps
+    very = decide(view, world, dataclass_replace(last, max_shift_m=1.0), params)
+    assert very.command.vx == pytest.approx(params.min_speed_mps)
+    # the pitch moves toward its target at its rate
+    d2 = decide(view, world, None, P)
+    assert abs(d2.body_pitch_rad) == pytest.approx(P.max_pitch_rate_rps * view.dt_s)
+
+
+def test_the_swing_ground_is_the_height_map_dilated_by_the_foot() -> None:
+    xs, ys, h = _stones()
+    maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    g = swing_ground(maps, 0.05)
+    # a cell before the stone's first cell (0.87 m) the ground is the stone's top; three cells before, the pit
+    assert g(0.84, 0.0) == pytest.approx(0.0)
+    assert g(0.78, 0.0) == pytest.approx(-0.3)
+    assert g(np.array([0.75, 1.0]), np.array([0.0, 0.0])).shape == (2,)
+
+
+def dataclass_replace(obj, **kw):  # type: ignore[no-untyped-def]
+    import dataclasses
+
+    return dataclasses.replace(obj, **kw)
