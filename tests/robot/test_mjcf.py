@@ -187,3 +187,23 @@ def test_maneuvers_scale_to_the_robot() -> None:
     g0, g1 = walk.gaits[0], scale_to_robot(walk, go1).gaits[0]
     assert g1.step[0] == pytest.approx(g0.step[0] * go1.nominal_stance_xy[0] / sx0)
     assert g1.cycle == g0.cycle
+
+
+def test_the_studio_draws_mesh_geoms(critter: Path) -> None:
+    from server.engine import visuals_of
+    from server.studio.robot_view import add_geom
+
+    r = load_robot(critter)
+    w = World(r, build_terrain("flat"))
+    v = visuals_of(w.model, w.data, w.body_id)
+    meshes = [g for g in v.robot_geoms if g.kind == "mesh"]
+    assert len(meshes) == 1 and meshes[0].mesh is not None
+    verts, faces = meshes[0].mesh
+    assert verts.shape == (8, 3) and faces.shape == (12, 3)  # the cube, triangulated
+    np.testing.assert_allclose(np.abs(verts), 0.05, atol=1e-6)
+
+    class Scene:
+        def add_mesh_simple(self, name: str, vertices: np.ndarray, faces: np.ndarray, **kw: object) -> str:
+            return f"mesh {name} {len(vertices)} {len(faces)}"
+
+    assert add_geom(Scene(), "shell", meshes[0]) == "mesh shell 8 12"
