@@ -143,7 +143,7 @@ def _summary(report: dict[str, Any]) -> str:
 
 # ---- commands ------------------------------------------------------------------------------------------------
 def cmd_run(a: argparse.Namespace) -> int:
-    from planning.maneuver import validate_maneuver
+    from planning.maneuver import check_maneuver
     from planning.sim.run import RunOptions, run_maneuver
 
     _check_terrain(a.terrain, a.seed)
@@ -152,7 +152,7 @@ def cmd_run(a: argparse.Namespace) -> int:
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
     robot = _robot(a.robot)
     maneuver = _load(a.maneuver)
-    result = validate_maneuver(maneuver, robot)
+    result = check_maneuver(maneuver, robot)
     if not result.ok:
         raise UsageError(
             f"maneuver {maneuver.name} has failures:\n" + "\n".join(f"  {p}" for p in result.failures)
@@ -253,16 +253,21 @@ def cmd_walk(a: argparse.Namespace) -> int:
 
 
 def cmd_validate(a: argparse.Namespace) -> int:
-    from planning.maneuver import validate_maneuver
+    from planning.maneuver import ManeuverError, check_maneuver, find_maneuver
 
-    maneuver = _load(a.maneuver)
-    result = validate_maneuver(maneuver, _robot(a.robot), dry_solve=not a.no_solve)
+    try:
+        path = find_maneuver(a.maneuver)
+    except ManeuverError as e:
+        raise UsageError(str(e.problems[0])) from None
+    # the file itself, not a parsed maneuver: a shape problem does not hide the rules' findings on the rest
+    result = check_maneuver(path, _robot(a.robot), dry_solve=not a.no_solve)
+    name = result.maneuver.name if result.maneuver is not None else path.stem
     for p in result.failures:
         print(f"failure: {p.located() if hasattr(p, 'located') else p}")
     for p in result.warnings:
         print(f"warning: {p.located() if hasattr(p, 'located') else p}")
     n_f, n_w = len(result.failures), len(result.warnings)
-    print(f"{maneuver.name}: {'valid' if result.ok else 'invalid'} ({n_f} failures, {n_w} warnings)")
+    print(f"{name}: {'valid' if result.ok else 'invalid'} ({n_f} failures, {n_w} warnings)")
     return EXIT_OK if result.ok else EXIT_INVALID
 
 
@@ -302,6 +307,10 @@ def cmd_serve(a: argparse.Namespace) -> int:
     except ImportError as e:  # the service lands with its issue
         raise UsageError(f"serve is not available in this build: {e}") from None
     overrides: dict[str, Any] = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    if a.robot is not None:
+        _robot(a.robot)  # a robot that does not load is a usage error now, not a failing service later
+        p = Path(a.robot).expanduser()
+        overrides["robot"] = str(p.resolve()) if p.suffix.lower() in (".xml", ".yaml", ".yml") else a.robot
     if a.address and a.backend != "ray":
         raise UsageError("--address is for --backend ray")
     overrides.update(backend=a.backend, ray_address=a.address)
@@ -381,12 +390,12 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
     w.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
-    w.add_argument("--robot", default="spot", help="robot description")
+    w.add_argument("--robot", default="spot", help="robot: spot (default), go1 or an MJCF file (PATH.xml)")
     w.set_defaults(fn=cmd_walk)
 
     v = sub.add_parser("validate", help="check a maneuver without simulating (warnings and failures)")
     v.add_argument("maneuver", metavar="MANEUVER", help="a library name or a .yaml path")
-    v.add_argument("--robot", default="spot", help="robot description to check reach against")
+    v.add_argument("--robot", default="spot", help="robot to check reach against (a name or PATH.xml)")
     v.add_argument(
         "--no-solve",
         action="store_true",
@@ -441,6 +450,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--viewer-port", type=int, help="studio port (default 8080, or FOOTFALL_VIEWER_PORT)")
     s.add_argument(
         "--data-dir", help="where user maneuvers live (default ~/.local/share/footfall, or FOOTFALL_DATA_DIR)"
+    )
+    s.add_argument(
+        "--robot",
+        help="the robot of the sessions and simulations: spot, go1 or an MJCF file (or FOOTFALL_ROBOT)",
     )
     s.add_argument("--backend", choices=("local", "ray"), help="where queued simulations and sweeps run: local "
                    "worker processes (default, or FOOTFALL_BACKEND) or Ray tasks")  # fmt: skip
