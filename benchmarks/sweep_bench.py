@@ -43,7 +43,7 @@ def _run(spec: Any, backend: Any, cases: list[dict[str, Any]]) -> dict[str, Any]
             "successes": s["overall"]["successes"], "crashed": s["overall"]["crashed"]}  # fmt: skip
 
 
-def backends(n_cases: int, duration_s: float, workers: int) -> dict[str, Any]:
+def backends(n_cases: int, duration_s: float, workers: int, again: bool = False) -> dict[str, Any]:
     """The same sweep on local workers and on a local Ray with as many CPUs; overhead per case = (wall × workers −
     the cases' own run time) / cases, and the ratio of the two walls."""
     spec = _stand_spec(n_cases, duration_s)
@@ -58,11 +58,17 @@ def backends(n_cases: int, duration_s: float, workers: int) -> dict[str, Any]:
     t0 = time.perf_counter()
     ray_b.init()
     out["ray_init_s"] = round(time.perf_counter() - t0, 2)
-    for name, b in (("local", LocalBackend(workers)), ("ray", ray_b), ("local_again", LocalBackend(workers))):
+    runs: list[tuple[str, Any]] = [("local", LocalBackend(workers)), ("ray", ray_b)]
+    if again:  # local once more after ray: how much the machine's load moved meanwhile
+        runs.append(("local_again", LocalBackend(workers)))
+    for name, b in runs:
         r = _run(spec, b, cases)
         r["overhead_per_case_s"] = round((r["wall_s"] * workers - r["sum_case_wall_s"]) / n_cases, 3)
         out[name] = r
-    local_wall = (out["local"]["wall_s"] + out["local_again"]["wall_s"]) / 2
+    if again:
+        local_wall = (out["local"]["wall_s"] + out["local_again"]["wall_s"]) / 2
+    else:
+        local_wall = out["local"]["wall_s"]
     out["ray_over_local"] = round(out["ray"]["wall_s"] / local_wall, 3)
     return out
 
@@ -125,6 +131,7 @@ def main() -> None:
     b.add_argument("--cases", type=int, default=40)
     b.add_argument("--duration", type=float, default=5.0)
     b.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    b.add_argument("--again", action="store_true", help="run local once more after ray")
     c = sub.add_parser("cluster")
     c.add_argument("--nodes", type=int, default=4)
     c.add_argument("--cases", type=int, default=64)
@@ -134,7 +141,7 @@ def main() -> None:
     t.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     a = p.parse_args()
     if a.what == "backends":
-        out = backends(a.cases, a.duration, a.workers)
+        out = backends(a.cases, a.duration, a.workers, a.again)
     elif a.what == "cluster":
         out = cluster(a.nodes, a.cases, a.sleep)
     else:

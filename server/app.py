@@ -13,7 +13,7 @@ from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 from fastapi.staticfiles import StaticFiles
 
-from server import errors
+from server import docs, errors
 from server.api import api_router
 from server.api.studio import WEB_DIR
 from server.services import Services
@@ -97,11 +97,14 @@ def create_app(
         version=VERSION,
         description=DESCRIPTION,
         lifespan=lifespan,
+        docs_url=None,  # served from the package by server.docs (FastAPI's own pages load a CDN)
+        redoc_url=None,
     )
     app.state.services = services
     errors.install(app)
     app.add_middleware(errors.BodyLimit, max_bytes=settings.max_body_bytes)
     app.include_router(api_router)
+    docs.install(app)
     if WEB_DIR.is_dir():
         app.mount("/static", StaticFiles(directory=WEB_DIR), name="static")
     app.openapi = lambda: _openapi(app)  # type: ignore[method-assign]

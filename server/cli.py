@@ -71,12 +71,14 @@ def _parse_pushes(specs: list[str] | None) -> list[Any]:
     return out
 
 
-def _check_terrain(text: str) -> None:
+def _check_terrain(text: str, seed: int) -> None:
     """Builds the terrain once (a name, a name with parameters, or a file) so that a bad one is a usage error."""
     from planning.terrain.spec import TerrainSpecError, load_terrain
 
+    if not 0 <= seed < 2**32:
+        raise UsageError(f"--seed {seed}: must be within 0 to 2^32 - 1")
     try:
-        load_terrain(text)
+        load_terrain(text, seed)
     except TerrainSpecError as e:
         raise UsageError(f"--terrain {text!r}: {e}") from None
 
@@ -144,7 +146,7 @@ def cmd_run(a: argparse.Namespace) -> int:
     from planning.maneuver import validate_maneuver
     from planning.sim.run import RunOptions, run_maneuver
 
-    _check_terrain(a.terrain)
+    _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     if a.duration is not None and not (0 < a.duration <= 600):
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
@@ -157,7 +159,12 @@ def cmd_run(a: argparse.Namespace) -> int:
         )
     progress = _Progress(maneuver.name)
     opts = RunOptions(
-        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+        terrain=a.terrain,
+        pushes=pushes,
+        duration_s=a.duration,
+        realtime=a.realtime,
+        robot=a.robot,
+        seed=a.seed,
     )
     report = run_maneuver(maneuver, opts, progress=progress)
     progress.done()
@@ -200,7 +207,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
     from planning.sim.run import RunOptions, WalkCommand, run_walk
     from planning.steps.gait import GAIT_NAMES
 
-    _check_terrain(a.terrain)
+    _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     goal = _parse_goal(a.goal)
     if a.gait not in GAIT_NAMES or a.gait == "stand":
@@ -230,7 +237,12 @@ def cmd_walk(a: argparse.Namespace) -> int:
         terrain_pipeline=a.terrain_pipeline,
     )
     opts = RunOptions(
-        terrain=a.terrain, pushes=pushes, duration_s=a.duration, realtime=a.realtime, robot=a.robot
+        terrain=a.terrain,
+        pushes=pushes,
+        duration_s=a.duration,
+        realtime=a.realtime,
+        robot=a.robot,
+        seed=a.seed,
     )
     progress = _Progress("walk")
     report = run_walk(cmd, opts, progress=progress)
@@ -290,6 +302,10 @@ def cmd_serve(a: argparse.Namespace) -> int:
     except ImportError as e:  # the service lands with its issue
         raise UsageError(f"serve is not available in this build: {e}") from None
     overrides: dict[str, Any] = {} if a.data_dir is None else {"data_dir": Path(a.data_dir).expanduser()}
+    if a.robot is not None:
+        _robot(a.robot)  # a robot that does not load is a usage error now, not a failing service later
+        p = Path(a.robot).expanduser()
+        overrides["robot"] = str(p.resolve()) if p.suffix.lower() in (".xml", ".yaml", ".yml") else a.robot
     if a.address and a.backend != "ray":
         raise UsageError("--address is for --backend ray")
     overrides.update(backend=a.backend, ray_address=a.address)
@@ -306,6 +322,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="simulate a maneuver in MuJoCo (headless unless --realtime)")
     r.add_argument("maneuver", metavar="MANEUVER", help="a library name (footfall run stand) or a .yaml path")
     r.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
+    r.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
     r.add_argument(
         "--push",
         action="append",
@@ -350,6 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--duration", type=float, metavar="S", help="simulated seconds (default 10, 30 with --goal)"
     )
     w.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
+    w.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
     w.add_argument(
         "--maps",
         default="sensor",
@@ -367,12 +385,12 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
     w.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
-    w.add_argument("--robot", default="spot", help="robot description")
+    w.add_argument("--robot", default="spot", help="robot: spot (default), go1 or an MJCF file (PATH.xml)")
     w.set_defaults(fn=cmd_walk)
 
     v = sub.add_parser("validate", help="check a maneuver without simulating (warnings and failures)")
     v.add_argument("maneuver", metavar="MANEUVER", help="a library name or a .yaml path")
-    v.add_argument("--robot", default="spot", help="robot description to check reach against")
+    v.add_argument("--robot", default="spot", help="robot to check reach against (a name or PATH.xml)")
     v.add_argument(
         "--no-solve",
         action="store_true",
@@ -427,6 +445,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--viewer-port", type=int, help="studio port (default 8080, or FOOTFALL_VIEWER_PORT)")
     s.add_argument(
         "--data-dir", help="where user maneuvers live (default ~/.local/share/footfall, or FOOTFALL_DATA_DIR)"
+    )
+    s.add_argument(
+        "--robot",
+        help="the robot of the sessions and simulations: spot, go1 or an MJCF file (or FOOTFALL_ROBOT)",
     )
     s.add_argument("--backend", choices=("local", "ray"), help="where queued simulations and sweeps run: local "
                    "worker processes (default, or FOOTFALL_BACKEND) or Ray tasks")  # fmt: skip

@@ -108,6 +108,9 @@ class GeomVisual:
     body: int  # index into Visuals.body_names for robot geoms, -1 for terrain
     hfield_z: np.ndarray | None = None  # (nrow, ncol) heights, m, world frame relative to the geom origin
     hfield_half_xy: tuple[float, float] | None = None
+    mesh: tuple[np.ndarray, np.ndarray] | None = (
+        None  # a mesh geom's vertices (V,3) and faces (F,3), geom frame
+    )
 
 
 @dataclass(frozen=True)
@@ -131,6 +134,8 @@ def _t3(a: Any) -> tuple[float, float, float]:
 
 def visuals_of(model: mujoco.MjModel, data: mujoco.MjData, root_body: int) -> Visuals:
     """Returns the visuals of a composed model: bodies under `root_body` are the robot, the rest is terrain."""
+    from server.studio.meshes import drawn, mesh_of  # the studio's: a mesh robot looks like itself
+
     robot_bodies = [b for b in range(model.nbody) if int(model.body_rootid[b]) == root_body]
     index = {b: i for i, b in enumerate(robot_bodies)}
     names = tuple(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body{b}" for b in robot_bodies)
@@ -142,10 +147,13 @@ def visuals_of(model: mujoco.MjModel, data: mujoco.MjData, root_body: int) -> Vi
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}"
         b = int(model.geom_bodyid[g])
         if b in index:
+            if not drawn(model, g):
+                continue
             q = model.geom_quat[g]
             robot.append(
                 GeomVisual(name, kind, _t3(model.geom_size[g]), _t3(model.geom_pos[g]),
-                           (float(q[0]), float(q[1]), float(q[2]), float(q[3])), _rgba(model, g), index[b])
+                           (float(q[0]), float(q[1]), float(q[2]), float(q[3])), _rgba(model, g), index[b],
+                           mesh=mesh_of(model, g))
             )  # fmt: skip
             continue
         q = np.zeros(4)
@@ -234,8 +242,15 @@ class LiveSim:
         return self.session.loop.failure_reason
 
     def step(self) -> None:
-        """Advances one physics tick (2 ms); raises FloatingPointError when the simulation diverges."""
-        s = self.session.loop.step()
+        """Advances one physics tick (2 ms); raises FloatingPointError when the simulation diverges. After a fall the
+        controller stops and the robot goes limp (zero joint torques): it lies where it fell instead of thrashing."""
+        loop = self.session.loop
+        if loop.fell:
+            self.world.set_torques(np.zeros((4, 3)))
+            self.world.step()
+            s = self.world.read_state(loop.state)
+        else:
+            s = loop.step()
         if not np.isfinite(s.p_world_body).all():
             raise FloatingPointError(
                 f"the simulation diverged at t = {self.t:.3f} s (non-finite body position)"

@@ -23,8 +23,12 @@ from server.settings import Settings
 
 TERRAIN_SUBDIR = "terrains"
 MAX_TERRAIN_FILES = 200  # files kept in the terrain directory
-FILE_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,78}\.(xml|npy|png|yaml)$")
-FILE_NAME_RULE = "letters, digits, '_', '.', '-' (at most 80), ending in .xml, .npy, .png or .yaml"
+FILE_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,78}\.(xml|npy|png|yaml|stl|obj)$")
+FILE_NAME_RULE = (
+    "letters, digits, '_', '.', '-' (at most 80), ending in .xml, .npy, .png, .yaml, .stl or .obj"
+)
+_KIND = {".xml": "mjcf", ".npy": "heightmap", ".png": "heightmap", ".yaml": "heightmap options", ".stl": "mesh",
+         ".obj": "mesh"}  # fmt: skip
 
 
 def terrain_dir(settings: Settings) -> Path:
@@ -92,8 +96,7 @@ def list_files(settings: Settings) -> list[dict[str, Any]]:
     out = []
     for p in sorted(root.iterdir()):
         if p.is_file() and FILE_NAME_RE.match(p.name):
-            kind = {".xml": "mjcf", ".yaml": "heightmap options"}.get(p.suffix.lower(), "heightmap")
-            out.append({"name": p.name, "bytes": p.stat().st_size, "kind": kind})
+            out.append({"name": p.name, "bytes": p.stat().st_size, "kind": _KIND[p.suffix.lower()]})
     return out
 
 
@@ -119,7 +122,7 @@ def save_file(settings: Settings, name: str, data: bytes) -> dict[str, Any]:
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
-    return {"name": name, "bytes": len(data), "kind": "mjcf" if name.endswith(".xml") else "heightmap"}
+    return {"name": name, "bytes": len(data), "kind": _KIND[target.suffix.lower()]}
 
 
 def delete_file(settings: Settings, name: str) -> None:

@@ -30,6 +30,7 @@ from planning.maneuver.load import parse_maneuver, read_source
 from planning.maneuver.problems import ManeuverError, Problem, with_lines
 from planning.maneuver.scale import scale_to_robot
 from planning.maneuver.spec import Liftoff, Maneuver, MaximizeHeight, Touchdown
+from planning.maneuver.torque import check_keyframe_torque
 
 if TYPE_CHECKING:
     from planning.robot import RobotModel
@@ -710,6 +711,7 @@ RULES: list[Rule] = [
     check_support_feet,
     check_tracks,
     check_objectives,
+    check_keyframe_torque,
 ]
 
 

@@ -34,7 +34,10 @@ DESCRIPTION_KEYS = {
     "keyframe",
     "actuators",
     "joint_velocity_limit",
+    "self_collision",
+    "joint_loss_compensation",
 }
+FRICTION_RAMP_RAD_S = 0.05  # friction loss is compensated in proportion to the joint speed up to this speed
 
 
 class RobotDescriptionError(ValueError):
@@ -477,6 +480,16 @@ def detect(spec: mujoco.MjSpec, path: Path, desc: dict[str, Any]) -> Detected:
                 j = lg.joint_ids[r]
                 if m.jnt_actfrclimited[j]:
                     tau_max[li, r] = min(tau_max[li, r], float(min(abs(v) for v in m.jnt_actfrcrange[j])))
+    # the robot touches the world, not itself (footfall's legs swing close past each other; a self-collision is
+    # no planned contact): robot geoms collide as contype 2 / conaffinity 1 against the world's 1 / 1
+    if not desc.get("self_collision", False):
+        robot_bodies = set(_subtree(m, base))
+        for g in range(m.ngeom):
+            if int(m.geom_bodyid[g]) in robot_bodies and (m.geom_contype[g] or m.geom_conaffinity[g]):
+                if m.geom_contype[g] != 2 or m.geom_conaffinity[g] != 1:
+                    sg = spec.geom(_name(m, mujoco.mjtObj.mjOBJ_GEOM, g))
+                    sg.contype, sg.conaffinity = 2, 1
+                    edited = True
     for body, site, pos in site_adds:
         spec.body(body).add_site(name=site, pos=pos.tolist(), size=[0.005, 0.005, 0.005], group=5)
     key_name = str(desc.get("keyframe", "home"))

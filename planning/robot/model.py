@@ -203,6 +203,13 @@ class RobotModel:
         self.q_max = det.q_range[:, :, 1].copy()
         self.tau_max = det.tau_max
         self.qd_max = float(desc.get("joint_velocity_limit", DEFAULT_JOINT_VELOCITY_LIMIT))
+        # the joints' own damping (N·m·s/rad) and friction loss (N·m) from the MJCF, which the motors make up for
+        # (planning.sim.world.World.set_torques) unless the description says joint_loss_compensation: false
+        self.compensate_joint_losses = bool(desc.get("joint_loss_compensation", True))
+        self.joint_damping = np.array([[m.dof_damping[m.jnt_dofadr[j]] for j in g.joint_ids] for g in geo])
+        self.joint_frictionloss = np.array(
+            [[m.dof_frictionloss[m.jnt_dofadr[j]] for j in g.joint_ids] for g in geo]
+        )
         self.mass_kg = float(np.sum(m.body_mass))
         # the knee bends to one side: the relative shank angle's sign over the knee's range
         psi_lo = self._sign[:, 2] * self.q_min[:, 2] + self._beta - self._alpha

@@ -168,6 +168,7 @@ class _Session:
             "mode": self.mode,
             "robot": self.robot.name,
             "terrain": self.options.terrain,
+            "seed": self.options.seed,  # the terrain scene's layout (--seed)
             "duration_s": round(t_end, 4),
             "fell": bool(self.loop.fell),
             "fall_time_s": None if self.loop.fall_time is None else round(self.loop.fall_time, 4),

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from planning.robot import RobotModel
+from planning.robot.mjcf import FRICTION_RAMP_RAD_S
 
 
 class Scene(Protocol):
@@ -141,6 +142,12 @@ class World:
         )
         self._ctrl_scale = np.asarray(robot.ctrl_scale, dtype=float)
         self._unit_gear = bool(np.all(self._ctrl_scale == 1.0))
+        comp = robot.compensate_joint_losses and bool(
+            np.any(robot.joint_damping) or np.any(robot.joint_frictionloss)
+        )
+        self._loss_damping = robot.joint_damping if comp else None
+        self._loss_friction = robot.joint_frictionloss
+        self._tau_buf = np.zeros((4, 3))
         free = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, robot.free_joint_name)
         self.free_qpos = int(m.jnt_qposadr[free])
         self.free_dof = int(m.jnt_dofadr[free])
@@ -229,6 +236,15 @@ class World:
     def set_torques(self, tau: np.ndarray) -> None:
         """Writes joint torques tau (4,3) N·m to the actuators, through their gear (MuJoCo clips to the actuator
         range)."""
+        if self._loss_damping is not None:
+            # a motor driver's loss compensation: the joint's own damping and friction loss (known from the MJCF)
+            # added back at the measured joint speed, so the joint gets the torque the controller asked for
+            qd = self.data.qvel[self.dof_idx]
+            t = self._tau_buf
+            np.multiply(self._loss_damping, qd, out=t)
+            t += self._loss_friction * np.clip(qd / FRICTION_RAMP_RAD_S, -1.0, 1.0)
+            t += tau
+            tau = t
         if self._unit_gear:
             self.data.ctrl[self.act_idx] = tau
         else:

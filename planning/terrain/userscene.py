@@ -22,7 +22,7 @@ from __future__ import annotations
 import re
 import threading
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -215,7 +215,11 @@ class _RayCastGround:
     model: mujoco.MjModel
     z_top_m: float
     geomgroup: NDArray[np.uint8]
-    _local: threading.local
+    _local: threading.local = field(default_factory=threading.local, repr=False)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        # a scene goes to worker processes whole (sweeps, simulations): the per-thread MjData stays behind
+        return (_RayCastGround, (self.model, self.z_top_m, self.geomgroup))
 
     def height(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
         xb, yb = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
@@ -363,9 +367,7 @@ def mjcf_scene(p: MjcfSceneParams, seed: int = 0) -> TerrainScene:
         hid = mujoco.mj_name2id(ray_model, mujoco.mjtObj.mjOBJ_HFIELD, name)
         adr = ray_model.hfield_adr[hid]
         ray_model.hfield_data[adr : adr + hd.size] = hd
-    ground = _RayCastGround(
-        ray_model, z_top + _RAY_TOP_MARGIN_M, np.array([1, 0, 0, 0, 0, 0], np.uint8), threading.local()
-    )
+    ground = _RayCastGround(ray_model, z_top + _RAY_TOP_MARGIN_M, np.array([1, 0, 0, 0, 0, 0], np.uint8))
     span = (0.0, 0.0) if not np.isfinite(x_lo) else (x_lo, x_hi)
     scene = TerrainScene(
         name="mjcf",
@@ -391,8 +393,9 @@ _FILE_ATTRS = ("file", "meshdir", "texturedir", "assetdir", "filefront", "fileba
 
 
 def check_file_references(path: Path, root: Path | None = None) -> None:
-    """Raises UserTerrainError if the MJCF at `path` names a file outside `root` (default: its own directory):
-    an absolute path, a '..' step, or a symbolic link leading out. Includes are followed and checked in turn."""
+    """Raises UserTerrainError if the MJCF at `path` names a file that may lie outside `root` (default: its own
+    directory): an absolute path, any '..' step (MuJoCo resolves some references from the main file's directory,
+    some from an asset directory, so none may climb), or a symbolic link leading out. Includes are followed."""
     root = (root or path.parent).resolve()
     seen: set[Path] = set()
     todo = [path]
@@ -413,10 +416,12 @@ def check_file_references(path: Path, root: Path | None = None) -> None:
                 ref = el.get(attr)
                 if ref is None:
                     continue
-                target = (f.parent / ref).resolve()
-                if Path(ref).is_absolute() or not target.is_relative_to(root):
+                p = Path(ref)
+                inside = all((base / p).resolve().is_relative_to(root) for base in (f.parent, path.parent))
+                if p.is_absolute() or ".." in p.parts or "\\" in ref or not inside:
                     raise UserTerrainError(
-                        f"{f}: <{el.tag} {attr}={ref!r}> names a file outside the scene's directory {root}"
+                        f"{f}: <{el.tag} {attr}={ref!r}> names a file outside the scene's directory (references "
+                        "are relative, without '..')"
                     )
                 if el.tag == "include" and attr == "file":
                     todo.append(f.parent / ref)

@@ -27,8 +27,8 @@ def list_terrain_files(services: ServicesDep) -> list[dict[str, Any]]:
 @router.put(
     "/{name}",
     dependencies=[WriteAccess],
-    summary="Upload a terrain file: an MJCF scene (.xml), a heightmap (.npy, .png) or a heightmap's options "
-    "(.yaml, same name); the body is the file's bytes",
+    summary="Upload a terrain file: an MJCF scene (.xml) and its meshes (.stl, .obj), a heightmap (.npy, .png) "
+    "or a heightmap's options (.yaml, same name); the body is the file's bytes",
     openapi_extra={"requestBody": {"content": {"application/octet-stream": {"schema": {"type": "string",
                                                                                      "format": "binary"}}}}},
 )  # fmt: skip

@@ -59,6 +59,9 @@ class Studio:
             "clients": len(clients),
             "fps": {str(cid): round(c.fps, 1) for cid, c in clients},
             "sessions": {str(cid): (c.session.id if c.session is not None else None) for cid, c in clients},
+            # what each tab shows: its camera (m, world frame) and its steering sliders (m/s, m/s, rad/s)
+            "cameras": {str(cid): c.camera_info() for cid, c in clients},
+            "steer": {str(cid): c.slider_info() for cid, c in clients},
         }
 
     def stop(self) -> None:

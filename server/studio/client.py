@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import html
 import logging
 import math
 import threading
 import time
 from collections import deque
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -24,11 +26,23 @@ PERCEPTION = {
     "scene (real time)": "truth",
     "depth sensor": "sensor",
 }  # the studio's names for a session's maps
-FRAME_HZ = 60.0  # robot pose updates per second sent to the browser (≥ 30 fps), at most the publish rate
+FRAME_HZ = 75.0  # at most this many robot pose updates per second to the browser (the session publishes ≤ 60)
+POLL_S = 0.004  # the render loop looks for a new snapshot this often: a pose goes out within 4 ms of its publishing
 OVERLAY_HZ = 10.0
 PLOT_HZ = 4.0
 STATUS_HZ = 4.0
 STEER_STEP = {"vx": 0.1, "vy": 0.05, "yaw_rate": 0.2}  # per key press: m/s, m/s, rad/s
+# Steering keys (key, command, sign). viser's viewer flies its camera with W A S D Q E and the arrow keys whatever
+# else they are bound to, so the studio's keys stay clear of those: I/K forward and back, J/L left and right, U/O
+# turn, X stops.
+STEER_KEYS = (("I", "vx", 1.0), ("K", "vx", -1.0), ("J", "vy", 1.0), ("L", "vy", -1.0), ("U", "yaw_rate", 1.0),
+              ("O", "yaw_rate", -1.0))  # fmt: skip
+STOP_KEY = "X"
+CAMERA_KEYS = frozenset("WASDQE") | {"arrowup", "arrowdown", "arrowleft", "arrowright"}  # viser's, never ours
+# the view a tab opens with and returns to with "Reset view": from the front left, above, at the robot (m, relative
+# to the robot's body position on the ground)
+VIEW_EYE_M = (1.6, -1.9, 0.85)
+VIEW_TARGET_M = (0.0, 0.0, 0.0)
 
 
 class StudioClient:
@@ -51,12 +65,8 @@ class StudioClient:
     def start(self) -> None:
         c = self.client
         c.scene.set_up_direction("+z")
-        try:
-            c.camera.position = (1.6, -1.9, 1.2)
-            c.camera.look_at = (0.0, 0.0, 0.35)
-        except Exception:  # noqa: BLE001 - camera setup is cosmetic
-            pass
         self._open_session()
+        self.reset_view()
         self.overlays = OverlayView(c.scene, "/overlays", on_new=self._overlay_added)
         self._build_gui()
         self._pick_up_preview_request()
@@ -91,7 +101,33 @@ class StudioClient:
             self.session = None
             self.notify("No live robot", e.message + " — authoring still works; reload to retry.", "red")
 
+    def camera_info(self) -> dict[str, list[float]] | None:
+        try:
+            cam = self.client.camera
+            return {"position": [round(float(v), 4) for v in cam.position],
+                    "look_at": [round(float(v), 4) for v in cam.look_at]}  # fmt: skip
+        except Exception:  # noqa: BLE001 - no camera reported yet
+            return None
+
+    def slider_info(self) -> dict[str, float] | None:
+        sliders = getattr(self, "steer_sliders", None)
+        return None if sliders is None else {k: round(float(h.value), 4) for k, h in sliders.items()}
+
     # ---- helpers ------------------------------------------------------------------------------------------------
+    def reset_view(self) -> None:
+        """Puts the camera back where a tab starts: looking at the robot from the front left, z up."""
+        p = np.zeros(3)
+        s = self.session
+        if s is not None and len(s.snapshot.xpos):
+            p = np.array([s.snapshot.xpos[0][0], s.snapshot.xpos[0][1], s.snapshot.xpos[0][2]], dtype=float)
+        try:
+            cam = self.client.camera
+            cam.up_direction = (0.0, 0.0, 1.0)
+            cam.position = tuple(p + np.asarray(VIEW_EYE_M))
+            cam.look_at = tuple(p + np.asarray(VIEW_TARGET_M))
+        except Exception:  # noqa: BLE001 - a tab without a camera yet (it reports one right after connecting)
+            pass
+
     def notify(self, title: str, body: str, color: str = "blue") -> None:
         try:
             self.client.add_notification(title, body, auto_close_seconds=6.0, color=color)
@@ -156,6 +192,7 @@ class StudioClient:
         except Exception:  # noqa: BLE001
             pass
         self.md_status = gui.add_markdown("starting…")
+        gui.add_html(page_script_html())
         if self.services.settings.token_required:
             with gui.add_folder("Access", expand_by_default=True):
                 gui.add_markdown("This server is reachable from the network: saving and driving need the API "
@@ -226,7 +263,7 @@ class StudioClient:
 
     def _build_custom_terrain(self) -> None:
         """A terrain with parameters or from a file, as on the command line (uploaded files by their name)."""
-        from server.terrains import resolve_terrain, save_file
+        from server.terrains import save_file
 
         gui = self.client.gui
         with gui.add_folder("Custom terrain", expand_by_default=False):
@@ -240,14 +277,8 @@ class StudioClient:
 
         @btn.on_click
         def _(_: Any) -> None:
-            if self.session is None or not self.authorized("change the terrain"):
-                return
-            try:
-                terrain = resolve_terrain(str(txt.value).strip(), self.services.settings)
-            except ApiError as e:
-                self.notify("Terrain not usable", e.detail, "red")
-                return
-            self.session.reset(terrain)
+            if self.authorized("change the terrain"):
+                self.use_terrain(str(txt.value).strip())
 
         @upload.on_upload
         def _(e: Any) -> None:
@@ -262,6 +293,22 @@ class StudioClient:
             if not str(f.name).endswith(".yaml"):
                 txt.value = str(f.name) + ("" if str(f.name).endswith(".xml") else ":cell_m=0.05")
             self.notify("Uploaded", f"{f.name}: check the terrain field, then Use this terrain", "green")
+
+    def use_terrain(self, text: str) -> bool:
+        """Puts this tab's robot on the terrain `text` names (the REST rules: uploaded files by name); False, with a
+        notification saying why, when it cannot be used."""
+        from server.terrains import resolve_terrain
+
+        if self.session is None:
+            return False
+        try:
+            terrain = resolve_terrain(text, self.services.settings)
+        except ApiError as e:
+            self.notify("Terrain not usable", e.detail, "red")
+            return False
+        self.session.reset(terrain)
+        self.zero_sliders()  # a new terrain starts standing: the old command must not walk it off
+        return True
 
     def _build_drive(self) -> None:
         from server.engine import steering_gaits, terrain_names
@@ -279,7 +326,8 @@ class StudioClient:
             sl_imp = gui.add_slider("impulse (N·s)", 2.0, 60.0, 1.0, 15.0)
             sl_dur = gui.add_slider("duration (s)", 0.05, 0.5, 0.05, 0.1)
             btn_push = gui.add_button("Push")
-        with gui.add_folder("Steer (WASD + QE, X stops)"):
+        keys = " ".join(k for k, _, _ in STEER_KEYS)
+        with gui.add_folder(f"Steer (keys {keys}; {STOP_KEY} stops)"):
             self.sl_vx = gui.add_slider("vx (m/s)", -1.0, 1.0, 0.05, 0.0)
             self.sl_vy = gui.add_slider("vy (m/s)", -0.5, 0.5, 0.05, 0.0)
             self.sl_yaw = gui.add_slider("yaw rate (rad/s)", -1.5, 1.5, 0.05, 0.0)
@@ -292,23 +340,29 @@ class StudioClient:
             )
             btn_send = gui.add_button("Send command")
             btn_stop = gui.add_button("Stop")
+        self.steer_sliders = {"vx": self.sl_vx, "vy": self.sl_vy, "yaw_rate": self.sl_yaw}
+        # set while the sliders are written from the session (their callbacks must not steer)
+        self._syncing = False
 
         @self.dd_terrain.on_update
         def _(e: Any) -> None:
             if self.session is not None and str(e.target.value) != self.session.terrain:
                 if self.authorized("change the terrain"):
                     self.session.reset(str(e.target.value))
+                    self.zero_sliders()  # a new terrain starts standing: the old command must not walk it off
 
         @self.dd_maps.on_update
         def _(e: Any) -> None:
             maps = PERCEPTION.get(str(e.target.value), "truth")
             if self.session is not None and maps != self.session.maps and self.authorized("change the maps"):
                 self.session.reset(maps=maps)
+                self.zero_sliders()
 
         @btn_reset.on_click
         def _(_: Any) -> None:
             if self.session is not None and self.authorized("reset"):
                 self.session.reset()
+                self.zero_sliders()
 
         @btn_push.on_click
         def _(_: Any) -> None:
@@ -322,45 +376,70 @@ class StudioClient:
             except SessionError as e:
                 self.notify("Push failed", e.message, "red")
 
-        def send() -> None:
-            if self.session is None or not self.authorized("steer"):
-                return
-            try:
-                self.session.steer(float(self.sl_vx.value), float(self.sl_vy.value), float(self.sl_yaw.value),
-                                   str(self.dd_gait.value), str(self.dd_weights.value))  # fmt: skip
-            except SessionError as e:
-                now = time.time()
-                if now - self._last_note > 2.0:  # key repeats must not flood the tab with notes
-                    self._last_note = now
-                    self.notify("Steering", e.message, "yellow")
-
-        btn_send.on_click(lambda _e: send())
-
-        def stop() -> None:
-            self.sl_vx.value = self.sl_vy.value = self.sl_yaw.value = 0.0
-            send()
-
-        btn_stop.on_click(lambda _e: stop())
+        btn_send.on_click(lambda _e: self.send_steer())
+        btn_stop.on_click(lambda _e: self.stop_steer())
+        for h in self.steer_sliders.values():
+            h.on_update(lambda _e: None if self._syncing else self.send_steer())
 
         def nudge(handle: Any, step: float) -> None:
+            # the slider's on_update steers
             handle.value = float(np.clip(float(handle.value) + step, handle.min, handle.max))
-            send()
 
-        keys = [("W", self.sl_vx, STEER_STEP["vx"]), ("S", self.sl_vx, -STEER_STEP["vx"]),
-                ("A", self.sl_vy, STEER_STEP["vy"]), ("D", self.sl_vy, -STEER_STEP["vy"]),
-                ("Q", self.sl_yaw, STEER_STEP["yaw_rate"]), ("E", self.sl_yaw, -STEER_STEP["yaw_rate"])]  # fmt: skip
-        for key, handle, step in keys:
+        for key, name, sign in STEER_KEYS:
             try:
-                cmd = gui.add_command(f"steer {key}", hotkey=key, description="nudge the velocity command")
+                cmd = gui.add_command(f"steer {name} {'+' if sign > 0 else '−'}", hotkey=key,  # type: ignore[arg-type]
+                                      description="nudge the velocity command")  # fmt: skip
             except Exception:  # noqa: BLE001 - hotkeys are a convenience (older viser)
                 break
-            cmd.on_trigger(lambda _e, h=handle, s=step: nudge(h, s))
+            cmd.on_trigger(lambda _e, h=self.steer_sliders[name], st=sign * STEER_STEP[name]: nudge(h, st))
         try:
-            gui.add_command("stop", hotkey="X", description="zero the velocity command").on_trigger(
-                lambda _e: stop()
+            gui.add_command("stop", hotkey=STOP_KEY, description="zero the velocity command").on_trigger(
+                lambda _e: self.stop_steer()
             )
         except Exception:  # noqa: BLE001
             pass
+
+    def send_steer(self) -> None:
+        """Sends the sliders' velocity command (and the gait and step weights) to the tab's session."""
+        if self.session is None or not self.authorized("steer"):
+            return
+        try:
+            self.session.steer(float(self.sl_vx.value), float(self.sl_vy.value), float(self.sl_yaw.value),
+                               str(self.dd_gait.value), str(self.dd_weights.value))  # fmt: skip
+        except SessionError as e:
+            now = time.time()
+            if now - self._last_note > 2.0:  # key repeats must not flood the tab with notes
+                self._last_note = now
+                self.notify("Steering", e.message, "yellow")
+
+    def stop_steer(self) -> None:
+        self.zero_sliders()
+        self.send_steer()
+
+    def zero_sliders(self) -> None:
+        """Sets the velocity sliders to 0 without steering."""
+        self._write_sliders({"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0})
+
+    def _write_sliders(self, cmd: dict[str, Any]) -> None:
+        self._syncing = True
+        try:
+            for k, h in self.steer_sliders.items():
+                v = float(cmd.get(k) or 0.0)
+                if abs(float(h.value) - v) > 1e-9:
+                    h.value = v
+        finally:
+            self._syncing = False
+
+    def _sync_sliders(self) -> None:
+        """Shows the session's velocity command on the sliders when it was set elsewhere (REST /steer)."""
+        s = self.session
+        if s is None or not hasattr(self, "steer_sliders"):
+            return
+        cmd = s.command or {}
+        if s.command is not None and s.command.get("gait") in self.dd_gait.options:
+            if self.dd_gait.value != s.command["gait"]:
+                self.dd_gait.value = s.command["gait"]
+        self._write_sliders(cmd)
 
     def _overlay_added(self, name: str) -> None:
         # a new overlay name (e.g. from a planning module that just landed) gets its own toggle
@@ -381,16 +460,21 @@ class StudioClient:
         cb_edit = gui.add_checkbox("authoring markers", True)
         cb_edit.on_update(lambda e: self.editor.set_visible(bool(e.target.value)))
         self.cb_follow = gui.add_checkbox("camera follows the robot", False)
+        self.btn_reset_view = gui.add_button("Reset view")
+        self.btn_reset_view.on_click(lambda _e: self.reset_view())
 
     def _build_plots(self) -> None:
         import viser.uplot as up
 
         gui = self.client.gui
         z = np.zeros(2)
+        # simulated seconds on x (uPlot reads an x scale as dates unless told otherwise)
+        scales = {"x": up.Scale(time=False, auto=True)}
+        x_axis = up.Axis(label="t (s)")
         self.plot_solver = gui.add_uplot(
             data=(np.array([0.0, 1.0]), z),
             series=(up.Series(label="t (s)"), up.Series(label="controller ms/tick", stroke="#f3a712", width=1.5)),
-            title="Solver time per tick (ms)", aspect=1.6,
+            title="Solver time per tick (ms)", aspect=1.6, scales=scales, axes=(x_axis, up.Axis()),
         )  # fmt: skip
         self.plot_vel = gui.add_uplot(
             data=(np.array([0.0, 1.0]), z, z, z, z),
@@ -398,13 +482,14 @@ class StudioClient:
                     up.Series(label="vx ref", stroke="#4cc9f0", dash=(4.0, 4.0), width=1.0),
                     up.Series(label="vy", stroke="#e4572e", width=1.5),
                     up.Series(label="vy ref", stroke="#e4572e", dash=(4.0, 4.0), width=1.0)),
-            title="Velocity tracking (m/s)", aspect=1.6,
+            title="Velocity tracking (m/s)", aspect=1.6, scales=scales, axes=(x_axis, up.Axis()),
         )  # fmt: skip
 
     # ---- the render loop ----------------------------------------------------------------------------------------
     def _loop(self) -> None:
-        period = 1.0 / FRAME_HZ
+        min_gap = 1.0 / FRAME_HZ
         last_seq = -1
+        last_sent = 0.0
         next_overlay = next_plot = next_status = 0.0
         while not self._stop.is_set():
             t0 = time.perf_counter()
@@ -415,8 +500,8 @@ class StudioClient:
                     if s.generation != self.generation or self.view is None:
                         self._rebuild_scene(s)
                     snap = s.snapshot
-                    if snap.seq != last_seq:
-                        last_seq = snap.seq
+                    if snap.seq != last_seq and t0 - last_sent >= min_gap:
+                        last_seq, last_sent = snap.seq, t0
                         with self.client.atomic():
                             assert self.view is not None
                             self.view.set_poses(snap.xpos, snap.xquat)
@@ -439,7 +524,7 @@ class StudioClient:
                     return
                 log.exception("studio render loop")
                 time.sleep(0.5)
-            time.sleep(max(0.0, period - (time.perf_counter() - t0)))
+            time.sleep(POLL_S)
 
     def _rebuild_scene(self, s: LiveSession) -> None:
         self.generation = s.generation
@@ -479,17 +564,38 @@ class StudioClient:
         if s is None:
             self.md_status.content = "**no live robot** (server at its session cap) — authoring only"
             return
-        st = s.state()
-        dur = st.get("maneuver_duration") or 0.0
-        status = st.get("status")
-        line = (f"**{st.get('maneuver')}** on *{st.get('terrain')}* · t = {st.get('t', 0.0):.2f}"
-                f"{f' / {dur:.1f}' if dur else ''} s · {status} · {st.get('realtime_factor', 0):.2f}× real time · "
-                f"{self.fps:.0f} fps")  # fmt: skip
-        if st.get("fell"):
-            line += f"\n\n⚠ **fell**: {st.get('failure_reason')}"
-        if status == "crashed":
-            line += f"\n\n✖ **simulation crashed**: {st.get('error')} — press Reset robot"
-        self.md_status.content = line
+        self._sync_sliders()
+        self.md_status.content = status_line(s.state(), self.fps)
 
 
-__all__ = ["StudioClient"]
+def page_script_html() -> str:
+    """Returns an invisible HTML element that runs the studio's page helper (page.js) once in the tab: viser renders
+    GUI HTML as markup, where a script element would not run, but an image's error handler does."""
+    js = (Path(__file__).with_name("page.js")).read_text(encoding="utf-8")
+    return f'<img alt="" src="data:," style="display:none" onerror="{html.escape(js, quote=True)}">'
+
+
+def status_line(st: dict[str, Any], fps: float) -> str:
+    """Returns the studio's status line (markdown) for a session state: what runs where, its time (never past the
+    maneuver's end), whether it is running, done, fell (the robot then goes limp) or crashed."""
+    dur = float(st.get("maneuver_duration") or 0.0)
+    t = float(st.get("t") or 0.0)
+    status = str(st.get("status"))
+    if st.get("fell") and status == "running":
+        status = "fell"
+    elif st.get("done") and status == "running":
+        status = "done"
+    shown_t = min(t, dur) if dur else t
+    line = (f"**{st.get('maneuver')}** on *{st.get('terrain')}* · t = {shown_t:.2f}"
+            f"{f' / {dur:.1f}' if dur else ''} s · {status} · {float(st.get('realtime_factor') or 0.0):.2f}× real "
+            f"time · {fps:.0f} fps")  # fmt: skip
+    if st.get("fell"):
+        reason = str(st.get("failure_reason") or "")
+        reason = reason[len("fell: ") :] if reason.startswith("fell: ") else reason
+        line += f"\n\n⚠ **fell**: {reason} — the robot is limp; press Reset robot or preview again"
+    if status == "crashed":
+        line += f"\n\n✖ **simulation crashed**: {st.get('error')} — press Reset robot"
+    return line
+
+
+__all__ = ["StudioClient", "status_line"]

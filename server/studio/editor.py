@@ -25,20 +25,16 @@ import numpy as np
 from planning.maneuver import ManeuverError, parse_maneuver, validate_maneuver
 from planning.maneuver.load import read_yaml
 from server.storage import Conflict, StorageError, dump_yaml
+from server.studio import fields as F
 from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
 
 log = logging.getLogger("footfall.studio")
 FORMAT = "footfall/maneuver@1"
-WEIGHT_NAMES = ("force", "pose", "touchdown_time", "touchdown_position", "hip_over_foot")
-WEIGHT_DEFAULTS = {
-    "force": 1.0e-4,
-    "pose": 1.0,
-    "touchdown_time": 1.0,
-    "touchdown_position": 10.0,
-    "hip_over_foot": 0.1,
-}
-GAITS = ("trot", "walk", "pace", "bound", "pronk")
-OBJECTIVES = ("maximize_height", "lean", "minimize_torque")
+# the format's names, defaults and limits, read off its pydantic models (server.studio.fields), never restated here
+WEIGHT_DEFAULTS = F.weight_defaults()
+WEIGHT_NAMES = tuple(WEIGHT_DEFAULTS)
+GAITS = F.GAITS
+OBJECTIVES = F.OBJECTIVES
 TARGET_MODES = ("at", "offset", "in place")
 TRUNK_DIMS_M = (0.84, 0.24, 0.16)
 _PATH_RE = re.compile(r"^(events|body|gaits|objectives)\[(\d+)\]")
@@ -75,6 +71,7 @@ class ItemUi:
     problems: Any
     label: str
     handles: dict[str, Any] = field(default_factory=dict)
+    relabel: Callable[[], str] | None = None  # the folder's title from the item as it is now (times change)
 
 
 class ManeuverEditor:
@@ -149,8 +146,22 @@ class ManeuverEditor:
             self.source_name, self.source, self.etag = name, source, etag
             self.dirty = False
         self._write_static_fields()
+        self._show_in_library(name)
         self.rebuild_items()
         self.request_validation(0.0)
+
+    def _show_in_library(self, name: str | None) -> None:
+        """Makes the library dropdown show the open maneuver (listing it first if it is new)."""
+        dd = getattr(self, "dd_library", None)
+        if dd is None or not name:
+            return
+        try:
+            if name not in dd.options:
+                dd.options = [e["name"] for e in self.services.store.list()]
+            if name in dd.options:
+                dd.value = name
+        except Exception:  # noqa: BLE001 - the client may be gone
+            pass
 
     def new_document(self) -> None:
         h = float(getattr(self.services.robot, "standing_height_m", 0.52))
@@ -223,8 +234,8 @@ class ManeuverEditor:
         with gui.add_folder("Maneuver"):
             self.txt_name = gui.add_text("name", "")
             self.txt_title = gui.add_text("title", "")
-            self.num_duration = gui.add_number("duration (s)", 3.0, min=0.1, max=60.0, step=0.1)
-            self.num_friction = gui.add_number("friction", 0.6, min=0.05, max=3.0, step=0.05)
+            self.num_duration = self._number("duration (s)", 3.0, F.MANEUVER, "duration", 0.1, is_time=True)
+            self.num_friction = self._number("friction", 0.6, F.MANEUVER, "friction", 0.05)
         self.html_timeline = gui.add_html(timeline_svg(3.0, [], []))
         self.sl_scrub = gui.add_slider("scrub (s)", 0.0, 3.0, 0.01, 0.0)
         self.fd_legs = gui.add_folder("Legs (steps)", expand_by_default=True)
@@ -232,9 +243,7 @@ class ManeuverEditor:
         self.fd_gaits = gui.add_folder("Gaits", expand_by_default=False)
         with gui.add_folder("Weights", expand_by_default=False):
             self.num_weights = {
-                w: gui.add_number(
-                    w, WEIGHT_DEFAULTS[w], min=0.0, max=1e6, step=1e-4 if w == "force" else 0.01
-                )
+                w: self._number(w, WEIGHT_DEFAULTS[w], F.WEIGHTS, w, 1e-4 if w == "force" else 0.01)
                 for w in WEIGHT_NAMES
             }
         self.fd_objectives = gui.add_folder("Objectives", expand_by_default=False)
@@ -319,6 +328,14 @@ class ManeuverEditor:
             self.client.send_file_download(
                 f"{name}.yaml", self.yaml_text().encode("utf-8"), save_immediately=True
             )
+
+    def _number(
+        self, label: str, value: float, model: Any, name: str, step: float, *, is_time: bool = False
+    ) -> Any:
+        """Adds a number input whose limits and hint are the format's own (`model.name`)."""
+        f = F.number(model, name, step, is_time=is_time)
+        return self.gui.add_number(label, float(min(max(value, f.lo), f.hi)), min=f.lo, max=f.hi, step=step,
+                                   hint=f.description)  # fmt: skip
 
     def _write_static_fields(self) -> None:
         self._suspend = True
@@ -420,18 +437,24 @@ class ManeuverEditor:
 
     def _step_folder(self, leg: str, lo: dict[str, Any] | None, td: dict[str, Any] | None) -> None:
         gui = self.gui
-        t0 = float(lo["t"]) if lo else None
-        t1 = float(td["t"]) if td else None
-        label = (f"step {t0:.2f} → {t1:.2f} s" if lo and td else
-                 f"liftoff {t0:.2f} s (no touchdown)" if lo else f"touchdown {t1:.2f} s (no liftoff)")  # fmt: skip
+
+        def relabel() -> str:
+            t0 = float(lo["t"]) if lo else None
+            t1 = float(td["t"]) if td else None
+            return (f"step {t0:.2f} → {t1:.2f} s" if lo and td else
+                    f"liftoff {t0:.2f} s (no touchdown)" if lo else f"touchdown {t1:.2f} s (no liftoff)")  # fmt: skip
+
+        label = relabel()
         with gui.add_folder(label, expand_by_default=False) as f:
             md = self._problem_md()
             h: dict[str, Any] = {}
             if lo is not None:
-                h["lo_t"] = gui.add_number("liftoff t (s)", float(lo["t"]), min=0.0, max=60.0, step=0.01)
+                h["lo_t"] = self._number("liftoff t (s)", float(lo["t"]), F.LIFTOFF, "t", 0.01, is_time=True)
                 h["lo_t"].on_update(lambda e, it=lo: self._set(it, "t", float(e.target.value)))
             if td is not None:
-                h["td_t"] = gui.add_number("touchdown t (s)", float(td["t"]), min=0.0, max=60.0, step=0.01)
+                h["td_t"] = self._number(
+                    "touchdown t (s)", float(td["t"]), F.TOUCHDOWN, "t", 0.01, is_time=True
+                )
                 h["td_t"].on_update(lambda e, it=td: self._set(it, "t", float(e.target.value)))
                 mode = (
                     "at"
@@ -446,10 +469,11 @@ class ManeuverEditor:
                 h["vec"] = gui.add_vector3("target / offset (m)", tuple(vec[:3]), step=0.005)
                 h["vec"].disabled = mode == "in place"
                 adj = td.get("adjust") or {}
-                h["adj_t"] = gui.add_number("adjust ± time (s)", float(adj.get("time", 0.0)), min=0.0, max=5.0,
-                                            step=0.01)  # fmt: skip
-                h["adj_r"] = gui.add_number("adjust radius (m)", float(adj.get("radius") or 0.0), min=0.0, max=2.0,
-                                            step=0.005)  # fmt: skip
+                h["adj_t"] = self._number(
+                    "adjust ± time (s)", float(adj.get("time", 0.0)), F.ADJUST, "time", 0.01
+                )
+                h["adj_r"] = self._number("adjust radius (m)", float(adj.get("radius") or 0.0), F.ADJUST, "radius",
+                                          0.005)  # fmt: skip
                 n = td.get("normal") or [0.0, 0.0, 1.0]
                 h["normal"] = gui.add_vector3("contact normal", tuple(float(v) for v in n[:3]), step=0.05)
                 h["mode"].on_update(lambda e, it=td, hh=h: self._set_target_mode(it, str(e.target.value), hh))
@@ -461,23 +485,27 @@ class ManeuverEditor:
                 )
                 gui.add_button("Move target in 3D").on_click(lambda _e, it=td: self.select(id(it)))
             gui.add_button("Delete", color="red").on_click(lambda _e, a=lo, b=td: self.delete_items(a, b))
-        ui = ItemUi(f, md, label, h)
+        ui = ItemUi(f, md, label, h, relabel)
         for it in (lo, td):
             if it is not None:
                 self.item_ui[id(it)] = ui
 
     def _keyframe_folder(self, kf: dict[str, Any]) -> None:
         gui = self.gui
-        label = f"keyframe {float(kf.get('t', 0.0)):.2f} s"
+
+        def relabel() -> str:
+            return f"keyframe {float(kf.get('t', 0.0)):.2f} s"
+
+        label = relabel()
         with gui.add_folder(label, expand_by_default=False) as f:
             md = self._problem_md()
             h = {
-                "t": gui.add_number("t (s)", float(kf.get("t", 0.0)), min=0.0, max=60.0, step=0.01),
+                "t": self._number("t (s)", float(kf.get("t", 0.0)), F.KEYFRAME, "t", 0.01, is_time=True),
                 "pos": gui.add_vector3("position (m)", tuple(float(v) for v in kf.get("position", [0, 0, 0.52])),
                                        step=0.005),
                 "rpy": gui.add_vector3("roll, pitch, yaw (deg)", tuple(float(v) for v in kf.get("rpy", [0, 0, 0])),
                                        step=0.5),
-                "w": gui.add_number("weight", float(kf.get("weight", 1.0)), min=0.0, max=1e4, step=0.1),
+                "w": self._number("weight", float(kf.get("weight", 1.0)), F.KEYFRAME, "weight", 0.1),
             }  # fmt: skip
             h["t"].on_update(lambda e, it=kf: self._set(it, "t", float(e.target.value)))
             h["pos"].on_update(
@@ -489,20 +517,26 @@ class ManeuverEditor:
             h["w"].on_update(lambda e, it=kf: self._set(it, "weight", float(e.target.value)))
             gui.add_button("Move in 3D").on_click(lambda _e, it=kf: self.select(id(it)))
             gui.add_button("Delete", color="red").on_click(lambda _e, it=kf: self.delete_items(it))
-        self.item_ui[id(kf)] = ItemUi(f, md, label, h)
+        self.item_ui[id(kf)] = ItemUi(f, md, label, h, relabel)
 
     def _gait_folder(self, g: dict[str, Any]) -> None:
         gui = self.gui
-        label = f"{g.get('gait', 'trot')} {float(g.get('from', 0.0)):.2f} → {float(g.get('to', 0.0)):.2f} s"
+
+        def relabel() -> str:
+            return (
+                f"{g.get('gait', 'trot')} {float(g.get('from', 0.0)):.2f} → {float(g.get('to', 0.0)):.2f} s"
+            )
+
+        label = relabel()
         with gui.add_folder(label, expand_by_default=False) as f:
             md = self._problem_md()
             h = {
                 "gait": gui.add_dropdown("gait", GAITS, initial_value=g.get("gait", "trot")
                                          if g.get("gait") in GAITS else "trot"),
-                "from": gui.add_number("from (s)", float(g.get("from", 0.0)), min=0.0, max=60.0, step=0.05),
-                "to": gui.add_number("to (s)", float(g.get("to", 1.0)), min=0.0, max=60.0, step=0.05),
-                "cycle": gui.add_number("cycle (s)", float(g.get("cycle", 0.5)), min=0.05, max=10.0, step=0.01),
-                "duty": gui.add_number("duty", float(g.get("duty", 0.6)), min=0.05, max=0.95, step=0.01),
+                "from": self._number("from (s)", float(g.get("from", 0.0)), F.GAIT, "from_", 0.05, is_time=True),
+                "to": self._number("to (s)", float(g.get("to", 1.0)), F.GAIT, "to", 0.05, is_time=True),
+                "cycle": self._number("cycle (s)", float(g.get("cycle", 0.5)), F.GAIT, "cycle", 0.01),
+                "duty": self._number("duty", float(g.get("duty", 0.6)), F.GAIT, "duty", 0.01),
                 "step": gui.add_vector3("step dx, dy (m), dyaw (deg)",
                                         tuple(float(v) for v in g.get("step", [0.0, 0.0, 0.0])), step=0.01),
             }  # fmt: skip
@@ -511,11 +545,11 @@ class ManeuverEditor:
                 h[key].on_update(lambda e, it=g, key=key: self._set(it, key, float(e.target.value)))
             h["step"].on_update(lambda e, it=g: self._set(it, "step", [_r(v) for v in e.target.value]))
             gui.add_button("Delete", color="red").on_click(lambda _e, it=g: self.delete_items(it))
-        self.item_ui[id(g)] = ItemUi(f, md, label, h)
+        self.item_ui[id(g)] = ItemUi(f, md, label, h, relabel)
 
     def _objective_folder(self, o: dict[str, Any]) -> None:
         gui = self.gui
-        kind = o.get("type") if o.get("type") in OBJECTIVES else "maximize_height"
+        kind = str(o.get("type")) if o.get("type") in OBJECTIVES else OBJECTIVES[0]
         t = o.get("t", [0.0, 0.0])
         t = [float(t), float(t)] if isinstance(t, (int, float)) else [float(v) for v in (t or [0.0, 0.0])[:2]]
         with gui.add_folder(f"{kind}", expand_by_default=False) as f:
@@ -523,7 +557,7 @@ class ManeuverEditor:
             h = {
                 "type": gui.add_dropdown("type", OBJECTIVES, initial_value=kind),
                 "t": gui.add_vector2("t start, end (s)", (t[0], t[1]) if len(t) == 2 else (0.0, 0.0), step=0.05),
-                "w": gui.add_number("weight", float(o.get("weight", 1.0)), min=0.0, max=1e4, step=0.1),
+                "w": self._number("weight", float(o.get("weight", 1.0)), F.objective_models()[kind], "weight", 0.1),
                 "dir": gui.add_vector2("lean direction x, y", tuple(float(v) for v in o.get("direction", [1.0, 0.0])),
                                        step=0.1),
             }  # fmt: skip
@@ -533,7 +567,7 @@ class ManeuverEditor:
             h["w"].on_update(lambda e, it=o: self._set(it, "weight", float(e.target.value)))
             h["dir"].on_update(lambda e, it=o: self._set(it, "direction", [_r(v, 3) for v in e.target.value]))
             gui.add_button("Delete", color="red").on_click(lambda _e, it=o: self.delete_items(it))
-        self.item_ui[id(o)] = ItemUi(f, md, str(kind), h)
+        self.item_ui[id(o)] = ItemUi(f, md, str(kind), h, lambda: str(o.get("type", kind)))
 
     # ---- edits ------------------------------------------------------------------------------------------------
     def _set(self, item: dict[str, Any], key: str, value: Any, marker: bool = False) -> None:
@@ -541,11 +575,24 @@ class ManeuverEditor:
             return
         with self.lock:
             item[key] = value
+        self._relabel(item)
         if key == "t":
             self._refresh_timeline()
         if marker:
             self.refresh_markers()
         self._changed()
+
+    def _relabel(self, item: dict[str, Any]) -> None:
+        """Retitles the item's folder after an edit (its times, its gait), keeping its problem mark."""
+        ui = self.item_ui.get(id(item))
+        if ui is None or ui.relabel is None:
+            return
+        ui.label = ui.relabel()
+        sev = self._severity(id(item))
+        try:
+            ui.folder.label = ("✖ " if sev == "failure" else "⚠ " if sev else "") + ui.label
+        except Exception:  # noqa: BLE001 - the client may be gone
+            pass
 
     def _set_adjust(self, td: dict[str, Any], key: str, value: float) -> None:
         if self._suspend:
@@ -609,6 +656,7 @@ class ManeuverEditor:
         ui = self.item_ui.get(id(o))
         if ui is not None:
             ui.handles["dir"].visible = kind == "lean"
+        self._relabel(o)
         self._changed()
 
     def _scrub_t(self) -> float:
@@ -1049,9 +1097,5 @@ class ManeuverEditor:
         with self.lock:
             self.source_name, self.source, self.etag, self.dirty = stored.name, "user", stored.etag, False
         self._refresh_header()
-        try:
-            names = [e["name"] for e in store.list()]
-            self.dd_library.options = names
-        except Exception:  # noqa: BLE001
-            pass
+        self._show_in_library(stored.name)
         self.notify("Saved", f"{stored.name} saved to your library", "green")

@@ -86,6 +86,8 @@ def add_geom(
         p = (g.pos[0], g.pos[1], g.pos[2] - 0.005)
         return scene.add_box(name, color=rgb, dimensions=(2 * hx, 2 * hy, 0.01), position=p, wxyz=g.wxyz,
                              receive_shadow=True)  # fmt: skip
+    if g.kind == "mesh" and g.mesh is not None:
+        return scene.add_mesh_simple(name, g.mesh[0], g.mesh[1], color=rgb, opacity=opacity, **pose)
     if g.kind == "hfield" and g.hfield_z is not None and g.hfield_half_xy is not None:
         v, f = hfield_mesh(g.hfield_z, *g.hfield_half_xy)
         return scene.add_mesh_simple(name, v, f, color=rgb, flat_shading=True, **pose)

@@ -187,3 +187,37 @@ def test_maneuvers_scale_to_the_robot() -> None:
     g0, g1 = walk.gaits[0], scale_to_robot(walk, go1).gaits[0]
     assert g1.step[0] == pytest.approx(g0.step[0] * go1.nominal_stance_xy[0] / sx0)
     assert g1.cycle == g0.cycle
+
+
+def test_the_studio_draws_mesh_geoms(critter: Path) -> None:
+    from server.engine import visuals_of
+    from server.studio.robot_view import add_geom
+
+    r = load_robot(critter)
+    w = World(r, build_terrain("flat"))
+    v = visuals_of(w.model, w.data, w.body_id)
+    meshes = [g for g in v.robot_geoms if g.kind == "mesh"]
+    assert len(meshes) == 1 and meshes[0].mesh is not None
+    verts, faces = meshes[0].mesh
+    assert verts.shape == (8, 3) and faces.shape == (12, 3)  # the cube, triangulated
+    np.testing.assert_allclose(np.abs(verts), 0.05, atol=1e-6)
+
+    class Scene:
+        def add_mesh_simple(self, name: str, vertices: np.ndarray, faces: np.ndarray, **kw: object) -> str:
+            return f"mesh {name} {len(vertices)} {len(faces)}"
+
+    assert add_geom(Scene(), "shell", meshes[0]) == "mesh shell 8 12"
+
+
+def test_the_validator_says_when_a_pose_asks_more_torque_than_the_motors_give() -> None:
+    import copy
+
+    from planning.maneuver import validate_maneuver
+
+    go1 = load_robot("go1")
+    crouch = load_maneuver(find_maneuver("crouch"))
+    assert not [p for p in validate_maneuver(crouch, go1).warnings if "N·m" in p.message]
+    weak = copy.copy(go1)
+    weak.tau_max = go1.tau_max * 0.05  # a crouched knee holds ~3 N·m of a 12.6 kg body
+    found = [p for p in validate_maneuver(crouch, weak).warnings if "N·m" in p.message]
+    assert found and "limit" in found[0].message and found[0].path.startswith("body[")

@@ -13,6 +13,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -166,3 +167,140 @@ def test_studio_loads_bow_and_previews_it(server: dict[str, Any], tmp_path: Path
             assert not problems, problems
         finally:
             ctx.close()
+
+
+@contextmanager
+def _browser_page(tmp_path: Path) -> Iterator[tuple[Any, list[str]]]:
+    """A headless Chromium page (and the page errors and console errors it collects)."""
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"Debian's chromium is not installed at {CHROMIUM} (apt-get install chromium)")
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.fail("the Python package `playwright` is not installed (pip install playwright)")
+    problems: list[str] = []
+    ARTIFACTS.mkdir(exist_ok=True)
+    with sync_playwright() as pw:
+        ctx = pw.chromium.launch_persistent_context(
+            str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True,
+            viewport={"width": 1400, "height": 900},
+        )  # fmt: skip
+        try:
+            page = ctx.pages[0] if ctx.pages else ctx.new_page()
+            page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
+            page.on("console", lambda m: _console(m, problems))
+            yield page, problems
+        finally:
+            ctx.close()
+
+
+def _open_studio(page: Any, server: dict[str, Any]) -> str:
+    """Opens the studio and returns the viser client id of the tab (the newest one)."""
+    before = set(httpx.get(f"{server['api']}/studio", timeout=5).json()["fps"])
+    page.goto(server["studio"], wait_until="domcontentloaded")
+    page.get_by_role("button", name="Preview", exact=True).wait_for(timeout=30_000)
+    end = time.monotonic() + 20
+    while True:
+        info = httpx.get(f"{server['api']}/studio", timeout=5).json()
+        new = [c for c in info["sessions"] if c not in before and info["sessions"][c]]
+        if new and info["cameras"].get(new[0]) and info["steer"].get(new[0]):
+            return new[0]
+        assert time.monotonic() < end, f"the studio tab did not come up: {info}"
+        time.sleep(0.2)
+
+
+@pytest.mark.browser
+def test_keys_steer_without_moving_the_camera_and_labels_name_their_inputs(
+    server: dict[str, Any], tmp_path: Path
+) -> None:
+    """Three presses of the forward key: the velocity slider and the session's command go to 0.3 m/s, the camera
+    stays where it was (W used to fly it under the floor); X stops; Reset view puts a moved camera back. Then the
+    'save as name' input is found by its label (as a screen reader would) and Save as writes the file."""
+    api = server["api"]
+    with _browser_page(tmp_path) as (page, problems):
+        cid = _open_studio(page, server)
+        cam0 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
+        page.mouse.click(400, 120)  # the 3D view (empty sky) has the focus, as when a user clicked in it
+        for _ in range(3):
+            page.keyboard.press("i")
+            time.sleep(0.15)
+        end = time.monotonic() + 10
+        while (info := httpx.get(f"{api}/studio", timeout=5).json())["steer"][cid]["vx"] < 0.29:
+            assert time.monotonic() < end, info["steer"]
+            time.sleep(0.1)
+        assert info["steer"][cid] == {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0}
+        sid = info["sessions"][cid]
+        assert httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["command"]["vx"] == pytest.approx(
+            0.3
+        )
+        time.sleep(0.5)
+        cam1 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
+        assert cam1 == cam0, (cam0, cam1)
+        page.keyboard.press("x")  # stops
+        end = time.monotonic() + 10
+        while httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["command"]["vx"] != 0.0:
+            assert time.monotonic() < end, "X did not stop the robot"
+            time.sleep(0.1)
+        # the camera keys themselves still fly the view (they are viser's); Reset view brings it back
+        page.keyboard.down("w")
+        time.sleep(0.6)
+        page.keyboard.up("w")
+        end = time.monotonic() + 10
+        while httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid] == cam0:
+            assert time.monotonic() < end, "W did not move the camera (is this viser's viewer?)"
+            time.sleep(0.1)
+        page.get_by_role("tab", name="View").click()
+        page.get_by_role("button", name="Reset view", exact=True).click()
+        end = time.monotonic() + 10
+        while True:
+            cam2 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
+            body = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["body"]["position"]
+            if cam2["position"][2] > body[2] + 0.5 and abs(cam2["look_at"][0] - body[0]) < 0.3:
+                break
+            assert time.monotonic() < end, (cam2, body)
+            time.sleep(0.1)
+
+        page.get_by_role("tab", name="Author").click()
+        page.get_by_text("File", exact=True).first.dispatch_event("click")  # opens the folder
+        page.get_by_label("save as name", exact=True).fill("bow-by-label")
+        page.get_by_role("button", name="Save as", exact=True).click()
+        end = time.monotonic() + 15
+        while (r := httpx.get(f"{api}/maneuvers/bow-by-label", timeout=5)).status_code != 200:
+            assert time.monotonic() < end, r.text
+            time.sleep(0.2)
+        doc = r.json()
+        assert doc["name"] == "bow-by-label" and doc["body"] and doc["duration"] > 0
+        # the library dropdown shows what is open
+        end = time.monotonic() + 10
+        while page.get_by_label("Maneuver", exact=True).input_value() != "bow-by-label":
+            assert time.monotonic() < end, page.get_by_label("Maneuver", exact=True).input_value()
+            time.sleep(0.1)
+        assert not problems, problems
+
+
+@pytest.mark.browser
+def test_api_docs_render_offline(server: dict[str, Any], tmp_path: Path) -> None:
+    """/docs and /redoc draw the API with every request outside the server refused."""
+    api = server["api"]
+    with _browser_page(tmp_path) as (page, problems):
+        outside: list[str] = []
+
+        def gate(route: Any) -> None:
+            url = route.request.url
+            if url.startswith(api):
+                route.continue_()
+            else:
+                outside.append(url)
+                route.abort()
+
+        page.route("**/*", gate)
+        page.goto(f"{api}/docs")
+        page.locator(".opblock").first.wait_for(timeout=20_000)
+        assert page.locator(".opblock").count() > 10
+        page.screenshot(path=str(ARTIFACTS / "api-docs-offline.png"))
+        page.goto(f"{api}/redoc")
+        page.get_by_text("Sessions", exact=False).first.wait_for(timeout=20_000)
+        assert "POST" in page.inner_text("body").upper()
+        # ReDoc's sidebar credit asks redoc.ly for its logo and hides it when that fails: the one request out
+        assert not [u for u in outside if not u.endswith("/redoc/logo-mini.svg")], outside
+        assert not [p for p in problems if "ERR_FAILED" not in p], problems  # the refused logo

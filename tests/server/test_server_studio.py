@@ -256,3 +256,132 @@ def test_meshes_and_timeline() -> None:
         4.0, [Bar("RL", 0.8, 1.4, True, "failure")], [Mark("body", 2.0)], [(1.0, 3.0, "trot")], 1.2
     )
     assert svg.startswith("<svg") and "#ff3b30" in svg and "trot" in svg and svg.count("<rect") >= 2
+
+
+# ---- the defects of issue 28 ------------------------------------------------------------------------------------------
+def _viser_camera_keys() -> set[str]:
+    """Returns the keys viser's viewer flies its camera with, read from the client source viser ships."""
+    import re
+
+    src = (Path(viser.__file__).parent / "client" / "src" / "CameraControls.tsx").read_text()
+    block = src[src.index("CAMERA_MOVEMENT_KEYS = new Set([") :]
+    block = block[: block.index("])")]
+    codes = re.findall(r'"(\w+)"', block)
+    assert "KeyW" in codes and "ArrowUp" in codes, codes  # the parse found the set
+    return {c[3:].upper() if c.startswith("Key") else c.lower() for c in codes}
+
+
+def test_steering_keys_are_not_camera_keys() -> None:
+    """viser flies its camera on W A S D Q E and the arrows whatever else they do: the studio's keys avoid them."""
+    from server.studio.client import CAMERA_KEYS, STEER_KEYS, STOP_KEY
+
+    camera = _viser_camera_keys()
+    assert camera == {k.upper() if len(k) == 1 else k for k in CAMERA_KEYS}
+    ours = {k for k, _, _ in STEER_KEYS} | {STOP_KEY}
+    assert len(ours) == 7 and not ours & camera, ours & camera
+
+
+def test_reset_view_brings_the_camera_back(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    cam = tab.client.camera
+    cam.position = (0.3, 0.2, -2.0)  # under the floor, as three presses of W used to leave it
+    cam.look_at = (0.3, 0.2, -3.0)
+    tab.reset_view()
+    body = np.asarray(tab.session.snapshot.xpos[0])
+    assert cam.position[2] > body[2] + 0.5 and np.linalg.norm(np.asarray(cam.look_at) - body) < 1e-6
+
+
+def test_folder_titles_follow_edits(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    ed = tab.editor
+    assert ed.open("jump")
+    lo, td = next(p for p in ed._steps_of("FL"))
+    ui = ed.item_ui[id(td)]
+    assert "1.20 → 1.42" in ui.folder.label
+    ui.handles["td_t"].value = 1.55  # as the user types it
+    assert (
+        td["t"] == pytest.approx(1.55) and "1.20 → 1.55" in ui.folder.label and "1.42" not in ui.folder.label
+    )
+    ed.validate_now()
+    assert "1.20 → 1.55" in ui.folder.label  # the problem mark keeps the new title
+    kf = ed.keyframes[1]
+    ed.item_ui[id(kf)].handles["t"].value = 1.33
+    assert ed.item_ui[id(kf)].folder.label.endswith("keyframe 1.33 s")
+
+
+def test_library_dropdown_shows_the_open_maneuver(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    ed = tab.editor
+    for name in ("crouch", "bow"):
+        assert ed.open(name)
+        assert ed.dd_library.value == name
+
+
+def test_editor_limits_are_the_formats(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    """The editor's inputs take their limits from the pydantic models (the spec says a gait cycle is ≥ 0.1 s)."""
+    from planning.maneuver.spec import MAX_DURATION_S, Weights
+
+    ed = tab.editor
+    assert ed.open("walk-forward") and ed.gaits
+    h = ed.item_ui[id(ed.gaits[0])].handles
+    assert h["cycle"].min == pytest.approx(0.1) and h["cycle"].max == pytest.approx(10.0)
+    assert 0.0 < h["duty"].min and h["duty"].max < 1.0
+    assert h["from"].max == pytest.approx(MAX_DURATION_S) and h["cycle"].hint
+    assert set(ed.num_weights) == set(Weights.model_fields)
+    assert ed.num_duration.max == pytest.approx(MAX_DURATION_S) and ed.num_friction.max == pytest.approx(3.0)
+
+
+def test_rest_steering_shows_on_the_sliders(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    client, _ = studio_app
+    sid = tab.session.id
+    r = client.post(f"/sessions/{sid}/steer", json={"vx": 0.3, "vy": -0.1, "yaw_rate": 0.4})
+    assert r.status_code == 200, r.text
+    want = {"vx": 0.3, "vy": -0.1, "yaw_rate": 0.4}
+    assert wait_for(lambda: client.get("/studio").json()["steer"][str(tab.client.client_id)] == want, 5.0)
+    # a new terrain starts standing: the sliders go back to 0 (and the robot does not walk off again)
+    tab.dd_terrain.value = "slope"
+    assert tab.slider_info() == {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0} and tab.session.command is None
+    time.sleep(0.6)  # a few status updates: the sliders stay at 0
+    assert tab.slider_info() == {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}
+    tab.dd_terrain.value = "flat"
+
+
+def test_plots_count_seconds_not_dates(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    for plot in (tab.plot_solver, tab.plot_vel):
+        assert plot.scales["x"]["time"] is False and plot.axes[0]["label"] == "t (s)"
+
+
+def test_status_line() -> None:
+    from server.studio.client import status_line
+
+    st = {"maneuver": "jump", "terrain": "flat", "t": 78.48, "maneuver_duration": 10.0, "status": "running",
+          "realtime_factor": 1.0, "done": True, "fell": False}  # fmt: skip
+    line = status_line(st, 55.0)
+    assert "t = 10.00 / 10.0 s" in line and "done" in line and "78" not in line
+    st |= {
+        "t": 2.75,
+        "done": False,
+        "fell": True,
+        "failure_reason": "fell: body dropped to 0.12 m at t=2.75 s",
+    }
+    line = status_line(st, 55.0)
+    assert (
+        line.count("fell") == 2 and "fell: fell" not in line and "· fell ·" in line and "running" not in line
+    )
+    assert "body dropped to 0.12 m" in line
+
+
+def test_a_fallen_robot_goes_limp() -> None:
+    """After a fall the controller stops: zero joint torques, no stage runs, the state still follows physics."""
+    from server.engine import LiveSim, default_maneuver
+
+    sim = LiveSim(default_maneuver("stand"), "flat")
+    for _ in range(20):
+        sim.step()
+    assert np.abs(sim.data.ctrl).max() > 1.0  # standing takes torque
+    loop = sim.session.loop
+    loop.fell, loop.failure_reason = True, "fell: pushed over (test)"
+    runs = [len(st.times_ms) for st in loop.stages]
+    z0 = float(sim.state.p_world_body[2])
+    for _ in range(250):
+        sim.step()
+    assert np.abs(sim.data.ctrl).max() == 0.0 and [len(st.times_ms) for st in loop.stages] == runs
+    assert float(sim.state.p_world_body[2]) < z0 - 0.05  # limp: it sags under its own weight
+    assert sim.state_dict()["fell"] and sim.t == pytest.approx(0.54, abs=0.01)

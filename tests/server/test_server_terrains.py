@@ -4,6 +4,7 @@ naming the field, and no request reaches a file outside the terrain directory.""
 from __future__ import annotations
 
 import io
+import struct
 import time
 from pathlib import Path
 
@@ -106,10 +107,9 @@ def test_upload_use_list_and_delete_a_heightmap(client: TestClient, settings: Se
     r = client.post("/simulations", json={"walk": {"vx": 0.3}, "terrain": "hills.npy", "duration": 1.0})
     assert r.status_code == 202, r.text
     job = r.json()["id"]
-    for _ in range(100):
-        st = client.get(f"/simulations/{job}").json()
-        if st["status"] in ("done", "failed"):
-            break
+    end = time.monotonic() + 60.0  # a worker process starts first; on a loaded machine that takes seconds
+    while (st := client.get(f"/simulations/{job}").json())["status"] not in ("done", "failed"):
+        assert time.monotonic() < end, st
         time.sleep(0.05)
     assert st["status"] == "done" and st["request"]["terrain"] == "hills.npy"
     assert client.delete("/terrain-files/hills.npy").status_code == 204
@@ -153,3 +153,23 @@ def test_terrains_list_their_parameters(client: TestClient) -> None:
     assert "mixed" in terrains
     riser = next(p for p in terrains["stairs"]["params"] if p["name"] == "riser_m")
     assert riser == {"name": "riser_m", "kind": "float", "default": 0.15, "range": [0.02, 0.3], "unit": "m"}
+
+
+def test_an_uploaded_scene_uses_an_uploaded_mesh(client: TestClient) -> None:
+    tris = [((0, 0, 0), (1, 0, 0), (0, 1, 0)), ((0, 0, 0), (0, 1, 0), (0, 0, 0.2)),
+            ((0, 0, 0), (0, 0, 0.2), (1, 0, 0)), ((1, 0, 0), (0, 0, 0.2), (0, 1, 0))]  # fmt: skip
+    stl = b"\0" * 80 + struct.pack("<I", len(tris))  # binary STL: header, count, (normal, 3 vertices, attr)
+    for tri in tris:
+        stl += struct.pack("<12fH", 0, 0, 0, *(c for v in tri for c in v), 0)
+    assert client.put("/terrain-files/wedge.stl", content=stl).json()["kind"] == "mesh"
+    scene = (
+        '<mujoco><asset><mesh name="w" file="wedge.stl"/></asset><worldbody>'
+        '<geom name="floor" type="plane" size="5 5 0.1"/><geom name="wedge" type="mesh" mesh="w" pos="2 0 0"/>'
+        "</worldbody></mujoco>"
+    )
+    assert client.put("/terrain-files/wedged.xml", content=scene.encode()).status_code == 201
+    status, body = _session_terrain(client, "wedged.xml")
+    assert status == 201, body
+    # a mesh is not a terrain by itself
+    r = client.post("/sessions", json={"terrain": "wedge.stl"})
+    assert r.status_code == 422 and "unknown kind '.stl'" in r.text

@@ -250,6 +250,11 @@ def test_mjcf_scene_ground_truth_is_its_support_surface(tmp_path: Path) -> None:
     assert checked > 500
     grid = scene.ground_height(np.linspace(1, 4, 7)[:, None], np.zeros((1, 3)))
     assert grid.shape == (7, 3)
+    # a scene can go to a worker process
+    import pickle
+
+    again = pickle.loads(pickle.dumps(scene))
+    assert again.ground_height(1.5, 0.0) == pytest.approx(0.2) and again.worldbody_xml == scene.worldbody_xml
 
 
 def test_mjcf_includes_work_within_the_scene_directory(tmp_path: Path) -> None:
@@ -263,6 +268,20 @@ def test_mjcf_includes_work_within_the_scene_directory(tmp_path: Path) -> None:
     )
     scene = load_terrain(str(tmp_path / "main.xml"))
     assert scene.ground_height(2.0, 0.0) == pytest.approx(0.2)
+
+
+def test_a_nested_include_may_not_climb_out(tmp_path: Path) -> None:
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "more.xml").write_text('<mujoco><include file="../../outside.xml"/></mujoco>')
+    (tmp_path / "main.xml").write_text('<mujoco><include file="parts/more.xml"/></mujoco>')
+    with pytest.raises(
+        TerrainSpecError, match=r"more\.xml: <include file='\.\./\.\./outside\.xml'> names a file"
+    ):
+        load_terrain(str(tmp_path / "main.xml"))
+    # climbing back into the scene's directory is refused too: MuJoCo may resolve it from another directory
+    (tmp_path / "parts" / "more.xml").write_text('<mujoco><include file="../main2.xml"/></mujoco>')
+    with pytest.raises(TerrainSpecError, match=r"without '\.\.'"):
+        load_terrain(str(tmp_path / "main.xml"))
 
 
 @pytest.mark.parametrize(
@@ -311,7 +330,7 @@ def test_the_robot_walks_onto_a_user_terrain(tmp_path: Path, kind: str) -> None:
     )
     assert session.navigator is not None  # a user terrain is walked terrain-aware
     report = session.run()
-    assert report["terrain"] == terrain
+    assert report["terrain"] == terrain and report["seed"] == 0
     assert not report["fell"], report["failure_reason"]
     assert report["body_collisions"] == 0
     # onto the terrain: the front feet are past where it starts (the bumps at 0.8 m, the rotated step at ~1.0 m)
