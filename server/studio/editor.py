@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from planning.maneuver import ManeuverError, parse_maneuver, validate_maneuver
+from planning.maneuver import ManeuverError, check_maneuver, parse_maneuver
 from planning.maneuver.load import read_yaml
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio import fields as F
@@ -735,7 +735,9 @@ class ManeuverEditor:
         except ManeuverError as e:
             problems, result = list(e.problems), None
         else:
-            result = validate_maneuver(maneuver, self.services.robot)
+            result = check_maneuver(
+                maneuver, self.services.robot
+            )  # the one validation: CLI and REST call it too
             problems = [*result.failures, *result.warnings]
         with self.lock:
             if rev < self._shown_rev:
