@@ -84,8 +84,10 @@ def ramp(
     max_error_frac: float = 0.10,
     centroidal: bool = False,
     levels: list[float] | None = None,
+    setup: Callable[[Any], None] | None = None,
 ) -> RampResult:
-    """Ramps one command axis through its levels in one run; returns the top level held."""
+    """Ramps one command axis through its levels in one run; returns the top level held. setup(session), when
+    given, may change the session's controller before the ramp starts (for experiments)."""
     from planning.sim.run import RunOptions, WalkCommand, WalkSession
 
     if not 0.0 < measure_s <= hold_s:
@@ -94,6 +96,8 @@ def ramp(
     # what the robot can do, not what the joystick allows: the steering limits (and each gait's own) lifted
     steering = sess.controller.planner.steering
     steering.params = replace(steering.params, **UNLIMITED)
+    if setup is not None:
+        setup(sess)
     rec = sess.recorder
     held: list[tuple[float, float]] = []
     top: float | None = None

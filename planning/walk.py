@@ -8,7 +8,7 @@ the swing foot lands. The body reference follows the filtered command.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -26,6 +26,7 @@ from planning.steps import SteeringCommand, StepPlanner, StepPlannerParams, Walk
 from planning.steps.centroidal import StepPathProblems
 from planning.steps.gait import get_gait
 from planning.steps.select import Selection
+from planning.swing.params import SwingParams
 
 if TYPE_CHECKING:  # the terrain stack is imported only by the walks that use it
     from planning.terrain.decision import TerrainPipeline, TerrainView
@@ -87,6 +88,9 @@ class WalkParams:
     goal_speed_mps: float = 0.5  # speed cap when walking to a goal
     goal_tolerance_m: float = 0.08  # stop within this of the goal
     max_position_lead_m: float = 0.05  # the body target leads the body by at most this (m)
+    # the swing feet's horizontal limits while trotting fast (trot_fast): the longer steps need them (m/s, m/s²)
+    fast_swing_v_max_xy_mps: float = 6.0
+    fast_swing_a_max_xy_mps2: float = 120.0
     steps: StepPlannerParams = field(default_factory=StepPlannerParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     handler: HandlerParams = field(default_factory=HandlerParams)
@@ -137,6 +141,7 @@ class WalkController:
         self._p_des: np.ndarray | None = None
         self._yaw_des = 0.0
         self._t_last = 0.0
+        self._swing_slow: SwingParams | None = None  # the swing parameters to restore after trot_fast
         self.problems = StepPathProblems(robot)
         self.driver = (
             SolverDriver(robot, None, p.solution_max_age_s, p.centroidal) if p.use_centroidal else None
@@ -271,6 +276,7 @@ class WalkController:
             self.handler.ground = swing_maps.height_at
         maps = self.maps if self.terrain is None else self.terrain.maps
         sel = self.planner.tick(cmd, self._walk_state(s), maps)
+        self._swing_for_speed()
         if self.reference_only:
             ref = sel.candidates[0]
             sel = Selection(ref, 0.0, sel.scores, 0, sel.candidates, sel.xi_td, sel.xi_td_reference, True, 1)
@@ -279,6 +285,27 @@ class WalkController:
         if self.terrain is not None and view is not None:
             sel = self.terrain.footholds(view, sel)
         self.plan.update(sel)
+
+    def _swing_for_speed(self) -> None:
+        """Raises the swing feet's horizontal limits while the gait is trot_fast; restores them after."""
+        fast = self.planner.clock.gait.name == "trot_fast"
+        if fast == (self._swing_slow is not None):
+            return
+        sp = self.handler.swing_planner
+        if fast:
+            self._swing_slow = sp.params
+            p = self.params
+            sp.set_params(
+                replace(
+                    sp.params,
+                    v_max_xy_mps=p.fast_swing_v_max_xy_mps,
+                    a_max_xy_mps2=p.fast_swing_a_max_xy_mps2,
+                )
+            )
+        else:
+            assert self._swing_slow is not None
+            sp.set_params(self._swing_slow)
+            self._swing_slow = None
 
     def _centroidal(self, s: RobotState) -> None:
         sel = self.plan.selection

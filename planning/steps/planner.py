@@ -14,13 +14,17 @@ from planning.steps.select import Selection, SelectionParams, WeightPresets, Wei
 from planning.steps.state import SteeringCommand, StepMaps, StepRobot, WalkState
 from planning.steps.steering import SteeringFilter, SteeringParams
 
+_FAST_TROT = get_gait("trot_fast")
+
 
 @dataclass(frozen=True)
 class StepPlannerParams:
     """Composed stage parameters. n_candidates: potential paths per replan. walk_gait: gait used to start
     walking from a stand. start_speed_mps: command magnitude (m/s, rad/s) above which a stand starts walking.
     push_margin_m: a standing robot whose capture point leaves its support polygon by more than this (m) starts
-    stepping. settle_speed_mps: a stopped robot stepping after a push stands again below this speed (m/s)."""
+    stepping. settle_speed_mps: a stopped robot stepping after a push stands again below this speed (m/s).
+    fast_trot_above_mps / fast_trot_below_mps: a trot commanded faster forward than the first switches to
+    trot_fast (a longer swing) and back below the second (m/s; the gap keeps it from switching to and fro)."""
 
     steering: SteeringParams = field(default_factory=SteeringParams)
     reference: ReferenceParams = field(default_factory=ReferenceParams)
@@ -31,6 +35,8 @@ class StepPlannerParams:
     start_speed_mps: float = 0.05
     push_margin_m: float = 0.03
     settle_speed_mps: float = 0.1
+    fast_trot_above_mps: float = 0.9
+    fast_trot_below_mps: float = 0.7
 
 
 class StepPlanner:
@@ -93,6 +99,16 @@ class StepPlanner:
         slow = float(np.linalg.norm(state.v_world_com[:2])) < self.params.settle_speed_mps
         return slow and state.contact.sum() >= 3 and not self.pushed_out_of_support(state)
 
+    def _trot_for_speed(self, cmd: SteeringCommand, filtered: SteeringCommand) -> None:
+        """A trot asked to go faster than fast_trot_above_mps switches to trot_fast; back below fast_trot_below_mps."""
+        p, clock = self.params, self.clock
+        if self._stopped or clock.pending is not None or self.walk_gait.name != "trot":
+            return
+        if clock.gait.name == "trot" and self.steering.limit(cmd, _FAST_TROT).vx > p.fast_trot_above_mps:
+            clock.request(_FAST_TROT)
+        elif clock.gait.name == _FAST_TROT.name and max(cmd.vx, filtered.vx) < p.fast_trot_below_mps:
+            clock.request(self.walk_gait)
+
     def tick(self, cmd: SteeringCommand, state: WalkState, maps: StepMaps | None = None) -> Selection:
         """Returns the selected step path for this tick (its next touchdowns are the contact schedule)."""
         dt = max(state.t - self._t_last, 0.0)
@@ -109,6 +125,7 @@ class StepPlanner:
         self.clock.advance(state.t)
         target_gait = self.clock.pending or self.clock.gait
         filtered = self.steering.update(cmd if not self._stopped else SteeringCommand(), dt, target_gait)
+        self._trot_for_speed(cmd, filtered)
         reference = reference_step_path(
             filtered,
             state,

@@ -18,10 +18,11 @@ class SteeringParams:
     max_yaw_rate_rps: rad/s. max_accel_x_mps2, max_accel_y_mps2: m/s². max_yaw_accel_rps2: rad/s².
     tau_s: first-order smoothing time constant, s (0 = no smoothing).
     gait_limits: each gait's own max_speed_mps caps the command (off: only the limits here apply; the speed bench
-    turns it off to find what the robot can do).
+    turns it off to find what the robot can do). lateral_scale_ref_mps: a gait whose max speed is below this
+    has its sideways, backward and turning limits scaled down in proportion (m/s).
     """
 
-    max_vx_mps: float = 1.6
+    max_vx_mps: float = 2.0
     max_vx_back_mps: float = 0.8
     max_vy_mps: float = 0.6
     max_yaw_rate_rps: float = 1.2
@@ -30,6 +31,7 @@ class SteeringParams:
     max_yaw_accel_rps2: float = 3.0
     tau_s: float = 0.15
     gait_limits: bool = True
+    lateral_scale_ref_mps: float = 1.6
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
@@ -57,7 +59,8 @@ class SteeringFilter:
         if not p.gait_limits:
             gait = None if gait is None or not gait.is_stand else gait
         vx_max = p.max_vx_mps if gait is None else min(p.max_vx_mps, gait.max_speed_mps)
-        scale = 1.0 if gait is None or p.max_vx_mps == 0.0 else vx_max / p.max_vx_mps
+        ref = p.lateral_scale_ref_mps
+        scale = 1.0 if gait is None or ref <= 0.0 else min(gait.max_speed_mps / ref, 1.0)
         return SteeringCommand(
             vx=_clip(cmd.vx, -p.max_vx_back_mps * scale, vx_max),
             vy=_clip(cmd.vy, -p.max_vy_mps * scale, p.max_vy_mps * scale),

@@ -1,0 +1,37 @@
+"""Trotting fast in MuJoCo: above fast_trot_above_mps the planner switches to trot_fast (a longer swing, the swing
+feet's limits raised) and back when slowed down; 1.8 m/s forward is tracked."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planning.sim.run import RunOptions, WalkCommand, WalkSession, run_walk
+
+pytestmark = pytest.mark.sim
+
+
+def test_trots_at_1_8_mps_forward() -> None:
+    rep = run_walk(WalkCommand(vx=1.8, settle_s=3.0), RunOptions(duration_s=6.0))
+    assert rep["success"] and not rep["fell"], rep["failure_reason"]
+    assert abs(rep["mean_velocity"]["vx"] - 1.8) <= 0.05 * 1.8
+    assert abs(rep["mean_velocity"]["vy"]) <= 0.1
+
+
+def test_slows_from_fast_back_to_the_trot_and_stops() -> None:
+    sess = WalkSession(WalkCommand(vx=1.6), RunOptions(duration_s=9.0))
+    clock = sess.controller.planner.clock
+    swing = sess.controller.handler.swing_planner
+    v_slow = swing.params.v_max_xy_mps
+    for _ in range(int(3.0 / sess.world.dt)):
+        sess.loop.step()
+    assert clock.gait.name == "trot_fast" and swing.params.v_max_xy_mps > v_slow
+    sess.controller.steer(0.4, 0.0, 0.0)
+    for _ in range(int(3.0 / sess.world.dt)):
+        sess.loop.step()
+    assert clock.gait.name == "trot" and swing.params.v_max_xy_mps == v_slow
+    sess.controller.planner.stop()
+    for _ in range(int(2.0 / sess.world.dt)):
+        sess.loop.step()
+    assert not sess.loop.fell, sess.loop.failure_reason
+    assert np.linalg.norm(sess.loop.state.v_world_body[:2]) < 0.1
