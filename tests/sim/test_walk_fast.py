@@ -35,3 +35,12 @@ def test_slows_from_fast_back_to_the_trot_and_stops() -> None:
         sess.loop.step()
     assert not sess.loop.fell, sess.loop.failure_reason
     assert np.linalg.norm(sess.loop.state.v_world_body[:2]) < 0.1
+
+
+@pytest.mark.parametrize(("vy", "yaw_rate"), [(1.0, 0.0), (0.0, 2.0)])
+def test_trots_sideways_at_1_mps_and_turns_at_2_rad_s(vy: float, yaw_rate: float) -> None:
+    rep = run_walk(WalkCommand(0.0, vy, yaw_rate, settle_s=2.5), RunOptions(duration_s=5.5))
+    assert rep["success"] and not rep["fell"], rep["failure_reason"]
+    mean = rep["mean_velocity"]
+    assert abs(mean["vy"] - vy) <= max(0.1 * vy, 0.05)
+    assert abs(mean["yaw_rate"] - yaw_rate) <= max(0.1 * yaw_rate, 0.1)
