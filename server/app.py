@@ -18,7 +18,7 @@ from server.api import api_router
 from server.api.studio import WEB_DIR
 from server.services import Services
 from server.sessions import SessionManager, SimFactory
-from server.settings import Settings, SettingsError, is_loopback
+from server.settings import Settings, SettingsError, display_host, is_loopback
 from server.simulations import Runner, SimulationPool
 from server.storage import ManeuverStore
 
@@ -62,7 +62,9 @@ def _openapi(app: FastAPI) -> dict[str, Any]:
     for k, v in m.pop("$defs", {}).items():
         comps.setdefault(k, v)
     comps["Maneuver"] = m
-    app.openapi_schema = schema
+    from server.api.openapi import describe_errors
+
+    app.openapi_schema = describe_errors(schema)
     return schema
 
 
@@ -72,13 +74,20 @@ def create_app(
     sim_factory: SimFactory | None = None,
     sim_runner: Runner | None = None,
     with_studio: bool = False,
+    check_host: bool = False,
 ) -> FastAPI:
-    """Returns the REST app; the studio (viser) starts with it when `with_studio` and the settings allow."""
+    """Returns the REST app; the studio (viser) starts with it when `with_studio` and the settings allow.
+
+    check_host (what `serve` does): bound to loopback, answer only requests addressed to a loopback name (421
+    otherwise), against DNS rebinding; in-process test clients address `testserver` and leave it off.
+    """
     settings = settings or Settings.from_env()
     services = build_services(settings, sim_factory, sim_runner)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        for p in services.store.clean_temp_files():
+            log.info("removed %s, left by a write that was killed midway", p.name)
         services.sessions.start()
         if with_studio and settings.studio:
             from server.studio import Studio
@@ -103,6 +112,9 @@ def create_app(
     app.state.services = services
     errors.install(app)
     app.add_middleware(errors.BodyLimit, max_bytes=settings.max_body_bytes)
+    if check_host and is_loopback(settings.host):
+        allowed = {"localhost", "127.0.0.1", "::1", errors.HostCheck.host_name(settings.host)}
+        app.add_middleware(errors.HostCheck, allowed=frozenset(allowed))
     app.include_router(api_router)
     docs.install(app)
     if WEB_DIR.is_dir():
@@ -137,8 +149,8 @@ def serve(
             file=sys.stderr,
             flush=True,
         )
-    app = create_app(settings, with_studio=True)
-    shown = "localhost" if is_loopback(settings.host) or settings.host in ("0.0.0.0", "::") else settings.host
+    app = create_app(settings, with_studio=True, check_host=True)
+    shown = display_host(settings.host)
     print(
         f"footfall: REST API on http://{shown}:{settings.port} (docs at /docs), "
         f"studio on http://{shown}:{settings.viewer_port}, user maneuvers in {settings.user_dir}",

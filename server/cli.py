@@ -143,7 +143,7 @@ def _summary(report: dict[str, Any]) -> str:
 
 # ---- commands ------------------------------------------------------------------------------------------------
 def cmd_run(a: argparse.Namespace) -> int:
-    from planning.maneuver import validate_maneuver
+    from planning.maneuver import check_maneuver
     from planning.sim.run import RunOptions, run_maneuver
 
     _check_terrain(a.terrain, a.seed)
@@ -152,7 +152,7 @@ def cmd_run(a: argparse.Namespace) -> int:
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
     robot = _robot(a.robot)
     maneuver = _load(a.maneuver)
-    result = validate_maneuver(maneuver, robot)
+    result = check_maneuver(maneuver, robot)
     if not result.ok:
         raise UsageError(
             f"maneuver {maneuver.name} has failures:\n" + "\n".join(f"  {p}" for p in result.failures)
@@ -253,16 +253,21 @@ def cmd_walk(a: argparse.Namespace) -> int:
 
 
 def cmd_validate(a: argparse.Namespace) -> int:
-    from planning.maneuver import validate_maneuver
+    from planning.maneuver import ManeuverError, check_maneuver, find_maneuver
 
-    maneuver = _load(a.maneuver)
-    result = validate_maneuver(maneuver, _robot(a.robot), dry_solve=not a.no_solve)
+    try:
+        path = find_maneuver(a.maneuver)
+    except ManeuverError as e:
+        raise UsageError(str(e.problems[0])) from None
+    # the file itself, not a parsed maneuver: a shape problem does not hide the rules' findings on the rest
+    result = check_maneuver(path, _robot(a.robot), dry_solve=not a.no_solve)
+    name = result.maneuver.name if result.maneuver is not None else path.stem
     for p in result.failures:
         print(f"failure: {p.located() if hasattr(p, 'located') else p}")
     for p in result.warnings:
         print(f"warning: {p.located() if hasattr(p, 'located') else p}")
     n_f, n_w = len(result.failures), len(result.warnings)
-    print(f"{maneuver.name}: {'valid' if result.ok else 'invalid'} ({n_f} failures, {n_w} warnings)")
+    print(f"{name}: {'valid' if result.ok else 'invalid'} ({n_f} failures, {n_w} warnings)")
     return EXIT_OK if result.ok else EXIT_INVALID
 
 

@@ -67,7 +67,7 @@ async def require_write(
     authorization: Annotated[str | None, Header(include_in_schema=False)] = None,
 ) -> None:
     """Lets the request through when writes are open or it carries the token (header or `Bearer`)."""
-    presented = x_footfall_token
+    presented = x_footfall_token or None  # an empty header does not hide a Bearer token
     if presented is None and authorization and authorization.lower().startswith("bearer "):
         presented = authorization[7:].strip()
     check_token(settings, presented)

@@ -81,6 +81,20 @@ def _reason(err: dict[str, Any]) -> str:
     return msg[:1].lower() + msg[1:]
 
 
+def _allowed_methods(request: Request) -> list[str]:
+    """Returns every method some route answers on the request's path (a path may have one route per method:
+    Starlette's own 405 names only the first route's)."""
+    from starlette.routing import Match
+
+    scope = {**request.scope, "method": "GET"}
+    methods: set[str] = set()
+    for route in request.app.routes:
+        match, _ = route.matches(scope)
+        if match != Match.NONE:
+            methods |= set(getattr(route, "methods", None) or ())
+    return sorted(methods)
+
+
 def install(app: FastAPI) -> None:
     """Registers the error handlers on the app."""
 
@@ -131,11 +145,17 @@ def install(app: FastAPI) -> None:
         if e.status_code == 413:
             return JSONResponse(error_body(detail, [{"field": "body", "reason": detail}]), status_code=413,
                                 headers={"Connection": "close"})  # fmt: skip
+        field = ""
+        headers = dict(getattr(e, "headers", None) or {})
         if e.status_code == 405:
             detail = f"{request.method} is not allowed on {request.url.path[:200]} (see /docs)"
+            headers["Allow"] = ", ".join(_allowed_methods(request))
+        elif e.status_code == 400 and detail == "There was an error parsing the body":
+            field, detail = "body", "body: is not JSON text in UTF-8"
         return JSONResponse(
-            error_body(detail), status_code=e.status_code, headers=getattr(e, "headers", None)
-        )
+            error_body(detail, [{"field": field, "reason": detail.removeprefix(f"{field}: ")}]),
+            status_code=e.status_code, headers=headers or None,
+        )  # fmt: skip
 
     @app.exception_handler(Exception)
     async def _unexpected(request: Request, e: Exception) -> JSONResponse:
@@ -199,3 +219,47 @@ class BodyLimit:
             return msg
 
         await self.app(scope, limited_receive, send)
+
+
+class HostCheck:
+    """ASGI middleware: 421 for a request whose Host header is not one of `allowed` (port ignored).
+
+    A server bound to loopback without a token trusts whoever can reach it; a web page from elsewhere reaches it
+    through DNS rebinding (its own name resolved to 127.0.0.1), and then sends its own name as the Host. Checking
+    the Host closes that door.
+    """
+
+    def __init__(self, app: ASGIApp, allowed: frozenset[str]) -> None:
+        self.app = app
+        self.allowed = frozenset(h.lower() for h in allowed)
+
+    @staticmethod
+    def host_name(value: str) -> str:
+        """Returns the name of a Host header: without its port, IPv6 without brackets, lowercase."""
+        v = value.strip().lower()
+        if v.startswith("["):
+            return v[1 : v.find("]")] if "]" in v else v
+        return v.rsplit(":", 1)[0] if v.count(":") == 1 else v
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] not in ("http", "websocket"):
+            await self.app(scope, receive, send)
+            return
+        host = next((v.decode("latin-1") for k, v in scope.get("headers", []) if k == b"host"), "")
+        if self.host_name(host) in self.allowed:
+            await self.app(scope, receive, send)
+            return
+        if scope["type"] == "websocket":
+            await send({"type": "websocket.close", "code": 1008})
+            return
+        import json
+
+        detail = (
+            f"Host {host[:100]!r} is not a name of this server; use one of {', '.join(sorted(self.allowed))}"
+        )
+        body = json.dumps(
+            error_body(detail, [{"field": "Host", "reason": "not a name of this server"}])
+        ).encode()
+        await send({"type": "http.response.start", "status": 421,
+                    "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})  # fmt: skip
+        await send({"type": "http.response.body", "body": body})

@@ -8,8 +8,17 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    WithJsonSchema,
+    field_validator,
+    model_validator,
+)
 
+from planning.maneuver.spec import NAME_PATTERN
 from server.engine import steering_gaits, terrain_names
 
 TerrainName = Literal[terrain_names()]  # type: ignore[valid-type]
@@ -100,10 +109,37 @@ class WalkIn(_In):
     )
 
 
+# a library name: documented with its pattern, checked by the library (its message says what a name is)
+ManeuverName = Annotated[
+    str,
+    Field(
+        max_length=64, json_schema_extra={"pattern": NAME_PATTERN}, description="a library maneuver's name"
+    ),
+]
+InlineManeuver = Annotated[dict[str, Any], WithJsonSchema({"$ref": "#/components/schemas/Maneuver"})]
+
+
+def _exactly_one_of(*keys: str) -> Any:
+    """Returns a json_schema_extra that says "exactly one of these fields, none of them null" (oneOf/required)."""
+
+    def extra(schema: dict[str, Any], cls: Any) -> None:
+        for key in keys:
+            prop = schema["properties"][key]
+            options = [o for o in prop.pop("anyOf", []) if o != {"type": "null"}]
+            if options:
+                prop.update(options[0] if len(options) == 1 else {"anyOf": options})
+            prop.pop("default", None)
+        schema["oneOf"] = [{"required": [key]} for key in keys]
+
+    return extra
+
+
 class SimulationCreate(_In):
     """A queued headless run: a maneuver (library name or inline document) or a walk, on a terrain."""
 
-    maneuver: Annotated[str, Field(max_length=64)] | dict[str, Any] | None = Field(
+    model_config = ConfigDict(json_schema_extra=_exactly_one_of("maneuver", "walk"))
+
+    maneuver: ManeuverName | InlineManeuver | None = Field(
         None, description="a library name, or a maneuver document (footfall/maneuver@1) inline"
     )
     walk: WalkIn | None = None
@@ -112,6 +148,17 @@ class SimulationCreate(_In):
     duration: _num(0.0, 120.0, lo_open=True) | None = Field(  # type: ignore[valid-type]
         None, description="simulated seconds (default: the maneuver's)"
     )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_nulls(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            for key in ("maneuver", "walk"):
+                if key in data and data[key] is None:
+                    raise ValueError(
+                        f"{key}: must not be null; leave it out (give exactly one of maneuver or walk)"
+                    )
+        return data
 
     @model_validator(mode="after")
     def _one_of(self) -> SimulationCreate:
@@ -130,7 +177,7 @@ class SimulationPublic(BaseModel):
     """A simulation's status; `report` is the run report (CONTRACT.md) once done."""
 
     id: str
-    status: Literal["queued", "running", "done", "failed"]
+    status: Literal["queued", "running", "done", "failed", "cancelled"]
     request: dict[str, Any]
     created: float
     started: float | None = None
@@ -179,7 +226,7 @@ class SteerIn(_In):
 class SessionManeuverIn(_In):
     """Start a maneuver: from the stance at the origin, at `speed` times real time."""
 
-    maneuver: Annotated[str, Field(max_length=64)] | dict[str, Any]
+    maneuver: ManeuverName | InlineManeuver
     speed: _num(0.05, 4.0) | None = None  # type: ignore[valid-type]
 
 
@@ -203,7 +250,7 @@ class SessionControlIn(_In):
 
 
 class StudioPreviewIn(_In):
-    maneuver: Annotated[str, Field(max_length=64)]
+    maneuver: ManeuverName
     terrain: TerrainIn = "flat"
 
     @field_validator("maneuver")

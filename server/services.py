@@ -10,7 +10,14 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
-from planning.maneuver import ManeuverError, Problem, ValidationResult, parse_maneuver, validate_maneuver
+from planning.maneuver import (
+    ManeuverError,
+    Problem,
+    ValidationResult,
+    check_maneuver,
+    parse_maneuver,
+    validate_maneuver,
+)
 from planning.maneuver.load import read_yaml
 from planning.maneuver.problems import with_lines
 from server.errors import ApiError
@@ -97,14 +104,18 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"{name} is not a number JSON allows")
 
 
-def to_maneuver(body_data: Any, lines: dict[str, int] | None, settings: Settings) -> Any:
-    """Returns the Maneuver of a document; ApiError 422 listing every shape problem, or a limit exceeded."""
+def to_maneuver(body_data: Any, lines: dict[str, int] | None, settings: Settings, robot: Any = None) -> Any:
+    """Returns the Maneuver of a document; ApiError 422 listing every shape problem (and, with a robot, what the
+    rules find in the well-formed rest: every problem in one answer), or a limit exceeded."""
     try:
         maneuver = parse_maneuver(body_data, lines=lines)
     except ManeuverError as e:
-        n = len(e.problems)
-        raise ApiError(422, f"invalid maneuver ({n} problem{'s' if n != 1 else ''}): {e.problems[0]}"[:500],
-                       problems_to_fields(e.problems)) from None  # fmt: skip
+        problems = e.problems
+        if robot is not None and isinstance(body_data, dict):
+            problems = with_lines(validate_maneuver(body_data, robot).failures, lines) or problems
+        n = len(problems)
+        raise ApiError(422, f"invalid maneuver ({n} problem{'s' if n != 1 else ''}): {problems[0]}"[:500],
+                       problems_to_fields(problems)) from None  # fmt: skip
     except RecursionError:
         raise ApiError(
             422, "body: nests too deeply", [{"field": "body", "reason": "nests too deeply"}]
@@ -133,9 +144,10 @@ def check_limits(maneuver: Any, settings: Settings) -> list[Problem]:
 
 
 def validate(maneuver: Any, services: Services, lines: dict[str, int] | None = None) -> Any:
-    """Returns the ValidationResult of a parsed maneuver for the server's robot (problems with YAML lines)."""
+    """Returns the ValidationResult of a parsed maneuver for the server's robot (problems with YAML lines): the
+    same check as `footfall validate`, dry solve included."""
     try:
-        result = validate_maneuver(maneuver, services.robot)
+        result = check_maneuver(maneuver, services.robot)
     except Exception as e:  # noqa: BLE001 - a checker that chokes on odd input must not turn into a 500
         log.warning("validation of %s raised %r", getattr(maneuver, "name", "?"), e)
         failure = Problem(
@@ -167,13 +179,20 @@ def resolve_maneuver(ref: str | dict[str, Any], services: Services, field_name: 
             stored = services.store.get(ref)
         except StorageError as e:
             reason = e.message.removeprefix("name: ")
+            # the request's own resource exists: a body naming a maneuver that does not is unprocessable (422)
             raise ApiError(
-                e.status, f"{field_name}: {reason}", [{"field": field_name, "reason": reason}]
+                422 if e.status == 404 else e.status,
+                f"{field_name}: {reason}",
+                [{"field": field_name, "reason": reason}],
             ) from None
-        data, lines = read_yaml(stored.text)
-        maneuver = to_maneuver(data, lines, services.settings)
+        try:
+            data, lines = read_yaml(stored.text)
+        except ManeuverError as e:
+            reason = f"the library file of {ref!r} does not load: {e.problems[0].message}"
+            raise ApiError(422, f"{field_name}: {reason}"[:500], problems_to_fields(e.problems)) from None
+        maneuver = to_maneuver(data, lines, services.settings, services.robot)
     else:
-        maneuver = to_maneuver(ref, None, services.settings)
+        maneuver = to_maneuver(ref, None, services.settings, services.robot)
     require_valid(maneuver, services)
     return maneuver
 

@@ -12,6 +12,9 @@ alive so a reset can revive it, and nothing propagates to the server. Sessions n
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
+import gc
 import json
 import logging
 import secrets
@@ -61,6 +64,27 @@ class Sim(Protocol):
 
 
 SimFactory = Callable[[Any, str, str], Sim]  # (maneuver, terrain, robot) -> Sim
+
+
+def _malloc_trim() -> Callable[[int], int] | None:
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        trim: Callable[[int], int] = libc.malloc_trim
+    except (OSError, AttributeError):  # not glibc: nothing to trim
+        return None
+    return trim
+
+
+_TRIM = _malloc_trim()
+
+
+def release_memory() -> None:
+    """Returns the memory of an ended session to the system: collects its cycles, then asks glibc's allocator to
+    give back the free pages it keeps (MuJoCo's and numpy's freed buffers stay in its arenas otherwise: the server
+    grew 2.5-3.8 MB per session before)."""
+    gc.collect()
+    if _TRIM is not None:
+        _TRIM(0)
 
 
 class SessionError(Exception):
@@ -479,6 +503,12 @@ class SessionManager:
             self._reaper = threading.Thread(target=self._reap_loop, name="footfall-reaper", daemon=True)
             self._reaper.start()
 
+    @property
+    def studio_cap(self) -> int:
+        """Sessions the studio's tabs may hold at once: all but one (kept for the API) when there are two or more."""
+        n = self.settings.max_sessions
+        return n - 1 if n >= 2 else n
+
     def shutdown(self) -> None:
         self._stop.set()
         for s in self.list_sessions():
@@ -491,6 +521,13 @@ class SessionManager:
     ) -> LiveSession:
         """Returns a new running session; SessionLimit when the cap is reached."""
         with self._lock:
+            studio = sum(1 for x in self._sessions.values() if x.origin == "studio")
+            if origin == "studio" and studio >= self.studio_cap:
+                raise SessionLimit(
+                    f"the studio's tabs have {studio} live robots, their share of the {self.settings.max_sessions} "
+                    "sessions (one is kept for the API); close a tab, or raise FOOTFALL_MAX_SESSIONS",
+                    field="sessions",
+                )
             if len(self._sessions) + self._reserved >= self.settings.max_sessions:
                 raise SessionLimit(
                     f"too many live sessions (the cap is {self.settings.max_sessions}); "
@@ -527,6 +564,8 @@ class SessionManager:
         if s is None:
             raise SessionNotFound(f"no session {session_id[:40]!r}", field="id")
         s.stop()
+        del s
+        release_memory()
         log.info("session %s ended", session_id)
 
     def list_sessions(self) -> list[LiveSession]:
@@ -553,6 +592,7 @@ class SessionManager:
     def _reap_loop(self) -> None:
         while not self._stop.wait(self.settings.reaper_period_s):
             try:
-                self.reap()
+                if self.reap():
+                    release_memory()
             except Exception:  # noqa: BLE001 - the reaper must outlive any one bad session
                 log.exception("reaper")

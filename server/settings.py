@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import ipaddress
+import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -44,6 +45,16 @@ def default_data_dir(env: Mapping[str, str] | None = None) -> Path:
     xdg = env.get("XDG_DATA_HOME")
     base = Path(xdg) if xdg else Path.home() / ".local" / "share"
     return base / "footfall"
+
+
+def display_host(host: str) -> str:
+    """Returns the host to show in a URL for a bind address: the address itself (IPv6 in brackets); for a
+    wildcard bind, the loopback address it also answers on."""
+    if host in ("0.0.0.0", ""):
+        return "127.0.0.1"
+    if host == "::":
+        return "[::1]"
+    return f"[{host}]" if ":" in host else host
 
 
 def is_loopback(host: str) -> bool:
@@ -107,6 +118,8 @@ class Settings:
             "max_queued_simulations", "max_sim_duration_s", "reaper_period_s",
         )  # fmt: skip
         for name in positive:
+            if not math.isfinite(getattr(self, name)):
+                raise SettingsError(f"{name}: must be a finite number, got {getattr(self, name)}")
             if getattr(self, name) <= 0:
                 raise SettingsError(f"{name}: must be positive, got {getattr(self, name)}")
         if self.backend not in ("local", "ray"):

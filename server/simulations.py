@@ -8,6 +8,7 @@ rebuilt. Workers report progress through a queue that a thread of the server dra
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import multiprocessing as mp
@@ -26,7 +27,7 @@ from server.settings import Settings
 
 log = logging.getLogger("footfall.simulations")
 
-JobStatus = Literal["queued", "running", "done", "failed"]
+JobStatus = Literal["queued", "running", "done", "failed", "cancelled"]
 Runner = Callable[[dict[str, Any]], dict[str, Any]]
 
 _progress_queue: Any = None  # set in each worker process by _init_worker
@@ -134,15 +135,39 @@ class SimulationPool:
             pos = self._pending.index(job_id) if job.status == "queued" and job_id in self._pending else None
             return job, pos
 
+    def cancel(self, job_id: str) -> Job | None:
+        """Cancels a queued job (it never runs); returns it, or None when unknown. A job already running or
+        finished is returned unchanged: the caller tells the user it is too late."""
+        with self._lock:
+            job = self._jobs.get(job_id)
+            if job is not None and job.status == "queued" and job_id in self._pending:
+                self._pending.remove(job_id)
+                job.status, job.finished = "cancelled", time.time()
+            return job
+
     def list(self) -> list[Job]:
         with self._lock:
             return list(self._jobs.values())
 
-    def shutdown(self) -> None:
+    def shutdown(self, grace_s: float = 2.0) -> None:
+        """Ends every worker process this pool started: queued jobs are dropped, a running one is terminated
+        (SIGTERM, then SIGKILL after `grace_s`), so no worker outlives the server (nor the resource tracker that
+        multiprocessing keeps for them, which exits when they are gone)."""
         self._closed = True
         ex, self._executor = self._executor, None
         if ex is not None:
+            workers = list((getattr(ex, "_processes", None) or {}).values())
             ex.shutdown(wait=False, cancel_futures=True)
+            for w in workers:
+                with contextlib.suppress(Exception):
+                    w.terminate()
+            deadline = time.monotonic() + grace_s
+            for w in workers:
+                with contextlib.suppress(Exception):
+                    w.join(max(0.0, deadline - time.monotonic()))
+                    if w.is_alive():
+                        w.kill()
+                        w.join(1.0)
         if self._progress is not None:
             try:
                 self._progress.put_nowait(None)
@@ -151,7 +176,7 @@ class SimulationPool:
 
     # ---- internals ------------------------------------------------------------------------------------------------
     def _forget_old(self) -> None:
-        finished = [j for j in self._jobs.values() if j.status in ("done", "failed")]
+        finished = [j for j in self._jobs.values() if j.status in ("done", "failed", "cancelled")]
         for j in finished[: max(0, len(finished) - self.settings.max_kept_simulations)]:
             del self._jobs[j.id]
 
@@ -248,7 +273,7 @@ class SimulationPool:
             job_id, t, duration, rtf = item
             with self._lock:
                 job = self._jobs.get(job_id)
-                if job is None or job.status in ("done", "failed"):
+                if job is None or job.status in ("done", "failed", "cancelled"):
                     continue
                 if duration > 0:
                     job.progress = {

@@ -201,6 +201,21 @@ class ManeuverStore:
             out.append(entry)
         return out
 
+    def clean_temp_files(self) -> tuple[Path, ...]:
+        """Removes the temporary files of writes that were killed midway (`.<name>.*.tmp`); returns them.
+
+        Called at start. Under the lock, so a write of another server sharing the directory is never cut short.
+        """
+        if not self.user_dir.is_dir():
+            return ()
+        removed: tuple[Path, ...] = ()
+        with self._locked():
+            for p in self.user_dir.glob(".*.tmp"):
+                with contextlib.suppress(OSError):
+                    p.unlink()
+                    removed += (p,)
+        return removed
+
     # ---- writing ------------------------------------------------------------------------------------------------
     @contextlib.contextmanager
     def _locked(self) -> Iterator[None]:

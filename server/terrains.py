@@ -23,6 +23,7 @@ from server.settings import Settings
 
 TERRAIN_SUBDIR = "terrains"
 MAX_TERRAIN_FILES = 200  # files kept in the terrain directory
+MAX_FILE_NAME = 83  # characters, whatever the extension (the OpenAPI description says so)
 FILE_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,78}\.(xml|npy|png|yaml|stl|obj)$")
 FILE_NAME_RULE = (
     "letters, digits, '_', '.', '-' (at most 80), ending in .xml, .npy, .png, .yaml, .stl or .obj"
@@ -38,7 +39,7 @@ def terrain_dir(settings: Settings) -> Path:
 
 def check_file_name(name: str, field: str = "name") -> str:
     """Gives name if it is a bare terrain file name (no directory, no '..'); ApiError 422 naming `field` if not."""
-    if not FILE_NAME_RE.match(name) or ".." in name:
+    if len(name) > MAX_FILE_NAME or not FILE_NAME_RE.match(name) or ".." in name:
         raise field_error(422, field, f"{name[:100]!r} is not a terrain file name: {FILE_NAME_RULE}")
     return name
 

@@ -51,10 +51,12 @@ def bench_centroidal_tick(n_ticks: int = 300, max_knots: int = 21, reference_eve
 
     reference = None
     try:
+        import clarabel  # noqa: F401 - reference_forces imports it only when called
+
         from planning.centroidal.reference import reference_forces
 
         reference = reference_forces
-    except ImportError:  # clarabel is a development dependency
+    except ImportError:  # clarabel is a development dependency: `footfall bench` runs without it
         reference = None
     for i in range(n_ticks):
         pr = sc.problem_at(state)

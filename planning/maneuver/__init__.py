@@ -40,7 +40,7 @@ from planning.maneuver.spec import (
     Weights,
     maneuver_json_schema,
 )
-from planning.maneuver.validate import RULES, Params, ValidationResult, validate_maneuver
+from planning.maneuver.validate import RULES, Params, ValidationResult, check_maneuver, validate_maneuver
 
 __all__ = [
     "FORMAT",
@@ -72,6 +72,7 @@ __all__ = [
     "ValidationResult",
     "Weights",
     "build_schedule",
+    "check_maneuver",
     "count_events",
     "expand_gait",
     "find_maneuver",

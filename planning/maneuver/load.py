@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, get_args
 
+import numpy as np
 import yaml
 from pydantic import BaseModel, ValidationError
 
@@ -21,11 +22,23 @@ MAX_TEXT_BYTES = 1_000_000  # a maneuver file is a few kB; refuse megabytes befo
 
 
 # ---- YAML ----------------------------------------------------------------------------------------------------
-class _Loader(yaml.SafeLoader):
-    """SafeLoader that refuses duplicate keys and aliases, and reads `1e-4` as a number (YAML 1.2 style).
+MAX_NESTING = 32  # a maneuver nests 4 levels deep; deeper documents are refused before they are built
+MAX_LIST_LENGTH = (
+    2000  # the longest list of a maneuver (events); counted while reading, before anything is built
+)
 
-    Aliases are refused because a few nested ones expand into billions of items for the validator to walk.
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that refuses duplicate keys, aliases and deep nesting, reads `1e-4` as a number (YAML 1.2 style)
+    and reports a value its tag cannot make (a date like 2001-13-45, `!!int abc`, a 5000-digit integer) as a YAML
+    error at the value's line instead of a bare ValueError.
+
+    Aliases are refused because a few nested ones expand into billions of items for the validator to walk; nesting
+    and list lengths are counted while composing, so a 20k-event file stops at item 2001 instead of being read
+    whole and checked item by item (flow brackets are counted even before that: see `flow_depth`).
     """
+
+    _depth = 0
 
     def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node | None:
         if self.check_event(yaml.AliasEvent):
@@ -33,12 +46,40 @@ class _Loader(yaml.SafeLoader):
             raise yaml.composer.ComposerError(
                 None, None, "aliases (*name) are not allowed in a maneuver file; write the value out", mark
             )
-        return super().compose_node(parent, index)  # type: ignore[no-untyped-call]
+        if self._depth >= MAX_NESTING:
+            mark = self.peek_event().start_mark
+            raise yaml.composer.ComposerError(
+                None, None, f"nests more than {MAX_NESTING} levels deep; a maneuver needs a few", mark
+            )
+        if isinstance(parent, yaml.SequenceNode) and isinstance(index, int) and index >= MAX_LIST_LENGTH:
+            mark = self.peek_event().start_mark
+            raise yaml.composer.ComposerError(
+                None,
+                None,
+                f"a list of more than {MAX_LIST_LENGTH} items; no list of a maneuver is that long",
+                mark,
+            )
+        self._depth += 1
+        try:
+            return super().compose_node(parent, index)  # type: ignore[no-untyped-call]
+        finally:
+            self._depth -= 1
+
+    def construct_object(self, node: yaml.Node, deep: bool = False) -> Any:
+        try:
+            return super().construct_object(node, deep=deep)  # type: ignore[no-untyped-call]
+        except (ValueError, OverflowError, TypeError) as e:
+            tag = str(node.tag).rsplit(":", 1)[-1]
+            shown = str(node.value)[:40] + ("..." if len(str(node.value)) > 40 else "")
+            why = str(e).split("\n", 1)[0][:120]
+            raise yaml.constructor.ConstructorError(
+                None, None, f"cannot read {shown!r} as {tag} ({why})", node.start_mark
+            ) from None
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: dict[Any, yaml.Node] = {}
         for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=deep)  # type: ignore[no-untyped-call]
+            key = self.construct_object(key_node, deep=deep)
             try:
                 duplicate = key in seen
             except TypeError:  # an unhashable key; the base class reports it
@@ -66,9 +107,11 @@ def _yaml_problem(e: yaml.YAMLError) -> Problem:
         mark = e.problem_mark
         what = e.problem or "syntax error"
         ctx = f" ({e.context})" if e.context else ""
+        syntax = isinstance(e, (yaml.scanner.ScannerError, yaml.parser.ParserError))
+        kind = "YAML syntax error" if syntax else "YAML error"
         return Problem(
             "",
-            f"YAML syntax error at line {mark.line + 1}, column {mark.column + 1}: {what}{ctx}",
+            f"{kind} at line {mark.line + 1}, column {mark.column + 1}: {what}{ctx}",
             line=mark.line + 1,
         )
     return Problem("", f"YAML syntax error: {e}")
@@ -92,20 +135,59 @@ def _line_map(node: yaml.Node | None, path: str = "", out: dict[str, int] | None
     return out
 
 
+_QUOTED_OR_COMMENT = re.compile(
+    r'"(?:[^"\\\n]|\\.)*"|\'(?:[^\'\n]|\'\')*\'|(?:^|(?<=\s))#[^\n]*', re.MULTILINE
+)
+
+
+def flow_depth(text: str) -> tuple[int, int]:
+    """Returns (deepest nesting of flow brackets [ { outside quotes and comments, its offset in `text`).
+
+    Vectorized (a few ms for 1 MB): the YAML scanner looks ahead over every open bracket for each token, so a
+    document of nothing but `[` costs it seconds; counting first refuses such a document before it is parsed.
+    """
+    bare = _QUOTED_OR_COMMENT.sub(lambda m: " " * len(m.group()), text)
+    codes = np.frombuffer(bare.encode("utf-32-le"), dtype=np.uint32)
+    step = np.isin(codes, (0x5B, 0x7B)).astype(np.int32) - np.isin(codes, (0x5D, 0x7D)).astype(np.int32)
+    if not step.any():
+        return 0, 0
+    level = np.concatenate(([0], np.cumsum(step)))
+    depth = level - np.minimum.accumulate(level)  # a stray closer does not hide the openers after it
+    i = int(np.argmax(depth))
+    return int(depth[i]), max(0, i - 1)
+
+
 def read_yaml(text: str) -> tuple[Any, dict[str, int]]:
-    """Returns (data, path → line map) of YAML text; raises ManeuverError with line and column on bad syntax."""
+    """Returns (data, path → line map) of YAML text; raises ManeuverError with line and column on bad syntax,
+    a value that cannot be read, or nesting deeper than MAX_NESTING."""
     if len(text.encode("utf-8", "replace")) > MAX_TEXT_BYTES:
         raise ManeuverError(
             [Problem("", f"the file is larger than {MAX_TEXT_BYTES // 1000} kB; not a maneuver")]
         )
+    depth, at = flow_depth(text)
+    if depth > MAX_NESTING:
+        line = text.count("\n", 0, at) + 1
+        raise ManeuverError(
+            [
+                Problem(
+                    "",
+                    f"YAML error at line {line}: brackets nest more than {MAX_NESTING} levels deep; "
+                    "a maneuver needs a few",
+                    line=line,
+                )
+            ]  # fmt: skip
+        )
+    loader = _Loader(text)
     try:
-        data = yaml.load(text, Loader=_Loader)  # noqa: S506 (a SafeLoader subclass)
-        lines = _line_map(yaml.compose(text, Loader=_Loader))
+        node = loader.get_single_node()  # type: ignore[no-untyped-call]
+        data = loader.construct_document(node) if node is not None else None  # type: ignore[no-untyped-call]
     except yaml.YAMLError as e:
         raise ManeuverError([_yaml_problem(e)]) from None
     except RecursionError:
         raise ManeuverError([Problem("", "the YAML nests too deeply")]) from None
-    return data, lines
+    finally:
+        loader.dispose()  # type: ignore[no-untyped-call]
+    return data, _line_map(node)
 
 
 # ---- pydantic errors → problems --------------------------------------------------------------------------------
@@ -244,6 +326,20 @@ def problems_from_validation_error(e: ValidationError) -> list[Problem]:
 
 
 # ---- public entry points ---------------------------------------------------------------------------------------
+MAX_LIST_ITEMS = {"events": 2000, "body": 500, "gaits": 100, "objectives": 100}  # events: expand.MAX_EVENTS
+
+
+def _too_many_items(data: dict[Any, Any]) -> list[Problem]:
+    """Returns a problem per list longer than its limit, found before any item is validated (a 20k-event file
+    is refused at once instead of being checked item by item first)."""
+    out = []
+    for key, limit in MAX_LIST_ITEMS.items():
+        items = data.get(key)
+        if isinstance(items, (list, tuple)) and len(items) > limit:
+            out.append(Problem(key, f"has {len(items)} items; at most {limit} are allowed"))
+    return out
+
+
 def parse_maneuver(data: Any, *, lines: dict[str, int] | None = None, source: str | None = None) -> Maneuver:
     """Returns the Maneuver of a parsed document (a dict); raises ManeuverError listing every shape problem."""
     if isinstance(data, Maneuver):
@@ -258,6 +354,9 @@ def parse_maneuver(data: Any, *, lines: dict[str, int] | None = None, source: st
             ],
             source,
         )
+    too_many = _too_many_items(data)
+    if too_many:
+        raise ManeuverError(with_lines(too_many, lines), source)
     try:
         return Maneuver.model_validate(data)
     except ValidationError as e:
@@ -280,6 +379,11 @@ def read_source(source: str | Path) -> tuple[Any, dict[str, int], str | None]:
         path = Path(source)
         name = str(path)
         try:
+            size = path.stat().st_size
+            if size > MAX_TEXT_BYTES:  # checked before reading: a 50 MB file is not read at all
+                raise ManeuverError(
+                    [Problem("", f"the file is {size / 1e6:.1f} MB, larger than {MAX_TEXT_BYTES // 1000} kB; "
+                                 "not a maneuver")], name)  # fmt: skip
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
             raise ManeuverError([Problem("", f"no such file: {path}")]) from None

@@ -22,10 +22,18 @@ GaitName = Literal["trot", "walk", "pace", "bound", "pronk"]
 TrackName = Literal["legs", "body"]
 
 # A real number: ints are fine, booleans and strings are not (strict), NaN/inf rejected by the model config.
-Real = Annotated[float, Field(strict=True)]
-Time = Annotated[float, Field(strict=True, ge=0.0)]
+# Bounded at ±1000 (meters, degrees, seconds): a maneuver is meters wide; 1e308 is a typo, not a plan.
+MAX_COORDINATE = 1000.0
+Real = Annotated[float, Field(strict=True, ge=-MAX_COORDINATE, le=MAX_COORDINATE)]
+MAX_WEIGHT = 1000.0  # cost weights: the defaults are 1e-4 to 10; beyond this the solver's numbers break down
+MAX_ADJUST_S = 2.0  # how far an event may move in time, s
+MAX_LENGTH_M = 1.0  # adjust radius, swing height: a leg is under a meter long
+Time = Annotated[float, Field(strict=True, ge=0.0, le=MAX_DURATION_S)]
 Positive = Annotated[float, Field(strict=True, gt=0.0)]
 NonNegative = Annotated[float, Field(strict=True, ge=0.0)]
+Weight = Annotated[float, Field(strict=True, ge=0.0, le=MAX_WEIGHT)]
+AdjustTime = Annotated[float, Field(strict=True, ge=0.0, le=MAX_ADJUST_S)]
+Length = Annotated[float, Field(strict=True, gt=0.0, le=MAX_LENGTH_M)]
 
 
 def _vector(n: int, labels: str) -> Any:
@@ -85,8 +93,10 @@ class _Model(BaseModel):
 class Adjust(_Model):
     """How far the solver may move a touchdown: in time (± s) and in place (a radius, or a legal polygon)."""
 
-    time: NonNegative = Field(0.0, description="the event may move by ± this many seconds")
-    radius: NonNegative | None = Field(None, description="the touchdown may move within this many meters")
+    time: AdjustTime = Field(0.0, description="the event may move by ± this many seconds (at most 2)")
+    radius: Annotated[float, Field(strict=True, ge=0.0, le=MAX_LENGTH_M)] | None = Field(
+        None, description="the touchdown may move within this many meters (at most 1)"
+    )
     region: tuple[Vec2, ...] | None = Field(
         None,
         max_length=64,
@@ -109,7 +119,7 @@ class Adjust(_Model):
 class LiftoffAdjust(_Model):
     """How far the solver may move a liftoff in time (± s)."""
 
-    time: NonNegative = Field(0.0, description="the liftoff may move by ± this many seconds")
+    time: AdjustTime = Field(0.0, description="the liftoff may move by ± this many seconds (at most 2)")
 
 
 class Liftoff(_Model):
@@ -131,7 +141,9 @@ class Touchdown(_Model):
     offset: Offset | None = Field(
         None, description="[dx, dy] or [dx, dy, dz] from where the foot lifted off, maneuver frame, m"
     )
-    normal: Vec3 = Field((0.0, 0.0, 1.0), description="contact normal (need not be vertical)")
+    normal: Vec3 = Field(
+        (0.0, 0.0, 1.0), description="contact normal (need not be vertical, must not point down)"
+    )
     adjust: Adjust | None = None
     waypoints: tuple[Waypoint, ...] | None = Field(
         None,
@@ -163,7 +175,7 @@ class Gait(_Model):
         description="fraction of a cycle each foot is on the ground"
     )
     step: Step = Field((0.0, 0.0, 0.0), description="per cycle: dx, dy in the body frame (m), dyaw (degrees)")
-    height: Positive | None = Field(None, description="swing apex height above the line liftoff→touchdown, m")
+    height: Length | None = Field(None, description="swing apex height above the line liftoff→touchdown, m")
     adjust: Adjust | None = Field(None, description="adjust window given to every touchdown of the segment")
 
 
@@ -173,19 +185,17 @@ class Keyframe(_Model):
     t: Time = Field(description="time, s")
     position: Vec3 = Field(description="body center [x, y, z] in the maneuver frame, m")
     rpy: Rpy = Field((0.0, 0.0, 0.0), description="roll, pitch, yaw, degrees, right-handed about x, y, z")
-    weight: NonNegative = Field(1.0, description="importance of reaching this pose")
+    weight: Weight = Field(1.0, description="importance of reaching this pose (0 to 1000)")
 
 
 class Weights(_Model):
-    """Cost weights of the planner's named terms; the same names appear in the studio and the logs."""
+    """Cost weights of the planner's named terms (each 0 to 1000); the same names appear in the studio and the logs."""
 
-    force: NonNegative = Field(1.0e-4, description="contact force magnitude")
-    pose: NonNegative = Field(1.0, description="body pose tracking of the keyframes")
-    touchdown_time: NonNegative = Field(1.0, description="deviation from the nominal touchdown times")
-    touchdown_position: NonNegative = Field(
-        10.0, description="deviation from the nominal touchdown positions"
-    )
-    hip_over_foot: NonNegative = Field(0.1, description="hips kept above their feet")
+    force: Weight = Field(1.0e-4, description="contact force magnitude")
+    pose: Weight = Field(1.0, description="body pose tracking of the keyframes")
+    touchdown_time: Weight = Field(1.0, description="deviation from the nominal touchdown times")
+    touchdown_position: Weight = Field(10.0, description="deviation from the nominal touchdown positions")
+    hip_over_foot: Weight = Field(0.1, description="hips kept above their feet")
 
 
 class MaximizeHeight(_Model):
@@ -193,7 +203,7 @@ class MaximizeHeight(_Model):
 
     type: Literal["maximize_height"]
     t: Interval
-    weight: NonNegative = 1.0
+    weight: Weight = 1.0
 
 
 class Lean(_Model):
@@ -202,7 +212,7 @@ class Lean(_Model):
     type: Literal["lean"]
     t: TimeOrInterval
     direction: Vec2
-    weight: NonNegative = 1.0
+    weight: Weight = 1.0
 
 
 class MinimizeTorque(_Model):
@@ -210,7 +220,7 @@ class MinimizeTorque(_Model):
 
     type: Literal["minimize_torque"]
     t: Interval | None = None
-    weight: NonNegative = 1.0
+    weight: Weight = 1.0
 
 
 Objective = Annotated[MaximizeHeight | Lean | MinimizeTorque, Field(discriminator="type")]

@@ -7,14 +7,19 @@ reference. All rules run, so a file's problems come back all at once.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import re
+import threading
+from collections import OrderedDict
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from pydantic import ValidationError
 
 from planning.maneuver.body import BodyReference, rotation_from_rpy
 from planning.maneuver.expand import (
@@ -29,7 +34,8 @@ from planning.maneuver.expand import (
 from planning.maneuver.load import parse_maneuver, read_source
 from planning.maneuver.problems import ManeuverError, Problem, with_lines
 from planning.maneuver.scale import scale_to_robot
-from planning.maneuver.spec import Liftoff, Maneuver, MaximizeHeight, Touchdown
+from planning.maneuver.spec import FORMAT, Liftoff, Maneuver, MaximizeHeight, Touchdown
+from planning.maneuver.torque import check_keyframe_torque
 
 if TYPE_CHECKING:
     from planning.robot import RobotModel
@@ -106,12 +112,20 @@ class Context:
         except (ManeuverError, ValueError):
             return None
 
+    incomplete_legs: frozenset[str] = frozenset()  # legs with an event dropped for a shape error: not paired
+
+    @cached_property
+    def time_order(self) -> list[int]:
+        """Returns the indices of the explicit events in time order (stable: listing order at equal times)."""
+        return sorted(range(len(self.maneuver.events)), key=lambda i: self.maneuver.events[i].t)
+
     @cached_property
     def explicit_swings(self) -> list[tuple[int, int, int]]:
-        """Returns (leg, liftoff index, touchdown index) of the explicit events, paired per leg in listing order."""
+        """Returns (leg, liftoff index, touchdown index) of the explicit events, paired per leg in time order."""
         open_: dict[str, int] = {}
         out = []
-        for i, ev in enumerate(self.maneuver.events):
+        for i in self.time_order:
+            ev = self.maneuver.events[i]
             if isinstance(ev, Liftoff):
                 open_.setdefault(ev.leg, i)
             elif ev.leg in open_:
@@ -138,24 +152,6 @@ def _s(t: float) -> str:
 
 
 # ---- events ----------------------------------------------------------------------------------------------------
-def check_events_in_order(ctx: Context) -> Iterator[Problem]:
-    """Failure: an event listed before an earlier one (events are listed in time order)."""
-    ev = ctx.maneuver.events
-    t_lifted: dict[str, float] = {}  # legs in the air (listing order) → liftoff time
-    for i, e in enumerate(ev):
-        before_own_liftoff = e.type == "touchdown" and e.t < t_lifted.get(e.leg, -math.inf)
-        if i > 0 and e.t < ev[i - 1].t and not before_own_liftoff:  # that case has its own, plainer message
-            yield _fail(
-                f"events[{i}].t",
-                f"{e.type} of {e.leg} at {_s(e.t)} comes before events[{i - 1}] "
-                f"at {_s(ev[i - 1].t)}; list events in time order",
-            )
-        if isinstance(e, Liftoff):
-            t_lifted.setdefault(e.leg, e.t)
-        else:
-            t_lifted.pop(e.leg, None)
-
-
 def check_events_within_duration(ctx: Context) -> Iterator[Problem]:
     """Failure: an event after the end of the maneuver."""
     d = ctx.maneuver.duration
@@ -168,9 +164,14 @@ def check_events_within_duration(ctx: Context) -> Iterator[Problem]:
 
 
 def check_liftoff_touchdown_pairs(ctx: Context) -> Iterator[Problem]:
-    """Failure: per leg, liftoff and touchdown must alternate, each touchdown after its liftoff."""
+    """Failure: per leg and in time order (events may be listed in any order), liftoff and touchdown alternate."""
+    events = ctx.maneuver.events
     open_: dict[str, tuple[int, float]] = {}
-    for i, ev in enumerate(ctx.maneuver.events):
+    answered: set[int] = set()  # liftoffs already named by a touchdown listed before them in time
+    for i in ctx.time_order:
+        ev = events[i]
+        if ev.leg in ctx.incomplete_legs or i in answered:
+            continue
         if isinstance(ev, Liftoff):
             if ev.leg in open_:
                 k, t0 = open_[ev.leg]
@@ -183,6 +184,15 @@ def check_liftoff_touchdown_pairs(ctx: Context) -> Iterator[Problem]:
             open_[ev.leg] = (i, ev.t)
             continue
         if ev.leg not in open_:
+            # listed after its liftoff but earlier in time: say so plainly
+            lo = next((k for k in range(i - 1, -1, -1) if events[k].leg == ev.leg), None)
+            if lo is not None and isinstance(events[lo], Liftoff) and events[lo].t > ev.t:
+                answered.add(lo)
+                yield _fail(
+                    f"events[{i}].t",
+                    f"touchdown of {ev.leg} at {_s(ev.t)} comes before its liftoff at {_s(events[lo].t)}",
+                )
+                continue
             yield _fail(
                 f"events[{i}]",
                 f"touchdown of {ev.leg} at {_s(ev.t)} while it is on the ground; "
@@ -190,11 +200,7 @@ def check_liftoff_touchdown_pairs(ctx: Context) -> Iterator[Problem]:
             )
             continue
         k, t0 = open_.pop(ev.leg)
-        if ev.t < t0:
-            yield _fail(
-                f"events[{i}].t", f"touchdown of {ev.leg} at {_s(ev.t)} comes before its liftoff at {_s(t0)}"
-            )
-        elif ev.t == t0:
+        if ev.t == t0:
             yield _fail(
                 f"events[{i}].t", f"touchdown of {ev.leg} at {_s(ev.t)} is at the same time as its liftoff"
             )
@@ -207,7 +213,7 @@ def check_liftoff_touchdown_pairs(ctx: Context) -> Iterator[Problem]:
 
 
 def check_touchdown_normals(ctx: Context) -> Iterator[Problem]:
-    """Failure: a zero contact normal; warning: one pointing down."""
+    """Failure: a zero contact normal, or one pointing down (a foot cannot push on a ceiling)."""
     for i, ev in enumerate(ctx.maneuver.events):
         if not isinstance(ev, Touchdown):
             continue
@@ -216,7 +222,7 @@ def check_touchdown_normals(ctx: Context) -> Iterator[Problem]:
         if norm < 1e-9:
             yield _fail(f"events[{i}].normal", "must not be the zero vector")
         elif n[2] / norm < -1e-9:
-            yield _warn(
+            yield _fail(
                 f"events[{i}].normal", f"{list(ev.normal)} points downward: the foot would push on a ceiling"
             )
 
@@ -687,7 +693,6 @@ def check_objectives(ctx: Context) -> Iterator[Problem]:
 
 
 RULES: list[Rule] = [
-    check_events_in_order,
     check_events_within_duration,
     check_liftoff_touchdown_pairs,
     check_touchdown_normals,
@@ -710,7 +715,80 @@ RULES: list[Rule] = [
     check_support_feet,
     check_tracks,
     check_objectives,
+    check_keyframe_torque,
 ]
+
+
+def _run_rules(ctx: Context) -> list[Problem]:
+    problems: list[Problem] = []
+    for rule in RULES:
+        try:
+            problems.extend(rule(ctx))
+        except Exception as e:  # a rule must never turn a user's file into a traceback
+            problems.append(
+                _fail("", f"could not run the check {rule.__name__.removeprefix('check_')}: {e!r}")
+            )
+    return problems
+
+
+_LISTS = ("events", "body", "gaits", "objectives", "hints")
+_ITEM = re.compile(r"\b(events|body|gaits|objectives|hints)\[(\d+)\]")
+_REQUIRED_STAND_INS = {"format": FORMAT, "name": "partial"}  # required fields the rules do not look at
+
+
+@dataclass(frozen=True)
+class _Partial:
+    """The well-formed rest of a document with shape errors, and where its list items came from."""
+
+    maneuver: Maneuver
+    kept: dict[str, list[int]]  # list name → original index of each kept item
+    incomplete_legs: frozenset[str]
+
+    def original(self, p: Problem) -> Problem:
+        """Returns the problem with list indices (in its path and its message) as in the original document."""
+
+        def back(m: re.Match[str]) -> str:
+            kept = self.kept.get(m.group(1))
+            i = int(m.group(2))
+            return f"{m.group(1)}[{kept[i] if kept is not None and i < len(kept) else i}]"
+
+        return replace(p, path=_ITEM.sub(back, p.path), message=_ITEM.sub(back, p.message))
+
+
+def _without_bad_items(data: Any, shape: list[Problem]) -> _Partial | None:
+    """Returns the document without the items (and optional fields) its shape problems are about, parsed; or
+    None when what is wrong is needed by every rule (the duration, the document itself)."""
+    if not isinstance(data, dict):
+        return None
+    doc = dict(data)
+    bad_items: dict[str, set[int]] = {}
+    for p in shape:
+        m = re.match(r"^(events|body|gaits|objectives|hints)\[(\d+)\]", p.path)
+        if m:
+            bad_items.setdefault(m.group(1), set()).add(int(m.group(2)))
+            continue
+        root = re.split(r"[.\[]", p.path, maxsplit=1)[0]
+        if root in ("", "duration") or root not in Maneuver.model_fields:
+            return None
+        if root in _REQUIRED_STAND_INS:
+            doc[root] = _REQUIRED_STAND_INS[root]
+        else:
+            doc.pop(root, None)  # an optional field: its default stands in
+    kept: dict[str, list[int]] = {}
+    incomplete: set[str] = set()
+    for key, bad in bad_items.items():
+        items = doc.get(key)
+        if not isinstance(items, list):
+            return None
+        kept[key] = [i for i in range(len(items)) if i not in bad]
+        doc[key] = [items[i] for i in kept[key]]
+        if key == "events":
+            incomplete |= {str(items[i].get("leg")) for i in bad if isinstance(items[i], dict)}
+    try:
+        maneuver = Maneuver.model_validate(doc)
+    except (ValidationError, RecursionError):
+        return None
+    return _Partial(maneuver, kept, frozenset(incomplete & set(LEGS)))
 
 
 @lru_cache(maxsize=4)
@@ -734,6 +812,7 @@ def validate_maneuver(
     problem is infeasible even with every adjustment.
     """
     lines: dict[str, int] | None = None
+    data: Any = source
     try:
         if isinstance(source, (str, Path)):
             data, lines, name = read_source(source)
@@ -741,19 +820,26 @@ def validate_maneuver(
         else:
             maneuver = parse_maneuver(source)
     except ManeuverError as e:
-        return ValidationResult(False, [], [p for p in e.problems if p.severity == "failure"])
+        shape = [p for p in e.problems if p.severity == "failure"]
+        # the rules still check what is well formed: every problem of the file comes back in one pass
+        partial = _without_bad_items(data, shape)
+        if partial is None:
+            return ValidationResult(False, [], shape)
+        robot = robot if robot is not None else _default_robot()
+        ctx = Context(scale_to_robot(partial.maneuver, robot), robot, params or Params(),
+                      incomplete_legs=partial.incomplete_legs)  # fmt: skip
+        found = with_lines([partial.original(p) for p in _run_rules(ctx)], lines)
+        seen = {(p.path, p.message) for p in shape}
+        more = [p for p in found if (p.path, p.message) not in seen]
+        return ValidationResult(
+            False,
+            [p for p in more if p.severity == "warning"],
+            shape + [p for p in more if p.severity == "failure"],
+        )
     robot = robot if robot is not None else _default_robot()
     maneuver = scale_to_robot(maneuver, robot)  # lengths are the reference robot's (planning.maneuver.scale)
     ctx = Context(maneuver, robot, params or Params())
-    problems: list[Problem] = []
-    for rule in RULES:
-        try:
-            problems.extend(rule(ctx))
-        except Exception as e:  # a rule must never turn a user's file into a traceback
-            problems.append(
-                _fail("", f"could not run the check {rule.__name__.removeprefix('check_')}: {e!r}")
-            )
-    problems = with_lines(problems, lines)
+    problems = with_lines(_run_rules(ctx), lines)
     failures = [p for p in problems if p.severity == "failure"]
     if not failures and not isinstance(ctx.schedule_or_problems, Schedule):
         # the schedule does not build for a reason no rule names: report the builder's words
@@ -771,3 +857,37 @@ def validate_maneuver(
         warnings += [p for p in found if p.severity == "warning"]
     ok = not failures
     return ValidationResult(ok, warnings, failures, maneuver, ctx.schedule, ctx.body)
+
+
+_CHECKED: OrderedDict[tuple[int, str], ValidationResult] = OrderedDict()
+_CHECKED_LOCK = threading.Lock()
+_CHECKED_MAX = 64
+
+
+def check_maneuver(
+    source: Maneuver | dict[str, Any] | str | Path, robot: RobotModel | None = None, *, dry_solve: bool = True
+) -> ValidationResult:
+    """The one validation of footfall: the shape, every rule, then the dry solve (the centroidal solver run along
+    the plan). `footfall validate` and `run`, POST /maneuvers/validate, PUT /maneuvers/{name}, simulations,
+    sessions and the studio all call this, so a maneuver is valid in one place exactly when it is in all.
+
+    Never raises for bad input. The dry solve costs about 0.1 s of CPU per simulated second; results are kept
+    for the last 64 maneuvers (by content, ignoring name, title and description), so validating, then saving,
+    then running the same document solves once. dry_solve=False is `footfall validate --no-solve` only.
+    """
+    if not dry_solve or not isinstance(source, Maneuver):
+        return validate_maneuver(source, robot, dry_solve=dry_solve)
+    robot = robot if robot is not None else _default_robot()
+    key = (id(robot), source.model_dump_json(exclude={"name", "title", "description"}))
+    with _CHECKED_LOCK:
+        found = _CHECKED.get(key)
+        if found is not None:
+            _CHECKED.move_to_end(key)
+    if found is not None and found.maneuver is not None:
+        return dataclasses.replace(found, maneuver=source)
+    result = validate_maneuver(source, robot, dry_solve=True)
+    with _CHECKED_LOCK:
+        _CHECKED[key] = result
+        while len(_CHECKED) > _CHECKED_MAX:
+            _CHECKED.popitem(last=False)
+    return result

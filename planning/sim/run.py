@@ -281,15 +281,23 @@ class ManeuverSession(_Session):
         events_ok = all(r["within_window"] for r in tds)
         fell = self.loop.fell
         pose_ok = pos_err <= POSITION_TOLERANCE_M and abs(dyaw) <= YAW_TOLERANCE_RAD
-        success = (not fell) and events_ok and pose_ok
+        base = self._common_report(wall_s)
+        solver = self._solver_report(base["stages"])
+        backup = backup_share(solver)
+        carried_out = backup <= MAX_BACKUP_SHARE
+        success = (not fell) and events_ok and pose_ok and carried_out
         reason = self.loop.failure_reason
+        if reason is None and not carried_out:
+            reason = (
+                f"the backup controller drove {backup:.0%} of the ticks ({solver['fallback_ticks']} of "
+                f"{solver['balance_ticks']}; more than {MAX_BACKUP_SHARE:.0%} means the maneuver was not carried "
+                f"out): the solver found no usable plan (statuses {solver['statuses']})"
+            )
         if reason is None and not events_ok:
             missed = next(r for r in tds if not r["within_window"])
             reason = f"touchdown of {missed['leg']} planned at {missed['planned_t']} s missed its window"
         if reason is None and not pose_ok:
             reason = f"final pose off by {pos_err:.3f} m and {dyaw:.3f} rad"
-        base = self._common_report(wall_s)
-        stage_times = base["stages"]
         return {
             "maneuver": m.name,
             **base,
@@ -303,8 +311,17 @@ class ManeuverSession(_Session):
             },
             "velocity_tracking_rms": self._velocity_rms(),
             "waypoints": self.waypoints.rows,
-            "solver": self._solver_report(stage_times),
+            "solver": solver,
         }
+
+
+MAX_BACKUP_SHARE = 0.05  # a maneuver run where the backup (balance) controller drove more of the ticks failed
+
+
+def backup_share(solver: dict[str, Any]) -> float:
+    """Returns the share of force ticks the backup controller drove (fallback ticks / balance ticks)."""
+    ticks = int(solver.get("balance_ticks") or 0)
+    return float(solver.get("fallback_ticks") or 0) / ticks if ticks > 0 else 0.0
 
 
 def _solver_section(controller: Any, stage_times: dict[str, Any]) -> dict[str, Any]:

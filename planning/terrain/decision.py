@@ -59,7 +59,9 @@ class DecisionParams:
     of a nominal foothold; window_m: a foothold's polygon is grown from the region's cells within this of it;
     w_height: the distance (m) a metre of height change from the leg's last foothold costs in the region choice;
     max_rise_m: a region higher or lower than the leg's last foothold by more than this is out of reach; keep_m: the
-    previous region of a touchdown is kept unless another costs this much less; freeze_s: a touchdown closer than
+    previous region of a touchdown is kept unless another costs this much less; inside_margin_m: when every
+    nominal foothold lies this deep inside its polygon the step QP is not solved (its region rows would be
+    inactive); freeze_s: a touchdown closer than
     this keeps its last foothold; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
     max to min as the largest move of a next foothold off its nominal grows to this; slow_gait, slow_below: the
     gait below this share of max speed (with slow_hysteresis above it to leave); lookahead_m, yaw_gain,
@@ -76,6 +78,7 @@ class DecisionParams:
     w_height: float = 0.3
     max_rise_m: float = 0.25
     keep_m: float = 0.05
+    inside_margin_m: float = 0.02
     freeze_s: float = 0.04
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
@@ -525,7 +528,12 @@ def choose_footholds(
         polys.append(poly)
         if poly is not None:
             z_ref[leg] = float(poly.height_at(poly.project(nom)))
-    req = step_request(view, path, order, view.height_m)
+    # Every nominal foothold already inside its polygon: the region rows are inactive, the selection stands.
+    inside = all(
+        q is None or bool(q.contains(path.p_world_touchdown[k, :2], -p.inside_margin_m))
+        for q, k in zip(polys, order, strict=True)
+    )
+    req = None if inside else step_request(view, path, order, view.height_m)
     plan = None
     if req is not None:
         plan = qp.solve(req, maps, [None if q is None else (q.A, q.b) for q in polys])
@@ -571,10 +579,10 @@ def _regions_qp() -> StepQPParams:
     """The step QP of the regions pipeline: room for a polygon's half-planes per slot, and a region's rows (the
     step_keep family) harder than reach: a foot goes to its region even where its reachable rectangle, an estimate
     from its speed now, says it is late; a front and a hind foot may share a stone (15 cm apart along the body,
-    not 25)."""
+    not 25); at most 400 OSQP iterations (warm-started each tick: a conflicted replan stops early, not at 4000)."""
     w = list(StepQPParams().weights)
     w[2] = 3e4
-    return StepQPParams(keep_planes=12, weights=tuple(w), self_longitudinal_m=0.15)
+    return StepQPParams(keep_planes=12, weights=tuple(w), self_longitudinal_m=0.15, max_iter=400)
 
 
 def _p(values: list[float], q: float) -> float | None:

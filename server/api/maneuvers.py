@@ -12,12 +12,14 @@ import json
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Header, Query, Request, Response
+from fastapi import Path as PathParam
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse, PlainTextResponse
 from pydantic import BaseModel
 
 from planning.maneuver import ManeuverError
 from planning.maneuver.load import read_yaml
+from planning.maneuver.spec import NAME_PATTERN
 from server.deps import ServicesDep, StoreDep, WriteAccess
 from server.errors import ApiError, field_error
 from server.services import (
@@ -40,7 +42,25 @@ MANEUVER_BODY = {
         },
     }
 }
-NameParam = Annotated[str, "a maneuver name: lowercase letters, digits and single dashes"]
+YAML_TEXT = {"description": "the file's text: a maneuver document in YAML"}  # any YAML value to a client
+ANY_DOCUMENT = {"type": "object", "description": "a maneuver document (see Maneuver); any mapping is checked"}
+VALIDATE_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "application/json": {"schema": ANY_DOCUMENT},
+            "application/yaml": {"schema": ANY_DOCUMENT},
+        },
+    }
+}
+# documented, checked by check_name (its message says what a name is; FastAPI's would quote the regex)
+NameParam = Annotated[
+    str,
+    PathParam(
+        description="a maneuver name: lowercase letters, digits and single dashes",
+        json_schema_extra={"pattern": NAME_PATTERN, "maxLength": 64},
+    ),
+]
 
 
 class ManeuverSummary(BaseModel):
@@ -76,7 +96,7 @@ def list_maneuvers(store: StoreDep) -> list[dict[str, Any]]:
 @router.post(
     "/validate",
     response_model=ValidationAnswer,
-    openapi_extra=MANEUVER_BODY,
+    openapi_extra=VALIDATE_BODY,
     summary="Check a maneuver without simulating: warnings (fixable) and failures (blocking)",
 )
 async def validate_maneuver_body(request: Request, services: ServicesDep) -> dict[str, Any]:
@@ -85,8 +105,11 @@ async def validate_maneuver_body(request: Request, services: ServicesDep) -> dic
 
     def work() -> dict[str, Any]:
         body = read_maneuver_body(raw, content_type)
+        if not isinstance(body.data, dict):
+            kind = "empty" if body.data is None else f"a {type(body.data).__name__}"
+            raise field_error(422, "body", f"must be a mapping of fields (a maneuver document), got {kind}")
         try:
-            maneuver = to_maneuver(body.data, body.lines, services.settings)
+            maneuver = to_maneuver(body.data, body.lines, services.settings, services.robot)
         except ApiError as e:
             if e.status != 422:
                 raise
@@ -112,15 +135,16 @@ def _wants_yaml(request: Request, fmt: str | None) -> bool:
     "/{name}",
     summary="One maneuver: the document as JSON, or the file's text with ?format=yaml (or Accept: application/yaml)",
     responses={
+        304: {"description": "not modified (If-None-Match named the current ETag)"},
         200: {
             "content": {
                 "application/json": {"schema": {"$ref": "#/components/schemas/Maneuver"}},
-                "application/yaml": {"schema": {"type": "string"}},
+                "application/yaml": {"schema": YAML_TEXT},
             },
             "headers": {
                 "ETag": {"schema": {"type": "string"}, "description": "send back in If-Match to replace"}
             },
-        }
+        },
     },
 )
 def get_maneuver(
@@ -191,7 +215,7 @@ async def put_maneuver(
         body = read_maneuver_body(raw, content_type)
         if isinstance(body.data, dict) and "name" not in body.data:
             body = dataclasses.replace(body, data={**body.data, "name": name}, is_yaml=False)
-        maneuver = to_maneuver(body.data, body.lines, services.settings)
+        maneuver = to_maneuver(body.data, body.lines, services.settings, services.robot)
         if maneuver.name != name:
             raise field_error(422, "name", f"must match the URL ({name!r}), got {maneuver.name!r}")
         result = require_valid(maneuver, services, body.lines)

@@ -98,3 +98,20 @@ def get_simulation(job_id: JobId, pool: SimulationsDep) -> dict[str, Any]:
         raise ApiError(404, f"no simulation {job_id[:40]!r}", [{"field": "id", "reason": "unknown"}])
     job, pos = found
     return job.public(pos)
+
+
+@router.delete(
+    "/{job_id}",
+    response_model=SimulationPublic,
+    dependencies=[WriteAccess],
+    responses={409: {"description": "already running or finished: too late to cancel"}},
+    summary="Cancel a queued simulation (it never runs); a running or finished one answers 409",
+)
+def cancel_simulation(job_id: JobId, pool: SimulationsDep) -> dict[str, Any]:
+    job = pool.cancel(job_id)
+    if job is None:
+        raise ApiError(404, f"no simulation {job_id[:40]!r}", [{"field": "id", "reason": "unknown"}])
+    if job.status != "cancelled":
+        raise ApiError(409, f"simulation {job.id} is {job.status}; only a queued one can be cancelled",
+                       [{"field": "id", "reason": f"already {job.status}"}])  # fmt: skip
+    return job.public()

@@ -65,7 +65,8 @@ class StudioClient:
     def start(self) -> None:
         c = self.client
         c.scene.set_up_direction("+z")
-        self._open_session()
+        if self.may_drive():  # a tab that may not drive takes no session slot (issue 24); the token opens one
+            self._open_session()
         self.reset_view()
         self.overlays = OverlayView(c.scene, "/overlays", on_new=self._overlay_added)
         self._build_gui()
@@ -133,6 +134,14 @@ class StudioClient:
             self.client.add_notification(title, body, auto_close_seconds=6.0, color=color)
         except Exception:  # noqa: BLE001 - the tab may be gone
             pass
+
+    def may_drive(self) -> bool:
+        """True when this tab may write or drive now (no notification)."""
+        try:
+            check_token(self.services.settings, self.token or None)
+        except ApiError:
+            return False
+        return True
 
     def authorized(self, what: str) -> bool:
         """True when this tab may write or drive (the API token rule applies to the studio too)."""
@@ -202,6 +211,8 @@ class StudioClient:
                 @txt.on_update
                 def _(e: Any) -> None:
                     self.token = str(e.target.value).strip()
+                    if self.session is None and self.may_drive():
+                        self._open_session()
 
         tabs = gui.add_tab_group()
         with tabs.add_tab("Author"):

@@ -149,9 +149,9 @@ def _bad_bodies(bow: dict[str, Any]) -> list[tuple[str, Any, str]]:
     bad_leg = _mine(bow)
     bad_leg["events"] = [{"t": 0.5, "leg": "XX", "type": "liftoff"}]
     out_of_order = _mine(bow)  # a touchdown before its liftoff: a validation failure, not a shape error
-    out_of_order["events"] = [
-        {"t": 1.4, "leg": "RL", "type": "touchdown", "at": [-0.4, 0.17, 0.0]},
-        {"t": 1.0, "leg": "RL", "type": "liftoff"},
+    out_of_order["events"] = [  # (events may be listed in any order: this touchdown is earlier in time)
+        {"t": 1.4, "leg": "RL", "type": "liftoff"},
+        {"t": 1.0, "leg": "RL", "type": "touchdown", "at": [-0.4, 0.17, 0.0]},
     ]
     other_name = _mine(bow, "someone-else")
     too_long = _mine(bow)

@@ -77,7 +77,7 @@ def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
 @pytest.mark.parametrize(
     "body,status,field",
     [
-        ({"maneuver": "no-such"}, 404, "maneuver"),
+        ({"maneuver": "no-such"}, 422, "maneuver"),  # the body is wrong, not the URL
         ({"maneuver": "../../x"}, 422, "maneuver"),
         ({"maneuver": {"format": "footfall/maneuver@1"}}, 422, "name"),
         ({"maneuver": "bow", "terrain": "lava"}, 422, "body.terrain"),
