@@ -335,6 +335,13 @@ class ManeuverEditor:
             self.btn_pause = gui.add_button("Play / pause")
             self.btn_restart = gui.add_button("Restart")
             self.sl_speed = gui.add_slider("speed (× real time)", 0.1, 2.0, 0.05, 1.0)
+        with gui.add_folder("Replay and compare", expand_by_default=False):
+            # the last preview shown at the playhead instead of the live robot; the run before it as a ghost
+            self.cb_replay = gui.add_checkbox("replay the preview at the playhead", False)
+            self.btn_frame_back = gui.add_button("◀ frame")
+            self.btn_frame_fwd = gui.add_button("frame ▶")
+            self.cb_ghost = gui.add_checkbox("ghost: the run before", True)
+            self.md_replay = gui.add_markdown("*no preview recorded yet*")
         with gui.add_folder("File", expand_by_default=False):
             self.btn_save = gui.add_button("Save")
             self.txt_save_as = gui.add_text("save as name", "")

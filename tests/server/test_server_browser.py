@@ -120,6 +120,7 @@ def test_studio_loads_bow_and_previews_it(server: dict[str, Any], tmp_path: Path
             page = ctx.pages[0] if ctx.pages else ctx.new_page()
             page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
             page.on("console", lambda m: _console(m, problems))
+            page.set_default_timeout(90_000)  # software WebGL on a loaded 2-core machine renders slowly
             page.goto(server["studio"], wait_until="domcontentloaded")
 
             # the tab connects and gets its own live robot

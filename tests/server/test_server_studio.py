@@ -488,3 +488,35 @@ def test_moves_library_validates_and_inserts_at_the_playhead(
         and not ed.events
         and ed.meta["duration"] == pytest.approx(6.0)
     )
+
+
+def test_replay_a_preview_frame_by_frame_with_the_run_before_as_a_ghost(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    ed = tab.editor
+    assert ed.open("bow")
+    ed.sl_speed.value = 2.0
+    ed.preview()
+    assert wait_for(lambda: tab.session.snapshot.state.get("t", 0.0) > 1.5, 15.0)
+    ed.preview()  # the same maneuver again: the first run becomes the ghost
+    assert tab.prev_take is not None and tab.prev_take.maneuver == "bow" and tab.prev_take.t[-1] > 1.4
+    assert wait_for(lambda: tab.session.snapshot.state.get("t", 0.0) > 1.0, 15.0)
+    ed.cb_replay.value = True
+    ed.sl_scrub.value = 0.8
+    take = tab.take
+    assert take is not None and take.maneuver == "bow"
+    k = take.index_at(0.8)
+    assert take.t[k] <= 0.8 + 1e-9 and np.allclose(tab.view.bodies[0].position, take.xpos[k][0])
+    tab.step_frames(3)
+    assert (
+        ed.sl_scrub.value == pytest.approx(take.t[k + 3], abs=0.006)
+        and f"frame {k + 4} of" in ed.md_replay.content
+    )
+    # the ghost shows the run before at the playhead
+    assert tab.ghost is not None and tab.ghost.bodies[0].visible
+    kk = tab.prev_take.index_at(float(ed.sl_scrub.value))
+    assert np.allclose(tab.ghost.bodies[0].position, tab.prev_take.xpos[kk][0])
+    ed.cb_ghost.value = False
+    assert not tab.ghost.bodies[0].visible
+    ed.cb_replay.value = False
+    ed.cb_ghost.value = True
