@@ -98,6 +98,9 @@ def _allowed_methods(request: Request) -> list[str]:
         ]
         app.state.allowed_methods = table
     path = request.url.path
+    exact = app.openapi().get("paths", {}).get(path)  # /maneuvers/validate is itself, not /maneuvers/{name}
+    if exact is not None:
+        return sorted(m.upper() for m in exact)
     return sorted({m for pattern, methods in table if pattern.match(path) for m in methods})
 
 
