@@ -12,6 +12,7 @@ from planning.robot.model import RobotModel, load_robot
 
 KINEMATICS_TOLERANCE_M = 1e-3  # the analytic feet and knees may differ from MuJoCo's by this much
 KINEMATICS_SAMPLES = 200  # random poses inside the joint ranges
+TUNED_ARMATURE_KGM2 = 0.04  # the swing gains are tuned on robots with at most this joint armature
 
 
 def check_robot(name_or_path: str | Path) -> tuple[bool, str]:
@@ -50,6 +51,12 @@ def _report(r: RobotModel) -> tuple[bool, str]:
         f"{np.degrees(g.alpha):.2f}°, foot offset {np.degrees(g.beta):.2f}°, reach "
         f"{r.min_leg_length_m:.3f}–{r.max_leg_length_m:.3f} m"
     )
+    arm = float(max(m.dof_armature[r.dof_idx].max(), 0.0))
+    if arm > TUNED_ARMATURE_KGM2:
+        out.append(
+            f"  note: joint armature up to {arm:.3g} kg·m² (the swing controller is tuned for ≤ "
+            f"{TUNED_ARMATURE_KGM2:g}; a trot may fail on it)"
+        )
     problems = list(r.problems)
     if not any("standing pose" in p for p in problems):
         sx, sy = r.nominal_stance_xy

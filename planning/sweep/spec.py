@@ -70,6 +70,9 @@ class Walk(_Model):
     yaw_rate: Annotated[float, Field(ge=-5, le=5)] = 0.0
     gait: str = "trot"
     maps: Literal["sensor", "truth", "off"] = "sensor"
+    terrain_pipeline: Literal["modes", "regions"] = Field(
+        "modes", description="on a terrain: the navigator's modes, or the unified regions pipeline"
+    )
     solver: Literal["balance", "centroidal"] = "balance"
     stop_at_goal: bool = True
 

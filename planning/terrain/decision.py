@@ -59,11 +59,14 @@ class DecisionParams:
     of a nominal foothold; window_m: a foothold's polygon is grown from the region's cells within this of it;
     w_height: the distance (m) a metre of height change from the leg's last foothold costs in the region choice;
     max_rise_m: a region higher or lower than the leg's last foothold by more than this is out of reach; keep_m: the
-    previous region of a touchdown is kept unless another costs this much less; freeze_s: a touchdown closer than
+    previous region of a touchdown is kept unless another costs this much less; inside_margin_m: when every
+    nominal foothold lies this deep inside its polygon the step QP is not solved (its region rows would be
+    inactive); freeze_s: a touchdown closer than
     this keeps its last foothold; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
     max to min as the largest move of a next foothold off its nominal grows to this; slow_gait, slow_below: the
     gait below this share of max speed (with slow_hysteresis above it to leave); lookahead_m, yaw_gain,
-    max_yaw_rate_rps, goal_gain, goal_tolerance_m: path following; max_pitch_rad, max_pitch_rate_rps: body pitch;
+    max_yaw_rate_rps, goal_gain, goal_tolerance_m: path following; max_pitch_rad, max_pitch_rate_rps, pitch_gain: body pitch (the footholds' plane's
+    slope × pitch_gain);
     max_height_offset_m: the body's offset from the footholds' plane above the mean contact height at most this;
     min_height_m, body_top_m, head_margin_m, crouch_ahead_m, ceiling_above_m: under an overhang within crouch_ahead_m
     the body height is lowered to keep body_top_m + head_margin_m under it, down to min_height_m (overhangs at
@@ -76,6 +79,7 @@ class DecisionParams:
     w_height: float = 0.3
     max_rise_m: float = 0.25
     keep_m: float = 0.05
+    inside_margin_m: float = 0.02
     freeze_s: float = 0.04
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
@@ -96,6 +100,7 @@ class DecisionParams:
     goal_tolerance_m: float = 0.06
     max_pitch_rad: float = 0.45
     max_pitch_rate_rps: float = 0.6
+    pitch_gain: float = 1.0
     max_height_offset_m: float = 0.15
     min_height_m: float = 0.38
     body_top_m: float = 0.10
@@ -230,7 +235,7 @@ def decide(
         follow_path(view, world.path, cap, p) if view.goal is not None else capped(view.operator, cap, p)
     )
     offset, slope = footholds_plane(view, last)
-    pitch_target = float(np.clip(-math.atan(slope), -p.max_pitch_rad, p.max_pitch_rad))
+    pitch_target = float(np.clip(-math.atan(p.pitch_gain * slope), -p.max_pitch_rad, p.max_pitch_rad))
     step = p.max_pitch_rate_rps * view.dt_s
     pitch = view.pitch_rad + float(np.clip(pitch_target - view.pitch_rad, -step, step))
     height = view.standing_height_m + float(np.clip(offset, -p.max_height_offset_m, p.max_height_offset_m))
@@ -525,7 +530,12 @@ def choose_footholds(
         polys.append(poly)
         if poly is not None:
             z_ref[leg] = float(poly.height_at(poly.project(nom)))
-    req = step_request(view, path, order, view.height_m)
+    # Every nominal foothold already inside its polygon: the region rows are inactive, the selection stands.
+    inside = all(
+        q is None or bool(q.contains(path.p_world_touchdown[k, :2], -p.inside_margin_m))
+        for q, k in zip(polys, order, strict=True)
+    )
+    req = None if inside else step_request(view, path, order, view.height_m)
     plan = None
     if req is not None:
         plan = qp.solve(req, maps, [None if q is None else (q.A, q.b) for q in polys])
@@ -571,10 +581,10 @@ def _regions_qp() -> StepQPParams:
     """The step QP of the regions pipeline: room for a polygon's half-planes per slot, and a region's rows (the
     step_keep family) harder than reach: a foot goes to its region even where its reachable rectangle, an estimate
     from its speed now, says it is late; a front and a hind foot may share a stone (15 cm apart along the body,
-    not 25)."""
+    not 25); at most 400 OSQP iterations (warm-started each tick: a conflicted replan stops early, not at 4000)."""
     w = list(StepQPParams().weights)
     w[2] = 3e4
-    return StepQPParams(keep_planes=12, weights=tuple(w), self_longitudinal_m=0.15)
+    return StepQPParams(keep_planes=12, weights=tuple(w), self_longitudinal_m=0.15, max_iter=400)
 
 
 def _p(values: list[float], q: float) -> float | None:

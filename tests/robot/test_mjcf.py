@@ -221,3 +221,17 @@ def test_the_validator_says_when_a_pose_asks_more_torque_than_the_motors_give() 
     weak.tau_max = go1.tau_max * 0.05  # a crouched knee holds ~3 N·m of a 12.6 kg body
     found = [p for p in validate_maneuver(crouch, weak).warnings if "N·m" in p.message]
     assert found and "limit" in found[0].message and found[0].path.startswith("body[")
+
+
+def test_cli_robot_check_exit_codes(
+    critter: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from server.cli import main
+
+    assert main(["robot", "check", str(critter)]) == 0
+    assert "ok: footfall can drive this robot" in capsys.readouterr().out
+    servo = tmp_path / "servo"
+    servo.mkdir()
+    assert main(["robot", "check", str(write_robot(servo, actuator="position"))]) == 2
+    out = capsys.readouterr().out
+    assert "12 problem(s)" in out and "Traceback" not in out

@@ -28,7 +28,7 @@ def test_regions_pipeline_crosses_slopes_and_rough_ground_at_a_rate() -> None:
         )
         r = run_walk(cmd, RunOptions(terrain=terrain, seed=seed, duration_s=14.0))
         nav = r["navigator"]
-        assert nav["pipeline"] == "regions" and nav["scans"] > 20 and nav["step_qp_solves"] > 100
+        assert nav["pipeline"] == "regions" and nav["scans"] > 20 and nav["footholds_ms_p50"] is not None
         clean.append(
             bool(
                 r["success"] and not r["fell"] and r["body_collisions"] == 0 and r["no_step_touchdowns"] == 0
@@ -41,3 +41,17 @@ def test_an_unknown_pipeline_is_refused_by_name() -> None:
     cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=False, terrain_pipeline="rules")
     with pytest.raises(ValueError, match="terrain_pipeline"):
         run_walk(cmd, RunOptions(terrain="slope", duration_s=0.1))
+
+
+@pytest.mark.parametrize("family", ["stairs", "stones", "clutter", "slope", "rough"])
+def test_the_shipped_sweeps_run_both_pipelines_on_the_same_variants(family: str) -> None:
+    from planning.sweep.cases import expand
+    from planning.sweep.spec import load_spec
+
+    cases = [c["params"] for c in expand(load_spec(f"sweeps/pipelines-{family}.yaml"))]
+    by_pipeline: dict[str, set[tuple[object, ...]]] = {"modes": set(), "regions": set()}
+    for p in cases:
+        assert p["terrain"] == family and p["walk"]["maps"] == "truth"
+        variant = (p["seed"], tuple(p["walk"]["goal"]), tuple(sorted(p["terrain_params"].items())))
+        by_pipeline[p["walk"]["terrain_pipeline"]].add(variant)
+    assert len(by_pipeline["regions"]) == 4 and by_pipeline["regions"] == by_pipeline["modes"]
