@@ -27,6 +27,7 @@ from planning.maneuver import ManeuverError, check_maneuver, parse_maneuver
 from planning.maneuver.load import read_yaml
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio import fields as F
+from server.studio import music
 from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
 
 log = logging.getLogger("footfall.studio")
@@ -142,6 +143,9 @@ class ManeuverEditor:
         self.selected: set[int] = set()
         self.clipboard: list[tuple[str, dict[str, Any]]] = []
         self.grid_s = 0.05
+        self.beats: music.Beats | None = (
+            None  # the loaded music's pulse (shown as a grid, snapped to on request)
+        )
         self._undo: list[dict[str, Any]] = []
         self._redo: list[dict[str, Any]] = []
         self._last_op = -1
@@ -310,6 +314,16 @@ class ManeuverEditor:
             self.dd_move = gui.add_dropdown("move", names, initial_value=names[0])
             self.num_move_repeat = gui.add_number("repeat", 1, min=1, max=MAX_REPEAT, step=1)
             self.btn_insert_move = gui.add_button("Insert at playhead")
+        with gui.add_folder("Music", expand_by_default=False):
+            self.btn_audio = gui.add_upload_button(
+                "Load music (WAV)", hint="a PCM WAV file: its tempo and beats"
+            )
+            self.md_music = gui.add_markdown("*no music: load a WAV file to see its beats on the timeline*")
+            self.num_bpm = gui.add_number(
+                "tempo (bpm)", 120.0, min=music.MIN_BPM / 2, max=music.MAX_BPM * 2, step=0.5
+            )
+            self.num_beat_offset = gui.add_number("first beat (s)", 0.0, min=0.0, max=10.0, step=0.005)
+            self.cb_snap_beats = gui.add_checkbox("snap to beats", False)
         with gui.add_folder("Timeline tools", expand_by_default=False):
             self.dd_grid = gui.add_dropdown("snap to", tuple(GRID_CHOICES), initial_value="0.05 s")
             self.btn_undo = gui.add_button("Undo")
@@ -401,6 +415,19 @@ class ManeuverEditor:
             if isinstance(op, dict):
                 self.timeline_op(op)
 
+        @self.btn_audio.on_upload
+        def _(e: Any) -> None:
+            f = e.target.value
+            self.load_music(bytes(f.content), str(f.name))
+
+        def retime(_e: Any) -> None:
+            if self.beats is not None:
+                self.beats = music.Beats(float(self.num_bpm.value), float(self.num_beat_offset.value),
+                                         self.beats.duration_s)  # fmt: skip
+                self._refresh_timeline()
+
+        self.num_bpm.on_update(retime)
+        self.num_beat_offset.on_update(retime)
         self.btn_insert_move.on_click(
             lambda _e: self.insert_move(
                 str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value)
@@ -824,7 +851,31 @@ class ManeuverEditor:
         self._changed(structural=True)
 
     # ---- the timeline worked with the mouse ---------------------------------------------------------------------
+    def load_music(self, data: bytes, name: str = "music") -> music.Beats | None:
+        """Finds the tempo and beats of a WAV file's bytes and shows them on the timeline."""
+        try:
+            x, rate = music.read_wav(data)
+        except music.AudioError as e:
+            self.notify("Music not loaded", f"{name}: {e}", "red")
+            return None
+        b = music.find_beats(x, rate)
+        self.beats = b
+        self._suspend = True
+        try:
+            self.num_bpm.value = b.bpm
+            self.num_beat_offset.value = b.offset_s
+        finally:
+            self._suspend = False
+        self.md_music.content = (
+            f"**{name}**: {b.bpm:g} bpm, first beat at {b.offset_s:.3f} s, {b.duration_s:.1f} s long"
+        )
+        self.cb_snap_beats.value = True
+        self._refresh_timeline()
+        return b
+
     def _snap(self, t: float) -> float:
+        if self.beats is not None and bool(self.cb_snap_beats.value):
+            return _r(self.beats.snap(t), 4)
         g = self.grid_s
         return _r(round(t / g) * g, 4) if g > 0 else _r(t, 4)
 
@@ -1150,8 +1201,16 @@ class ManeuverEditor:
                 for g in self.gaits
             ]
         try:
+            beats = self.beats.times(d) if self.beats is not None else ()
             self.html_timeline.content = timeline_svg(
-                d, bars, marks, gaits, self._scrub_t(), view=self.view, selected=set(self.selected)
+                d,
+                bars,
+                marks,
+                gaits,
+                self._scrub_t(),
+                view=self.view,
+                selected=set(self.selected),
+                beats=beats,
             )
         except Exception:  # noqa: BLE001
             pass

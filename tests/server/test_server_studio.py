@@ -520,3 +520,53 @@ def test_replay_a_preview_frame_by_frame_with_the_run_before_as_a_ghost(
     assert not tab.ghost.bodies[0].visible
     ed.cb_replay.value = False
     ed.cb_ghost.value = True
+
+
+def _click_track(bpm: float, offset_s: float, duration_s: float = 10.0, rate: int = 22050) -> bytes:
+    """A stereo 16-bit WAV: decaying 880 Hz clicks on every beat over a little noise."""
+    import io
+    import wave
+
+    x = np.random.default_rng(0).normal(0.0, 0.01, int(rate * duration_s))
+    n = int(0.03 * rate)
+    click = 0.8 * np.sin(2 * np.pi * 880 * np.arange(n) / rate) * np.exp(-np.arange(n) / (0.01 * rate))
+    tb = offset_s
+    while tb < duration_s - 0.05:
+        i = int(tb * rate)
+        x[i : i + n] += click[: len(x[i : i + n])]
+        tb += 60.0 / bpm
+    s = (np.clip(x, -1, 1) * 32767).astype(np.int16)
+    buf = io.BytesIO()
+    with wave.open(buf, "wb") as w:
+        w.setnchannels(2)
+        w.setsampwidth(2)
+        w.setframerate(rate)
+        w.writeframes(np.stack([s, s], 1).tobytes())
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("bpm, offset_s", [(123.0, 0.31), (96.0, 0.05), (150.0, 0.42)])
+def test_music_tempo_and_beats(bpm: float, offset_s: float) -> None:
+    from server.studio.music import find_beats, read_wav
+
+    b = find_beats(*read_wav(_click_track(bpm, offset_s)))
+    assert b.bpm == pytest.approx(bpm, abs=1.0) and b.offset_s == pytest.approx(offset_s, abs=0.02)
+    assert b.snap(offset_s + 2 * 60.0 / bpm + 0.1) == pytest.approx(offset_s + 2 * 60.0 / bpm, abs=0.03)
+
+
+def test_music_on_the_timeline_and_snapping_to_beats(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    from server.studio.music import AudioError, read_wav
+
+    with pytest.raises(AudioError, match="WAV"):
+        read_wav(b"RIFF....not audio")
+    ed = tab.editor
+    assert ed.open("jump")
+    assert ed.load_music(b"junk", "junk.mp3") is None  # told, not raised
+    b = ed.load_music(_click_track(120.0, 0.25), "click.wav")
+    assert b is not None and ed.num_bpm.value == pytest.approx(120.0, abs=1.0)
+    assert ed.html_timeline.content.count('stroke-dasharray="1 2"') == len(b.times(3.5)) == 7
+    kf = ed.keyframes[
+        -1
+    ]  # 2.80 s: dragged 0.1 s later it lands on the beat at 2.75 + 0.5 = 3.25 s? no: nearest
+    ed.drag([id(kf)], "move", 0.1)
+    assert kf["t"] == pytest.approx(b.snap(2.9), abs=1e-3) and kf["t"] == pytest.approx(2.75, abs=0.03)
