@@ -23,8 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from planning.maneuver import ManeuverError, check_maneuver, parse_maneuver
+from planning.maneuver import ManeuverError, check_maneuver, parse_maneuver, validate_maneuver
 from planning.maneuver.load import read_yaml
+from planning.maneuver.spec import NAME_PATTERN
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio import fields as F
 from server.studio import music
@@ -56,9 +57,10 @@ def _r(x: float, nd: int = 4) -> float:
     return float(round(float(x), nd))
 
 
-def move_names() -> list[str]:
-    """Returns the names of the moves (small maneuvers in maneuvers/moves/), sorted."""
-    return sorted(p.stem for p in MOVES_DIR.glob("*.yaml"))
+def move_names(user_dir: Path | None = None) -> list[str]:
+    """Returns the names of the moves (small maneuvers in maneuvers/moves/, and the user's), sorted."""
+    dirs = [MOVES_DIR] + ([user_dir] if user_dir is not None else [])
+    return sorted({p.stem for d in dirs for p in d.glob("*.yaml")})
 
 
 def rpy_deg_from_wxyz(wxyz: Any) -> list[float]:
@@ -310,10 +312,12 @@ class ManeuverEditor:
         self.txt_timeline_ops = gui.add_text("timeline edits", "")
         self.sl_scrub = gui.add_slider("scrub (s)", 0.0, 3.0, 0.01, 0.0)
         with gui.add_folder("Moves", expand_by_default=False):
-            names = move_names() or ["(none)"]
+            names = move_names(Path(self.services.settings.data_dir) / "moves") or ["(none)"]
             self.dd_move = gui.add_dropdown("move", names, initial_value=names[0])
             self.num_move_repeat = gui.add_number("repeat", 1, min=1, max=MAX_REPEAT, step=1)
             self.btn_insert_move = gui.add_button("Insert at playhead")
+            self.txt_move_name = gui.add_text("new move name", "")
+            self.btn_save_move = gui.add_button("Save selection as a move")
         with gui.add_folder("Music", expand_by_default=False):
             self.btn_audio = gui.add_upload_button(
                 "Load music (WAV)", hint="a PCM WAV file: its tempo and beats"
@@ -428,6 +432,9 @@ class ManeuverEditor:
 
         self.num_bpm.on_update(retime)
         self.num_beat_offset.on_update(retime)
+        self.btn_save_move.on_click(
+            lambda _e: self.save_selection_as_move(str(self.txt_move_name.value).strip())
+        )
         self.btn_insert_move.on_click(
             lambda _e: self.insert_move(
                 str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value)
@@ -948,11 +955,66 @@ class ManeuverEditor:
                     items[i][1]["t"] = _r(t + shift, 4)
         self._changed(structural=True)
 
+    def user_moves_dir(self) -> Path:
+        return Path(self.services.settings.data_dir) / "moves"
+
+    def save_selection_as_move(self, name: str) -> Path | None:
+        """Writes the selected events and keyframes (from time 0, the body back at its nominal pose at the end) as a
+        move in the user's moves folder; returns its path (None, after telling the user, when it cannot)."""
+        if not self.authorized("save a move"):
+            return None
+        if not re.match(NAME_PATTERN, name or "") or len(name) > 64:
+            self.notify("Move not saved", "name: lowercase letters, digits and dashes (e.g. my-step)", "red")
+            return None
+        items = self._timed_items()
+        chosen = [items[i] for i in self.selected if i in items]
+        if not chosen:
+            self.notify("Move not saved", "select events or keyframes on the timeline first", "yellow")
+            return None
+        t0 = min(float(it["t"]) for _, it in chosen)
+        p_ref, _ = self._reference_at(t0)
+        dxy = np.array([p_ref[0], p_ref[1], 0.0])
+        events, body = [], []
+        for kind, it in sorted(chosen, key=lambda c: float(c[1]["t"])):
+            c = {**copy.deepcopy(it), "t": _r(float(it["t"]) - t0)}
+            if kind == "keyframe":
+                c["position"] = [_r(v) for v in np.asarray(c["position"], dtype=float) - dxy]
+                body.append(c)
+            else:
+                if c.get("at") is not None:
+                    c["at"] = [_r(v) for v in np.asarray(c["at"], dtype=float) - dxy]
+                events.append(c)
+        end = max(float(c["t"]) for c in [*events, *body]) + 0.8
+        h = float(getattr(self.services.robot, "standing_height_m", 0.52))
+        body.append(
+            {"t": _r(end - 0.1), "position": [0.0, 0.0, _r(h)], "rpy": [0.0, 0.0, 0.0], "weight": 5.0}
+        )
+        doc: dict[str, Any] = {"format": FORMAT, "name": name, "title": name.replace("-", " ").capitalize(),
+                               "duration": _r(end, 2), "start": "stand", "tracks": ["legs", "body"]}  # fmt: skip
+        if events:
+            doc["events"] = events
+        doc["body"] = body
+        result = validate_maneuver(doc, self.services.robot)
+        if not result.ok:
+            self.notify("Move not saved", f"{result.failures[0].path}: {result.failures[0].message}", "red")
+            return None
+        path = self.user_moves_dir() / f"{name}.yaml"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".yaml.tmp")
+        tmp.write_text(dump_yaml(doc), encoding="utf-8")
+        tmp.replace(path)
+        self.dd_move.options = move_names(self.user_moves_dir())
+        self.dd_move.value = name
+        self.notify("Move saved", f"{name}: {len(events)} events, {len(body)} keyframes", "green")
+        return path
+
     def insert_move(self, name: str, t0: float, repeat: int = 1) -> int:
         """Inserts a move (maneuvers/moves/NAME.yaml) `repeat` times back to back from t0 (s): its events, keyframes,
         gaits and objectives shift by t0, its positions by where the body is planned to be at t0 (x, y); the
         maneuver grows to hold it. Returns how many items it added (0, after telling the user, when it cannot)."""
-        path = MOVES_DIR / f"{name}.yaml"
+        path = self.user_moves_dir() / f"{name}.yaml"
+        if not path.is_file():
+            path = MOVES_DIR / f"{name}.yaml"
         try:
             data, _ = read_yaml(path.read_text(encoding="utf-8"))
         except (OSError, ManeuverError) as e:

@@ -570,3 +570,22 @@ def test_music_on_the_timeline_and_snapping_to_beats(studio_app: tuple[TestClien
     ]  # 2.80 s: dragged 0.1 s later it lands on the beat at 2.75 + 0.5 = 3.25 s? no: nearest
     ed.drag([id(kf)], "move", 0.1)
     assert kf["t"] == pytest.approx(b.snap(2.9), abs=1e-3) and kf["t"] == pytest.approx(2.75, abs=0.03)
+
+
+def test_save_a_selection_as_a_move_and_insert_it(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    ed = tab.editor
+    assert ed.open("step-in-place")
+    lo, td = next(p for p in ed._steps_of("FL"))
+    kfs = [k for k in ed.keyframes if 2.0 <= float(k["t"]) <= 2.8]
+    assert ed.save_selection_as_move("my-step") is None  # nothing selected: told, not saved
+    ed.select_items([id(lo), id(td), *(id(k) for k in kfs)])
+    assert ed.save_selection_as_move("Bad Name") is None
+    path = ed.save_selection_as_move("my-step")
+    assert path is not None and path.parent == ed.user_moves_dir() and "my-step" in ed.dd_move.options
+    from planning.maneuver import validate_maneuver
+
+    assert validate_maneuver(path, tab.services.robot).ok
+    assert ed.open("stand")
+    assert ed.insert_move("my-step", 1.0) == 2 + len(kfs) + 1
+    lifts = [e["t"] for e in ed.events if e["type"] == "liftoff"]
+    assert lifts == [pytest.approx(1.0 + float(lo["t"]) - min(float(lo["t"]), *(float(k["t"]) for k in kfs)))]
