@@ -41,6 +41,11 @@ OBJECTIVES = F.OBJECTIVES
 TARGET_MODES = ("at", "offset", "in place")
 TRUNK_DIMS_M = (0.84, 0.24, 0.16)
 UNDO_DEPTH = 200  # edits kept for undo
+# the editing keys (label, key, modifier, action): none of them is one of the keys viser flies its camera with
+EDIT_KEYS = (("undo", "Z", "cmd/ctrl", "undo"), ("redo", "Z", "cmd/ctrl+shift", "redo"), ("redo ", "Y", "cmd/ctrl", "redo"),
+             ("copy the timeline selection", "C", "cmd/ctrl", "copy"),
+             ("paste at the playhead", "V", "cmd/ctrl", "paste"),
+             ("delete the timeline selection", "delete", None, "delete"))  # fmt: skip
 MOVES_DIR = (
     Path(__file__).resolve().parents[2] / "maneuvers" / "moves"
 )  # small maneuvers inserted at the playhead
@@ -448,12 +453,12 @@ class ManeuverEditor:
         self.btn_duplicate.on_click(lambda _e: self.duplicate_selection())
         self.btn_delete_sel.on_click(lambda _e: self.delete_selection())
         self.btn_zoom_all.on_click(lambda _e: self.timeline_op({"op": "view", "t0": None, "t1": None}))
-        for label, hotkey, mod, fn in (
-            ("undo", "Z", "cmd/ctrl", self.undo), ("redo", "Z", "cmd/ctrl+shift", self.redo),
-            ("redo ", "Y", "cmd/ctrl", self.redo), ("copy the timeline selection", "C", "cmd/ctrl", self.copy_selection),
-            ("paste at the playhead", "V", "cmd/ctrl", lambda: self.paste(self._scrub_t())),
-            ("delete the timeline selection", "delete", None, self.delete_selection),
-        ):  # fmt: skip
+        actions: dict[str, Callable[[], Any]] = {
+            "undo": self.undo, "redo": self.redo, "copy": self.copy_selection,
+            "paste": lambda: self.paste(self._scrub_t()), "delete": self.delete_selection,
+        }  # fmt: skip
+        for label, hotkey, mod, action in EDIT_KEYS:
+            fn = actions[action]
             try:
                 cmd = self.gui.add_command(label, hotkey=hotkey, modifier=mod)  # type: ignore[arg-type]
             except Exception:  # noqa: BLE001 - hotkeys are a convenience (older viser)

@@ -279,8 +279,12 @@ def test_steering_keys_are_not_camera_keys() -> None:
 
     camera = _viser_camera_keys()
     assert camera == {k.upper() if len(k) == 1 else k for k in CAMERA_KEYS}
+    from server.studio.editor import EDIT_KEYS
+
     ours = {k for k, _, _ in STEER_KEYS} | {STOP_KEY}
     assert len(ours) == 7 and not ours & camera, ours & camera
+    edit = {k for _, k, _, _ in EDIT_KEYS}  # with or without a modifier: viser's camera reads the key alone
+    assert {"Z", "C", "V", "delete"} <= edit and not edit & camera, edit & camera
 
 
 def test_reset_view_brings_the_camera_back(studio_app: tuple[TestClient, Any], tab: Any) -> None:
