@@ -397,7 +397,7 @@ def test_a_fallen_robot_goes_limp() -> None:
 def test_timeline_drags_snap_and_undo(studio_app: tuple[TestClient, Any], tab: Any) -> None:
     ed = tab.editor
     assert ed.open("jump")
-    ed.grid_s = 0.05
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
     lo, td = next(p for p in ed._steps_of("FL"))
     # a swing bar dragged by 0.13 s: both events move, the liftoff lands on the 0.05 s grid
     ed.timeline_op({"op": "drag", "ids": [id(lo), id(td)], "part": "move", "dt": 0.13, "n": 1})
@@ -436,7 +436,7 @@ def test_timeline_select_copy_paste_duplicate_delete_and_zoom(
 ) -> None:
     ed = tab.editor
     assert ed.open("jump")
-    ed.grid_s = 0.01
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.01
     n_ev, n_kf = len(ed.events), len(ed.keyframes)
     lo, td = next(p for p in ed._steps_of("RL"))
     kf = ed.keyframes[0]
@@ -476,6 +476,7 @@ def test_moves_library_validates_and_inserts_at_the_playhead(
         r = validate_maneuver(MOVES_DIR / f"{name}.yaml", tab.services.robot)
         assert r.ok, (name, [p.message for p in r.failures])
     ed = tab.editor
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
     assert ed.open("bow")
     n_kf = len(ed.keyframes)
     ed.sl_scrub.value = 5.0
@@ -574,10 +575,12 @@ def test_music_on_the_timeline_and_snapping_to_beats(studio_app: tuple[TestClien
     ]  # 2.80 s: dragged 0.1 s later it lands on the beat at 2.75 + 0.5 = 3.25 s? no: nearest
     ed.drag([id(kf)], "move", 0.1)
     assert kf["t"] == pytest.approx(b.snap(2.9), abs=1e-3) and kf["t"] == pytest.approx(2.75, abs=0.03)
+    ed.cb_snap_beats.value = False  # the tab is shared with the other tests
 
 
 def test_save_a_selection_as_a_move_and_insert_it(studio_app: tuple[TestClient, Any], tab: Any) -> None:
     ed = tab.editor
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
     assert ed.open("step-in-place")
     lo, td = next(p for p in ed._steps_of("FL"))
     kfs = [k for k in ed.keyframes if 2.0 <= float(k["t"]) <= 2.8]
