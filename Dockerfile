@@ -25,6 +25,7 @@ COPY planning ./planning
 COPY server ./server
 COPY benchmarks ./benchmarks
 COPY maneuvers ./maneuvers
+COPY sweeps ./sweeps
 COPY web ./web
 RUN pip install -e .
 

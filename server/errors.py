@@ -82,17 +82,26 @@ def _reason(err: dict[str, Any]) -> str:
 
 
 def _allowed_methods(request: Request) -> list[str]:
-    """Returns every method some route answers on the request's path (a path may have one route per method:
+    """Returns every method the API describes on the request's path (a path may have one route per method:
     Starlette's own 405 names only the first route's)."""
-    from starlette.routing import Match
+    import re
 
-    scope = {**request.scope, "method": "GET"}
-    methods: set[str] = set()
-    for route in request.app.routes:
-        match, _ = route.matches(scope)
-        if match != Match.NONE:
-            methods |= set(getattr(route, "methods", None) or ())
-    return sorted(methods)
+    app = request.app
+    table = getattr(app.state, "allowed_methods", None)
+    if table is None:
+        table = [
+            (
+                re.compile("^" + re.sub(r"\\\{[^/]+?\\\}", "[^/]+", re.escape(path)) + "$"),
+                sorted(m.upper() for m in ops),
+            )
+            for path, ops in app.openapi().get("paths", {}).items()
+        ]
+        app.state.allowed_methods = table
+    path = request.url.path
+    exact = app.openapi().get("paths", {}).get(path)  # /maneuvers/validate is itself, not /maneuvers/{name}
+    if exact is not None:
+        return sorted(m.upper() for m in exact)
+    return sorted({m for pattern, methods in table if pattern.match(path) for m in methods})
 
 
 def install(app: FastAPI) -> None:

@@ -859,7 +859,8 @@ def validate_maneuver(
     return ValidationResult(ok, warnings, failures, maneuver, ctx.schedule, ctx.body)
 
 
-_CHECKED: OrderedDict[tuple[int, str], ValidationResult] = OrderedDict()
+# (id of the robot, the maneuver's content) → (the robot, the result); the robot is kept so its id is not reused
+_CHECKED: OrderedDict[tuple[int, str], tuple[Any, ValidationResult]] = OrderedDict()
 _CHECKED_LOCK = threading.Lock()
 _CHECKED_MAX = 64
 
@@ -880,14 +881,16 @@ def check_maneuver(
     robot = robot if robot is not None else _default_robot()
     key = (id(robot), source.model_dump_json(exclude={"name", "title", "description"}))
     with _CHECKED_LOCK:
-        found = _CHECKED.get(key)
-        if found is not None:
+        entry = _CHECKED.get(key)
+        if entry is not None:
             _CHECKED.move_to_end(key)
-    if found is not None and found.maneuver is not None:
-        return dataclasses.replace(found, maneuver=source)
+    if entry is not None and entry[0] is robot and entry[1].maneuver is not None:
+        return dataclasses.replace(
+            entry[1], maneuver=scale_to_robot(source, robot)
+        )  # as validate_maneuver does
     result = validate_maneuver(source, robot, dry_solve=True)
     with _CHECKED_LOCK:
-        _CHECKED[key] = result
+        _CHECKED[key] = (robot, result)
         while len(_CHECKED) > _CHECKED_MAX:
             _CHECKED.popitem(last=False)
     return result

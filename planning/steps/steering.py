@@ -15,7 +15,7 @@ class SteeringParams:
 
     max_vx_mps: forward speed limit, m/s (the gait's own max_speed_mps also applies).
     max_vx_back_mps: backward speed limit, m/s. max_vy_mps: lateral speed limit, m/s.
-    max_yaw_rate_rps: rad/s. max_accel_x_mps2, max_accel_y_mps2: m/s². max_yaw_accel_rps2: rad/s².
+    max_yaw_rate_rps: rad/s (a gait's own max_vy_mps / max_yaw_rate_rps replace these two). max_accel_x_mps2, max_accel_y_mps2: m/s². max_yaw_accel_rps2: rad/s².
     tau_s: first-order smoothing time constant, s (0 = no smoothing).
     gait_limits: each gait's own max_speed_mps caps the command (off: only the limits here apply; the speed bench
     turns it off to find what the robot can do). lateral_scale_ref_mps: a gait whose max speed is below this
@@ -61,10 +61,15 @@ class SteeringFilter:
         vx_max = p.max_vx_mps if gait is None else min(p.max_vx_mps, gait.max_speed_mps)
         ref = p.lateral_scale_ref_mps
         scale = 1.0 if gait is None or ref <= 0.0 else min(gait.max_speed_mps / ref, 1.0)
+        vy_max, wz_max = p.max_vy_mps * scale, p.max_yaw_rate_rps * scale
+        if gait is not None and gait.max_vy_mps is not None:
+            vy_max = gait.max_vy_mps
+        if gait is not None and gait.max_yaw_rate_rps is not None:
+            wz_max = gait.max_yaw_rate_rps
         return SteeringCommand(
             vx=_clip(cmd.vx, -p.max_vx_back_mps * scale, vx_max),
-            vy=_clip(cmd.vy, -p.max_vy_mps * scale, p.max_vy_mps * scale),
-            yaw_rate=_clip(cmd.yaw_rate, -p.max_yaw_rate_rps * scale, p.max_yaw_rate_rps * scale),
+            vy=_clip(cmd.vy, -vy_max, vy_max),
+            yaw_rate=_clip(cmd.yaw_rate, -wz_max, wz_max),
         )
 
     def update(self, cmd: SteeringCommand, dt: float, gait: Gait | None = None) -> SteeringCommand:

@@ -93,8 +93,10 @@ class Progress:
         runs = self.finished
         succ = f"{self.ok}/{runs} = {100 * self.ok / runs:.0f} %" if runs else "—"
         crashed = f", {self.crashed} crashed" if self.crashed else ""
+        filled = int(20 * self.done / self.total) if self.total else 20
+        bar = "[" + "#" * filled + "." * (20 - filled) + "]"
         return (
-            f"sweep {self.name}: {self.done}/{self.total} cases{crashed} · {rate * 60:.1f} cases/min · "
+            f"sweep {self.name} {bar} {self.done}/{self.total} cases{crashed} · {rate * 60:.1f} cases/min · "
             f"ETA {eta_s} · success {succ}"
         )
 

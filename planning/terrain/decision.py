@@ -65,7 +65,8 @@ class DecisionParams:
     this keeps its last foothold; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
     max to min as the largest move of a next foothold off its nominal grows to this; slow_gait, slow_below: the
     gait below this share of max speed (with slow_hysteresis above it to leave); lookahead_m, yaw_gain,
-    max_yaw_rate_rps, goal_gain, goal_tolerance_m: path following; max_pitch_rad, max_pitch_rate_rps: body pitch;
+    max_yaw_rate_rps, goal_gain, goal_tolerance_m: path following; max_pitch_rad, max_pitch_rate_rps, pitch_gain: body pitch (the footholds' plane's
+    slope × pitch_gain);
     max_height_offset_m: the body's offset from the footholds' plane above the mean contact height at most this;
     min_height_m, body_top_m, head_margin_m, crouch_ahead_m, ceiling_above_m: under an overhang within crouch_ahead_m
     the body height is lowered to keep body_top_m + head_margin_m under it, down to min_height_m (overhangs at
@@ -99,6 +100,7 @@ class DecisionParams:
     goal_tolerance_m: float = 0.06
     max_pitch_rad: float = 0.45
     max_pitch_rate_rps: float = 0.6
+    pitch_gain: float = 1.0
     max_height_offset_m: float = 0.15
     min_height_m: float = 0.38
     body_top_m: float = 0.10
@@ -233,7 +235,7 @@ def decide(
         follow_path(view, world.path, cap, p) if view.goal is not None else capped(view.operator, cap, p)
     )
     offset, slope = footholds_plane(view, last)
-    pitch_target = float(np.clip(-math.atan(slope), -p.max_pitch_rad, p.max_pitch_rad))
+    pitch_target = float(np.clip(-math.atan(p.pitch_gain * slope), -p.max_pitch_rad, p.max_pitch_rad))
     step = p.max_pitch_rate_rps * view.dt_s
     pitch = view.pitch_rad + float(np.clip(pitch_target - view.pitch_rad, -step, step))
     height = view.standing_height_m + float(np.clip(offset, -p.max_height_offset_m, p.max_height_offset_m))

@@ -18,6 +18,7 @@ from server.errors import ApiError
 from server.sessions import LiveSession, SessionError
 from server.studio.editor import ManeuverEditor
 from server.studio.overlays import OverlayView
+from server.studio.replay import GhostRobot, Take, take_of
 from server.studio.robot_view import RobotView
 
 log = logging.getLogger("footfall.studio")
@@ -60,6 +61,9 @@ class StudioClient:
         self._frames: deque[float] = deque(maxlen=200)
         self._last_note = 0.0
         self.steer_cmd = {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}
+        self.take: Take | None = None  # the preview being replayed (refreshed while it records)
+        self.prev_take: Take | None = None  # the run before the latest preview (the ghost)
+        self.ghost: GhostRobot | None = None
 
     # ---- lifecycle ----------------------------------------------------------------------------------------------
     def start(self) -> None:
@@ -162,6 +166,9 @@ class StudioClient:
         if self.session is None:
             self.notify("No live robot", "the server has no free session; reload later", "red")
             return
+        before = take_of(self.session)
+        if before is not None and before.maneuver != "stand":
+            self.prev_take = before  # the ghost: the run before this one
         try:
             self.session.set_speed(float(self.editor.sl_speed.value))
             self.session.start_maneuver(maneuver)
@@ -258,6 +265,12 @@ class StudioClient:
         def _(e: Any) -> None:
             if self.session is not None:
                 self.session.set_speed(float(e.target.value))
+
+        ed.btn_frame_back.on_click(lambda _e: self.step_frames(-1))
+        ed.btn_frame_fwd.on_click(lambda _e: self.step_frames(1))
+        ed.cb_ghost.on_update(lambda _e: self.show_replay())
+        ed.cb_replay.on_update(lambda _e: self.show_replay())
+        ed.sl_scrub.on_update(lambda _e: self.show_replay())
 
         @ed.btn_export.on_click
         def _(_: Any) -> None:
@@ -410,6 +423,43 @@ class StudioClient:
         except Exception:  # noqa: BLE001
             pass
 
+    # ---- replay and compare ----------------------------------------------------------------------------------------
+    def step_frames(self, frames: int) -> None:
+        """Moves the playhead by whole recorded frames (replay on)."""
+        ed = self.editor
+        if self.session is not None:
+            self.take = take_of(self.session)
+        if self.take is None:
+            return
+        ed.cb_replay.value = True
+        ed.sl_scrub.value = float(min(self.take.step(float(ed.sl_scrub.value), frames), ed.sl_scrub.max))
+
+    def show_replay(self, t_live: float | None = None) -> None:
+        """Poses the robot from the recorded preview at the playhead (replay on), and the ghost from the run before
+        at the same time (or at the live time `t_live`)."""
+        ed = self.editor
+        replay = bool(ed.cb_replay.value)
+        t = float(ed.sl_scrub.value) if replay or t_live is None else t_live
+        if replay and self.session is not None:
+            if self.take is None or self.session.status == "running":
+                self.take = take_of(self.session)
+            if self.take is not None and self.view is not None:
+                with self.client.atomic():
+                    self.view.set_poses(*self.take.pose_at(t))
+                k = self.take.index_at(t)
+                ed.md_replay.content = (f"replaying **{self.take.maneuver}**: frame {k + 1} of {len(self.take.t)}, "
+                                        f"t = {self.take.t[k]:.2f} s")  # fmt: skip
+        want_ghost = bool(ed.cb_ghost.value) and self.prev_take is not None
+        if want_ghost and self.ghost is None and self.session is not None:
+            with self.session.lock:
+                visuals = self.session.sim.visuals() if hasattr(self.session.sim, "visuals") else None
+            if visuals is not None:
+                self.ghost = GhostRobot(self.client.scene, visuals)
+        if self.ghost is not None:
+            self.ghost.set_visible(want_ghost)
+            if want_ghost and self.prev_take is not None:
+                self.ghost.set_poses(*self.prev_take.pose_at(t))
+
     def send_steer(self) -> None:
         """Sends the sliders' velocity command (and the gait and step weights) to the tab's session."""
         if self.session is None or not self.authorized("steer"):
@@ -511,11 +561,14 @@ class StudioClient:
                     if s.generation != self.generation or self.view is None:
                         self._rebuild_scene(s)
                     snap = s.snapshot
-                    if snap.seq != last_seq and t0 - last_sent >= min_gap:
+                    replaying = bool(self.editor.cb_replay.value)
+                    if snap.seq != last_seq and t0 - last_sent >= min_gap and not replaying:
                         last_seq, last_sent = snap.seq, t0
                         with self.client.atomic():
                             assert self.view is not None
                             self.view.set_poses(snap.xpos, snap.xquat)
+                        if self.ghost is not None or self.prev_take is not None:
+                            self.show_replay(t_live=float(snap.state.get("t", 0.0)))
                         self._frames.append(time.perf_counter())
                         if self.cb_follow.value and len(snap.xpos):
                             self._follow(snap.xpos[0])

@@ -18,14 +18,17 @@ import threading
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from planning.maneuver import ManeuverError, check_maneuver, parse_maneuver
+from planning.maneuver import ManeuverError, check_maneuver, parse_maneuver, validate_maneuver
 from planning.maneuver.load import read_yaml
+from planning.maneuver.spec import NAME_PATTERN
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio import fields as F
+from server.studio import music
 from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
 
 log = logging.getLogger("footfall.studio")
@@ -37,6 +40,17 @@ GAITS = F.GAITS
 OBJECTIVES = F.OBJECTIVES
 TARGET_MODES = ("at", "offset", "in place")
 TRUNK_DIMS_M = (0.84, 0.24, 0.16)
+UNDO_DEPTH = 200  # edits kept for undo
+# the editing keys (label, key, modifier, action): none of them is one of the keys viser flies its camera with
+EDIT_KEYS = (("undo", "Z", "cmd/ctrl", "undo"), ("redo", "Z", "cmd/ctrl+shift", "redo"), ("redo ", "Y", "cmd/ctrl", "redo"),
+             ("copy the timeline selection", "C", "cmd/ctrl", "copy"),
+             ("paste at the playhead", "V", "cmd/ctrl", "paste"),
+             ("delete the timeline selection", "delete", None, "delete"))  # fmt: skip
+MOVES_DIR = (
+    Path(__file__).resolve().parents[2] / "maneuvers" / "moves"
+)  # small maneuvers inserted at the playhead
+MAX_REPEAT = 8  # how many times a move may be inserted back to back
+GRID_CHOICES = {"off": 0.0, "0.01 s": 0.01, "0.05 s": 0.05, "0.1 s": 0.1, "0.25 s": 0.25}
 _PATH_RE = re.compile(r"^(events|body|gaits|objectives)\[(\d+)\]")
 
 
@@ -46,6 +60,12 @@ def _hex_rgb(h: str) -> tuple[int, int, int]:
 
 def _r(x: float, nd: int = 4) -> float:
     return float(round(float(x), nd))
+
+
+def move_names(user_dir: Path | None = None) -> list[str]:
+    """Returns the names of the moves (small maneuvers in maneuvers/moves/, and the user's), sorted."""
+    dirs = [MOVES_DIR] + ([user_dir] if user_dir is not None else [])
+    return sorted({p.stem for d in dirs for p in d.glob("*.yaml")})
 
 
 def rpy_deg_from_wxyz(wxyz: Any) -> list[float]:
@@ -124,6 +144,18 @@ class ManeuverEditor:
         self._rev = 0
         self._shown_rev = -1
         self._suspend = False  # set while the GUI is written from the document (its callbacks must not echo)
+        # the timeline: its visible window (None: the whole maneuver), the selected items, the clipboard (copies with
+        # times relative to the first), the snapping grid (s, 0: off), undo and redo (whole-document states)
+        self.view: tuple[float, float] | None = None
+        self.selected: set[int] = set()
+        self.clipboard: list[tuple[str, dict[str, Any]]] = []
+        self.grid_s = 0.05
+        self.beats: music.Beats | None = (
+            None  # the loaded music's pulse (shown as a grid, snapped to on request)
+        )
+        self._undo: list[dict[str, Any]] = []
+        self._redo: list[dict[str, Any]] = []
+        self._last_op = -1
 
     # ================================================================================================================
     # document
@@ -145,6 +177,9 @@ class ManeuverEditor:
             self.weights = dict(w) if isinstance(w, dict) else None
             self.source_name, self.source, self.etag = name, source, etag
             self.dirty = False
+            self._undo, self._redo = [self._state()], []
+            self.selected.clear()
+            self.view = None
         self._write_static_fields()
         self._show_in_library(name)
         self.rebuild_items()
@@ -207,11 +242,51 @@ class ManeuverEditor:
     def yaml_text(self) -> str:
         return dump_yaml(self.document()[0])
 
+    def _state(self) -> dict[str, Any]:
+        """Returns a copy of the whole document as edited (what undo goes back to)."""
+        return copy.deepcopy({"meta": self.meta, "events": self.events, "keyframes": self.keyframes,
+                              "gaits": self.gaits, "objectives": self.objectives, "weights": self.weights})  # fmt: skip
+
+    def _restore(self, st: dict[str, Any]) -> None:
+        with self.lock:
+            st = copy.deepcopy(st)
+            self.meta, self.events, self.keyframes = st["meta"], st["events"], st["keyframes"]
+            self.gaits, self.objectives, self.weights = st["gaits"], st["objectives"], st["weights"]
+            self.selected.clear()
+            self.dirty = True
+            self._rev += 1
+        self._write_static_fields(keep_scrub=True)
+        self.rebuild_items()
+        self.request_validation(0.0)
+
+    def undo(self) -> bool:
+        """Goes back one edit; False when there is none."""
+        with self.lock:
+            if len(self._undo) < 2:
+                return False
+            self._redo.append(self._undo.pop())
+            st = self._undo[-1]
+        self._restore(st)
+        return True
+
+    def redo(self) -> bool:
+        with self.lock:
+            if not self._redo:
+                return False
+            st = self._redo.pop()
+            self._undo.append(st)
+        self._restore(st)
+        return True
+
     def _changed(self, structural: bool = False) -> None:
         if self._suspend:
             return
         self.dirty = True
         self._rev += 1
+        with self.lock:
+            self._undo.append(self._state())
+            del self._undo[:-UNDO_DEPTH]
+            self._redo.clear()
         if structural:
             self.rebuild_items()
         self._refresh_header()
@@ -237,7 +312,36 @@ class ManeuverEditor:
             self.num_duration = self._number("duration (s)", 3.0, F.MANEUVER, "duration", 0.1, is_time=True)
             self.num_friction = self._number("friction", 0.6, F.MANEUVER, "friction", 0.05)
         self.html_timeline = gui.add_html(timeline_svg(3.0, [], []))
+        # what the page helper sends from the timeline (drags, selections, zoom, playhead), one JSON op per value;
+        # the helper hides this row
+        self.txt_timeline_ops = gui.add_text("timeline edits", "")
         self.sl_scrub = gui.add_slider("scrub (s)", 0.0, 3.0, 0.01, 0.0)
+        with gui.add_folder("Moves", expand_by_default=False):
+            names = move_names(Path(self.services.settings.data_dir) / "moves") or ["(none)"]
+            self.dd_move = gui.add_dropdown("move", names, initial_value=names[0])
+            self.num_move_repeat = gui.add_number("repeat", 1, min=1, max=MAX_REPEAT, step=1)
+            self.btn_insert_move = gui.add_button("Insert at playhead")
+            self.txt_move_name = gui.add_text("new move name", "")
+            self.btn_save_move = gui.add_button("Save selection as a move")
+        with gui.add_folder("Music", expand_by_default=False):
+            self.btn_audio = gui.add_upload_button(
+                "Load music (WAV)", hint="a PCM WAV file: its tempo and beats"
+            )
+            self.md_music = gui.add_markdown("*no music: load a WAV file to see its beats on the timeline*")
+            self.num_bpm = gui.add_number(
+                "tempo (bpm)", 120.0, min=music.MIN_BPM / 2, max=music.MAX_BPM * 2, step=0.5
+            )
+            self.num_beat_offset = gui.add_number("first beat (s)", 0.0, min=0.0, max=10.0, step=0.005)
+            self.cb_snap_beats = gui.add_checkbox("snap to beats", False)
+        with gui.add_folder("Timeline tools", expand_by_default=False):
+            self.dd_grid = gui.add_dropdown("snap to", tuple(GRID_CHOICES), initial_value="0.05 s")
+            self.btn_undo = gui.add_button("Undo")
+            self.btn_redo = gui.add_button("Redo")
+            self.btn_copy = gui.add_button("Copy selection")
+            self.btn_paste = gui.add_button("Paste at playhead")
+            self.btn_duplicate = gui.add_button("Duplicate selection")
+            self.btn_delete_sel = gui.add_button("Delete selection", color="red")
+            self.btn_zoom_all = gui.add_button("Show the whole maneuver")
         self.fd_legs = gui.add_folder("Legs (steps)", expand_by_default=True)
         self.fd_body = gui.add_folder("Body keyframes", expand_by_default=False)
         self.fd_gaits = gui.add_folder("Gaits", expand_by_default=False)
@@ -254,6 +358,13 @@ class ManeuverEditor:
             self.btn_pause = gui.add_button("Play / pause")
             self.btn_restart = gui.add_button("Restart")
             self.sl_speed = gui.add_slider("speed (× real time)", 0.1, 2.0, 0.05, 1.0)
+        with gui.add_folder("Replay and compare", expand_by_default=False):
+            # the last preview shown at the playhead instead of the live robot; the run before it as a ghost
+            self.cb_replay = gui.add_checkbox("replay the preview at the playhead", False)
+            self.btn_frame_back = gui.add_button("◀ frame")
+            self.btn_frame_fwd = gui.add_button("frame ▶")
+            self.cb_ghost = gui.add_checkbox("ghost: the run before", True)
+            self.md_replay = gui.add_markdown("*no preview recorded yet*")
         with gui.add_folder("File", expand_by_default=False):
             self.btn_save = gui.add_button("Save")
             self.txt_save_as = gui.add_text("save as name", "")
@@ -301,6 +412,59 @@ class ManeuverEditor:
 
             h.on_update(cb)
 
+        @self.txt_timeline_ops.on_update
+        def _(e: Any) -> None:
+            text = str(e.target.value)
+            if not text:
+                return
+            try:
+                op = json.loads(text)
+            except ValueError:
+                return
+            if isinstance(op, dict):
+                self.timeline_op(op)
+
+        @self.btn_audio.on_upload
+        def _(e: Any) -> None:
+            f = e.target.value
+            self.load_music(bytes(f.content), str(f.name))
+
+        def retime(_e: Any) -> None:
+            if self.beats is not None:
+                self.beats = music.Beats(float(self.num_bpm.value), float(self.num_beat_offset.value),
+                                         self.beats.duration_s)  # fmt: skip
+                self._refresh_timeline()
+
+        self.num_bpm.on_update(retime)
+        self.num_beat_offset.on_update(retime)
+        self.btn_save_move.on_click(
+            lambda _e: self.save_selection_as_move(str(self.txt_move_name.value).strip())
+        )
+        self.btn_insert_move.on_click(
+            lambda _e: self.insert_move(
+                str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value)
+            )
+        )
+        self.dd_grid.on_update(lambda e: setattr(self, "grid_s", GRID_CHOICES.get(str(e.target.value), 0.0)))
+        self.btn_undo.on_click(lambda _e: self.undo())
+        self.btn_redo.on_click(lambda _e: self.redo())
+        self.btn_copy.on_click(lambda _e: self.copy_selection())
+        self.btn_paste.on_click(lambda _e: self.paste(self._scrub_t()))
+        self.btn_duplicate.on_click(lambda _e: self.duplicate_selection())
+        self.btn_delete_sel.on_click(lambda _e: self.delete_selection())
+        self.btn_zoom_all.on_click(lambda _e: self.timeline_op({"op": "view", "t0": None, "t1": None}))
+        actions: dict[str, Callable[[], Any]] = {
+            "undo": self.undo, "redo": self.redo, "copy": self.copy_selection,
+            "paste": lambda: self.paste(self._scrub_t()), "delete": self.delete_selection,
+        }  # fmt: skip
+        for label, hotkey, mod, action in EDIT_KEYS:
+            fn = actions[action]
+            try:
+                cmd = self.gui.add_command(label, hotkey=hotkey, modifier=mod)  # type: ignore[arg-type]
+            except Exception:  # noqa: BLE001 - hotkeys are a convenience (older viser)
+                break
+            cmd.on_trigger(lambda _e, fn=fn: fn())
+
         @self.sl_scrub.on_update
         def _(_: Any) -> None:
             self._refresh_timeline()
@@ -337,7 +501,7 @@ class ManeuverEditor:
         return self.gui.add_number(label, float(min(max(value, f.lo), f.hi)), min=f.lo, max=f.hi, step=step,
                                    hint=f.description)  # fmt: skip
 
-    def _write_static_fields(self) -> None:
+    def _write_static_fields(self, keep_scrub: bool = False) -> None:
         self._suspend = True
         try:
             m = self.meta
@@ -347,7 +511,8 @@ class ManeuverEditor:
             self.num_duration.value = d
             self.num_friction.value = float(m.get("friction") or 0.6)
             self.sl_scrub.max = max(0.1, d)
-            self.sl_scrub.value = 0.0
+            if not keep_scrub:
+                self.sl_scrub.value = 0.0
             w = self.weights or {}
             for k, h in self.num_weights.items():
                 h.value = float(w.get(k, WEIGHT_DEFAULTS[k]))
@@ -697,6 +862,258 @@ class ManeuverEditor:
             )
         self._changed(structural=True)
 
+    # ---- the timeline worked with the mouse ---------------------------------------------------------------------
+    def load_music(self, data: bytes, name: str = "music") -> music.Beats | None:
+        """Finds the tempo and beats of a WAV file's bytes and shows them on the timeline."""
+        try:
+            x, rate = music.read_wav(data)
+        except music.AudioError as e:
+            self.notify("Music not loaded", f"{name}: {e}", "red")
+            return None
+        b = music.find_beats(x, rate)
+        self.beats = b
+        self._suspend = True
+        try:
+            self.num_bpm.value = b.bpm
+            self.num_beat_offset.value = b.offset_s
+        finally:
+            self._suspend = False
+        self.md_music.content = (
+            f"**{name}**: {b.bpm:g} bpm, first beat at {b.offset_s:.3f} s, {b.duration_s:.1f} s long"
+        )
+        self.cb_snap_beats.value = True
+        self._refresh_timeline()
+        return b
+
+    def _snap(self, t: float) -> float:
+        if self.beats is not None and bool(self.cb_snap_beats.value):
+            return _r(self.beats.snap(t), 4)
+        g = self.grid_s
+        return _r(round(t / g) * g, 4) if g > 0 else _r(t, 4)
+
+    def _timed_items(self) -> dict[int, tuple[str, dict[str, Any]]]:
+        """Returns the items with a time on the timeline (events, keyframes) by id, with their kind."""
+        out: dict[int, tuple[str, dict[str, Any]]] = {id(e): ("event", e) for e in self.events}
+        out.update({id(k): ("keyframe", k) for k in self.keyframes})
+        return out
+
+    def timeline_op(self, op: dict[str, Any]) -> None:
+        """Applies one operation sent by the timeline (see page.js): a drag of items or of a part of one, a
+        selection, the visible window, the playhead. Times are snapped to the grid."""
+        n = op.get("n")
+        if isinstance(n, int):
+            if n == self._last_op:
+                return  # the same op delivered twice
+            self._last_op = n
+        kind = op.get("op")
+        try:
+            ids = [int(i) for i in op.get("ids") or []]
+            if kind == "drag":
+                self.drag(ids, str(op.get("part", "move")), float(op["dt"]))
+            elif kind == "select":
+                self.select_items(ids, add=bool(op.get("add")))
+            elif kind == "scrub":
+                d = float(self.meta.get("duration") or 1.0)
+                self.sl_scrub.value = float(min(max(self._snap(float(op["t"])), 0.0), d))
+            elif kind == "view":
+                t0, t1 = op.get("t0"), op.get("t1")
+                d = float(self.meta.get("duration") or 1.0)
+                if t0 is None or t1 is None:
+                    self.view = None
+                else:
+                    lo, hi = max(0.0, float(t0)), min(d, float(t1))
+                    self.view = None if hi - lo >= d - 1e-6 or hi - lo < 0.05 else (lo, hi)
+                self._refresh_timeline()
+        except (KeyError, TypeError, ValueError):
+            log.info("timeline op ignored: %r", op)
+
+    def select_items(self, ids: list[int], add: bool = False) -> None:
+        items = self._timed_items()
+        with self.lock:
+            if not add:
+                self.selected.clear()
+            self.selected ^= {i for i in ids if i in items} if add else {i for i in ids if i in items}
+        self._refresh_timeline()
+
+    def drag(self, ids: list[int], part: str, dt: float) -> None:
+        """Moves items by dt (s): `move` every item given (and the selection, when one of them is selected),
+        `start`/`end` one end of a swing, `adjust` a touchdown's ± time window by dt. The first item's new time lands
+        on the grid; the maneuver's bounds hold."""
+        items = self._timed_items()
+        group = [i for i in ids if i in items]
+        if not group:
+            return
+        d = float(self.meta.get("duration") or 1.0)
+        with self.lock:
+            if part == "adjust":
+                td = items[group[0]][1]
+                adj = dict(td.get("adjust") or {})
+                adj["time"] = max(0.0, self._snap(float(adj.get("time", 0.0)) + dt))
+                td["adjust"] = adj
+            else:
+                if part == "move" and set(group) & self.selected:
+                    group = list(dict.fromkeys([*group, *sorted(self.selected & set(items))]))
+                times = [float(items[i][1].get("t", 0.0)) for i in group]
+                shift = self._snap(times[0] + dt) - times[0]
+                shift = min(max(shift, -min(times)), d - max(times))  # the whole group stays in [0, duration]
+                for i, t in zip(group, times, strict=True):
+                    items[i][1]["t"] = _r(t + shift, 4)
+        self._changed(structural=True)
+
+    def user_moves_dir(self) -> Path:
+        return Path(self.services.settings.data_dir) / "moves"
+
+    def save_selection_as_move(self, name: str) -> Path | None:
+        """Writes the selected events and keyframes (from time 0, the body back at its nominal pose at the end) as a
+        move in the user's moves folder; returns its path (None, after telling the user, when it cannot)."""
+        if not self.authorized("save a move"):
+            return None
+        if not re.match(NAME_PATTERN, name or "") or len(name) > 64:
+            self.notify("Move not saved", "name: lowercase letters, digits and dashes (e.g. my-step)", "red")
+            return None
+        items = self._timed_items()
+        chosen = [items[i] for i in self.selected if i in items]
+        if not chosen:
+            self.notify("Move not saved", "select events or keyframes on the timeline first", "yellow")
+            return None
+        t0 = min(float(it["t"]) for _, it in chosen)
+        p_ref, _ = self._reference_at(t0)
+        dxy = np.array([p_ref[0], p_ref[1], 0.0])
+        events, body = [], []
+        for kind, it in sorted(chosen, key=lambda c: float(c[1]["t"])):
+            c = {**copy.deepcopy(it), "t": _r(float(it["t"]) - t0)}
+            if kind == "keyframe":
+                c["position"] = [_r(v) for v in np.asarray(c["position"], dtype=float) - dxy]
+                body.append(c)
+            else:
+                if c.get("at") is not None:
+                    c["at"] = [_r(v) for v in np.asarray(c["at"], dtype=float) - dxy]
+                events.append(c)
+        end = max(float(c["t"]) for c in [*events, *body]) + 0.8
+        h = float(getattr(self.services.robot, "standing_height_m", 0.52))
+        body.append(
+            {"t": _r(end - 0.1), "position": [0.0, 0.0, _r(h)], "rpy": [0.0, 0.0, 0.0], "weight": 5.0}
+        )
+        doc: dict[str, Any] = {"format": FORMAT, "name": name, "title": name.replace("-", " ").capitalize(),
+                               "duration": _r(end, 2), "start": "stand", "tracks": ["legs", "body"]}  # fmt: skip
+        if events:
+            doc["events"] = events
+        doc["body"] = body
+        result = validate_maneuver(doc, self.services.robot)
+        if not result.ok:
+            self.notify("Move not saved", f"{result.failures[0].path}: {result.failures[0].message}", "red")
+            return None
+        path = self.user_moves_dir() / f"{name}.yaml"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".yaml.tmp")
+        tmp.write_text(dump_yaml(doc), encoding="utf-8")
+        tmp.replace(path)
+        self.dd_move.options = move_names(self.user_moves_dir())
+        self.dd_move.value = name
+        self.notify("Move saved", f"{name}: {len(events)} events, {len(body)} keyframes", "green")
+        return path
+
+    def insert_move(self, name: str, t0: float, repeat: int = 1) -> int:
+        """Inserts a move (maneuvers/moves/NAME.yaml) `repeat` times back to back from t0 (s): its events, keyframes,
+        gaits and objectives shift by t0, its positions by where the body is planned to be at t0 (x, y); the
+        maneuver grows to hold it. Returns how many items it added (0, after telling the user, when it cannot)."""
+        path = self.user_moves_dir() / f"{name}.yaml"
+        if not path.is_file():
+            path = MOVES_DIR / f"{name}.yaml"
+        try:
+            data, _ = read_yaml(path.read_text(encoding="utf-8"))
+        except (OSError, ManeuverError) as e:
+            self.notify("Cannot insert", f"{name}: {e}", "red")
+            return 0
+        if not isinstance(data, dict):
+            return 0
+        repeat = int(min(max(repeat, 1), MAX_REPEAT))
+        dur = float(data.get("duration") or 0.0)
+        t0 = self._snap(t0)
+        added: list[dict[str, Any]] = []
+        with self.lock:
+            for k in range(repeat):
+                ts = t0 + k * dur
+                p_ref, _ = self._reference_at(ts)
+                dxy = np.array([p_ref[0], p_ref[1], 0.0])
+                for ev in data.get("events") or []:
+                    c = {**copy.deepcopy(ev), "t": _r(float(ev["t"]) + ts)}
+                    if c.get("at") is not None:
+                        c["at"] = [_r(v) for v in np.asarray(c["at"], dtype=float) + dxy]
+                    self.events.append(c)
+                    added.append(c)
+                for kf in data.get("body") or []:
+                    c = {**copy.deepcopy(kf), "t": _r(float(kf["t"]) + ts)}
+                    c["position"] = [_r(v) for v in np.asarray(c["position"], dtype=float) + dxy]
+                    self.keyframes.append(c)
+                    added.append(c)
+                for g in data.get("gaits") or []:
+                    self.gaits.append({**copy.deepcopy(g), "from": _r(float(g["from"]) + ts),
+                                       "to": _r(float(g["to"]) + ts)})  # fmt: skip
+                for o in data.get("objectives") or []:
+                    c = copy.deepcopy(o)
+                    if isinstance(c.get("t"), list):
+                        c["t"] = [_r(float(v) + ts) for v in c["t"]]
+                    elif c.get("t") is not None:
+                        c["t"] = _r(float(c["t"]) + ts)
+                    self.objectives.append(c)
+            end = t0 + repeat * dur
+            if end > float(self.meta.get("duration") or 0.0):
+                self.meta["duration"] = _r(end, 2)
+            self.selected = {id(c) for c in added}
+        self._write_static_fields(keep_scrub=True)
+        self._changed(structural=True)
+        self.notify("Inserted", f"{name} × {repeat} at {t0:.2f} s", "green")
+        return len(added)
+
+    def copy_selection(self) -> int:
+        """Copies the selected items (times relative to the earliest); returns how many."""
+        items = self._timed_items()
+        with self.lock:
+            chosen = [items[i] for i in self.selected if i in items]
+            if not chosen:
+                return 0
+            t0 = min(float(it.get("t", 0.0)) for _, it in chosen)
+            self.clipboard = [
+                (k, {**copy.deepcopy(it), "t": float(it.get("t", 0.0)) - t0}) for k, it in chosen
+            ]
+        return len(chosen)
+
+    def paste(self, t: float) -> int:
+        """Inserts the clipboard's items from time t (s); the pasted items become the selection."""
+        if not self.clipboard:
+            return 0
+        d = float(self.meta.get("duration") or 1.0)
+        with self.lock:
+            new = []
+            for kind, it in self.clipboard:
+                c = copy.deepcopy(it)
+                c["t"] = _r(min(self._snap(t) + float(it["t"]), d), 4)
+                (self.events if kind == "event" else self.keyframes).append(c)
+                new.append(c)
+            self.selected = {id(c) for c in new}
+        self._changed(structural=True)
+        return len(new)
+
+    def duplicate_selection(self) -> int:
+        """Copies the selection and pastes it right after its end."""
+        items = self._timed_items()
+        with self.lock:
+            chosen = [items[i][1] for i in self.selected if i in items]
+        if not chosen or not self.copy_selection():
+            return 0
+        t0 = min(float(it["t"]) for it in chosen)
+        span = max(float(it["t"]) for it in chosen) - t0
+        return self.paste(t0 + span + max(self.grid_s, 0.05))
+
+    def delete_selection(self) -> int:
+        items = self._timed_items()
+        chosen = [items[i][1] for i in self.selected if i in items]
+        if chosen:
+            self.selected.clear()
+            self.delete_items(*chosen)
+        return len(chosen)
+
     def delete_items(self, *items: dict[str, Any] | None) -> None:
         ids = {id(i) for i in items if i is not None}
         with self.lock:
@@ -832,11 +1249,12 @@ class ManeuverEditor:
                             s = self._severity(id(it))
                             sev = "failure" if s == "failure" or sev == "failure" else s or sev
                     if lo is not None and td is not None:
-                        bars.append(Bar(leg, float(lo["t"]), float(td["t"]), True, sev))
+                        adj = float((td.get("adjust") or {}).get("time", 0.0) or 0.0)
+                        bars.append(Bar(leg, float(lo["t"]), float(td["t"]), True, sev, id(lo), id(td), adj))
                     else:
                         it = lo or td
                         assert it is not None
-                        marks.append(Mark(leg, float(it["t"]), sev or "failure"))
+                        marks.append(Mark(leg, float(it["t"]), sev or "failure", id(it)))
             sched = getattr(self.result, "schedule", None)
             if sched is not None:
                 for leg_swings in sched.swings:
@@ -844,13 +1262,23 @@ class ManeuverEditor:
                         if str(sw.liftoff_path).startswith("gaits"):
                             bars.append(Bar(LEG_ROWS[sw.leg], sw.t_liftoff, sw.t_touchdown, False))
             for kf in self.keyframes:
-                marks.append(Mark("body", float(kf.get("t", 0.0)), self._severity(id(kf))))
+                marks.append(Mark("body", float(kf.get("t", 0.0)), self._severity(id(kf)), id(kf)))
             gaits = [
                 (float(g.get("from", 0.0)), float(g.get("to", 0.0)), str(g.get("gait", "")))
                 for g in self.gaits
             ]
         try:
-            self.html_timeline.content = timeline_svg(d, bars, marks, gaits, self._scrub_t())
+            beats = self.beats.times(d) if self.beats is not None else ()
+            self.html_timeline.content = timeline_svg(
+                d,
+                bars,
+                marks,
+                gaits,
+                self._scrub_t(),
+                view=self.view,
+                selected=set(self.selected),
+                beats=beats,
+            )
         except Exception:  # noqa: BLE001
             pass
 

@@ -96,3 +96,21 @@ def test_a_run_the_backup_controller_carried_is_no_success(monkeypatch) -> None:
     carried = run_maneuver(stand, RunOptions(duration_s=0.6))
     assert not carried["success"] and backup_share(carried["solver"]) == 1.0
     assert carried["failure_reason"].startswith("the backup controller drove 100% of the ticks")
+
+
+def test_check_maneuver_solves_a_document_once_per_robot(robot, mk, monkeypatch) -> None:
+    """The one validation caches by content (not by name) and per robot: validate, save, run solve once."""
+    import planning.maneuver.drysolve as drysolve
+    from planning.maneuver import check_maneuver, parse_maneuver
+    from planning.robot import load_robot
+
+    calls = []
+    real = drysolve.dry_solve
+    monkeypatch.setattr(drysolve, "dry_solve", lambda *a, **k: calls.append(1) or real(*a, **k))
+    doc = mk(duration=1.3, body=[{"t": 1.2, "position": [0.01, 0, 0.52]}])
+    first = check_maneuver(parse_maneuver(doc), robot)
+    again = check_maneuver(parse_maneuver({**doc, "name": "other-name"}), robot)
+    assert first.ok and again.ok and len(calls) == 1
+    assert again.maneuver is not None and again.maneuver.name == "other-name"
+    check_maneuver(parse_maneuver(doc), load_robot("spot"))  # another robot object: its own solve
+    assert len(calls) == 2

@@ -120,6 +120,7 @@ def test_studio_loads_bow_and_previews_it(server: dict[str, Any], tmp_path: Path
             page = ctx.pages[0] if ctx.pages else ctx.new_page()
             page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
             page.on("console", lambda m: _console(m, problems))
+            page.set_default_timeout(90_000)  # software WebGL on a loaded 2-core machine renders slowly
             page.goto(server["studio"], wait_until="domcontentloaded")
 
             # the tab connects and gets its own live robot
@@ -210,75 +211,6 @@ def _open_studio(page: Any, server: dict[str, Any]) -> str:
 
 
 @pytest.mark.browser
-def test_keys_steer_without_moving_the_camera_and_labels_name_their_inputs(
-    server: dict[str, Any], tmp_path: Path
-) -> None:
-    """Three presses of the forward key: the velocity slider and the session's command go to 0.3 m/s, the camera
-    stays where it was (W used to fly it under the floor); X stops; Reset view puts a moved camera back. Then the
-    'save as name' input is found by its label (as a screen reader would) and Save as writes the file."""
-    api = server["api"]
-    with _browser_page(tmp_path) as (page, problems):
-        cid = _open_studio(page, server)
-        cam0 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
-        page.mouse.click(400, 120)  # the 3D view (empty sky) has the focus, as when a user clicked in it
-        for _ in range(3):
-            page.keyboard.press("i")
-            time.sleep(0.15)
-        end = time.monotonic() + 10
-        while (info := httpx.get(f"{api}/studio", timeout=5).json())["steer"][cid]["vx"] < 0.29:
-            assert time.monotonic() < end, info["steer"]
-            time.sleep(0.1)
-        assert info["steer"][cid] == {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0}
-        sid = info["sessions"][cid]
-        assert httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["command"]["vx"] == pytest.approx(
-            0.3
-        )
-        time.sleep(0.5)
-        cam1 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
-        assert cam1 == cam0, (cam0, cam1)
-        page.keyboard.press("x")  # stops
-        end = time.monotonic() + 10
-        while httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["command"]["vx"] != 0.0:
-            assert time.monotonic() < end, "X did not stop the robot"
-            time.sleep(0.1)
-        # the camera keys themselves still fly the view (they are viser's); Reset view brings it back
-        page.keyboard.down("w")
-        time.sleep(0.6)
-        page.keyboard.up("w")
-        end = time.monotonic() + 10
-        while httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid] == cam0:
-            assert time.monotonic() < end, "W did not move the camera (is this viser's viewer?)"
-            time.sleep(0.1)
-        page.get_by_role("tab", name="View").click()
-        page.get_by_role("button", name="Reset view", exact=True).click()
-        end = time.monotonic() + 10
-        while True:
-            cam2 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
-            body = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["body"]["position"]
-            if cam2["position"][2] > body[2] + 0.5 and abs(cam2["look_at"][0] - body[0]) < 0.3:
-                break
-            assert time.monotonic() < end, (cam2, body)
-            time.sleep(0.1)
-
-        page.get_by_role("tab", name="Author").click()
-        page.get_by_text("File", exact=True).first.dispatch_event("click")  # opens the folder
-        page.get_by_label("save as name", exact=True).fill("bow-by-label")
-        page.get_by_role("button", name="Save as", exact=True).click()
-        end = time.monotonic() + 15
-        while (r := httpx.get(f"{api}/maneuvers/bow-by-label", timeout=5)).status_code != 200:
-            assert time.monotonic() < end, r.text
-            time.sleep(0.2)
-        doc = r.json()
-        assert doc["name"] == "bow-by-label" and doc["body"] and doc["duration"] > 0
-        # the library dropdown shows what is open
-        end = time.monotonic() + 10
-        while page.get_by_label("Maneuver", exact=True).input_value() != "bow-by-label":
-            assert time.monotonic() < end, page.get_by_label("Maneuver", exact=True).input_value()
-            time.sleep(0.1)
-        assert not problems, problems
-
-
-@pytest.mark.browser
 def test_api_docs_render_offline(server: dict[str, Any], tmp_path: Path) -> None:
     """/docs and /redoc draw the API with every request outside the server refused."""
     api = server["api"]
@@ -304,3 +236,129 @@ def test_api_docs_render_offline(server: dict[str, Any], tmp_path: Path) -> None
         # ReDoc's sidebar credit asks redoc.ly for its logo and hides it when that fails: the one request out
         assert not [u for u in outside if not u.endswith("/redoc/logo-mini.svg")], outside
         assert not [p for p in problems if "ERR_FAILED" not in p], problems  # the refused logo
+
+
+def _drag(page: Any, box: dict[str, float], dx: float, at: str = "center") -> None:
+    x = box["x"] + (box["width"] / 2 if at == "center" else box["width"] - 1 if at == "end" else 1)
+    y = box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + dx, y, steps=6)
+    page.mouse.up()
+
+
+def _saved(api: str, name: str) -> dict[str, Any]:
+    end = time.monotonic() + 30
+    while (r := httpx.get(f"{api}/maneuvers/{name}", timeout=5)).status_code != 200:
+        assert time.monotonic() < end, r.text
+        time.sleep(0.2)
+    return dict(r.json())
+
+
+def _keys_steer_without_moving_the_camera(page: Any, server: dict[str, Any], cid: str) -> None:
+    """Three presses of the forward key: the velocity slider and the session's command go to 0.3 m/s, the camera
+    stays where it was (W used to fly it under the floor); X stops; Reset view puts a moved camera back."""
+    api = server["api"]
+    cam0 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
+    page.mouse.click(400, 120)  # the 3D view (empty sky) has the focus, as when a user clicked in it
+    for _ in range(3):
+        page.keyboard.press("i")
+        time.sleep(0.15)
+    end = time.monotonic() + 30
+    while (info := httpx.get(f"{api}/studio", timeout=5).json())["steer"][cid]["vx"] < 0.29:
+        assert time.monotonic() < end, info["steer"]
+        time.sleep(0.1)
+    assert info["steer"][cid] == {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0}
+    sid = info["sessions"][cid]
+    assert httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["command"]["vx"] == pytest.approx(0.3)
+    time.sleep(0.5)
+    cam1 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
+    assert cam1 == cam0, (cam0, cam1)
+    page.keyboard.press("x")  # stops
+    end = time.monotonic() + 30
+    while httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["command"]["vx"] != 0.0:
+        assert time.monotonic() < end, "X did not stop the robot"
+        time.sleep(0.1)
+    # the camera keys themselves still fly the view (they are viser's); Reset view brings it back
+    page.keyboard.down("w")
+    time.sleep(0.6)
+    page.keyboard.up("w")
+    end = time.monotonic() + 30
+    while httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid] == cam0:
+        assert time.monotonic() < end, "W did not move the camera (is this viser's viewer?)"
+        time.sleep(0.1)
+    page.get_by_role("tab", name="View").click()
+    page.get_by_role("button", name="Reset view", exact=True).click()
+    end = time.monotonic() + 30
+    while True:
+        cam2 = httpx.get(f"{api}/studio", timeout=5).json()["cameras"][cid]
+        body = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()["body"]["position"]
+        if cam2["position"][2] > body[2] + 0.5 and abs(cam2["look_at"][0] - body[0]) < 0.3:
+            break
+        assert time.monotonic() < end, (cam2, body)
+        time.sleep(0.1)
+
+
+@pytest.mark.browser
+def test_keys_timeline_drag_undo_broken_edit_and_save(server: dict[str, Any], tmp_path: Path) -> None:
+    """The steering keys leave the camera alone (see the helper). Then on `jump`: drag FL's swing bar and a keyframe
+    with the mouse, undo the keyframe drag with Ctrl+Z, drag FL's touchdown before its liftoff and see the failure on
+    the timeline, undo it, save as (the name's input found by its label, as a screen reader would), read the file."""
+    api = server["api"]
+    with _browser_page(tmp_path) as (page, problems):
+        page.set_default_timeout(90_000)  # a loaded 2-core machine renders the studio slowly
+        cid = _open_studio(page, server)
+        _keys_steer_without_moving_the_camera(page, server, cid)
+        page.get_by_role("tab", name="Author").click()
+        picker = page.get_by_label("Maneuver", exact=True)
+        picker.click()
+        page.get_by_role("option", name="jump", exact=True).click()
+        page.get_by_role("button", name="Open", exact=True).click()
+        page.get_by_text("jump · shipped").first.wait_for()
+        svg = "svg[data-footfall-timeline]"
+
+        def wait_svg(pred: Any, what: str) -> None:
+            end = time.monotonic() + 60
+            while not pred(page.locator(svg).inner_html()):
+                assert time.monotonic() < end, what
+                time.sleep(0.2)
+
+        bars = page.locator(f"{svg} rect[data-part=move]")
+        wait_svg(lambda h: h.count('data-part="move"') >= 8, "jump's bars and keyframes are drawn")
+        fl = bars.first  # the FL swing (rows are drawn FL, FR, RL, RR)
+        box = fl.bounding_box()
+        assert box is not None
+        px_per_s = (
+            page.locator(svg).bounding_box()["width"] * 264 / 300 / 3.5
+        )  # inner width over jump's 3.5 s
+        _drag(page, box, 0.2 * px_per_s)
+        wait_svg(lambda h: "FL swing 1.40 → 1.62 s" in h, "the FL bar moved by 0.2 s")
+        kfs = page.locator(f"{svg} path[data-part=move]")
+        kbox = kfs.nth(3).bounding_box()  # jump's last keyframe (2.80 s)
+        _drag(page, kbox, -0.3 * px_per_s)
+        wait_svg(lambda h: "body at 2.50 s" in h, "the keyframe moved to 2.50 s")
+        page.keyboard.press("Control+z")
+        wait_svg(
+            lambda h: "body at 2.80 s" in h and "FL swing 1.40 → 1.62 s" in h, "undo put the keyframe back"
+        )
+        # a broken edit: FL's touchdown dragged to before its liftoff
+        box = page.locator(f"{svg} rect[data-part=end]").first.bounding_box()
+        _drag(page, box, -0.5 * px_per_s)
+        wait_svg(lambda h: "#ff3b30" in h, "the failure shows on the timeline")
+        page.screenshot(path=str(ARTIFACTS / "studio-timeline-failure.png"))
+        page.keyboard.press("Control+z")
+        wait_svg(lambda h: "#ff3b30" not in h and "FL swing 1.40 → 1.62 s" in h, "undo repaired it")
+        page.screenshot(path=str(ARTIFACTS / "studio-timeline.png"))
+        page.get_by_text("File", exact=True).first.dispatch_event("click")
+        page.get_by_label("save as name", exact=True).fill("jump-dragged")
+        page.get_by_role("button", name="Save as", exact=True).click()
+        doc = _saved(api, "jump-dragged")
+        fl_t = sorted(e["t"] for e in doc["events"] if e["leg"] == "FL")
+        assert fl_t == [pytest.approx(1.4), pytest.approx(1.62)], doc["events"]
+        assert sorted(k["t"] for k in doc["body"])[-1] == pytest.approx(2.8)
+        # the library dropdown shows what is open
+        end = time.monotonic() + 30
+        while page.get_by_label("Maneuver", exact=True).input_value() != "jump-dragged":
+            assert time.monotonic() < end, page.get_by_label("Maneuver", exact=True).input_value()
+            time.sleep(0.2)
+        assert not problems, problems

@@ -194,3 +194,33 @@ def test_rest_validate_put_and_cli_agree(client: TestClient, tmp_path: Path, cap
         if line.startswith("failure")
     }
     assert cli == {f"line {line}: {path}: {message}" for path, line, message in rest}
+
+
+FOUR_PROBLEMS = """\
+format: footfall/maneuver@1
+name: four-problems
+duration: 3.0
+events:
+  - {t: 0.5, leg: FX, type: liftoff}
+  - {t: .nan, leg: FL, type: liftoff}
+  - {t: 1.0, leg: FL, type: touchdown}
+  - {t: 2.0, leg: RR, type: liftoff}
+  - {t: 1.5, leg: RR, type: touchdown}
+  - {t: 3.5, leg: RL, type: liftoff}
+  - {t: 3.8, leg: RL, type: touchdown}
+"""  # an unknown leg, a NaN, a touchdown before its liftoff, events past the end
+
+
+def test_rest_reports_every_problem_in_one_pass(client: TestClient) -> None:
+    r = client.post("/maneuvers/validate", content=FOUR_PROBLEMS, headers=YAML)
+    assert r.status_code == 200 and not r.json()["ok"], r.text
+    got = {f["path"] for f in r.json()["failures"]}
+    assert got == {"events[0].leg", "events[1].t", "events[4].t", "events[5].t", "events[6].t"}, got
+    r = client.put("/maneuvers/four-problems", content=FOUR_PROBLEMS, headers=YAML)
+    assert r.status_code == 422 and {e["field"] for e in r.json()["errors"]} == got, r.text
+
+
+def test_a_405_names_every_method_of_the_path(client: TestClient) -> None:
+    r = client.options("/sessions/0123456789abcdef")
+    assert r.status_code == 405
+    assert set(r.headers["allow"].replace(" ", "").split(",")) == {"GET", "DELETE"}, r.headers

@@ -101,11 +101,13 @@ def test_a_tab_gets_a_live_robot(studio_app: tuple[TestClient, Any], tab: Any) -
 
 
 @pytest.mark.load
-def test_a_tab_gets_its_robot_at_30_fps(studio_app: tuple[TestClient, Any], tab: Any) -> None:
-    """The pose rate a tab gets, over its last 200 frames: with the suite's other worker running simulations on a
-    2-core machine it fell to 25-29 for seconds at a time, so it runs with the load tests, on its own."""
+def test_a_tab_gets_its_robot_at_50_fps(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    """The pose rate a tab gets, over its last 200 frames, while the session keeps real time: sessions publish 60
+    snapshots a second and a tab sends each within 4 ms. Measured 48/s with the machine's load average at 12 (56
+    published); with the suite's other worker running simulations on 2 cores it fell further, so it runs with the
+    load tests, on its own."""
     client, _ = studio_app
-    assert wait_for(lambda: _tab_fps(client, tab) >= 30.0, 20.0), client.get("/studio").json()
+    assert wait_for(lambda: _tab_fps(client, tab) >= 50.0, 20.0), client.get("/studio").json()
 
 
 def test_a_check_of_an_older_document_does_not_hide_newer_problems(
@@ -277,8 +279,12 @@ def test_steering_keys_are_not_camera_keys() -> None:
 
     camera = _viser_camera_keys()
     assert camera == {k.upper() if len(k) == 1 else k for k in CAMERA_KEYS}
+    from server.studio.editor import EDIT_KEYS
+
     ours = {k for k, _, _ in STEER_KEYS} | {STOP_KEY}
     assert len(ours) == 7 and not ours & camera, ours & camera
+    edit = {k for _, k, _, _ in EDIT_KEYS}  # with or without a modifier: viser's camera reads the key alone
+    assert {"Z", "C", "V", "delete"} <= edit and not edit & camera, edit & camera
 
 
 def test_reset_view_brings_the_camera_back(studio_app: tuple[TestClient, Any], tab: Any) -> None:
@@ -385,3 +391,208 @@ def test_a_fallen_robot_goes_limp() -> None:
     assert np.abs(sim.data.ctrl).max() == 0.0 and [len(st.times_ms) for st in loop.stages] == runs
     assert float(sim.state.p_world_body[2]) < z0 - 0.05  # limp: it sags under its own weight
     assert sim.state_dict()["fell"] and sim.t == pytest.approx(0.54, abs=0.01)
+
+
+# ---- the timeline worked with the mouse (the ops page.js sends) -------------------------------------------------------
+def test_timeline_drags_snap_and_undo(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    ed = tab.editor
+    assert ed.open("jump")
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
+    lo, td = next(p for p in ed._steps_of("FL"))
+    # a swing bar dragged by 0.13 s: both events move, the liftoff lands on the 0.05 s grid
+    ed.timeline_op({"op": "drag", "ids": [id(lo), id(td)], "part": "move", "dt": 0.13, "n": 1})
+    assert lo["t"] == pytest.approx(1.35) and td["t"] == pytest.approx(1.57)
+    ed.timeline_op(
+        {"op": "drag", "ids": [id(lo), id(td)], "part": "move", "dt": 0.13, "n": 1}
+    )  # delivered twice
+    assert lo["t"] == pytest.approx(1.35)
+    # its touchdown end stretched, its adjust window widened
+    ed.timeline_op({"op": "drag", "ids": [id(td)], "part": "end", "dt": 0.11, "n": 2})
+    assert td["t"] == pytest.approx(1.70) and lo["t"] == pytest.approx(1.35)
+    ed.timeline_op({"op": "drag", "ids": [id(td)], "part": "adjust", "dt": 0.04, "n": 3})
+    assert td["adjust"]["time"] == pytest.approx(0.1)
+    # a keyframe never leaves the maneuver
+    kf = ed.keyframes[-1]
+    ed.drag([id(kf)], "move", 10.0)
+    assert kf["t"] == pytest.approx(float(ed.meta["duration"]))
+    # undo walks back edit by edit (items are rebuilt: find them by leg and order), redo forward
+    for _ in range(4):
+        assert ed.undo()
+    lo, td = next(p for p in ed._steps_of("FL"))
+    assert (lo["t"], td["t"]) == (pytest.approx(1.2), pytest.approx(1.42)) and not ed.undo()
+    assert ed.redo()
+    lo, td = next(p for p in ed._steps_of("FL"))
+    assert lo["t"] == pytest.approx(1.35)
+    # a broken edit (touchdown dragged before its liftoff) shows on its bar in the timeline
+    ed.drag([id(td)], "end", -0.5)
+    ed.validate_now()
+    lo, td = next(p for p in ed._steps_of("FL"))
+    assert ed._severity(id(td)) == "failure" or ed._severity(id(lo)) == "failure"
+    assert "#ff3b30" in ed.html_timeline.content
+
+
+def test_timeline_select_copy_paste_duplicate_delete_and_zoom(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    ed = tab.editor
+    assert ed.open("jump")
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.01
+    n_ev, n_kf = len(ed.events), len(ed.keyframes)
+    lo, td = next(p for p in ed._steps_of("RL"))
+    kf = ed.keyframes[0]
+    ed.timeline_op({"op": "select", "ids": [id(lo), id(td)], "n": 10})
+    ed.timeline_op({"op": "select", "ids": [id(kf)], "add": True, "n": 11})
+    assert ed.selected == {id(lo), id(td), id(kf)} and 'stroke="#ffffff"' in ed.html_timeline.content
+    # dragging one selected item moves the whole selection
+    ed.drag([id(kf)], "move", 0.1)
+    assert kf["t"] == pytest.approx(1.0) and lo["t"] == pytest.approx(1.3) and td["t"] == pytest.approx(1.52)
+    assert ed.copy_selection() == 3
+    assert ed.paste(2.0) == 3 and len(ed.events) == n_ev + 2 and len(ed.keyframes) == n_kf + 1
+    pasted = sorted(float(it["t"]) for it in ed.events + ed.keyframes if id(it) in ed.selected)
+    assert pasted == pytest.approx([2.0, 2.3, 2.52])
+    assert ed.duplicate_selection() == 3 and len(ed.keyframes) == n_kf + 2
+    assert ed.delete_selection() == 3 and len(ed.keyframes) == n_kf + 1 and len(ed.events) == n_ev + 2
+    # zoom: the SVG shows the window asked for; the whole maneuver again on request
+    ed.timeline_op({"op": "view", "t0": 1.0, "t1": 2.0, "n": 12})
+    assert ed.view == (1.0, 2.0) and 'data-v0="1.0000" data-v1="2.0000"' in ed.html_timeline.content
+    ed.timeline_op({"op": "view", "t0": None, "t1": None, "n": 13})
+    assert ed.view is None
+    ed.timeline_op({"op": "scrub", "t": 1.234, "n": 14})
+    assert ed.sl_scrub.value == pytest.approx(1.23)
+    ed.timeline_op({"op": "drag", "ids": ["junk"], "n": 15})  # malformed: ignored
+
+
+def test_moves_library_validates_and_inserts_at_the_playhead(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    """At least 20 moves, each a valid maneuver file; inserting one shifts it to the playhead (twice: back to
+    back), grows the maneuver to hold it, selects what it added, and undoes in one step."""
+    from planning.maneuver import validate_maneuver
+    from server.studio.editor import MOVES_DIR, move_names
+
+    names = move_names()
+    assert len(names) >= 20
+    for name in names:
+        r = validate_maneuver(MOVES_DIR / f"{name}.yaml", tab.services.robot)
+        assert r.ok, (name, [p.message for p in r.failures])
+    ed = tab.editor
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
+    assert ed.open("bow")
+    n_kf = len(ed.keyframes)
+    ed.sl_scrub.value = 5.0
+    added = ed.insert_move("step-fl", ed._scrub_t(), repeat=2)
+    assert (
+        added == 2 * (2 + 3) and len(ed.keyframes) == n_kf + 6 and ed.meta["duration"] == pytest.approx(9.4)
+    )
+    lifts = sorted(e["t"] for e in ed.events if e["leg"] == "FL" and e["type"] == "liftoff")
+    assert lifts == [pytest.approx(5.7), pytest.approx(7.9)] and len(ed.selected) == added
+    assert ed.num_duration.value == pytest.approx(9.4) and ed.validate_now().ok
+    assert (
+        ed.undo()
+        and len(ed.keyframes) == n_kf
+        and not ed.events
+        and ed.meta["duration"] == pytest.approx(6.0)
+    )
+
+
+def test_replay_a_preview_frame_by_frame_with_the_run_before_as_a_ghost(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    ed = tab.editor
+    assert ed.open("bow")
+    ed.sl_speed.value = 2.0
+    ed.preview()
+    assert wait_for(lambda: tab.session.snapshot.state.get("t", 0.0) > 1.5, 15.0)
+    ed.preview()  # the same maneuver again: the first run becomes the ghost
+    assert tab.prev_take is not None and tab.prev_take.maneuver == "bow" and tab.prev_take.t[-1] > 1.4
+    assert wait_for(lambda: tab.session.snapshot.state.get("t", 0.0) > 1.0, 15.0)
+    ed.cb_replay.value = True
+    ed.sl_scrub.value = 0.8
+    take = tab.take
+    assert take is not None and take.maneuver == "bow"
+    k = take.index_at(0.8)
+    assert take.t[k] <= 0.8 + 1e-9 and np.allclose(tab.view.bodies[0].position, take.xpos[k][0])
+    tab.step_frames(3)
+    assert (
+        ed.sl_scrub.value == pytest.approx(take.t[k + 3], abs=0.006)
+        and f"frame {k + 4} of" in ed.md_replay.content
+    )
+    # the ghost shows the run before at the playhead
+    assert tab.ghost is not None and tab.ghost.bodies[0].visible
+    kk = tab.prev_take.index_at(float(ed.sl_scrub.value))
+    assert np.allclose(tab.ghost.bodies[0].position, tab.prev_take.xpos[kk][0])
+    ed.cb_ghost.value = False
+    assert not tab.ghost.bodies[0].visible
+    ed.cb_replay.value = False
+    ed.cb_ghost.value = True
+
+
+def _click_track(bpm: float, offset_s: float, duration_s: float = 10.0, rate: int = 22050) -> bytes:
+    """A stereo 16-bit WAV: decaying 880 Hz clicks on every beat over a little noise."""
+    import io
+    import wave
+
+    x = np.random.default_rng(0).normal(0.0, 0.01, int(rate * duration_s))
+    n = int(0.03 * rate)
+    click = 0.8 * np.sin(2 * np.pi * 880 * np.arange(n) / rate) * np.exp(-np.arange(n) / (0.01 * rate))
+    tb = offset_s
+    while tb < duration_s - 0.05:
+        i = int(tb * rate)
+        x[i : i + n] += click[: len(x[i : i + n])]
+        tb += 60.0 / bpm
+    s = (np.clip(x, -1, 1) * 32767).astype(np.int16)
+    buf = io.BytesIO()
+    with wave.open(buf, "wb") as w:
+        w.setnchannels(2)
+        w.setsampwidth(2)
+        w.setframerate(rate)
+        w.writeframes(np.stack([s, s], 1).tobytes())
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("bpm, offset_s", [(123.0, 0.31), (96.0, 0.05), (150.0, 0.42)])
+def test_music_tempo_and_beats(bpm: float, offset_s: float) -> None:
+    from server.studio.music import find_beats, read_wav
+
+    b = find_beats(*read_wav(_click_track(bpm, offset_s)))
+    assert b.bpm == pytest.approx(bpm, abs=1.0) and b.offset_s == pytest.approx(offset_s, abs=0.02)
+    assert b.snap(offset_s + 2 * 60.0 / bpm + 0.1) == pytest.approx(offset_s + 2 * 60.0 / bpm, abs=0.03)
+
+
+def test_music_on_the_timeline_and_snapping_to_beats(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    from server.studio.music import AudioError, read_wav
+
+    with pytest.raises(AudioError, match="WAV"):
+        read_wav(b"RIFF....not audio")
+    ed = tab.editor
+    assert ed.open("jump")
+    assert ed.load_music(b"junk", "junk.mp3") is None  # told, not raised
+    b = ed.load_music(_click_track(120.0, 0.25), "click.wav")
+    assert b is not None and ed.num_bpm.value == pytest.approx(120.0, abs=1.0)
+    assert ed.html_timeline.content.count('stroke-dasharray="1 2"') == len(b.times(3.5)) == 7
+    kf = ed.keyframes[
+        -1
+    ]  # 2.80 s: dragged 0.1 s later it lands on the beat at 2.75 + 0.5 = 3.25 s? no: nearest
+    ed.drag([id(kf)], "move", 0.1)
+    assert kf["t"] == pytest.approx(b.snap(2.9), abs=1e-3) and kf["t"] == pytest.approx(2.75, abs=0.03)
+    ed.cb_snap_beats.value = False  # the tab is shared with the other tests
+
+
+def test_save_a_selection_as_a_move_and_insert_it(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    ed = tab.editor
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
+    assert ed.open("step-in-place")
+    lo, td = next(p for p in ed._steps_of("FL"))
+    kfs = [k for k in ed.keyframes if 2.0 <= float(k["t"]) <= 2.8]
+    assert ed.save_selection_as_move("my-step") is None  # nothing selected: told, not saved
+    ed.select_items([id(lo), id(td), *(id(k) for k in kfs)])
+    assert ed.save_selection_as_move("Bad Name") is None
+    path = ed.save_selection_as_move("my-step")
+    assert path is not None and path.parent == ed.user_moves_dir() and "my-step" in ed.dd_move.options
+    from planning.maneuver import validate_maneuver
+
+    assert validate_maneuver(path, tab.services.robot).ok
+    assert ed.open("stand")
+    assert ed.insert_move("my-step", 1.0) == 2 + len(kfs) + 1
+    lifts = [e["t"] for e in ed.events if e["type"] == "liftoff"]
+    assert lifts == [pytest.approx(1.0 + float(lo["t"]) - min(float(lo["t"]), *(float(k["t"]) for k in kfs)))]

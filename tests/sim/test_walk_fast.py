@@ -1,5 +1,6 @@
 """Trotting fast in MuJoCo: above fast_trot_above_mps the planner switches to trot_fast (a longer swing, the swing
-feet's limits raised) and back when slowed down; 1.8 m/s forward is tracked."""
+feet's limits raised) and back when slowed down; 1.8 m/s forward, 0.8 m/s sideways and 2 rad/s turning are
+tracked (the trot's sideways limit is 0.9 m/s: started from a stand, 1.0 fell)."""
 
 from __future__ import annotations
 
@@ -35,3 +36,12 @@ def test_slows_from_fast_back_to_the_trot_and_stops() -> None:
         sess.loop.step()
     assert not sess.loop.fell, sess.loop.failure_reason
     assert np.linalg.norm(sess.loop.state.v_world_body[:2]) < 0.1
+
+
+@pytest.mark.parametrize(("vy", "yaw_rate"), [(0.8, 0.0), (0.0, 2.0)])
+def test_trots_sideways_at_0_8_mps_and_turns_at_2_rad_s(vy: float, yaw_rate: float) -> None:
+    rep = run_walk(WalkCommand(0.0, vy, yaw_rate, settle_s=2.5), RunOptions(duration_s=5.5))
+    assert rep["success"] and not rep["fell"], rep["failure_reason"]
+    mean = rep["mean_velocity"]
+    assert abs(mean["vy"] - vy) <= max(0.1 * vy, 0.05)
+    assert abs(mean["yaw_rate"] - yaw_rate) <= max(0.1 * yaw_rate, 0.1)

@@ -113,3 +113,29 @@ def test_heatmap_png_is_a_valid_image_with_the_rates_colors(tmp_path) -> None:
     colors = {tuple(int(v) for v in px) for px in img.reshape(-1, 3)}
     assert (220, 60, 60) in colors  # 0 %: red
     assert (50, 180, 60) in colors  # 100 %: green
+
+
+def test_progress_line_has_done_rate_eta_and_success() -> None:
+    from planning.sweep import Progress
+
+    out = io.StringIO()
+    p = Progress("x", total=4, already=0, stream=out, every_s=0.0)
+    p.count({"status": "done", "report": {"success": True}})
+    p.count({"status": "done", "report": {"success": False}})
+    p.count({"status": "crashed", "report": None})
+    p.show(final=True)
+    line = out.getvalue()
+    assert "[###############.....] 3/4 cases, 1 crashed" in line
+    assert "cases/min" in line and "ETA" in line and "success 1/2 = 50 %" in line
+
+
+def test_bench_variant_stage_runs_through_the_sweep(tmp_path) -> None:
+    from benchmarks.run import sweep_variants
+
+    spec = tmp_path / "v.yaml"
+    spec.write_text("format: footfall/sweep@1\nname: v\nrun:\n  - {label: sensor, probe: {}}\n"
+                    "  - {label: truth, probe: {fail_every: 2}}\naxes: {seed: [0, 1]}\n")  # fmt: skip
+    out = sweep_variants(str(spec), str(tmp_path / "out"))
+    assert list(out["by_variant"]) == ["sensor seed=0", "sensor seed=1", "truth seed=0", "truth seed=1"]
+    assert out["runs"] == 4 and out["success_rate"] == 0.75
+    assert out["by_variant"]["truth seed=1"]["failure_reason"].startswith("probe case 3 fails")
