@@ -18,9 +18,8 @@ import numpy as np
 LEGS: tuple[str, str, str, str] = ("FL", "FR", "RL", "RR")
 JOINT_ROLES = ("hip abduction", "hip flexion", "knee")
 AXIS_TOLERANCE = 1e-3  # a leg joint's axis may differ from body x / y by this much (1 - |cos|)
-NEAR_FOOT_FACTOR = (
-    1.5  # a lower-leg contact within this many foot radii of the foot center counts as the foot's
-)
+# a lower-leg contact within this many foot radii of the foot center counts as the foot's
+NEAR_FOOT_FACTOR = 1.5
 DESCRIPTION_KEYS = {
     "name",
     "title",
@@ -87,7 +86,6 @@ class Detected:
     home_q: np.ndarray | None = None  # (4,3) leg angles of the home keyframe
     problems: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # what was detected, for `footfall robot check`
-    converted: list[str] = field(default_factory=list)  # actuators converted from servos to torque motors
 
 
 def _name(m: mujoco.MjModel, kind: mujoco.mjtObj, i: int) -> str:

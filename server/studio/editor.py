@@ -23,10 +23,12 @@ from typing import Any
 
 import numpy as np
 
-from planning.maneuver import ManeuverError, check_maneuver, parse_maneuver
+from planning.maneuver import ManeuverError, check_maneuver, parse_maneuver, validate_maneuver
 from planning.maneuver.load import read_yaml
+from planning.maneuver.spec import NAME_PATTERN
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio import fields as F
+from server.studio import music
 from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
 
 log = logging.getLogger("footfall.studio")
@@ -39,6 +41,11 @@ OBJECTIVES = F.OBJECTIVES
 TARGET_MODES = ("at", "offset", "in place")
 TRUNK_DIMS_M = (0.84, 0.24, 0.16)
 UNDO_DEPTH = 200  # edits kept for undo
+# the editing keys (label, key, modifier, action): none of them is one of the keys viser flies its camera with
+EDIT_KEYS = (("undo", "Z", "cmd/ctrl", "undo"), ("redo", "Z", "cmd/ctrl+shift", "redo"), ("redo ", "Y", "cmd/ctrl", "redo"),
+             ("copy the timeline selection", "C", "cmd/ctrl", "copy"),
+             ("paste at the playhead", "V", "cmd/ctrl", "paste"),
+             ("delete the timeline selection", "delete", None, "delete"))  # fmt: skip
 MOVES_DIR = (
     Path(__file__).resolve().parents[2] / "maneuvers" / "moves"
 )  # small maneuvers inserted at the playhead
@@ -55,9 +62,10 @@ def _r(x: float, nd: int = 4) -> float:
     return float(round(float(x), nd))
 
 
-def move_names() -> list[str]:
-    """Returns the names of the moves (small maneuvers in maneuvers/moves/), sorted."""
-    return sorted(p.stem for p in MOVES_DIR.glob("*.yaml"))
+def move_names(user_dir: Path | None = None) -> list[str]:
+    """Returns the names of the moves (small maneuvers in maneuvers/moves/, and the user's), sorted."""
+    dirs = [MOVES_DIR] + ([user_dir] if user_dir is not None else [])
+    return sorted({p.stem for d in dirs for p in d.glob("*.yaml")})
 
 
 def rpy_deg_from_wxyz(wxyz: Any) -> list[float]:
@@ -131,6 +139,8 @@ class ManeuverEditor:
         self.gizmo_item: int | None = None
         self.scrub_nodes: list[Any] = []
         self._validate_timer: threading.Timer | None = None
+        self._checks_running = 0  # background validations running now (close waits for them)
+        self._checks_done = threading.Condition()
         # edits so far, and the edit count of the document whose problems are shown: a check of an older document
         # (a quiet-period timer that fired before the latest edit) must not overwrite a newer one's problems
         self._rev = 0
@@ -142,6 +152,9 @@ class ManeuverEditor:
         self.selected: set[int] = set()
         self.clipboard: list[tuple[str, dict[str, Any]]] = []
         self.grid_s = 0.05
+        self.beats: music.Beats | None = (
+            None  # the loaded music's pulse (shown as a grid, snapped to on request)
+        )
         self._undo: list[dict[str, Any]] = []
         self._redo: list[dict[str, Any]] = []
         self._last_op = -1
@@ -306,10 +319,22 @@ class ManeuverEditor:
         self.txt_timeline_ops = gui.add_text("timeline edits", "")
         self.sl_scrub = gui.add_slider("scrub (s)", 0.0, 3.0, 0.01, 0.0)
         with gui.add_folder("Moves", expand_by_default=False):
-            names = move_names() or ["(none)"]
+            names = move_names(Path(self.services.settings.data_dir) / "moves") or ["(none)"]
             self.dd_move = gui.add_dropdown("move", names, initial_value=names[0])
             self.num_move_repeat = gui.add_number("repeat", 1, min=1, max=MAX_REPEAT, step=1)
             self.btn_insert_move = gui.add_button("Insert at playhead")
+            self.txt_move_name = gui.add_text("new move name", "")
+            self.btn_save_move = gui.add_button("Save selection as a move")
+        with gui.add_folder("Music", expand_by_default=False):
+            self.btn_audio = gui.add_upload_button(
+                "Load music (WAV)", hint="a PCM WAV file: its tempo and beats"
+            )
+            self.md_music = gui.add_markdown("*no music: load a WAV file to see its beats on the timeline*")
+            self.num_bpm = gui.add_number(
+                "tempo (bpm)", 120.0, min=music.MIN_BPM / 2, max=music.MAX_BPM * 2, step=0.5
+            )
+            self.num_beat_offset = gui.add_number("first beat (s)", 0.0, min=0.0, max=10.0, step=0.005)
+            self.cb_snap_beats = gui.add_checkbox("snap to beats", False)
         with gui.add_folder("Timeline tools", expand_by_default=False):
             self.dd_grid = gui.add_dropdown("snap to", tuple(GRID_CHOICES), initial_value="0.05 s")
             self.btn_undo = gui.add_button("Undo")
@@ -401,6 +426,22 @@ class ManeuverEditor:
             if isinstance(op, dict):
                 self.timeline_op(op)
 
+        @self.btn_audio.on_upload
+        def _(e: Any) -> None:
+            f = e.target.value
+            self.load_music(bytes(f.content), str(f.name))
+
+        def retime(_e: Any) -> None:
+            if self.beats is not None:
+                self.beats = music.Beats(float(self.num_bpm.value), float(self.num_beat_offset.value),
+                                         self.beats.duration_s)  # fmt: skip
+                self._refresh_timeline()
+
+        self.num_bpm.on_update(retime)
+        self.num_beat_offset.on_update(retime)
+        self.btn_save_move.on_click(
+            lambda _e: self.save_selection_as_move(str(self.txt_move_name.value).strip())
+        )
         self.btn_insert_move.on_click(
             lambda _e: self.insert_move(
                 str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value)
@@ -414,12 +455,12 @@ class ManeuverEditor:
         self.btn_duplicate.on_click(lambda _e: self.duplicate_selection())
         self.btn_delete_sel.on_click(lambda _e: self.delete_selection())
         self.btn_zoom_all.on_click(lambda _e: self.timeline_op({"op": "view", "t0": None, "t1": None}))
-        for label, hotkey, mod, fn in (
-            ("undo", "Z", "cmd/ctrl", self.undo), ("redo", "Z", "cmd/ctrl+shift", self.redo),
-            ("redo ", "Y", "cmd/ctrl", self.redo), ("copy the timeline selection", "C", "cmd/ctrl", self.copy_selection),
-            ("paste at the playhead", "V", "cmd/ctrl", lambda: self.paste(self._scrub_t())),
-            ("delete the timeline selection", "delete", None, self.delete_selection),
-        ):  # fmt: skip
+        actions: dict[str, Callable[[], Any]] = {
+            "undo": self.undo, "redo": self.redo, "copy": self.copy_selection,
+            "paste": lambda: self.paste(self._scrub_t()), "delete": self.delete_selection,
+        }  # fmt: skip
+        for label, hotkey, mod, action in EDIT_KEYS:
+            fn = actions[action]
             try:
                 cmd = self.gui.add_command(label, hotkey=hotkey, modifier=mod)  # type: ignore[arg-type]
             except Exception:  # noqa: BLE001 - hotkeys are a convenience (older viser)
@@ -824,7 +865,31 @@ class ManeuverEditor:
         self._changed(structural=True)
 
     # ---- the timeline worked with the mouse ---------------------------------------------------------------------
+    def load_music(self, data: bytes, name: str = "music") -> music.Beats | None:
+        """Finds the tempo and beats of a WAV file's bytes and shows them on the timeline."""
+        try:
+            x, rate = music.read_wav(data)
+        except music.AudioError as e:
+            self.notify("Music not loaded", f"{name}: {e}", "red")
+            return None
+        b = music.find_beats(x, rate)
+        self.beats = b
+        self._suspend = True
+        try:
+            self.num_bpm.value = b.bpm
+            self.num_beat_offset.value = b.offset_s
+        finally:
+            self._suspend = False
+        self.md_music.content = (
+            f"**{name}**: {b.bpm:g} bpm, first beat at {b.offset_s:.3f} s, {b.duration_s:.1f} s long"
+        )
+        self.cb_snap_beats.value = True
+        self._refresh_timeline()
+        return b
+
     def _snap(self, t: float) -> float:
+        if self.beats is not None and bool(self.cb_snap_beats.value):
+            return _r(self.beats.snap(t), 4)
         g = self.grid_s
         return _r(round(t / g) * g, 4) if g > 0 else _r(t, 4)
 
@@ -897,11 +962,66 @@ class ManeuverEditor:
                     items[i][1]["t"] = _r(t + shift, 4)
         self._changed(structural=True)
 
+    def user_moves_dir(self) -> Path:
+        return Path(self.services.settings.data_dir) / "moves"
+
+    def save_selection_as_move(self, name: str) -> Path | None:
+        """Writes the selected events and keyframes (from time 0, the body back at its nominal pose at the end) as a
+        move in the user's moves folder; returns its path (None, after telling the user, when it cannot)."""
+        if not self.authorized("save a move"):
+            return None
+        if not re.match(NAME_PATTERN, name or "") or len(name) > 64:
+            self.notify("Move not saved", "name: lowercase letters, digits and dashes (e.g. my-step)", "red")
+            return None
+        items = self._timed_items()
+        chosen = [items[i] for i in self.selected if i in items]
+        if not chosen:
+            self.notify("Move not saved", "select events or keyframes on the timeline first", "yellow")
+            return None
+        t0 = min(float(it["t"]) for _, it in chosen)
+        p_ref, _ = self._reference_at(t0)
+        dxy = np.array([p_ref[0], p_ref[1], 0.0])
+        events, body = [], []
+        for kind, it in sorted(chosen, key=lambda c: float(c[1]["t"])):
+            c = {**copy.deepcopy(it), "t": _r(float(it["t"]) - t0)}
+            if kind == "keyframe":
+                c["position"] = [_r(v) for v in np.asarray(c["position"], dtype=float) - dxy]
+                body.append(c)
+            else:
+                if c.get("at") is not None:
+                    c["at"] = [_r(v) for v in np.asarray(c["at"], dtype=float) - dxy]
+                events.append(c)
+        end = max(float(c["t"]) for c in [*events, *body]) + 0.8
+        h = float(getattr(self.services.robot, "standing_height_m", 0.52))
+        body.append(
+            {"t": _r(end - 0.1), "position": [0.0, 0.0, _r(h)], "rpy": [0.0, 0.0, 0.0], "weight": 5.0}
+        )
+        doc: dict[str, Any] = {"format": FORMAT, "name": name, "title": name.replace("-", " ").capitalize(),
+                               "duration": _r(end, 2), "start": "stand", "tracks": ["legs", "body"]}  # fmt: skip
+        if events:
+            doc["events"] = events
+        doc["body"] = body
+        result = validate_maneuver(doc, self.services.robot)
+        if not result.ok:
+            self.notify("Move not saved", f"{result.failures[0].path}: {result.failures[0].message}", "red")
+            return None
+        path = self.user_moves_dir() / f"{name}.yaml"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".yaml.tmp")
+        tmp.write_text(dump_yaml(doc), encoding="utf-8")
+        tmp.replace(path)
+        self.dd_move.options = move_names(self.user_moves_dir())
+        self.dd_move.value = name
+        self.notify("Move saved", f"{name}: {len(events)} events, {len(body)} keyframes", "green")
+        return path
+
     def insert_move(self, name: str, t0: float, repeat: int = 1) -> int:
         """Inserts a move (maneuvers/moves/NAME.yaml) `repeat` times back to back from t0 (s): its events, keyframes,
         gaits and objectives shift by t0, its positions by where the body is planned to be at t0 (x, y); the
         maneuver grows to hold it. Returns how many items it added (0, after telling the user, when it cannot)."""
-        path = MOVES_DIR / f"{name}.yaml"
+        path = self.user_moves_dir() / f"{name}.yaml"
+        if not path.is_file():
+            path = MOVES_DIR / f"{name}.yaml"
         try:
             data, _ = read_yaml(path.read_text(encoding="utf-8"))
         except (OSError, ManeuverError) as e:
@@ -1010,9 +1130,24 @@ class ManeuverEditor:
     # ================================================================================================================
     # validation
     # ================================================================================================================
+    def close(self, timeout_s: float = 20.0) -> None:
+        """Stops the background validation (the tab is going): a check still running native solver code when the
+        interpreter exits aborts the process, so this waits for it."""
+        with self.lock:
+            self._closed = True
+            timer = self._validate_timer
+            if timer is not None:
+                timer.cancel()
+        if timer is not None and timer is not threading.current_thread() and timer.is_alive():
+            timer.join(timeout_s)
+        with self._checks_done:  # earlier timers that had already started (cancel cannot stop those)
+            self._checks_done.wait_for(lambda: self._checks_running == 0, timeout_s)
+
     def request_validation(self, delay_s: float = 0.4) -> None:
         """Validates after `delay_s` of quiet (edits in a burst validate once)."""
         with self.lock:
+            if getattr(self, "_closed", False):
+                return
             if self._validate_timer is not None:
                 self._validate_timer.cancel()
             self._validate_timer = threading.Timer(delay_s, self._validate_quietly)
@@ -1020,10 +1155,18 @@ class ManeuverEditor:
             self._validate_timer.start()
 
     def _validate_quietly(self) -> None:
+        with self._checks_done:
+            if getattr(self, "_closed", False):
+                return
+            self._checks_running += 1
         try:
             self.validate_now()
         except Exception:  # noqa: BLE001 - a background check must not kill its timer thread noisily
             log.exception("studio validation")
+        finally:
+            with self._checks_done:
+                self._checks_running -= 1
+                self._checks_done.notify_all()
 
     def validate_now(self, announce: bool = False) -> Any:
         """Validates the document, shows the problems on their items; returns the result (None: shape errors)."""
@@ -1150,8 +1293,16 @@ class ManeuverEditor:
                 for g in self.gaits
             ]
         try:
+            beats = self.beats.times(d) if self.beats is not None else ()
             self.html_timeline.content = timeline_svg(
-                d, bars, marks, gaits, self._scrub_t(), view=self.view, selected=set(self.selected)
+                d,
+                bars,
+                marks,
+                gaits,
+                self._scrub_t(),
+                view=self.view,
+                selected=set(self.selected),
+                beats=beats,
             )
         except Exception:  # noqa: BLE001
             pass

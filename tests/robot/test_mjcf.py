@@ -235,3 +235,60 @@ def test_cli_robot_check_exit_codes(
     assert main(["robot", "check", str(write_robot(servo, actuator="position"))]) == 2
     out = capsys.readouterr().out
     assert "12 problem(s)" in out and "Traceback" not in out
+
+
+def test_scaling_moves_every_length_and_keeps_times() -> None:
+    from planning.maneuver.spec import Maneuver
+
+    go1 = load_robot("go1")
+    s = robot_scale(go1)
+    m = Maneuver.model_validate(
+        {
+            "format": "footfall/maneuver@1",
+            "name": "probe",
+            "duration": 4.0,
+            "events": [
+                {"t": 1.0, "leg": "FL", "type": "liftoff"},
+                {
+                    "t": 2.0,
+                    "leg": "FL",
+                    "type": "touchdown",
+                    "at": [0.4, 0.2, 0.0],
+                    "adjust": {"time": 0.1, "region": [[0.3, 0.1], [0.5, 0.1], [0.5, 0.3]]},
+                    "waypoints": [[1.5, 0.35, 0.2, 0.15]],
+                },
+                {"t": 2.5, "leg": "RR", "type": "liftoff"},
+                {
+                    "t": 3.0,
+                    "leg": "RR",
+                    "type": "touchdown",
+                    "offset": [0.1, -0.05],
+                    "adjust": {"radius": 0.04},
+                },
+            ],
+            "gaits": [
+                {
+                    "gait": "trot",
+                    "from": 3.2,
+                    "to": 4.0,
+                    "cycle": 0.4,
+                    "duty": 0.6,
+                    "step": [0.2, 0.1, 10],
+                    "height": 0.1,
+                }
+            ],
+            "body": [{"t": 1.0, "position": [0.1, -0.1, 0.5], "rpy": [5, 0, 0]}],
+        }
+    )
+    out = scale_to_robot(m, go1)
+    td, td2 = out.events[1], out.events[3]
+    assert td.at == pytest.approx((0.4 * s.x, 0.2 * s.y, 0.0))
+    assert td.adjust.region[1] == pytest.approx((0.5 * s.x, 0.1 * s.y))
+    assert td.waypoints[0] == pytest.approx((1.5, 0.35 * s.x, 0.2 * s.y, 0.15 * s.z))  # the time stays
+    assert td2.offset[:2] == pytest.approx((0.1 * s.x, -0.05 * s.y))
+    assert td2.adjust.radius == pytest.approx(0.04 * min(s.x, s.y))
+    g = out.gaits[0]
+    assert g.step == pytest.approx((0.2 * s.x, 0.1 * s.y, 10.0)) and g.height == pytest.approx(0.1 * s.z)
+    assert (g.from_, g.to, g.cycle) == (3.2, 4.0, 0.4)
+    assert out.body[0].position == pytest.approx((0.1 * s.x, -0.1 * s.y, 0.5 * s.z))
+    assert out.body[0].rpy == (5, 0, 0) and out.events[0].t == 1.0

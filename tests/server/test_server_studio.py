@@ -279,8 +279,12 @@ def test_steering_keys_are_not_camera_keys() -> None:
 
     camera = _viser_camera_keys()
     assert camera == {k.upper() if len(k) == 1 else k for k in CAMERA_KEYS}
+    from server.studio.editor import EDIT_KEYS
+
     ours = {k for k, _, _ in STEER_KEYS} | {STOP_KEY}
     assert len(ours) == 7 and not ours & camera, ours & camera
+    edit = {k for _, k, _, _ in EDIT_KEYS}  # with or without a modifier: viser's camera reads the key alone
+    assert {"Z", "C", "V", "delete"} <= edit and not edit & camera, edit & camera
 
 
 def test_reset_view_brings_the_camera_back(studio_app: tuple[TestClient, Any], tab: Any) -> None:
@@ -393,7 +397,7 @@ def test_a_fallen_robot_goes_limp() -> None:
 def test_timeline_drags_snap_and_undo(studio_app: tuple[TestClient, Any], tab: Any) -> None:
     ed = tab.editor
     assert ed.open("jump")
-    ed.grid_s = 0.05
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
     lo, td = next(p for p in ed._steps_of("FL"))
     # a swing bar dragged by 0.13 s: both events move, the liftoff lands on the 0.05 s grid
     ed.timeline_op({"op": "drag", "ids": [id(lo), id(td)], "part": "move", "dt": 0.13, "n": 1})
@@ -432,7 +436,7 @@ def test_timeline_select_copy_paste_duplicate_delete_and_zoom(
 ) -> None:
     ed = tab.editor
     assert ed.open("jump")
-    ed.grid_s = 0.01
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.01
     n_ev, n_kf = len(ed.events), len(ed.keyframes)
     lo, td = next(p for p in ed._steps_of("RL"))
     kf = ed.keyframes[0]
@@ -472,6 +476,7 @@ def test_moves_library_validates_and_inserts_at_the_playhead(
         r = validate_maneuver(MOVES_DIR / f"{name}.yaml", tab.services.robot)
         assert r.ok, (name, [p.message for p in r.failures])
     ed = tab.editor
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
     assert ed.open("bow")
     n_kf = len(ed.keyframes)
     ed.sl_scrub.value = 5.0
@@ -520,3 +525,74 @@ def test_replay_a_preview_frame_by_frame_with_the_run_before_as_a_ghost(
     assert not tab.ghost.bodies[0].visible
     ed.cb_replay.value = False
     ed.cb_ghost.value = True
+
+
+def _click_track(bpm: float, offset_s: float, duration_s: float = 10.0, rate: int = 22050) -> bytes:
+    """A stereo 16-bit WAV: decaying 880 Hz clicks on every beat over a little noise."""
+    import io
+    import wave
+
+    x = np.random.default_rng(0).normal(0.0, 0.01, int(rate * duration_s))
+    n = int(0.03 * rate)
+    click = 0.8 * np.sin(2 * np.pi * 880 * np.arange(n) / rate) * np.exp(-np.arange(n) / (0.01 * rate))
+    tb = offset_s
+    while tb < duration_s - 0.05:
+        i = int(tb * rate)
+        x[i : i + n] += click[: len(x[i : i + n])]
+        tb += 60.0 / bpm
+    s = (np.clip(x, -1, 1) * 32767).astype(np.int16)
+    buf = io.BytesIO()
+    with wave.open(buf, "wb") as w:
+        w.setnchannels(2)
+        w.setsampwidth(2)
+        w.setframerate(rate)
+        w.writeframes(np.stack([s, s], 1).tobytes())
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("bpm, offset_s", [(123.0, 0.31), (96.0, 0.05), (150.0, 0.42)])
+def test_music_tempo_and_beats(bpm: float, offset_s: float) -> None:
+    from server.studio.music import find_beats, read_wav
+
+    b = find_beats(*read_wav(_click_track(bpm, offset_s)))
+    assert b.bpm == pytest.approx(bpm, abs=1.0) and b.offset_s == pytest.approx(offset_s, abs=0.02)
+    assert b.snap(offset_s + 2 * 60.0 / bpm + 0.1) == pytest.approx(offset_s + 2 * 60.0 / bpm, abs=0.03)
+
+
+def test_music_on_the_timeline_and_snapping_to_beats(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    from server.studio.music import AudioError, read_wav
+
+    with pytest.raises(AudioError, match="WAV"):
+        read_wav(b"RIFF....not audio")
+    ed = tab.editor
+    assert ed.open("jump")
+    assert ed.load_music(b"junk", "junk.mp3") is None  # told, not raised
+    b = ed.load_music(_click_track(120.0, 0.25), "click.wav")
+    assert b is not None and ed.num_bpm.value == pytest.approx(120.0, abs=1.0)
+    assert ed.html_timeline.content.count('stroke-dasharray="1 2"') == len(b.times(3.5)) == 7
+    kf = ed.keyframes[
+        -1
+    ]  # 2.80 s: dragged 0.1 s later it lands on the beat at 2.75 + 0.5 = 3.25 s? no: nearest
+    ed.drag([id(kf)], "move", 0.1)
+    assert kf["t"] == pytest.approx(b.snap(2.9), abs=1e-3) and kf["t"] == pytest.approx(2.75, abs=0.03)
+    ed.cb_snap_beats.value = False  # the tab is shared with the other tests
+
+
+def test_save_a_selection_as_a_move_and_insert_it(studio_app: tuple[TestClient, Any], tab: Any) -> None:
+    ed = tab.editor
+    ed.cb_snap_beats.value, ed.grid_s = False, 0.05
+    assert ed.open("step-in-place")
+    lo, td = next(p for p in ed._steps_of("FL"))
+    kfs = [k for k in ed.keyframes if 2.0 <= float(k["t"]) <= 2.8]
+    assert ed.save_selection_as_move("my-step") is None  # nothing selected: told, not saved
+    ed.select_items([id(lo), id(td), *(id(k) for k in kfs)])
+    assert ed.save_selection_as_move("Bad Name") is None
+    path = ed.save_selection_as_move("my-step")
+    assert path is not None and path.parent == ed.user_moves_dir() and "my-step" in ed.dd_move.options
+    from planning.maneuver import validate_maneuver
+
+    assert validate_maneuver(path, tab.services.robot).ok
+    assert ed.open("stand")
+    assert ed.insert_move("my-step", 1.0) == 2 + len(kfs) + 1
+    lifts = [e["t"] for e in ed.events if e["type"] == "liftoff"]
+    assert lifts == [pytest.approx(1.0 + float(lo["t"]) - min(float(lo["t"]), *(float(k["t"]) for k in kfs)))]
