@@ -19,6 +19,7 @@ class Studio:
         self.settings = services.settings
         self.server: Any = None
         self.clients: dict[int, StudioClient] = {}
+        self._closing: list[StudioClient] = []  # tabs being torn down (stop waits for their validations too)
         self._lock = threading.Lock()
 
     @property
@@ -48,8 +49,14 @@ class Studio:
     def _disconnect(self, client: Any) -> None:
         with self._lock:
             sc = self.clients.pop(client.client_id, None)
+            if sc is not None:
+                self._closing.append(sc)
         if sc is not None:
-            sc.stop()
+            try:
+                sc.stop()
+            finally:
+                with self._lock:
+                    self._closing.remove(sc)
 
     def info(self) -> dict[str, Any]:
         with self._lock:
@@ -68,8 +75,13 @@ class Studio:
         with self._lock:
             clients = list(self.clients.values())
             self.clients.clear()
+            closing = list(self._closing)
         for c in clients:
             c.stop()
+        for c in closing:  # a validation still solving when the interpreter exits aborts the process
+            editor = getattr(c, "editor", None)
+            if editor is not None:
+                editor.close()
         if self.server is not None:
             try:
                 self.server.stop()

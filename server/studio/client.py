@@ -85,6 +85,9 @@ class StudioClient:
         thread = getattr(self, "_thread", None)
         if thread is not None and thread is not threading.current_thread():
             thread.join(1.0)  # let the render loop finish its frame before the session goes away
+        editor = getattr(self, "editor", None)
+        if editor is not None:
+            editor.close()
         if self.session is not None:
             try:
                 self.services.sessions.delete(self.session.id)

@@ -139,6 +139,8 @@ class ManeuverEditor:
         self.gizmo_item: int | None = None
         self.scrub_nodes: list[Any] = []
         self._validate_timer: threading.Timer | None = None
+        self._checks_running = 0  # background validations running now (close waits for them)
+        self._checks_done = threading.Condition()
         # edits so far, and the edit count of the document whose problems are shown: a check of an older document
         # (a quiet-period timer that fired before the latest edit) must not overwrite a newer one's problems
         self._rev = 0
@@ -1128,9 +1130,24 @@ class ManeuverEditor:
     # ================================================================================================================
     # validation
     # ================================================================================================================
+    def close(self, timeout_s: float = 20.0) -> None:
+        """Stops the background validation (the tab is going): a check still running native solver code when the
+        interpreter exits aborts the process, so this waits for it."""
+        with self.lock:
+            self._closed = True
+            timer = self._validate_timer
+            if timer is not None:
+                timer.cancel()
+        if timer is not None and timer is not threading.current_thread() and timer.is_alive():
+            timer.join(timeout_s)
+        with self._checks_done:  # earlier timers that had already started (cancel cannot stop those)
+            self._checks_done.wait_for(lambda: self._checks_running == 0, timeout_s)
+
     def request_validation(self, delay_s: float = 0.4) -> None:
         """Validates after `delay_s` of quiet (edits in a burst validate once)."""
         with self.lock:
+            if getattr(self, "_closed", False):
+                return
             if self._validate_timer is not None:
                 self._validate_timer.cancel()
             self._validate_timer = threading.Timer(delay_s, self._validate_quietly)
@@ -1138,10 +1155,18 @@ class ManeuverEditor:
             self._validate_timer.start()
 
     def _validate_quietly(self) -> None:
+        with self._checks_done:
+            if getattr(self, "_closed", False):
+                return
+            self._checks_running += 1
         try:
             self.validate_now()
         except Exception:  # noqa: BLE001 - a background check must not kill its timer thread noisily
             log.exception("studio validation")
+        finally:
+            with self._checks_done:
+                self._checks_running -= 1
+                self._checks_done.notify_all()
 
     def validate_now(self, announce: bool = False) -> Any:
         """Validates the document, shows the problems on their items; returns the result (None: shape errors)."""
