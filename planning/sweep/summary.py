@@ -52,9 +52,21 @@ def reason_group(reason: str | None) -> str:
 
 def default_by(spec: SweepSpec, cases: list[dict[str, Any]]) -> list[str]:
     """The axes that make the cells unless the spec says: every axis with more than one value, but the seed."""
-    names = list(cases[0]["axes"]) if cases else []
-    out = [n for n in names if n != "seed" and len({_label(c["axes"][n]) for c in cases}) > 1]
+    names = axis_names(cases)
+    out = [n for n in names if n != "seed" and len({_label(_ax(c, n)) for c in cases}) > 1]
     return out
+
+
+def axis_names(cases: list[dict[str, Any]]) -> list[str]:
+    """Every axis of the cases, in order of first appearance (runs of a sweep may have axes of their own)."""
+    return list(dict.fromkeys(a for c in cases for a in c["axes"]))
+
+
+NO_VALUE = "—"  # a case's value on an axis its run does not have
+
+
+def _ax(case: dict[str, Any], axis: str) -> Any:
+    return case["axes"].get(axis, NO_VALUE)
 
 
 def _label(v: Any) -> str:
@@ -127,19 +139,19 @@ def summarize(
 ) -> dict[str, Any]:
     """The summary of the cases given their records by key (a case without a record is pending)."""
     by = list(spec.summary.by) if spec.summary.by is not None else default_by(spec, cases)
-    names = list(cases[0]["axes"]) if cases else []
+    names = axis_names(cases)
     for a in by:
         if a not in names:
             raise ValueError(f"summary.by: {a!r} is not an axis of this sweep (axes: {', '.join(names)})")
     sampled = spec.sampling != "grid"
-    binners = {a: _Binner([c["axes"][a] for c in cases], spec.summary.bins, sampled) for a in names}
+    binners = {a: _Binner([_ax(c, a) for c in cases], spec.summary.bins, sampled) for a in names}
     groups: dict[tuple[str, ...], dict[str, dict[str, Any] | None]] = {}  # cell → {key: record}
     for c in cases:
-        k = tuple(binners[a](c["axes"][a]) for a in by)
+        k = tuple(binners[a](_ax(c, a)) for a in by)
         groups.setdefault(k, {})[c["key"]] = records.get(c["key"])
     order = sorted(groups, key=lambda k: tuple(_sort_key(s) for s in k))
     cells = [{"axes": dict(zip(by, k, strict=True)), **_stats(list(groups[k].values()))} for k in order]
-    multi = [n for n in names if len({_label(c["axes"][n]) for c in cases}) > 1]
+    multi = [n for n in names if len({_label(_ax(c, n)) for c in cases}) > 1]
     two = by[:2] if len(by) >= 2 else (by + [n for n in multi if n not in by])[:2]
     heat = spec.summary.heatmap or (tuple(two) if len(two) == 2 else None)
     heatmap = None
@@ -150,7 +162,7 @@ def summarize(
         xa, ya = heat
         grid: dict[tuple[str, str], dict[str, dict[str, Any] | None]] = {}
         for c in cases:
-            cell = grid.setdefault((binners[xa](c["axes"][xa]), binners[ya](c["axes"][ya])), {})
+            cell = grid.setdefault((binners[xa](_ax(c, xa)), binners[ya](_ax(c, ya))), {})
             cell[c["key"]] = records.get(c["key"])
         xs = sorted({k[0] for k in grid}, key=_sort_key)
         ys = sorted({k[1] for k in grid}, key=_sort_key)
@@ -240,7 +252,7 @@ def cells_csv(summary: dict[str, Any]) -> str:
 
 def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -> str:
     """One CSV row per case: its axes, status, success, failure reason, attempts and key."""
-    names = list(cases[0]["axes"]) if cases else []
+    names = axis_names(cases)
     out = io.StringIO()
     w = csv.writer(out)
     w.writerow([*names, "status", "success", "failure_reason", "attempts", "wall_s", "key"])
@@ -248,7 +260,7 @@ def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -
         r = records.get(c["key"])
         rep = (r or {}).get("report") or {}
         w.writerow(
-            [*(_label(c["axes"][a]) for a in names)]
+            [*(_label(_ax(c, a)) for a in names)]
             + [r["status"] if r else "pending", rep.get("success") if r and r["status"] == "done" else ""]
             + [rep.get("failure_reason") or (r or {}).get("error") or "", (r or {}).get("attempts", "")]
             + [(r or {}).get("wall_s", ""), c["key"]]

@@ -115,3 +115,18 @@ def test_per_run_axes_replace_the_sweeps() -> None:
                        "run": [{"label": "a", "probe": {}}, {"label": "b", "probe": {}, "axes": {"seed": [5]}}]})  # fmt: skip
     cases = expand(spec)
     assert [(c["axes"]["run"], c["axes"]["seed"]) for c in cases] == [("a", 0), ("a", 1), ("a", 2), ("b", 5)]
+
+
+def test_runs_with_axes_of_their_own_summarize_together() -> None:
+    from planning.sweep import summarize
+
+    spec = parse_spec({"format": "footfall/sweep@1", "name": "t", "summary": {"by": ["run", "friction"]},
+                       "run": [{"label": "a", "probe": {}, "axes": {"seed": [0, 1]}},
+                               {"label": "b", "probe": {}, "axes": {"friction": [0.5, 0.8]}}]})  # fmt: skip
+    cases = expand(spec)
+    s = summarize(spec, cases, {})
+    assert [(c["axes"]["run"], c["axes"]["friction"], c["cases"]) for c in s["cells"]] == [
+        ("a", "—", 2),
+        ("b", "0.5", 1),
+        ("b", "0.8", 1),
+    ]
