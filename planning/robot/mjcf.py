@@ -35,6 +35,7 @@ DESCRIPTION_KEYS = {
     "joint_velocity_limit",
     "self_collision",
     "joint_loss_compensation",
+    "near_foot_contact",
 }
 FRICTION_RAMP_RAD_S = 0.05  # friction loss is compensated in proportion to the joint speed up to this speed
 

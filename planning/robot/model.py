@@ -206,6 +206,10 @@ class RobotModel:
         # the joints' own damping (N·m·s/rad) and friction loss (N·m) from the MJCF, which the motors make up for
         # (planning.sim.world.World.set_torques) unless the description says joint_loss_compensation: false
         self.compensate_joint_losses = bool(desc.get("joint_loss_compensation", True))
+        # whether a lower-leg geom's contact right at the foot counts as the foot's (shank meshes that reach the
+        # foot); a robot whose feet are their own geoms clear of the shank says near_foot_contact: false, and every
+        # lower-leg contact stays a knee contact (a fall)
+        self.near_foot_contact = bool(desc.get("near_foot_contact", True))
         self.joint_damping = np.array([[m.dof_damping[m.jnt_dofadr[j]] for j in g.joint_ids] for g in geo])
         self.joint_frictionloss = np.array(
             [[m.dof_frictionloss[m.jnt_dofadr[j]] for j in g.joint_ids] for g in geo]
@@ -496,5 +500,6 @@ class RobotModel:
         return worst_foot, worst_knee
 
     def near_foot_m(self) -> float:
-        """A lower-leg geom's contact within this distance (m) of the foot center counts as the foot's."""
-        return NEAR_FOOT_FACTOR * self.foot_radius_m
+        """A lower-leg geom's contact within this distance (m) of the foot center counts as the foot's (0: none
+        does, the description's near_foot_contact: false)."""
+        return NEAR_FOOT_FACTOR * self.foot_radius_m if self.near_foot_contact else 0.0

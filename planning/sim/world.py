@@ -305,7 +305,7 @@ class World:
                 kl = self._knee_leg_l[g]
                 if kl >= 0:
                     r = d.contact.pos[k] - d.site_xpos[self._foot_site_ids[kl]]
-                    if float(r @ r) <= self._near_foot_m * self._near_foot_m:
+                    if self._near_foot_m > 0.0 and float(r @ r) <= self._near_foot_m * self._near_foot_m:
                         s.contact[kl] = True  # the shank right at the foot: the foot is down
                         continue
                     s.knee_contact[kl] = True
