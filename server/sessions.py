@@ -493,6 +493,7 @@ class SessionManager:
         self.clock = clock
         self._sessions: dict[str, LiveSession] = {}
         self._reserved = 0
+        self._reserved_studio = 0  # of those, sessions a studio tab is starting
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._reaper: threading.Thread | None = None
@@ -521,7 +522,8 @@ class SessionManager:
     ) -> LiveSession:
         """Returns a new running session; SessionLimit when the cap is reached."""
         with self._lock:
-            studio = sum(1 for x in self._sessions.values() if x.origin == "studio")
+            # sessions being started count too: two tabs opening at once must not both take the studio's last slot
+            studio = sum(1 for x in self._sessions.values() if x.origin == "studio") + self._reserved_studio
             if origin == "studio" and studio >= self.studio_cap:
                 raise SessionLimit(
                     f"the studio's tabs have {studio} live robots, their share of the {self.settings.max_sessions} "
@@ -535,6 +537,8 @@ class SessionManager:
                     field="sessions",
                 )
             self._reserved += 1
+            if origin == "studio":
+                self._reserved_studio += 1
         try:
             sid = secrets.token_hex(8)
             s = LiveSession(sid, terrain, mode, self.settings.robot, self.factory, origin, self.clock, maps)
@@ -544,6 +548,8 @@ class SessionManager:
         finally:
             with self._lock:
                 self._reserved -= 1
+                if origin == "studio":
+                    self._reserved_studio -= 1
         log.info("session %s created (%s, %s, %s)", sid, terrain, mode, origin)
         return s
 

@@ -565,11 +565,16 @@ class StudioClient:
                         self._rebuild_scene(s)
                     snap = s.snapshot
                     replaying = bool(self.editor.cb_replay.value)
-                    if snap.seq != last_seq and t0 - last_sent >= min_gap and not replaying:
+                    view = self.view  # read once: a closing tab or a rebuild may clear it meanwhile
+                    if (
+                        view is not None
+                        and snap.seq != last_seq
+                        and t0 - last_sent >= min_gap
+                        and not replaying
+                    ):
                         last_seq, last_sent = snap.seq, t0
                         with self.client.atomic():
-                            assert self.view is not None
-                            self.view.set_poses(snap.xpos, snap.xquat)
+                            view.set_poses(snap.xpos, snap.xquat)
                         if self.ghost is not None or self.prev_take is not None:
                             self.show_replay(t_live=float(snap.state.get("t", 0.0)))
                         self._frames.append(time.perf_counter())
