@@ -10,10 +10,9 @@ import time
 from collections.abc import Iterator
 
 import pytest
+import ray  # a dependency of the project: a missing Ray is a broken install, which this test must report
 
 from planning.sweep import LocalBackend, RayBackend, ResultStore, expand, parse_spec, run_sweep
-
-ray = pytest.importorskip("ray")  # a dependency of the project; absent only in a broken install
 
 
 @pytest.fixture(scope="module")
