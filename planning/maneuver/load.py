@@ -177,7 +177,10 @@ def read_yaml(text: str) -> tuple[Any, dict[str, int]]:
                 )
             ]  # fmt: skip
         )
-    loader = _Loader(text)
+    try:
+        loader = _Loader(text)  # the reader refuses control characters here, before any parsing
+    except yaml.YAMLError as e:
+        raise ManeuverError([_yaml_problem(e)]) from None
     try:
         node = loader.get_single_node()  # type: ignore[no-untyped-call]
         data = loader.construct_document(node) if node is not None else None  # type: ignore[no-untyped-call]
