@@ -84,9 +84,7 @@ class DecisionParams:
     half-plane added to its polygon); reach_frac: a foothold lies no farther from its hip at touchdown (in the
     ground plane) than the leg at this share of its full length (thigh + shank) reaches with the hip at the
     standing height: regions beyond are not chosen, and a polygon reaching beyond is bounded along the heading
-    the same way; w_lateral: in the region choice a sideways move (across the heading) costs this many times a
-    move along it (a foot moved sideways narrows or skews the support); midline_m: a foothold keeps at least this
-    far on its own side of the body's midline at touchdown (no crossed legs)."""
+    the same way."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -130,8 +128,6 @@ class DecisionParams:
     shin_behind_m: float = 0.40
     shin_edge_m: float = 0.03
     reach_frac: float = 0.9
-    w_lateral: float = 2.0
-    midline_m: float = 0.05
 
 
 # ---- typed inputs and outputs ----------------------------------------------------------------------------------
@@ -434,17 +430,13 @@ def choose_region(
     in_flight: bool = False,
     hip: NDArray[np.float64] | None = None,
     reach_m: float = np.inf,
-    body: NDArray[np.float64] | None = None,
-    yaw: float = 0.0,
 ) -> int:
     """Gives the region (label; 0: none) for a foothold whose nominal place is xy (2,), for a leg whose last
     foothold was at height z_ref (m): among the regions with an inset cell within search_m, those within
     max_rise_m of z_ref, the one of least distance + w_height × |height change|; the region under keep_xy (the
     previous choice) is kept unless another costs keep_m less, and while the foot is in flight (in_flight) as long
     as it is within reach at all: a swing commits to its region at liftoff. hip (2,): the leg's hip at touchdown;
-    cells farther than reach_m from it (in the ground plane) are out of reach. body (2,): the body at touchdown
-    (with hip: distances are weighted w_lateral across the heading yaw, and cells on the other side of the body's
-    midline than the hip, or within midline_m of it, are left out)."""
+    cells farther than reach_m from it (in the ground plane) are out of reach."""
     res = regions.resolution_m
     ox, oy = regions.origin_xy
     w = int(math.ceil(p.search_m / res))
@@ -462,23 +454,12 @@ def choose_region(
     dx = ox + (i0 + ci) * res - float(xy[0])
     dy = oy + (j0 + cj) * res - float(xy[1])
     dist = np.hypot(dx, dy)
-    weighted = dist
-    if body is not None and hip is not None:
-        c, sn = math.cos(yaw), math.sin(yaw)
-        weighted = np.hypot(dx * c + dy * sn, p.w_lateral * (-dx * sn + dy * c))
     hc = maps.ground_height[i0 + ci, j0 + cj]
     dz = np.abs(hc - z_ref)
     ok = (dist <= p.search_m) & (dz <= p.max_rise_m)
     if hip is not None and np.isfinite(reach_m):
         ok &= np.hypot(dx + float(xy[0]) - float(hip[0]), dy + float(xy[1]) - float(hip[1])) <= reach_m
-    if body is not None and hip is not None:
-        c, sn = math.cos(yaw), math.sin(yaw)
-        side = math.copysign(
-            1.0, -(float(hip[0]) - float(body[0])) * sn + (float(hip[1]) - float(body[1])) * c
-        )
-        lat = -(dx + float(xy[0]) - float(body[0])) * sn + (dy + float(xy[1]) - float(body[1])) * c
-        ok &= side * lat >= p.midline_m
-    cost = np.where(ok, weighted + p.w_height * dz, np.inf)
+    cost = np.where(ok, dist + p.w_height * dz, np.inf)
     best = np.full(int(labs.max()) + 1, np.inf)
     np.minimum.at(best, labs, cost)
     choice = int(np.argmin(best))
@@ -707,9 +688,7 @@ def choose_footholds(
             else None
         )
         flying = first and not bool(view.stance[leg])
-        label = choose_region(
-            regions, maps, nom, float(z_ref[leg]), keep, p, flying, hips[j], reach, bodies[j], yaws[j]
-        )
+        label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying, hips[j], reach)
         poly = None
         if label:
             key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))

@@ -223,29 +223,6 @@ def test_a_foothold_beyond_the_legs_reach_is_bounded_back_toward_the_hip() -> No
     assert choose_region(regions, maps, np.array([0.9, 0.1]), 0.6, None, P, hip=hip[:2], reach_m=reach) == 0
 
 
-def test_a_foot_keeps_its_own_side_of_the_body_and_sideways_moves_cost_more() -> None:
-    """Two stones side by side (y 0.12 to 0.42 and -0.45 to -0.15, x 0.9 to 1.2) past a platform."""
-    xs = -0.6 + np.arange(110) * RES
-    ys = -0.9 + np.arange(60) * RES
-    X = np.broadcast_to(xs[:, None], (110, 60))
-    Y = np.broadcast_to(ys[None, :], (110, 60))
-    on_x = (X > 0.9) & (X < 1.2)
-    stones = on_x & (((Y > 0.12) & (Y < 0.42)) | ((Y > -0.45) & (Y < -0.15)))
-    h = np.where((X < 0.6) | stones, 0.0, -0.3)
-    world = _world(xs, ys, np.asarray(h, dtype=np.float64))
-    regions, maps = world.regions, world.maps
-    left, right = regions.label_at(1.05, 0.3), regions.label_at(1.05, -0.3)
-    assert left and right and left != right
-    nom = np.array([1.05, -0.06])  # a left foot's nominal place, pushed past the midline
-    body = np.array([0.75, 0.0])
-    hip = np.array([1.05, 0.1])
-    # by distance alone the right stone is nearer; a left leg never takes it
-    assert choose_region(regions, maps, nom, 0.0, None, P) == right
-    assert choose_region(regions, maps, nom, 0.0, None, P, hip=hip, body=body, yaw=0.0) == left
-    # the same on the right leg's side: the right stone
-    assert choose_region(regions, maps, -nom * [-1, 1], 0.0, None, P, hip=hip * [1, -1], body=body) == right
-
-
 def dataclass_replace(obj, **kw):  # type: ignore[no-untyped-def]
     import dataclasses
 
