@@ -491,6 +491,15 @@ def knee_points(
     return hip[None, :] + a[:, None] * e + h[:, None] * perp, reach
 
 
+def _ground_nearest(maps: TerrainMaps, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Gives the ground height (m) of the cells nearest to world (x, y) (border cells beyond the map)."""
+    nx, ny = maps.ground_height.shape
+    res = maps.resolution_m
+    ix = np.clip(np.rint((x - maps.origin_xy[0]) / res), 0, nx - 1).astype(np.intp)
+    iy = np.clip(np.rint((y - maps.origin_xy[1]) / res), 0, ny - 1).astype(np.intp)
+    return np.asarray(maps.ground_height[ix, iy], dtype=np.float64)
+
+
 def reach_xy(view: TerrainView, p: DecisionParams) -> float:
     """Gives how far (m) a foothold may lie from its hip at touchdown in the ground plane: where the leg at
     reach_frac of its full length (thigh + shank) meets the ground with the hip at the standing height (inf
@@ -523,16 +532,19 @@ def leg_clearance(
     u = np.array([c, sn])
     res = maps.resolution_m
     s_feet = feet_xy @ u
-    z_feet = np.asarray(maps.height_at(feet_xy[:, 0], feet_xy[:, 1]), dtype=np.float64)
+    z_feet = _ground_nearest(maps, feet_xy[:, 0], feet_xy[:, 1])
     feet2 = np.stack([s_feet, z_feet + view.foot_radius_m], axis=1)
     z_hip = hip_height(view, leg)
     hip2 = np.array([float(hip_xy @ u), z_hip])
     within = np.hypot(*(feet_xy - hip_xy[None, :]).T) <= reach_xy(view, p)
-    knee, reach = knee_points(hip2, feet2, view.l_upper_m, view.l_lower_m)
     ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
     pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
-    g = np.asarray(maps.height_at(pts[..., 0], pts[..., 1]), dtype=np.float64)
+    g = _ground_nearest(maps, pts[..., 0], pts[..., 1])
+    edge = g > z_feet[:, None] + p.shin_edge_m
+    if not edge.any():
+        return np.full(len(feet_xy), np.inf), within
     pt2 = np.stack([s_feet[:, None] + ds[None, :], g], axis=-1)  # (C, M, 2)
+    knee, reach = knee_points(hip2, feet2, view.l_upper_m, view.l_lower_m)
     shin = feet2 - knee  # (C, 2)
     t = np.clip(
         np.sum((pt2 - knee[:, None, :]) * shin[:, None, :], axis=-1)
@@ -540,8 +552,8 @@ def leg_clearance(
         0.0,
         1.0,
     )
-    dist = np.hypot(*np.moveaxis(pt2 - (knee[:, None, :] + t[..., None] * shin[:, None, :]), -1, 0))
-    edge = g > z_feet[:, None] + p.shin_edge_m
+    off = pt2 - (knee[:, None, :] + t[..., None] * shin[:, None, :])
+    dist = np.hypot(off[..., 0], off[..., 1])
     clear = np.min(np.where(edge, dist, np.inf), axis=1)
     return np.where(reach, clear, -np.inf), within
 
@@ -565,6 +577,9 @@ def leg_bounds(
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     base = poly.project(nom)
+    clear0, within0 = leg_clearance(view, maps, leg, hip_xy, base[None, :], p)
+    if clear0[0] >= p.shin_clear_m and within0[0]:
+        return []  # (most footholds: one evaluation)
     res = maps.resolution_m
     ds = np.arange(-p.shin_search_m, p.shin_search_m + 1e-9, res)
     ds = np.append(0.0, ds[np.abs(ds) > 1e-9])
@@ -698,13 +713,18 @@ def choose_footholds(
         polys.append(poly)
         if poly is not None:
             z_ref[leg] = float(poly.height_at(poly.project(nom)))
-    # Each polygon with its bounds along the heading (the shin clear of edges behind the foot, the hip in reach).
+    # Each polygon of the next touchdowns with its bounds along the heading (the shin clear of edges behind the
+    # foot, the hip in reach).
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
         if q is None:
             rows.append(None)
             continue
-        bounds = leg_bounds(view, maps, int(legs[j]), hips[j], path.p_world_touchdown[k, :2], q, p)
+        bounds = (
+            leg_bounds(view, maps, int(legs[j]), hips[j], path.p_world_touchdown[k, :2], q, p)
+            if j < 4
+            else []
+        )
         if not bounds:
             rows.append((q.A, q.b))
         else:
