@@ -31,7 +31,10 @@ SETTLE_S = 4.0  # after steering: the gait starts and the sessions reach their s
 def measure(workers: str, n: int, duration_s: float, hz: float) -> dict[str, Any]:
     """Runs one configuration; returns {"workers", "sessions", "rtf": [per session], "dropped_s", "latency_ms"}."""
     env = {"FOOTFALL_SESSION_WORKERS": workers, "FOOTFALL_MAX_SESSIONS": str(max(n, 1))}
-    with local_server(startup_timeout_s=120.0, extra_env=env) as url, httpx.Client(base_url=url, timeout=30.0) as c:
+    with (
+        local_server(startup_timeout_s=120.0, extra_env=env) as url,
+        httpx.Client(base_url=url, timeout=30.0) as c,
+    ):
         ids = []
         for _ in range(n):
             r = c.post("/sessions", json={"terrain": "flat", "mode": "steer"})
@@ -65,7 +68,9 @@ def measure(workers: str, n: int, duration_s: float, hz: float) -> dict[str, Any
         after, w1 = states(), time.monotonic()
         rtf = [(a["t"] - b["t"]) / (w1 - w0) for a, b in zip(after, before, strict=True)]
         fell = [bool(a.get("fell")) for a in after]
-        dropped = [a.get("dropped_s", 0.0) - b.get("dropped_s", 0.0) for a, b in zip(after, before, strict=True)]
+        dropped = [
+            a.get("dropped_s", 0.0) - b.get("dropped_s", 0.0) for a, b in zip(after, before, strict=True)
+        ]
     both = lat["health"] + lat["state"]
 
     def pct(xs: list[float]) -> dict[str, float]:
@@ -99,7 +104,9 @@ def format_rows(rows: list[dict[str, Any]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.live_sessions", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(
+        prog="python -m benchmarks.live_sessions", description=__doc__.split("\n")[0]
+    )
     ap.add_argument("--sessions", type=int, nargs="+", default=[1, 4])
     ap.add_argument("--workers", nargs="+", choices=["process", "thread"], default=["process", "thread"])
     ap.add_argument("--duration", type=float, default=20.0, help="measuring window per configuration, s")

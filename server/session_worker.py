@@ -74,15 +74,16 @@ _ctx_lock = threading.Lock()
 _ctx: Any = None
 
 
-def worker_context() -> Any:
+def worker_context(factory: Any = None) -> Any:
     """Returns the multiprocessing context the session workers start from: a fork server preloaded with the
-    simulation's imports (Linux, macOS), else spawn."""
+    simulation's imports (and those of the first factory's module), on Linux and macOS; else spawn."""
     global _ctx
     with _ctx_lock:
         if _ctx is None:
             if "forkserver" in mp.get_all_start_methods():
                 _ctx = mp.get_context("forkserver")
-                _ctx.set_forkserver_preload(_PRELOAD)
+                extra = getattr(factory, "__module__", None)
+                _ctx.set_forkserver_preload(_PRELOAD + ([extra] if extra and extra not in _PRELOAD else []))
             else:  # pragma: no cover - Windows
                 _ctx = mp.get_context("spawn")
         return _ctx
@@ -221,7 +222,9 @@ def worker_main(conn: Any, session_id: str, terrain: str, mode: Mode, robot: str
                 value, err = None, ("SessionError", f"{type(e).__name__}: {e}"[:500], "")
             with send_lock:
                 try:
-                    conn.send(("snap", pub.message(force=True)))  # the state as of the command, then the answer
+                    conn.send(
+                        ("snap", pub.message(force=True))
+                    )  # the state as of the command, then the answer
                     conn.send(("reply", rid, value, err))
                 except (OSError, ValueError):
                     break
@@ -332,7 +335,7 @@ class ProcessSession(LiveSession):
     # ---- the worker ---------------------------------------------------------------------------------------------
     def _spawn(self) -> None:
         """Starts a worker and waits until its simulation is built (SessionError when it cannot be)."""
-        ctx = worker_context()
+        ctx = worker_context(self._factory)
         parent, child = ctx.Pipe(duplex=True)
         proc = ctx.Process(
             target=worker_main,
@@ -465,7 +468,9 @@ class ProcessSession(LiveSession):
     def _publish_meta(self) -> None:
         s = self.snapshot
         self._seq += 1
-        self.snapshot = Snapshot(self._seq, time.time(), {**s.state, **self._meta()}, s.xpos, s.xquat, s.sim_json)
+        self.snapshot = Snapshot(
+            self._seq, time.time(), {**s.state, **self._meta()}, s.xpos, s.xquat, s.sim_json
+        )
 
     def _call(self, op: str, *args: Any, timeout: float = REQUEST_TIMEOUT_S) -> Any:
         """Sends a command to the worker and returns its answer; raises what it raised, SessionCrashed when the

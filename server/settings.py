@@ -89,7 +89,7 @@ class Settings:
     max_sessions: int = 4
     session_idle_s: float = 600.0
     reaper_period_s: float = 5.0
-    session_workers: str = "auto"  # "process", "thread", or "auto" (processes unless a test injects a fake sim)
+    session_workers: str = "auto"  # "process", "thread", "auto" (processes unless a test injects a fake)
     sim_workers: int = 1
     max_queued_simulations: int = 16
     max_kept_simulations: int = 200  # finished simulations remembered for GET /simulations/{id}
