@@ -237,19 +237,18 @@ def _remove_specks(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]
 
 
 def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: float) -> NDArray[np.float64]:
-    h = ground_z.copy()
-    known = np.isfinite(h)
+    known = np.isfinite(ground_z)
     if not known.any():
-        return np.full(h.shape, default_z)
+        return np.full(ground_z.shape, default_z)
+    # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown).
+    h = np.where(known, ground_z, np.inf)
     for _ in range(fill_min_cells):
         if known.all():
             break
-        m = square_filter(np.where(known, h, np.inf), 3, np.minimum)
-        new = ~known & np.isfinite(m)
-        if not new.any():
-            break
-        h[new] = m[new]
-        known |= new
+        m = square_filter(h, 3, np.minimum)
+        np.copyto(m, h, where=known)
+        h = m
+        known = np.isfinite(h)
     if not known.all():
         _, (ix, iy) = ndimage.distance_transform_edt(~known, return_indices=True)
         h = h[ix, iy]
@@ -268,12 +267,33 @@ class _Layers:
 
     def at(self, k: NDArray[np.intp]) -> NDArray[np.int32]:
         """Gives per column the count up to layer k (nx, ny) (0 for k < 0)."""
-        nb = self.cum.shape[0]
+        nb, cells = self.cum.shape
         if nb == 0:
             return np.zeros(k.shape, np.int32)
-        kk = k.ravel() - self.first
-        v = self.cum[np.clip(kk, 0, nb - 1), np.arange(kk.size)]
-        return np.where(kk >= 0, v, 0).reshape(k.shape)
+        kk = k.reshape(-1) - self.first
+        # Flat indices into cum: layer kk (clipped into the band) of each column; 0 below the band.
+        flat = np.minimum(np.maximum(kk, 0), nb - 1) * cells
+        flat += _column_index(cells)
+        v = self.cum.reshape(-1)[flat]
+        v[kk < 0] = 0
+        return v.reshape(k.shape)
+
+    @property
+    def total(self) -> NDArray[np.int32]:
+        """Gives the number of obstacle layers of each column, (nx * ny,)."""
+        return self.cum[-1] if self.cum.shape[0] else np.zeros(self.cum.shape[1], np.int32)
+
+
+_COLUMNS: dict[int, NDArray[np.intp]] = {}
+
+
+def _column_index(cells: int) -> NDArray[np.intp]:
+    """Gives arange(cells), made once per size."""
+    a = _COLUMNS.get(cells)
+    if a is None:
+        a = _COLUMNS[cells] = np.arange(cells, dtype=np.intp)
+        a.flags.writeable = False
+    return a
 
 
 def _cumulative_layers(columns: Columns) -> _Layers:
@@ -388,7 +408,7 @@ def build_maps(
     nz = cum.nz
     k_c = np.clip(np.ceil((h + p.ceiling_above_m - z0) / dz).astype(np.intp), 0, nz)
     below = cum.at(k_c - 1)
-    has = cum.at(np.full(h.shape, nz - 1)) > below
+    has = cum.total.reshape(h.shape) > below
     # Layers under the band count 0 (<= below); above it, where `has`, the total exceeds below.
     k_first = cum.first + np.count_nonzero(cum.cum <= below.reshape(1, -1), axis=0).reshape(h.shape)
     z_c = z0 + k_first * dz - dz / 2
