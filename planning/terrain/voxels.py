@@ -173,6 +173,7 @@ class VoxelMap:
         length = np.linalg.norm(d, axis=1)
         u = d / np.maximum(length, 1e-9)[:, None]
         n_k = np.maximum(np.floor((length - p.carve_margin_m) / self.res - 0.5).astype(np.intp) + 1, 0)
+        n_k = np.minimum(n_k, self._samples_inside(o, u))
         # In chunks of rays of about _CARVE_CHUNK samples: the dozen passes over each chunk's samples stay in the
         # cache (over a whole scan's ~300k samples they would stream from memory each time). The same operations
         # on the same samples, in the same order: the same misses.
@@ -202,6 +203,23 @@ class VoxelMap:
             flat_f, _ = self._flat_index_xyz(*xyz)
             np.add.at(misses, flat_f, w)
             self._miss_layers = _grow_band(self._miss_layers, flat_f, self.n_xy * self.n_xy)
+
+    def _samples_inside(self, o: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.intp]:
+        """Gives per ray (origins o, unit directions u) how many of its carving samples (every voxel from half a
+        voxel on) may lie in the map: the rest lie past where the ray leaves the map's box grown by a voxel, more
+        than a voxel outside the map, and would be dropped anyway (a large count for a ray that starts outside)."""
+        res = self.res
+        n = np.array([self.n_xy, self.n_xy, self.n_z], dtype=np.float64)
+        i0 = np.array([self._ix0, self._iy0, self._iz0], dtype=np.float64)
+        lo = (i0 - 1.5) * res
+        hi = (i0 + n + 0.5) * res
+        inside = np.all((o > lo) & (o < hi), axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_axis = np.where(u > 0, (hi - o) / u, np.where(u < 0, (lo - o) / u, np.inf))
+        t_exit = np.min(t_axis, axis=1)
+        big = np.iinfo(np.intp).max // 4
+        keep = np.floor(np.minimum(t_exit / res + 0.5, big)).astype(np.intp) + 1
+        return np.where(inside, np.maximum(keep, 0), big)
 
     # -- classification -----------------------------------------------------------------------------------------
 
