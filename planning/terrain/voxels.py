@@ -174,35 +174,47 @@ class VoxelMap:
         u = d / np.maximum(length, 1e-9)[:, None]
         n_k = np.maximum(np.floor((length - p.carve_margin_m) / self.res - 0.5).astype(np.intp) + 1, 0)
         n_k = np.minimum(n_k, self._samples_inside(o, u))
-        # In chunks of rays of about _CARVE_CHUNK samples: the dozen passes over each chunk's samples stay in the
-        # cache (over a whole scan's ~300k samples they would stream from memory each time). The same operations
-        # on the same samples, in the same order: the same misses.
+        # In chunks of rays of about _CARVE_CHUNK samples, each from one camera: the passes over a chunk's samples
+        # stay in the cache (over a whole scan's ~200k samples they would stream from memory each time), and a
+        # chunk's rays share their origin, added as one vector. The same operations on the same samples, in the
+        # same order: the same misses.
         ends = np.cumsum(n_k)
         total = int(ends[-1]) if ends.size else 0
         if total == 0:
             return
         cuts = np.searchsorted(ends, np.arange(_CARVE_CHUNK, total, _CARVE_CHUNK), side="right")
-        bounds = [0, *np.unique(cuts).tolist(), len(n_k)]
+        cameras = np.flatnonzero(np.any(o[1:] != o[:-1], axis=1)) + 1
+        bounds = np.unique(np.concatenate([[0, len(n_k)], cuts, cameras])).tolist()
         misses = self.misses.reshape(-1)
+        inv = 1.0 / self.res
+        n, nz = self.n_xy, self.n_z
+        i0 = np.array([[self._ix0], [self._iy0], [self._iz0]], dtype=np.intp)
+        lim = np.array([[n], [n], [nz]], dtype=np.uintp)
+        uT = u.T
         for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-            if b <= a:
-                continue
             nk = n_k[a:b]
             m = int(nk.sum())
             if m == 0:
                 continue
             first = np.repeat(np.cumsum(nk) - nk, nk)
             t = (np.arange(m) - first + 0.5) * self.res
-            # Axis by axis on flat arrays (repeat, not a gather of (total, 3) rows): the samples o + u t.
-            xyz = []
-            for c in range(3):
-                s = np.repeat(u[a:b, c], nk)
-                s *= t
-                s += np.repeat(o[a:b, c], nk)
-                xyz.append(s)
-            flat_f, _ = self._flat_index_xyz(*xyz)
+            # The samples o + u t, as (3, m), then their voxel (rint(x / res) - i0 per axis, as _flat_index_xyz).
+            xyz = np.repeat(uT[:, a:b], nk, axis=1)
+            xyz *= t
+            xyz += o[a][:, None]
+            xyz *= inv
+            np.rint(xyz, out=xyz)
+            idx = xyz.astype(np.intp)
+            idx -= i0
+            ok = idx.view(np.uintp) < lim  # one unsigned comparison per axis checks both bounds
+            inside = ok[0] & ok[1] & ok[2]
+            flat_f = idx[2] * n
+            flat_f += idx[0]
+            flat_f *= n
+            flat_f += idx[1]
+            flat_f = flat_f[inside]
             np.add.at(misses, flat_f, w)
-            self._miss_layers = _grow_band(self._miss_layers, flat_f, self.n_xy * self.n_xy)
+            self._miss_layers = _grow_band(self._miss_layers, flat_f, n * n)
 
     def _samples_inside(self, o: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.intp]:
         """Gives per ray (origins o, unit directions u) how many of its carving samples (every voxel from half a
