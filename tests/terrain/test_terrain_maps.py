@@ -161,7 +161,11 @@ def test_cumulative_layers_count_obstacle_layers_up_to_each_layer(
     cum = _cumulative_layers(columns)
     want = np.cumsum(obstacle, axis=2)
     rng = np.random.default_rng(k_offset + 3)
-    k = rng.integers(-2, nz + 2, size=(nx, ny)) if k_offset % 2 else np.full((nx, ny), k_offset % (nz + 2) - 1)
+    k = (
+        rng.integers(-2, nz + 2, size=(nx, ny))
+        if k_offset % 2
+        else np.full((nx, ny), k_offset % (nz + 2) - 1)
+    )
     expected = np.where(k < 0, 0, np.take_along_axis(want, np.clip(k, 0, nz - 1)[..., None], 2)[..., 0])
     np.testing.assert_array_equal(cum.at(k), expected)
     np.testing.assert_array_equal(cum.total.reshape(nx, ny), want[..., -1])
