@@ -90,15 +90,43 @@ def bench_perception(n: int = 60, terrain: str = "stairs", params: PerceptionPar
 
 
 def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium",
-                  params: StepQPParams | None = None, start_s_m: float = 0.7) -> dict:  # fmt: skip
+                  params: StepQPParams | None = None, start_s_m: float = 0.7, regions: bool = False) -> dict:  # fmt: skip
     """Gives {"p50_ms", "p99_ms", "bare_solver_p50_ms", "bare_solver_p99_ms", "footholds", "rounds_mean",
     "hard_softened", "hard_softened_by_family", "in_no_step", "terrain"} of n replans (300 Hz) of the step QP along a
-    walk that starts start_s_m along the body path (so the horizon reaches the terrain at once)."""
+    walk that starts start_s_m along the body path (so the horizon reaches the terrain at once).
+
+    regions: as the unified pipeline runs it (decision.py): each foothold inside a convex polygon of the steppable
+    region nearest its nominal place (hard), one solve, the pipeline's QP parameters (unless params); the polygons
+    come from a cache as in the loop (their growth is the region stage's cost, not the QP's)."""
     scene = build_terrain(terrain)
     maps = maps_from_scene(scene, center_xy=(2.0, 0.0), half_extent_m=2.5)
     path = plan_body_path(maps, (0.0, 0.0), 0.0, scene.goal_xy)
     cp = CadenceParams()
     cad = next(c for c in CADENCES if c.name == cadence)
+    polygon_of = None
+    if regions:
+        from planning.terrain.decision import DecisionParams, PipelineParams
+        from planning.terrain.regions import convex_around, segment_regions
+
+        dp = DecisionParams()
+        params = params or PipelineParams().step_qp
+        seg = segment_regions(maps, dp.regions, cover=False)
+        cache: dict = {}
+
+        def polygon_of(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+            """The polygon of the region with an inset cell nearest xy (within search_m), grown around xy."""
+            key = (int(round(float(xy[0]) / seg.resolution_m)), int(round(float(xy[1]) / seg.resolution_m)))
+            if key not in cache:
+                fx, fy = (np.asarray(xy) - np.asarray(seg.origin_xy)) / seg.resolution_m
+                ii, jj = np.nonzero(seg.inset)
+                d2 = (ii - fx) ** 2 + (jj - fy) ** 2
+                k = int(np.argmin(d2)) if d2.size else -1
+                poly = None
+                if k >= 0 and np.sqrt(d2[k]) * seg.resolution_m <= dp.search_m:
+                    poly = convex_around(seg, int(seg.labels[ii[k], jj[k]]), xy, dp.window_m)
+                cache[key] = None if poly is None else (poly.A, poly.b)
+            return cache[key]
+
     qp = StepQP(params)
     K = qp.K
     dt = 1.0 / 300.0
@@ -126,7 +154,11 @@ def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium"
                 v_feet[leg] = (target_xy[leg] - stance_xy[leg]) / cad.swing_s
         req = make_request(cad, path, cp, K, feet, v_feet, s_now_m=start_s_m + cad.speed_mps * t, phase_s=phase,
                            first_group=g_now % n_groups)  # fmt: skip
-        plan = qp.solve(req, maps)
+        if polygon_of is not None:
+            polys = [polygon_of(req.p_nominal[k]) for k in range(K)]  # the cache's lookups, before the timing
+            plan = qp.solve(req, maps, polys)
+        else:
+            plan = qp.solve(req, maps)
         total.append(plan.solve_ms)
         bare.append(plan.bare_solver_ms / max(plan.rounds, 1))
         rounds += plan.rounds
