@@ -86,20 +86,35 @@ def square_filter(a: NDArray[Any], size: int, op: Op, cval: Any = None) -> NDArr
     return window_1d(window_1d(a, size, 0, op, cval), size, 1, op, cval)
 
 
-def disk_filter(a: NDArray[Any], footprint: NDArray[np.bool_], op: Op, cval: Any = None) -> NDArray[Any]:
-    """Gives the extremum over a centred footprint whose rows are centred runs (a disk, a cross, a square); edges
-    as in window_1d. Raises ValueError for any other footprint."""
+_ROWS: dict[tuple[tuple[int, ...], bytes], tuple[int, ...]] = {}
+
+
+def _row_halves(footprint: NDArray[np.bool_]) -> tuple[int, ...]:
+    """Gives each footprint row's half width (its run is the centred 2h + 1 cells); made once per footprint."""
     fp = np.asarray(footprint, dtype=bool)
+    key = (fp.shape, fp.tobytes())
+    halves = _ROWS.get(key)
+    if halves is not None:
+        return halves
     k = fp.shape[0]
     if fp.ndim != 2 or k % 2 != 1 or fp.shape[1] != k:
         raise ValueError(f"disk_filter: footprint must be square with an odd side, got shape {fp.shape}")
     r = k // 2
-    half: list[int] = []
+    out: list[int] = []
     for row in fp:
         w = int(np.count_nonzero(row))
         if w == 0 or w % 2 != 1 or not row[r - w // 2 : r + w // 2 + 1].all():
             raise ValueError("disk_filter: every footprint row must be one run centred on the middle column")
-        half.append(w // 2)
+        out.append(w // 2)
+    halves = _ROWS[key] = tuple(out)
+    return halves
+
+
+def disk_filter(a: NDArray[Any], footprint: NDArray[np.bool_], op: Op, cval: Any = None) -> NDArray[Any]:
+    """Gives the extremum over a centred footprint whose rows are centred runs (a disk, a cross, a square); edges
+    as in window_1d. Raises ValueError for any other footprint."""
+    half = _row_halves(footprint)
+    r = len(half) // 2
     by_width: dict[int, NDArray[Any]] = {}
     for h in set(half):
         by_width[h] = _pad(window_1d(a, 2 * h + 1, 1, op, cval), r, 0, cval)

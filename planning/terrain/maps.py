@@ -19,6 +19,7 @@ Arrays are [ix, iy] with cell (ix, iy) centered at origin_xy + (ix, iy) * resolu
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -215,10 +216,18 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
     return d_out
 
 
-def _disk(radius_cells: float) -> NDArray[np.bool_]:
+@functools.lru_cache(maxsize=64)
+def _disk_cached(radius_cells: float) -> NDArray[np.bool_]:
     r = int(np.floor(radius_cells))
     i = np.arange(-r, r + 1)
-    return (i[:, None] ** 2 + i[None, :] ** 2) <= radius_cells**2 + 1e-9
+    d = (i[:, None] ** 2 + i[None, :] ** 2) <= radius_cells**2 + 1e-9
+    d.flags.writeable = False
+    return d
+
+
+def _disk(radius_cells: float) -> NDArray[np.bool_]:
+    """Gives the disk footprint of that radius (cells; read-only, made once per radius)."""
+    return _disk_cached(float(radius_cells))
 
 
 def _closing(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[np.bool_]:
