@@ -261,26 +261,28 @@ class VoxelMap:
         lo, hi = self._hit_layers
         w = np.float32(self._weight)
         hits = self.hits[lo : hi + 1]
-        occ = (hits >= p.min_hits * w) & (hits >= p.hit_miss_ratio * self.misses[lo : hi + 1])
+        # hits >= min_hits w and hits >= ratio misses, as one comparison with the larger bound
+        bound = p.hit_miss_ratio * self.misses[lo : hi + 1]
+        np.maximum(bound, p.min_hits * w, out=bound)
+        occ = hits >= bound
+        del bound
         # Occupied layers lie in [lo, hi]; the lowest occupied layer of each column, and whether it has one.
         first_occ = _first_true(occ.reshape(hi + 1 - lo, cells))
         any_occ = first_occ <= hi - lo
         first_occ = np.minimum(first_occ, hi - lo)
         col = np.arange(cells)
         k_ground = first_occ + lo
-        # A free voxel below it (free: not occupied, seen through): only layers below hi can matter.
+        # A free voxel below it (free: not occupied, seen through): only layers below hi can matter. Below a
+        # column's lowest occupied voxel nothing is occupied, so there 'free' is just 'seen through': the ground
+        # stands when the lowest seen-through voxel is not below it.
         has_ground = any_occ.copy()
         if self._miss_layers is not None:
             mlo, mhi = self._miss_layers
             top = min(mhi, hi)
             if mlo <= top:
-                misses = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells)
-                free = misses >= p.min_misses * w
-                a = max(lo, mlo)
-                if a <= top:  # occupied voxels are not free
-                    free[a - mlo :] &= ~occ[a - lo : top + 1 - lo].reshape(top + 1 - a, cells)
-                first_free = _first_true(free) + mlo  # past the band (>= top + 1 > any k_ground) where none
-                has_ground &= first_free > k_ground
+                seen = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells) >= p.min_misses * w
+                first_seen = _first_true(seen)
+                has_ground &= (first_seen == top + 1 - mlo) | (first_seen + mlo >= k_ground)
         # Ground height: mean z of the points in the ground voxel and, for a thin surface, the one above it (thin:
         # the voxel above is occupied and the one above that is not).
         occ_flat = occ.reshape(-1)

@@ -205,3 +205,37 @@ def _check_classification(vm: VoxelMap) -> None:
         outside = np.ones(vm.n_z, bool)
         outside[max(lo, 0) : hi + 1] = False
         assert not cols.obstacle[..., outside].any()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31))
+def test_classification_equals_the_column_reference_on_random_statistics(seed: int) -> None:
+    """Hits and misses drawn at random in layer bands of their own (misses all below the hits, all above, or
+    overlapping them; sparse or dense), the bands given as the map keeps them: the columns equal the reference."""
+    rng = np.random.default_rng(seed)
+    vm = VoxelMap(_SMALL)
+    nz = vm.n_z
+    h0, h1 = sorted(int(v) for v in rng.integers(0, nz, 2))
+    m0, m1 = sorted(int(v) for v in rng.integers(0, nz, 2))
+    vm._weight = float(rng.uniform(1.0, 5.0))
+    dense = rng.uniform(0.05, 0.9)
+    hits = np.where(rng.random(vm.hits.shape) < dense, rng.uniform(0.0, 4.0, vm.hits.shape), 0.0)
+    misses = np.where(rng.random(vm.misses.shape) < dense, rng.uniform(0.0, 6.0, vm.misses.shape), 0.0)
+    hits[:h0] = hits[h1 + 1 :] = 0.0
+    misses[:m0] = misses[m1 + 1 :] = 0.0
+    vm.hits[...] = hits
+    vm.misses[...] = misses
+    vm.sum_z[...] = hits * rng.uniform(-0.5, 0.5, hits.shape)
+    vm._hit_layers, vm._miss_layers = (h0, h1), (m0, m1)
+    _check_classification(vm)
+
+
+def test_ground_above_every_seen_through_layer_stands() -> None:
+    """A column whose lowest occupied voxel lies above every layer any ray passed through has ground there."""
+    vm = VoxelMap(_SMALL)
+    vm.hits[8, 3, 3] = vm.sum_z[8, 3, 3] = 5.0
+    vm.misses[1, 5, 5] = 5.0
+    vm._hit_layers, vm._miss_layers = (8, 8), (1, 1)
+    cols = vm.classify()
+    assert cols.ground_z[3, 3] == 1.0
+    _check_classification(vm)
