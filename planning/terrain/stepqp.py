@@ -301,6 +301,9 @@ class StepQP:
             ],
             dtype=np.intp,
         )
+        support = (self.b_cop, self.b_bal)
+        self._support_ents = np.concatenate([e for b in support for ek in b.ents for e in ek])
+        self._support_rows = np.asarray([r for b in support for rk in b.rows for r in rk], dtype=np.intp)
         # Cost.
         diag = np.full(self.n_var, 2 * p.w_slack_quadratic)
         diag[: 2 * K] = 2 * p.w_nominal
@@ -490,6 +493,10 @@ class StepQP:
         dz = np.asarray(req.hip_height, dtype=np.float64)
         r = np.sqrt(np.maximum(p.leg_length_m**2 - dz**2, 1e-4)) * np.cos(np.pi / 8)
         self.l[self._oct_rows] = -np.inf
+        # cop and balance rows: cleared for every slot; _fill_support sets those that stand.
+        self._vals[self._support_ents] = 0.0
+        self.l[self._support_rows] = -np.inf
+        self.u[self._support_rows] = np.inf
         # One 2-vector dot per row, as the rows were filled one by one (a matrix product may round differently).
         p_hip = np.asarray(req.p_hip, dtype=np.float64)
         self.u[self._oct_rows] = [
@@ -587,9 +594,7 @@ class StepQP:
         c = req.c_body[k]
         idc = self._idc(k)
         nominal = {leg: (req.p_nominal[ref] if isinstance(ref, int) else ref) for leg, ref in stance.items()}
-        for i in range(4):
-            self._clear_row(self.b_cop, k, i)
-            self._clear_row(self.b_bal, k, i)
+        # (its cop and balance rows were cleared by _fill_static, all slots at once)
         n_st = len(stance)
         t_td = req.t_touchdown
         if n_st < 2 or np.any(np.abs(t_td[k + 1 :] - t_td[k]) < 1e-6):
