@@ -99,6 +99,7 @@ class _Publisher:
         self.generation = -1
         self.plot_n = 0
         self.frames_n = 0
+        self.maneuver_id = 0  # id() of the maneuver object sent last: it is sent again only when it changes
 
     def message(self, force: bool = False) -> dict[str, Any] | None:
         s = self.s
@@ -121,6 +122,11 @@ class _Publisher:
             plot = list(s.plot)[-kp:] if kp > 0 else []
             self.plot_n = s.plot_n
             meta = s._meta()
+            maneuver = getattr(s.sim, "maneuver", None)
+            if id(maneuver) == self.maneuver_id and new_rec is None and not force:
+                maneuver = None  # unchanged (a maneuver document can be tens of kB: not 60 times a second)
+            else:
+                self.maneuver_id = id(maneuver)
         return {
             "snap": snap,
             "meta": meta,
@@ -128,7 +134,7 @@ class _Publisher:
             "new_rec": new_rec,
             "frames": frames,
             "plot": plot,
-            "maneuver": getattr(s.sim, "maneuver", None),
+            "maneuver": maneuver,
         }
 
 
