@@ -248,12 +248,12 @@ class StepQP:
         self.b_rect = block(
             4, [p_of(k) + (p_of(k - 4) if k >= 4 else []) + [self._is(k, "reach_rect")] for k in range(K)]
         )
+        # reach_oct's coefficients never change (the octagon's normals on p_k - dc_k, the slack): set once, below.
         self.b_oct = block(8, [p_of(k) + dc_of(k) + [self._is(k, "reach_oct")] for k in range(K)])
         self.b_keep = block(p.keep_planes, [p_of(k) + [self._is(k, "step_keep")] for k in range(K)])
         self.b_margin = block(p.keep_planes, [p_of(k) + [self._is(k, "margin")] for k in range(K)])
         self.b_fbody = block(1, [p_of(k) + [self._is(k, "body_keep")] for k in range(K)])
         self.b_cbody = block(1, [dc_of(k) + [self._is(k, "body_keep")] for k in range(K)])
-        # reach_oct's coefficients never change (the octagon's normals on p_k - dc_k, the slack): set once, below.
         self.b_self = block(2, [recent(k, 4) + [self._is(k, "self_coll")] for k in range(K)])
         self.b_cop = block(4, [recent(k, 4) + dc_of(k) + [self._is(k, "cop")] for k in range(K)])
         self.b_bal = block(4, [recent(k, 4) + dc_of(k) + [self._is(k, "balance")] for k in range(K)])
@@ -526,20 +526,18 @@ class StepQP:
                     center = req.p_feet[leg]
                     halves = p.stride_box_m
                     axes = (ex, ey)
+                # Rows on (p_k, slack): e·p_k - s <= c + h and e·p_k + s >= c - h.
                 for a, (e, h) in enumerate(zip(axes, halves, strict=True)):
                     c = float(e @ center)
-                    coeffs = self._coeff_on(self.b_rect, k, {ip: e[0], ip + 1: e[1]}, -1.0)
-                    self._set_row(self.b_rect, k, 2 * a, coeffs, -np.inf, c + h)
-                    coeffs = self._coeff_on(self.b_rect, k, {ip: e[0], ip + 1: e[1]}, 1.0)
-                    self._set_row(self.b_rect, k, 2 * a + 1, coeffs, c - h, np.inf)
+                    e0, e1 = float(e[0]), float(e[1])
+                    self._set_row(self.b_rect, k, 2 * a, [e0, e1, -1.0], -np.inf, c + h)
+                    self._set_row(self.b_rect, k, 2 * a + 1, [e0, e1, 1.0], c - h, np.inf)
             else:
-                jp = self._ip(k - 4)
+                # Rows on (p_k, p_{k-4}, slack): the stride box around the leg's previous foothold.
                 for a, (e, h) in enumerate(zip((ex, ey), p.stride_box_m, strict=True)):
-                    vc = {ip: e[0], ip + 1: e[1], jp: -e[0], jp + 1: -e[1]}
-                    self._set_row(self.b_rect, k, 2 * a, self._coeff_on(self.b_rect, k, vc, -1.0), -np.inf, h)
-                    self._set_row(
-                        self.b_rect, k, 2 * a + 1, self._coeff_on(self.b_rect, k, vc, 1.0), -h, np.inf
-                    )
+                    e0, e1 = float(e[0]), float(e[1])
+                    self._set_row(self.b_rect, k, 2 * a, [e0, e1, -e0, -e1, -1.0], -np.inf, h)
+                    self._set_row(self.b_rect, k, 2 * a + 1, [e0, e1, -e0, -e1, 1.0], -h, np.inf)
             # Where every leg stands at touchdown k and in the middle of phase k.
             t_mid = self._phase_mid(k, t_td)
             stance_td = self._stance(k, float(t_td[k]), slots_of, lo_l, td_l)
