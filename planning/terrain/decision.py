@@ -523,11 +523,13 @@ def leg_clearance(
     hip_xy: NDArray[np.float64],
     feet_xy: NDArray[np.float64],
     p: DecisionParams,
+    poly: ConvexRegion | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Gives, for footholds feet_xy (C, 2) of leg `leg` with its hip at hip_xy (2,) at touchdown: the least
     distance (m) from the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it
-    stands more than shin_edge_m above the foothold (inf: no such ground; -inf: out of reach), and whether the
-    foot is within reach_frac of the leg's length of the hip."""
+    stands more than shin_edge_m above the foothold's plane (poly's region's plane: a slope is no edge; without
+    poly, the foothold's height) (inf: no such ground; -inf: out of reach), and whether the foot is within reach
+    of the hip (reach_xy)."""
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     res = maps.resolution_m
@@ -540,7 +542,8 @@ def leg_clearance(
     ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
     pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
     g = _ground_nearest(maps, pts[..., 0], pts[..., 1])
-    edge = g > z_feet[:, None] + p.shin_edge_m
+    base = z_feet[:, None] if poly is None else poly.height_at(pts)
+    edge = g > base + p.shin_edge_m
     if not edge.any():
         return np.full(len(feet_xy), np.inf), within
     pt2 = np.stack([s_feet[:, None] + ds[None, :], g], axis=-1)  # (C, M, 2)
@@ -577,7 +580,7 @@ def leg_bounds(
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     base = poly.project(nom)
-    clear0, within0 = leg_clearance(view, maps, leg, hip_xy, base[None, :], p)
+    clear0, within0 = leg_clearance(view, maps, leg, hip_xy, base[None, :], p, poly)
     if clear0[0] >= p.shin_clear_m and within0[0]:
         return []  # (most footholds: one evaluation)
     res = maps.resolution_m
@@ -587,7 +590,7 @@ def leg_bounds(
     inside = np.asarray(poly.contains(cand, 1e-6), dtype=bool)
     inside[0] = True  # the nominal's own place
     ds, cand = ds[inside], cand[inside]
-    clear, within = leg_clearance(view, maps, leg, hip_xy, cand, p)
+    clear, within = leg_clearance(view, maps, leg, hip_xy, cand, p, poly)
     ok = (clear >= p.shin_clear_m) & within
     if ok[0]:
         return []

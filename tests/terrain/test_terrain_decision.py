@@ -204,6 +204,26 @@ def test_a_foot_stepping_down_is_kept_where_its_shin_clears_the_edge_it_stepped_
     assert leg_bounds(view_flat, maps, 0, np.array([0.6, 0.1]), np.array([0.6, 0.1]), poly_flat, P) == []
 
 
+def test_going_down_a_slope_is_not_stepping_down_an_edge() -> None:
+    # 15° down along +x from x = 0: the ground behind a foot is higher, but on the foothold's own plane
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (110, 60))
+    h = np.asarray(-math.tan(math.radians(15.0)) * np.maximum(X, 0.0), dtype=np.float64)
+    world = _world(xs, ys, h)
+    label = world.regions.label_at(1.0, 0.1)
+    poly = convex_around(world.regions, label, np.array([1.0, 0.1]), P.window_m)
+    assert poly is not None
+    view = _leg_view(0.7, -0.19)
+    hip = np.array([1.0, 0.1])
+    clear, _ = leg_clearance(view, world.maps, 0, hip, np.array([[1.0, 0.1]]), P, poly)
+    assert clear[0] == np.inf
+    assert leg_bounds(view, world.maps, 0, hip, np.array([1.0, 0.1]), poly, P) == []
+    # measured from the foothold's height instead, the slope behind it would read as an edge
+    clear_flat, _ = leg_clearance(view, world.maps, 0, hip, np.array([[1.0, 0.1]]), P)
+    assert np.isfinite(clear_flat[0])
+
+
 def test_a_foothold_beyond_the_legs_reach_is_bounded_back_toward_the_hip() -> None:
     world = _steps_down()
     maps, regions = world.maps, world.regions
