@@ -523,13 +523,11 @@ def leg_clearance(
     hip_xy: NDArray[np.float64],
     feet_xy: NDArray[np.float64],
     p: DecisionParams,
-    poly: ConvexRegion | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Gives, for footholds feet_xy (C, 2) of leg `leg` with its hip at hip_xy (2,) at touchdown: the least
     distance (m) from the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it
-    stands more than shin_edge_m above the foothold's plane (poly's region's plane: a slope is no edge; without
-    poly, the foothold's height) (inf: no such ground; -inf: out of reach), and whether the foot is within reach
-    of the hip (reach_xy)."""
+    stands more than shin_edge_m above the ground's own slope at the foot carried back (a slope is no edge) (inf:
+    no such ground; -inf: out of reach), and whether the foot is within reach of the hip (reach_xy)."""
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     res = maps.resolution_m
@@ -542,7 +540,15 @@ def leg_clearance(
     ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
     pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
     g = _ground_nearest(maps, pts[..., 0], pts[..., 1])
-    base = z_feet[:, None] if poly is None else poly.height_at(pts)
+    # the ground's own slope at the foot along the heading: the gentler of the one-sided differences over two
+    # cells (a nosing just behind the foot leaves the side ahead; on a slope both are the slope's)
+    step = 2.0 * res
+    ahead = feet_xy + step * u[None, :]
+    behind = feet_xy - step * u[None, :]
+    fwd = (_ground_nearest(maps, ahead[:, 0], ahead[:, 1]) - z_feet) / step
+    bwd = (z_feet - _ground_nearest(maps, behind[:, 0], behind[:, 1])) / step
+    slope = np.where(np.abs(fwd) <= np.abs(bwd), fwd, bwd)
+    base = z_feet[:, None] + slope[:, None] * ds[None, :]
     edge = g > base + p.shin_edge_m
     if not edge.any():
         return np.full(len(feet_xy), np.inf), within
@@ -580,7 +586,7 @@ def leg_bounds(
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     base = poly.project(nom)
-    clear0, within0 = leg_clearance(view, maps, leg, hip_xy, base[None, :], p, poly)
+    clear0, within0 = leg_clearance(view, maps, leg, hip_xy, base[None, :], p)
     if clear0[0] >= p.shin_clear_m and within0[0]:
         return []  # (most footholds: one evaluation)
     res = maps.resolution_m
@@ -590,7 +596,7 @@ def leg_bounds(
     inside = np.asarray(poly.contains(cand, 1e-6), dtype=bool)
     inside[0] = True  # the nominal's own place
     ds, cand = ds[inside], cand[inside]
-    clear, within = leg_clearance(view, maps, leg, hip_xy, cand, p, poly)
+    clear, within = leg_clearance(view, maps, leg, hip_xy, cand, p)
     ok = (clear >= p.shin_clear_m) & within
     if ok[0]:
         return []
