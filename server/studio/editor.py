@@ -29,7 +29,7 @@ from planning.maneuver.spec import NAME_PATTERN
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio import fields as F
 from server.studio import music
-from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
+from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, physics_marks, timeline_svg
 
 log = logging.getLogger("footfall.studio")
 FORMAT = "footfall/maneuver@1"
@@ -131,6 +131,8 @@ class ManeuverEditor:
         self.result: Any = None
         self.problems_by_item: dict[int, list[Any]] = {}
         self.general_problems: list[Any] = []
+        self.physics: dict[str, Any] | None = None  # the last physics check's section (for the document at
+        self._physics_rev = -1  # this edit count: marks of an older document are not drawn)
         # gui
         self.item_ui: dict[int, ItemUi] = {}
         self._holder_items: list[Any] = []
@@ -356,6 +358,12 @@ class ManeuverEditor:
         with gui.add_folder("Check and preview", expand_by_default=True):
             self.md_validation = gui.add_markdown("")
             self.btn_validate = gui.add_button("Validate")
+            self.cb_physics = gui.add_checkbox(
+                "physics check",
+                True,
+                hint="Validate also runs the whole maneuver headless in MuJoCo (a few seconds) and marks each "
+                "event on the timeline with the margins measured (torque, friction, stability, touchdown errors)",
+            )
             self.btn_preview = gui.add_button("Preview", color="green")
             self.btn_pause = gui.add_button("Play / pause")
             self.btn_restart = gui.add_button("Restart")
@@ -1169,7 +1177,8 @@ class ManeuverEditor:
                 self._checks_done.notify_all()
 
     def validate_now(self, announce: bool = False) -> Any:
-        """Validates the document, shows the problems on their items; returns the result (None: shape errors)."""
+        """Validates the document, shows the problems on their items; returns the result (None: shape errors).
+        announce (the Validate button): also starts the physics check in the background when its box is ticked."""
         rev = self._rev
         doc, ev_ids, kf_ids = self.document()
         try:
@@ -1181,11 +1190,35 @@ class ManeuverEditor:
                 maneuver, self.services.robot
             )  # the one validation: CLI and REST call it too
             problems = [*result.failures, *result.warnings]
+        physics = bool(announce and result is not None and result.ok and self._physics_wanted())
+        if not self._show_result(rev, result, problems, ev_ids, kf_ids):
+            return result
+        if announce and not physics:
+            n_f = sum(1 for p in problems if p.severity == "failure")
+            n_w = len(problems) - n_f
+            self.notify("Validation", "valid" if n_f == 0 else f"{n_f} failures, {n_w} warnings",
+                        "green" if n_f == 0 else "red")  # fmt: skip
+        if physics:
+            self._start_physics(rev, maneuver, result, ev_ids, kf_ids)
+        return result
+
+    def _physics_wanted(self) -> bool:
+        try:
+            return bool(self.cb_physics.value)
+        except Exception:  # noqa: BLE001 - no GUI (a test's editor)
+            return True
+
+    def _show_result(
+        self, rev: int, result: Any, problems: list[Any], ev_ids: list[int], kf_ids: list[int]
+    ) -> bool:
+        """Shows a validation's problems on their items and the timeline; False when a newer document's are shown."""
         with self.lock:
             if rev < self._shown_rev:
-                return result  # a newer document's problems are shown already
+                return False  # a newer document's problems are shown already
             self._shown_rev = rev
             self.result = result
+            if getattr(result, "physics", None) is not None:
+                self.physics, self._physics_rev = result.physics, rev
             self.problems_by_item = {}
             self.general_problems = []
             for p in problems:
@@ -1198,12 +1231,53 @@ class ManeuverEditor:
         self._refresh_timeline()
         self.refresh_markers()
         self._refresh_scrub()
-        if announce:
-            n_f = sum(1 for p in problems if p.severity == "failure")
-            n_w = len(problems) - n_f
-            self.notify("Validation", "valid" if n_f == 0 else f"{n_f} failures, {n_w} warnings",
-                        "green" if n_f == 0 else "red")  # fmt: skip
-        return result
+        return True
+
+    def _start_physics(
+        self, rev: int, maneuver: Any, result: Any, ev_ids: list[int], kf_ids: list[int]
+    ) -> None:
+        """Runs the physics check on the simulation pool in a background thread (close waits for it); its marks
+        and problems are shown if the document did not change meanwhile."""
+        with self._checks_done:
+            if getattr(self, "_closed", False):
+                return
+            self._checks_running += 1
+        try:
+            self.md_validation.content += "\n\n⏳ physics check: simulating the maneuver headless…"
+        except Exception:  # noqa: BLE001
+            pass
+
+        def work() -> None:
+            from planning.maneuver.physics import skipped, with_physics
+            from server.services import PhysicsUnavailable, physics_report
+            from server.simulations import QueueFull
+
+            try:
+                try:
+                    checked = with_physics(result, physics_report(maneuver, self.services))
+                except (PhysicsUnavailable, QueueFull) as e:
+                    checked = skipped(result, f"the physics check could not run: {e}")
+                if rev != self._rev:
+                    return  # edited meanwhile: these marks belong to an older document
+                problems = [*checked.failures, *checked.warnings]
+                self._show_result(rev, checked, problems, ev_ids, kf_ids)
+                ph = checked.physics or {}
+                if not ph.get("ran"):
+                    self.notify("Physics check not run", str(ph.get("reason", "")), "yellow")
+                elif checked.ok:
+                    self.notify("Validation", f"valid — the physics check succeeded ({len(checked.warnings)} "
+                                              "warnings)", "green")  # fmt: skip
+                else:
+                    first = checked.failures[0] if checked.failures else ""
+                    self.notify("Validation", f"the physics check fails: {first}"[:300], "red")
+            except Exception:  # noqa: BLE001 - a background check must not die noisily
+                log.exception("studio physics check")
+            finally:
+                with self._checks_done:
+                    self._checks_running -= 1
+                    self._checks_done.notify_all()
+
+        threading.Thread(target=work, name="footfall-physics-check", daemon=True).start()
 
     def _item_of_path(self, path: str, ev_ids: list[int], kf_ids: list[int]) -> int | None:
         m = _PATH_RE.match(path or "")
@@ -1251,6 +1325,13 @@ class ManeuverEditor:
         n_f = sum(1 for p in all_ps if p.severity == "failure")
         n_w = len(all_ps) - n_f
         lines = [f"**{'✔ valid' if n_f == 0 else '✖ invalid'}** — {n_f} failures, {n_w} warnings"]
+        ph = self.physics if self._physics_rev == self._shown_rev else None
+        if ph is not None and ph.get("ran"):
+            verdict = "succeeded" if ph.get("success") else f"**failed**: {ph.get('failure_reason')}"
+            lines.append(f"- physics check {verdict} ({ph.get('simulated_s')} s simulated in {ph.get('wall_s')} s; "
+                         "dots on the timeline: margins per event, hover for the numbers)")  # fmt: skip
+        elif ph is not None:
+            lines.append(f"- physics check not run: {ph.get('reason')}")
         lines += [
             f"- {'✖' if p.severity == 'failure' else '⚠'} `{p.path or 'file'}`: {p.message}" for p in general
         ]
@@ -1303,6 +1384,7 @@ class ManeuverEditor:
                 view=self.view,
                 selected=set(self.selected),
                 beats=beats,
+                physics=physics_marks(self.physics) if self._physics_rev == self._rev else (),
             )
         except Exception:  # noqa: BLE001
             pass

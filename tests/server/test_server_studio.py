@@ -596,3 +596,30 @@ def test_save_a_selection_as_a_move_and_insert_it(studio_app: tuple[TestClient, 
     assert ed.insert_move("my-step", 1.0) == 2 + len(kfs) + 1
     lifts = [e["t"] for e in ed.events if e["type"] == "liftoff"]
     assert lifts == [pytest.approx(1.0 + float(lo["t"]) - min(float(lo["t"]), *(float(k["t"]) for k in kfs)))]
+
+
+@pytest.mark.sim
+def test_validate_runs_the_physics_check_and_marks_the_timeline(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    """The issue's edit: `jump` with FL's touchdown 1.42 → 1.55 s passes the rules and the dry solve, but Validate
+    (physics check on by default) runs it headless on the simulation pool: a failure on that touchdown's item, a red
+    dot under it on the timeline with the numbers in its tooltip, the other events' dots colored by margin."""
+    ed = tab.editor
+    assert ed.open("jump") and ed.cb_physics.value is True
+    lo, td = next(p for p in ed._steps_of("FL"))
+    ed._set(td, "t", 1.55)
+    assert ed.validate_now().ok  # rules and dry solve: valid
+    ed.validate_now(announce=True)  # the Validate button: the physics check follows in the background
+    assert wait_for(lambda: ed._physics_rev == ed._rev and ed.physics is not None, 120.0), ed.physics
+    assert ed.physics["ran"] and not ed.physics["success"], ed.physics
+    assert ed.physics["responsible"]["leg"] == "FL" and ed.physics["responsible"]["t"] == pytest.approx(1.55)
+    assert ed._severity(id(td)) == "failure" and not ed.result.ok
+    svg = ed.html_timeline.content
+    assert svg.count('data-physics="failure"') == 1 and svg.count("<circle data-physics") == 8
+    assert "FL touchdown at 1.55 s — failure" in svg and "peak torque" in svg
+    assert "physics check **failed**" in ed.md_validation.content
+    # an edit makes the marks stale: they go
+    ed._set(td, "t", 1.42)
+    ed.validate_now()
+    assert "data-physics" not in ed.html_timeline.content
