@@ -171,7 +171,7 @@ class ManeuverEditor:
         data = json.loads(json.dumps(data, default=str))
         with self.lock:
             self.meta = {k: data.get(k) for k in ("format", "name", "title", "description", "duration", "start",
-                                                  "tracks", "friction") if k in data}  # fmt: skip
+                                                  "tracks", "friction", "music") if k in data}  # fmt: skip
             self.meta.setdefault("format", FORMAT)
             self.events = [dict(e) for e in data.get("events") or [] if isinstance(e, dict)]
             self.keyframes = [dict(k) for k in data.get("body") or [] if isinstance(k, dict)]
@@ -185,6 +185,7 @@ class ManeuverEditor:
             self.selected.clear()
             self.view = None
         self._write_static_fields()
+        self._music_from_document()
         self._show_in_library(name)
         self.rebuild_items()
         self.request_validation(0.0)
@@ -440,9 +441,10 @@ class ManeuverEditor:
             self.load_music(bytes(f.content), str(f.name))
 
         def retime(_e: Any) -> None:
-            if self.beats is not None:
+            if self.beats is not None and not self._suspend:
                 self.beats = music.Beats(float(self.num_bpm.value), float(self.num_beat_offset.value),
                                          self.beats.duration_s)  # fmt: skip
+                self._keep_music()
                 self._refresh_timeline()
 
         self.num_bpm.on_update(retime)
@@ -892,8 +894,42 @@ class ManeuverEditor:
             f"**{name}**: {b.bpm:g} bpm, first beat at {b.offset_s:.3f} s, {b.duration_s:.1f} s long"
         )
         self.cb_snap_beats.value = True
+        self._keep_music(name)
         self._refresh_timeline()
         return b
+
+    def _keep_music(self, file: str | None = None) -> None:
+        """Writes the music's tempo and first beat into the document (`music`: the file keeps them)."""
+        if self.beats is None:
+            return
+        with self.lock:
+            old = self.meta.get("music") if isinstance(self.meta.get("music"), dict) else {}
+            kept = {"bpm": _r(float(self.beats.bpm), 3), "offset": _r(float(self.beats.offset_s), 4)}
+            name = file if file is not None else (old or {}).get("file")
+            if name:
+                kept["file"] = str(name)[:200]
+            if old == kept:
+                return
+            self.meta["music"] = kept
+        self._changed()
+
+    def _music_from_document(self) -> None:
+        """Shows the beat grid of a document's `music` (tempo and first beat; the audio is the user's to load)."""
+        m = self.meta.get("music")
+        if not isinstance(m, dict) or not isinstance(m.get("bpm"), (int, float)):
+            return
+        offset = float(m.get("offset") or 0.0)
+        self.beats = music.Beats(float(m["bpm"]), offset, float(self.meta.get("duration") or 60.0))
+        self._suspend = True
+        try:
+            self.num_bpm.value = float(m["bpm"])
+            self.num_beat_offset.value = offset
+            name = f"**{m['file']}**" if m.get("file") else "the maneuver's music"
+            self.md_music.content = f"{name}: {float(m['bpm']):g} bpm, first beat at {offset:.3f} s (kept in the file)"
+        except Exception:  # noqa: BLE001 - no GUI
+            pass
+        finally:
+            self._suspend = False
 
     def _snap(self, t: float) -> float:
         if self.beats is not None and bool(self.cb_snap_beats.value):

@@ -575,7 +575,19 @@ def test_music_on_the_timeline_and_snapping_to_beats(studio_app: tuple[TestClien
     ]  # 2.80 s: dragged 0.1 s later it lands on the beat at 2.75 + 0.5 = 3.25 s? no: nearest
     ed.drag([id(kf)], "move", 0.1)
     assert kf["t"] == pytest.approx(b.snap(2.9), abs=1e-3) and kf["t"] == pytest.approx(2.75, abs=0.03)
+    # the maneuver keeps its tempo and first beat: saved, reopened without the audio, the grid comes back
+    kept = ed.document()[0]["music"]
+    assert kept == {"bpm": pytest.approx(b.bpm), "offset": pytest.approx(b.offset_s), "file": "click.wav"}
+    ed.save("jump-on-beat")
+    stored = ed.services.store.get("jump-on-beat")
+    assert "music:" in stored.text and "click.wav" in stored.text
+    ed.beats = None
+    assert ed.open("jump-on-beat") and ed.beats is not None
+    assert ed.beats.bpm == pytest.approx(b.bpm) and ed.num_beat_offset.value == pytest.approx(b.offset_s)
+    ed.num_bpm.value = 100.0  # retimed by hand: the document follows
+    assert wait_for(lambda: ed.document()[0]["music"]["bpm"] == pytest.approx(100.0))
     ed.cb_snap_beats.value = False  # the tab is shared with the other tests
+    ed.beats = None
 
 
 def test_save_a_selection_as_a_move_and_insert_it(studio_app: tuple[TestClient, Any], tab: Any) -> None:
