@@ -256,7 +256,9 @@ class Music(_Model):
         description="tempo, beats per minute"
     )
     offset: Time = Field(0.0, description="time of the first beat on the maneuver's clock, s")
-    file: str | None = Field(None, max_length=200, description="the audio file's name, for the user (not read)")
+    file: str | None = Field(
+        None, max_length=200, description="the audio file's name, for the user (not read)"
+    )
 
 
 class Maneuver(_Model):
@@ -284,7 +286,9 @@ class Maneuver(_Model):
     weights: Weights = Field(default_factory=lambda: Weights.model_validate({}))
     objectives: tuple[Objective, ...] = ()
     hints: tuple[Hint, ...] = Field((), max_length=16, description="passive maneuvers played beside this one")
-    music: Music | None = Field(None, description="optional: the tempo and first beat of the music it is set to")
+    music: Music | None = Field(
+        None, description="optional: the tempo and first beat of the music it is set to"
+    )
 
 
 def maneuver_json_schema() -> dict[str, Any]:

@@ -338,6 +338,8 @@ class ManeuverEditor:
             )
             self.num_beat_offset = gui.add_number("first beat (s)", 0.0, min=0.0, max=10.0, step=0.005)
             self.cb_snap_beats = gui.add_checkbox("snap to beats", False)
+            self.html_audio = gui.add_html("")  # the loaded music, played with the preview (page.js)
+            self.html_clock = gui.add_html(music.clock_html(0.0, False, 1.0, ""))
         with gui.add_folder("Timeline tools", expand_by_default=False):
             self.dd_grid = gui.add_dropdown("snap to", tuple(GRID_CHOICES), initial_value="0.05 s")
             self.btn_undo = gui.add_button("Undo")
@@ -884,6 +886,10 @@ class ManeuverEditor:
             return None
         b = music.find_beats(x, rate)
         self.beats = b
+        try:
+            self.html_audio.content = music.audio_html(music.playable_wav(x, rate))
+        except Exception:  # noqa: BLE001 - no GUI
+            pass
         self._suspend = True
         try:
             self.num_bpm.value = b.bpm
@@ -898,13 +904,26 @@ class ManeuverEditor:
         self._refresh_timeline()
         return b
 
+    def show_clock(self, state: dict[str, Any]) -> None:
+        """Tells the tab where the preview is (the page plays the loaded music in step with it): called with the
+        live session's state a few times a second; writes only when something changed."""
+        if not self.html_audio.content:
+            return
+        playing = (state.get("status") == "running" and state.get("mode") == "maneuver"
+                   and not state.get("done") and not state.get("fell"))  # fmt: skip
+        t = float(state.get("t") or 0.0)
+        html_ = music.clock_html(t if playing else round(t, 1), playing, float(state.get("speed") or 1.0),
+                                 f"{state.get('generation')}:{state.get('maneuver')}")  # fmt: skip
+        if html_ != self.html_clock.content:
+            self.html_clock.content = html_
+
     def _keep_music(self, file: str | None = None) -> None:
         """Writes the music's tempo and first beat into the document (`music`: the file keeps them)."""
         if self.beats is None:
             return
         with self.lock:
             old = self.meta.get("music") if isinstance(self.meta.get("music"), dict) else {}
-            kept = {"bpm": _r(float(self.beats.bpm), 3), "offset": _r(float(self.beats.offset_s), 4)}
+            kept: dict[str, Any] = {"bpm": _r(float(self.beats.bpm), 3), "offset": _r(float(self.beats.offset_s), 4)}
             name = file if file is not None else (old or {}).get("file")
             if name:
                 kept["file"] = str(name)[:200]
@@ -925,7 +944,9 @@ class ManeuverEditor:
             self.num_bpm.value = float(m["bpm"])
             self.num_beat_offset.value = offset
             name = f"**{m['file']}**" if m.get("file") else "the maneuver's music"
-            self.md_music.content = f"{name}: {float(m['bpm']):g} bpm, first beat at {offset:.3f} s (kept in the file)"
+            self.md_music.content = (
+                f"{name}: {float(m['bpm']):g} bpm, first beat at {offset:.3f} s (kept in the file)"
+            )
         except Exception:  # noqa: BLE001 - no GUI
             pass
         finally:

@@ -87,7 +87,11 @@ def test_music_is_optional_kept_and_checked(mk) -> None:
     assert parse_maneuver(mk()).music is None
     m = parse_maneuver(mk(music={"bpm": 124, "offset": 0.35, "file": "song.wav"}))
     assert m.music is not None and (m.music.bpm, m.music.offset, m.music.file) == (124.0, 0.35, "song.wav")
-    assert m.model_dump(by_alias=True, exclude_none=True)["music"] == {"bpm": 124.0, "offset": 0.35, "file": "song.wav"}
+    assert m.model_dump(by_alias=True, exclude_none=True)["music"] == {
+        "bpm": 124.0,
+        "offset": 0.35,
+        "file": "song.wav",
+    }
     with pytest.raises(ManeuverError) as e:
         parse_maneuver(mk(music={"bpm": MAX_BPM + 1, "offset": -0.1, "tempo": 3}))
     text = str(e.value)

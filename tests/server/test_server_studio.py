@@ -575,6 +575,23 @@ def test_music_on_the_timeline_and_snapping_to_beats(studio_app: tuple[TestClien
     ]  # 2.80 s: dragged 0.1 s later it lands on the beat at 2.75 + 0.5 = 3.25 s? no: nearest
     ed.drag([id(kf)], "move", 0.1)
     assert kf["t"] == pytest.approx(b.snap(2.9), abs=1e-3) and kf["t"] == pytest.approx(2.75, abs=0.03)
+    # the tab gets a small copy of the music to play, and a clock that follows the preview
+    assert ed.html_audio.content.startswith("<audio data-footfall-audio")
+    assert len(ed.html_audio.content) < 2_000_000
+    state = {
+        "status": "running",
+        "mode": "maneuver",
+        "t": 1.25,
+        "speed": 0.5,
+        "generation": 3,
+        "maneuver": "jump",
+    }
+    ed.show_clock(state)
+    assert 'data-t="1.250" data-playing="1" data-rate="0.500" data-run="3:jump"' in ed.html_clock.content
+    ed.show_clock({**state, "status": "paused"})
+    assert 'data-playing="0"' in ed.html_clock.content
+    ed.show_clock({**state, "fell": True})
+    assert 'data-playing="0"' in ed.html_clock.content
     # the maneuver keeps its tempo and first beat: saved, reopened without the audio, the grid comes back
     kept = ed.document()[0]["music"]
     assert kept == {"bpm": pytest.approx(b.bpm), "offset": pytest.approx(b.offset_s), "file": "click.wav"}
