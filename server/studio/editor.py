@@ -923,7 +923,10 @@ class ManeuverEditor:
             return
         with self.lock:
             old = self.meta.get("music") if isinstance(self.meta.get("music"), dict) else {}
-            kept: dict[str, Any] = {"bpm": _r(float(self.beats.bpm), 3), "offset": _r(float(self.beats.offset_s), 4)}
+            kept: dict[str, Any] = {
+                "bpm": _r(float(self.beats.bpm), 3),
+                "offset": _r(float(self.beats.offset_s), 4),
+            }
             name = file if file is not None else (old or {}).get("file")
             if name:
                 kept["file"] = str(name)[:200]
