@@ -34,11 +34,11 @@ def _free_port() -> int:
 
 
 @contextmanager
-def local_server(startup_timeout_s: float = 60.0) -> Iterator[str]:
+def local_server(startup_timeout_s: float = 60.0, extra_env: dict[str, str] | None = None) -> Iterator[str]:
     """Runs `footfall serve` (REST only, a temporary data dir) in a subprocess; yields its base URL."""
     port = _free_port()
     env = {**os.environ, "FOOTFALL_STUDIO": "0", "FOOTFALL_DATA_DIR": tempfile.mkdtemp(prefix="footfall-load-"),
-           "FOOTFALL_HOST": "127.0.0.1", "FOOTFALL_MAX_SESSIONS": "2"}  # fmt: skip
+           "FOOTFALL_HOST": "127.0.0.1", "FOOTFALL_MAX_SESSIONS": "2", **(extra_env or {})}  # fmt: skip
     code = "from server.app import serve; import sys; serve(host='127.0.0.1', port=int(sys.argv[1]))"
     proc = subprocess.Popen([sys.executable, "-c", code, str(port)], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True)  # fmt: skip

@@ -175,6 +175,12 @@ def run_benchmarks(
         ("step_selection_100", "planning.steps.bench", "bench_step_selection", {"n_candidates": 100}),
         ("step_qp", "planning.terrain.bench", "bench_step_qp", {"n": 100 if quick else 300}),
         (
+            "step_qp_regions",
+            "planning.terrain.bench",
+            "bench_step_qp",
+            {"n": 100 if quick else 300, "regions": True},
+        ),
+        (
             "centroidal_tick",
             "planning.centroidal.bench",
             "bench_centroidal_tick",

@@ -145,6 +145,7 @@ class Recording:
     t: deque[float] = field(default_factory=lambda: deque(maxlen=MAX_FRAMES))
     xpos: deque[np.ndarray] = field(default_factory=lambda: deque(maxlen=MAX_FRAMES))
     xquat: deque[np.ndarray] = field(default_factory=lambda: deque(maxlen=MAX_FRAMES))
+    n: int = 0  # frames recorded in all (the deques keep the last MAX_FRAMES)
 
 
 class LiveSession:
@@ -183,6 +184,7 @@ class LiveSession:
         self.generation = 0  # bumped whenever the simulation is replaced (studio rebuilds the terrain)
         self.recording = Recording(self._maneuver_name(), terrain)
         self.plot: deque[PlotSample] = deque(maxlen=PLOT_SAMPLES)
+        self.plot_n = 0  # plot samples taken in all
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._seq = 0
@@ -263,6 +265,7 @@ class LiveSession:
                         rec.t.append(t_sim)
                         rec.xpos.append(xpos)
                         rec.xquat.append(xquat)
+                        rec.n += 1
                 window.append((now, t_sim))
                 if len(window) > 1 and window[-1][0] - window[0][0] > 0.5:
                     dw = window[-1][0] - window[0][0]
@@ -343,6 +346,7 @@ class LiveSession:
             v_ref = (self.command["vx"], self.command["vy"], 0.0)
         tick = self.sim.tick_ms()
         self.plot.append(PlotSample(self.sim.t, float(tick or 0.0), (v[0], v[1], v[2]), v_ref))
+        self.plot_n += 1
 
     # ---- commands (from REST handlers and the studio) -----------------------------------------------------------
     def _replace(self, maneuver: Any, terrain: str | None = None) -> None:
@@ -490,6 +494,10 @@ class SessionManager:
     ) -> None:
         self.settings = settings
         self.factory: SimFactory = factory or LiveSim
+        # each session in a worker process of its own (server.session_worker), or a thread of this process; "auto":
+        # processes for the real simulation, threads for a fake one a test injects (and may inspect in place)
+        w = settings.session_workers
+        self.processes = w == "process" or (w == "auto" and factory is None)
         self.clock = clock
         self._sessions: dict[str, LiveSession] = {}
         self._reserved = 0
@@ -541,8 +549,17 @@ class SessionManager:
                 self._reserved_studio += 1
         try:
             sid = secrets.token_hex(8)
-            s = LiveSession(sid, terrain, mode, self.settings.robot, self.factory, origin, self.clock, maps)
-            s.start()
+            cls = LiveSession
+            if self.processes:
+                from server.session_worker import ProcessSession
+
+                cls = ProcessSession
+            s = cls(sid, terrain, mode, self.settings.robot, self.factory, origin, self.clock, maps)
+            try:
+                s.start()
+            except BaseException:
+                s.stop()
+                raise
             with self._lock:
                 self._sessions[sid] = s
         finally:

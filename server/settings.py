@@ -12,6 +12,7 @@ Environment variables (all optional):
 | ``FOOTFALL_ALLOW_OPEN`` | ``0`` | ``1``: accept writes without a token even when bound beyond loopback |
 | ``FOOTFALL_MAX_SESSIONS`` | ``4`` | live simulated robots at once (each needs a share of a core) |
 | ``FOOTFALL_SESSION_IDLE_S`` | ``600`` | a session nobody touched for this long is ended, s |
+| ``FOOTFALL_SESSION_WORKERS`` | ``auto`` | ``process``: each live session in a worker process; ``thread``: all in the server's process; ``auto``: processes for the real simulation |
 | ``FOOTFALL_SIM_WORKERS`` | ``1`` | worker processes for queued headless simulations |
 | ``FOOTFALL_MAX_QUEUED`` | ``16`` | simulations waiting at once; more are refused with 429 |
 | ``FOOTFALL_MAX_BODY_BYTES`` | ``262144`` | largest request body, bytes |
@@ -90,6 +91,7 @@ class Settings:
     max_sessions: int = 4
     session_idle_s: float = 600.0
     reaper_period_s: float = 5.0
+    session_workers: str = "auto"  # "process", "thread", "auto" (processes unless a test injects a fake)
     sim_workers: int = 1
     max_queued_simulations: int = 16
     max_kept_simulations: int = 200  # finished simulations remembered for GET /simulations/{id}
@@ -128,6 +130,8 @@ class Settings:
                 raise SettingsError(f"{name}: must be a finite number, got {getattr(self, name)}")
             if getattr(self, name) <= 0:
                 raise SettingsError(f"{name}: must be positive, got {getattr(self, name)}")
+        if self.session_workers not in ("auto", "process", "thread"):
+            raise SettingsError(f"session_workers: {self.session_workers!r} is not auto, process or thread")
         if self.backend not in ("local", "ray"):
             raise SettingsError(f"backend: {self.backend!r} is not local or ray")
         if self.api_token is not None and len(self.api_token) < 8:
@@ -173,6 +177,7 @@ class Settings:
         read("FOOTFALL_STUDIO", "studio", flag)
         read("FOOTFALL_MAX_SESSIONS", "max_sessions", int)
         read("FOOTFALL_SESSION_IDLE_S", "session_idle_s", float)
+        read("FOOTFALL_SESSION_WORKERS", "session_workers", str)
         read("FOOTFALL_SIM_WORKERS", "sim_workers", int)
         read("FOOTFALL_MAX_QUEUED", "max_queued_simulations", int)
         read("FOOTFALL_MAX_BODY_BYTES", "max_body_bytes", int)

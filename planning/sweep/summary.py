@@ -266,3 +266,19 @@ def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -
             + [(r or {}).get("wall_s", ""), c["key"]]
         )
     return out.getvalue()
+
+
+def heatmap_cell_keys(
+    spec: SweepSpec, cases: list[dict[str, Any]], x: str, y: str
+) -> dict[tuple[str, str], list[str]]:
+    """The case keys in each cell (x label, y label) of the heat map over axes x and y, binned as summarize() bins
+    them (so the labels are the heat map's)."""
+    sampled = spec.sampling != "grid"
+    bx = _Binner([_ax(c, x) for c in cases], spec.summary.bins, sampled)
+    by = _Binner([_ax(c, y) for c in cases], spec.summary.bins, sampled)
+    cells: dict[tuple[str, str], list[str]] = {}
+    for c in cases:
+        keys = cells.setdefault((bx(_ax(c, x)), by(_ax(c, y))), [])
+        if c["key"] not in keys:
+            keys.append(c["key"])
+    return cells

@@ -33,39 +33,100 @@ def _percentiles(ms: list[float]) -> tuple[float, float]:
 
 
 def bench_perception(n: int = 60, terrain: str = "stairs", params: PerceptionParams | None = None) -> dict:
-    """Gives {"p50_ms", "p99_ms", "points", "voxels", "terrain"} of n perception updates (scan → voxels → maps)."""
+    """Gives {"p50_ms", "p99_ms", "bare_solver_p50_ms", "bare_solver_p99_ms", "cpu_p50_ms", "points", "voxels",
+    "terrain", "scan", "voxels_integrate", "classify", "maps", "regions", "with_regions"} of n perception updates
+    (scan → voxels → maps; bare solver: MuJoCo's ray casting alone in them; cpu: this process's CPU time, which other
+    processes on a shared machine do not inflate). Each stage is {"p50_ms", "p99_ms"} (the scan's also its bare ray
+    casting); regions is segment_regions on the maps as the loop runs it (no polygon cover), with_regions the whole."""
+    from planning.terrain.regions import RegionParams, segment_regions
+
     scene = build_terrain(terrain)
     model = mujoco.MjModel.from_xml_string(scene.mjcf(_STAND_IN))
     data = mujoco.MjData(model)
     perception = Perception(model, "robot", params)
     points: list[int] = []
     times: list[float] = []
+    cpu: list[float] = []
+    stages: dict[str, list[float]] = {}
+    region_ms: list[float] = []
+    region_params = RegionParams()
     for i in range(n + 3):
         x = 0.02 * i
         data.qpos[0] = x
         data.qpos[2] = 0.52 + float(scene.ground_height(x, 0.0))
         mujoco.mj_kinematics(model, data)
+        c0 = time.process_time()
         t0 = time.perf_counter()
-        perception.scan_now(data)
+        maps = perception.scan_now(data)
+        t1 = time.perf_counter()
+        c1 = time.process_time()
+        segment_regions(maps, region_params, cover=False)
+        t2 = time.perf_counter()
         if i >= 3:  # the first scans warm caches up
-            times.append((time.perf_counter() - t0) * 1e3)
+            times.append((t1 - t0) * 1e3)
+            cpu.append((c1 - c0) * 1e3)
+            region_ms.append((t2 - t1) * 1e3)
+            for k, v in perception.last_stage_ms.items():
+                stages.setdefault(k, []).append(v)
             assert perception.last_cloud is not None
             points.append(perception.last_cloud.size)
     p50, p99 = _percentiles(times)
-    return {"p50_ms": p50, "p99_ms": p99, "points": int(np.median(points)), "voxels": int(perception.voxels.hits.size),
-            "terrain": terrain}  # fmt: skip
+    r50, r99 = _percentiles(stages["raycast"])
+
+    def stage(name: str) -> dict:
+        a, b = _percentiles(stages[name])
+        return {"p50_ms": a, "p99_ms": b}
+
+    whole = [a + b for a, b in zip(times, region_ms, strict=True)]
+    return {
+        "p50_ms": p50, "p99_ms": p99, "bare_solver_p50_ms": r50, "bare_solver_p99_ms": r99,
+        "cpu_p50_ms": float(np.percentile(cpu, 50)), "points": int(np.median(points)),
+        "voxels": int(perception.voxels.hits.size), "terrain": terrain,
+        "scan": {**stage("scan"), "bare_solver_p50_ms": r50, "bare_solver_p99_ms": r99},
+        "voxels_integrate": stage("voxels"), "classify": stage("classify"), "maps": stage("maps"),
+        "regions": dict(zip(("p50_ms", "p99_ms"), _percentiles(region_ms), strict=True)),
+        "with_regions": dict(zip(("p50_ms", "p99_ms"), _percentiles(whole), strict=True)),
+    }  # fmt: skip
 
 
 def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium",
-                  params: StepQPParams | None = None, start_s_m: float = 0.7) -> dict:  # fmt: skip
+                  params: StepQPParams | None = None, start_s_m: float = 0.7, regions: bool = False) -> dict:  # fmt: skip
     """Gives {"p50_ms", "p99_ms", "bare_solver_p50_ms", "bare_solver_p99_ms", "footholds", "rounds_mean",
     "hard_softened", "hard_softened_by_family", "in_no_step", "terrain"} of n replans (300 Hz) of the step QP along a
-    walk that starts start_s_m along the body path (so the horizon reaches the terrain at once)."""
+    walk that starts start_s_m along the body path (so the horizon reaches the terrain at once).
+
+    regions: as the unified pipeline runs it (decision.py): each foothold inside a convex polygon of the steppable
+    region nearest its nominal place (hard), one solve, the pipeline's QP parameters (unless params); the polygons
+    come from a cache as in the loop (their growth is the region stage's cost, not the QP's)."""
     scene = build_terrain(terrain)
     maps = maps_from_scene(scene, center_xy=(2.0, 0.0), half_extent_m=2.5)
     path = plan_body_path(maps, (0.0, 0.0), 0.0, scene.goal_xy)
     cp = CadenceParams()
     cad = next(c for c in CADENCES if c.name == cadence)
+    polygon_of = None
+    if regions:
+        from planning.terrain.decision import DecisionParams, PipelineParams
+        from planning.terrain.regions import convex_around, segment_regions
+
+        dp = DecisionParams()
+        params = params or PipelineParams().step_qp
+        seg = segment_regions(maps, dp.regions, cover=False)
+        cache: dict = {}
+
+        def polygon_of(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+            """The polygon of the region with an inset cell nearest xy (within search_m), grown around xy."""
+            key = (int(round(float(xy[0]) / seg.resolution_m)), int(round(float(xy[1]) / seg.resolution_m)))
+            if key not in cache:
+                fx, fy = (np.asarray(xy) - np.asarray(seg.origin_xy)) / seg.resolution_m
+                ii, jj = np.nonzero(seg.inset)
+                d2 = (ii - fx) ** 2 + (jj - fy) ** 2
+                k = int(np.argmin(d2)) if d2.size else -1
+                poly = None
+                if k >= 0 and np.sqrt(d2[k]) * seg.resolution_m <= dp.search_m:
+                    poly = convex_around(seg, int(seg.labels[ii[k], jj[k]]), xy, dp.window_m)
+                cache[key] = None if poly is None else (poly.A, poly.b)
+            return cache[key]
+
     qp = StepQP(params)
     K = qp.K
     dt = 1.0 / 300.0
@@ -93,7 +154,11 @@ def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium"
                 v_feet[leg] = (target_xy[leg] - stance_xy[leg]) / cad.swing_s
         req = make_request(cad, path, cp, K, feet, v_feet, s_now_m=start_s_m + cad.speed_mps * t, phase_s=phase,
                            first_group=g_now % n_groups)  # fmt: skip
-        plan = qp.solve(req, maps)
+        if polygon_of is not None:
+            polys = [polygon_of(req.p_nominal[k]) for k in range(K)]  # the cache's lookups, before the timing
+            plan = qp.solve(req, maps, polys)
+        else:
+            plan = qp.solve(req, maps)
         total.append(plan.solve_ms)
         bare.append(plan.bare_solver_ms / max(plan.rounds, 1))
         rounds += plan.rounds
@@ -162,66 +227,3 @@ def bench_terrain_crossings(
             },
         }  # fmt: skip
     return out
-
-
-def bench_variants(
-    terrain: str, variants: list[tuple[str, int, float, bool]], duration_s: float = 30.0
-) -> dict:
-    """Gives how robust a terrain's crossing is over variants (label, scene seed, goal y (m), with the depth sensor
-    or on ground-truth maps), each a terrain-aware walk to (6, y): {"runs", "crossed" (no fall, past the terrain),
-    "by_variant": {label: {"crossed", "time_s", "no_step_touchdowns", "no_step_scuffs", "failure_reason"}}}. Slow:
-    one crossing per variant."""
-    from planning.sim.run import RunOptions, WalkCommand, run_walk
-
-    by: dict = {}
-    for label, seed, y, sensor in variants:
-        cmd = WalkCommand(goal=(6.0, y), terrain_aware=True, terrain_sensor=sensor, stop_at_goal=True)
-        r = run_walk(cmd, RunOptions(terrain=terrain, seed=seed, duration_s=duration_s))
-        by[label] = {
-            "crossed": bool(r["crossed"]),
-            "time_s": r["time_to_cross_s"],
-            "no_step_touchdowns": r["no_step_touchdowns"],
-            "no_step_scuffs": r["no_step_scuffs"],
-            "failure_reason": r["failure_reason"],
-        }
-    return {"runs": len(by), "crossed": sum(v["crossed"] for v in by.values()), "by_variant": by}
-
-
-def bench_stairs_variants(
-    offsets_m: tuple[float, ...] = (
-        *(0.0, 0.04, -0.04, 0.08, -0.08, 0.02, -0.02, 0.06, -0.06),
-        *(0.01, -0.01, 0.03, -0.03, 0.05, -0.05, 0.07, -0.07),
-    ),
-) -> dict:
-    """The stairs (scene seed 0) with the goal moved sideways by each offset (m), with the depth sensor and on
-    ground-truth maps (see bench_variants): thirty-four crossings. The first five offsets are the ones the
-    stairs rules were measured and tuned on; ±2 and ±6 cm were added after, to see whether they hold elsewhere,
-    and the odd centimetres after that (the outcome of one offset turns on small differences)."""
-    return bench_variants(
-        "stairs",
-        [(f"{'sensor' if m else 'truth'} y={y:+.2f}", 0, y, m) for m in (True, False) for y in offsets_m],
-    )
-
-
-def bench_clutter_variants(sensor_seeds: int = 12, truth_seeds: int = 12, goal_y_m: float = 0.0) -> dict:
-    """Clutter scenes of seeds 0.. (each a different layout of boxes), to (6, goal_y_m), with the depth sensor and
-    on ground-truth maps (see bench_variants): twenty-four crossings (the outcome of one layout turns on small
-    differences, so a change is judged over many; run again with the goal moved 1 mm, the layouts whose outcome
-    changes show how much of the count is chance)."""
-    return bench_variants("clutter", _scene_seeds(sensor_seeds, truth_seeds, goal_y_m))
-
-
-def bench_stones_variants(sensor_seeds: int = 8, truth_seeds: int = 4) -> dict:
-    """Stepping-stone scenes of seeds 0.. (each a different spacing and size of stones), to (6, 0), with the
-    depth sensor and on ground-truth maps (see bench_variants): twelve crossings (35 s each at most). The stones
-    rules were tuned on sensor seeds 0-3 and ground-truth seeds 0-1; the others measure how far they carry."""
-    return bench_variants("stones", _scene_seeds(sensor_seeds, truth_seeds), duration_s=35.0)
-
-
-def _scene_seeds(
-    sensor_seeds: int, truth_seeds: int, goal_y_m: float = 0.0
-) -> list[tuple[str, int, float, bool]]:
-    """The variants of scene seeds 0.. with the depth sensor and 0.. on ground-truth maps, to (6, goal_y_m)."""
-    return [(f"sensor seed {k}", k, goal_y_m, True) for k in range(sensor_seeds)] + [
-        (f"truth seed {k}", k, goal_y_m, False) for k in range(truth_seeds)
-    ]

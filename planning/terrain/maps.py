@@ -19,6 +19,7 @@ Arrays are [ix, iy] with cell (ix, iy) centered at origin_xy + (ix, iy) * resolu
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -27,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
+from planning.terrain.gridops import disk_filter, square_filter
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.voxels import Columns
 
@@ -199,16 +201,38 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
         return np.full(mask.shape, far)
     if mask.all():
         return np.full(mask.shape, -far)
-    d_out = ndimage.distance_transform_edt(~mask)
-    d_in = ndimage.distance_transform_edt(mask)
-    half = 0.5
-    return np.where(mask, -(d_in - half), d_out - half) * resolution_m
+    d_out = np.asarray(ndimage.distance_transform_edt(~mask))
+    # Inside: only on the obstacles' bounding box grown by a cell (clipped to the map), whose ring is free: a free
+    # cell beyond it is never nearer than the ring cell it projects to, so the distances are the same.
+    rows = np.flatnonzero(mask.any(axis=1))
+    cols = np.flatnonzero(mask.any(axis=0))
+    i0, i1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, mask.shape[0])
+    j0, j1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, mask.shape[1])
+    sub = mask[i0:i1, j0:j1]
+    d_out[i0:i1, j0:j1][sub] = -np.asarray(ndimage.distance_transform_edt(sub))[sub]
+    # Now d_out holds +d outside and -d inside (center to center); the zero level is half a cell from either.
+    d_out -= np.where(mask, -0.5, 0.5)
+    d_out *= resolution_m
+    return d_out
+
+
+@functools.lru_cache(maxsize=64)
+def _disk_cached(radius_cells: float) -> NDArray[np.bool_]:
+    r = int(np.floor(radius_cells))
+    i = np.arange(-r, r + 1)
+    d = (i[:, None] ** 2 + i[None, :] ** 2) <= radius_cells**2 + 1e-9
+    d.flags.writeable = False
+    return d
 
 
 def _disk(radius_cells: float) -> NDArray[np.bool_]:
-    r = int(np.floor(radius_cells))
-    i = np.arange(-r, r + 1)
-    return (i[:, None] ** 2 + i[None, :] ** 2) <= radius_cells**2 + 1e-9
+    """Gives the disk footprint of that radius (cells; read-only, made once per radius)."""
+    return _disk_cached(float(radius_cells))
+
+
+def _closing(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Gives ndimage.binary_closing(mask, structure=footprint): a dilation then an erosion, False beyond the grid."""
+    return disk_filter(disk_filter(mask, footprint, np.maximum, False), footprint, np.minimum, False)
 
 
 def _remove_specks(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]:
@@ -222,50 +246,95 @@ def _remove_specks(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]
 
 
 def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: float) -> NDArray[np.float64]:
-    h = ground_z.copy()
-    known = np.isfinite(h)
+    known = np.isfinite(ground_z)
     if not known.any():
-        return np.full(h.shape, default_z)
+        return np.full(ground_z.shape, default_z)
+    # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown).
+    h = np.where(known, ground_z, np.inf)
     for _ in range(fill_min_cells):
         if known.all():
             break
-        m = ndimage.minimum_filter(np.where(known, h, np.inf), size=3, mode="nearest")
-        new = ~known & np.isfinite(m)
-        if not new.any():
-            break
-        h[new] = m[new]
-        known |= new
+        m = square_filter(h, 3, np.minimum)
+        np.copyto(m, h, where=known)
+        h = m
+        known = np.isfinite(h)
     if not known.all():
         _, (ix, iy) = ndimage.distance_transform_edt(~known, return_indices=True)
         h = h[ix, iy]
     return h
 
 
-def _cumulative_layers(obstacle: NDArray[np.bool_]) -> NDArray[np.int32]:
-    """Gives the inclusive count of obstacle layers up to each layer, z-major (nz, nx, ny); obstacle is (nx, ny, nz).
+@dataclass(frozen=True, eq=False)
+class _Layers:
+    """Inclusive counts of obstacle layers up to each layer, kept only over the band of layers that may hold an
+    obstacle: below it the count is 0, above it the band's last count. cum: (layers of the band, nx * ny) int32;
+    first: the band's first layer; nz: all layers."""
+
+    cum: NDArray[np.int32]
+    first: int
+    nz: int
+
+    def at(self, k: NDArray[np.intp]) -> NDArray[np.int32]:
+        """Gives per column the count up to layer k (nx, ny) (0 for k < 0)."""
+        nb, cells = self.cum.shape
+        if nb == 0:
+            return np.zeros(k.shape, np.int32)
+        kk = k.reshape(-1) - self.first
+        # Flat indices into cum: layer kk (clipped into the band) of each column; 0 below the band.
+        flat = np.minimum(np.maximum(kk, 0), nb - 1) * cells
+        flat += _column_index(cells)
+        v = self.cum.reshape(-1)[flat]
+        v[kk < 0] = 0
+        return v.reshape(k.shape)
+
+    @property
+    def total(self) -> NDArray[np.int32]:
+        """Gives the number of obstacle layers of each column, (nx * ny,)."""
+        return self.cum[-1] if self.cum.shape[0] else np.zeros(self.cum.shape[1], np.int32)
+
+
+_COLUMNS: dict[int, NDArray[np.intp]] = {}
+
+
+def _column_index(cells: int) -> NDArray[np.intp]:
+    """Gives arange(cells), made once per size."""
+    a = _COLUMNS.get(cells)
+    if a is None:
+        a = _COLUMNS[cells] = np.arange(cells, dtype=np.intp)
+        a.flags.writeable = False
+    return a
+
+
+def _cumulative_layers(columns: Columns) -> _Layers:
+    """Gives the counts of obstacle layers (see _Layers) of the columns' obstacle occupancy (nx, ny, nz).
 
     Layer by layer (one add per layer over a contiguous plane): a cumsum along the last axis of the (often
     z-major underneath) occupancy is several times slower."""
-    obs = np.moveaxis(obstacle, 2, 0)
-    cum = np.empty(obs.shape, np.int32)
-    np.copyto(cum[0], obs[0])
-    for k in range(1, obs.shape[0]):
-        np.add(cum[k - 1], obs[k], out=cum[k])
-    return cum
+    obs = np.moveaxis(columns.obstacle, 2, 0)
+    nz = obs.shape[0]
+    if columns.obstacle_layers is not None:
+        lo, hi = columns.obstacle_layers
+    else:
+        any_k = np.flatnonzero(obs.reshape(nz, -1).any(axis=1))
+        lo, hi = (int(any_k[0]), int(any_k[-1])) if any_k.size else (0, -1)
+    lo, hi = max(lo, 0), min(hi, nz - 1)
+    cells = obs.shape[1] * obs.shape[2]
+    cum = np.empty((max(hi + 1 - lo, 0), cells), np.int32)
+    if cum.shape[0]:
+        np.copyto(cum[0], obs[lo].reshape(cells))
+        for k in range(1, cum.shape[0]):
+            np.add(cum[k - 1], obs[lo + k].reshape(cells), out=cum[k])
+    return _Layers(cum, lo, nz)
 
 
 def _count_between(
-    cum: NDArray[np.int32], z0: float, dz: float, z_lo: NDArray[np.float64], z_hi: NDArray[np.float64]
+    cum: _Layers, z0: float, dz: float, z_lo: NDArray[np.float64], z_hi: NDArray[np.float64]
 ) -> NDArray[np.int32]:
     """Gives per column the number of obstacle layers whose centers lie in [z_lo, z_hi] (cum: _cumulative_layers)."""
-    nz = cum.shape[0]
+    nz = cum.nz
     k_lo = np.clip(np.ceil((z_lo - z0) / dz - 1e-9).astype(np.intp), 0, nz)
     k_hi = np.clip(np.floor((z_hi - z0) / dz + 1e-9).astype(np.intp), -1, nz - 1)
-    upper = np.take_along_axis(cum, np.clip(k_hi, 0, nz - 1)[None], 0)[0]
-    upper = np.where(k_hi >= 0, upper, 0)
-    lower = np.take_along_axis(cum, np.clip(k_lo - 1, 0, nz - 1)[None], 0)[0]
-    lower = np.where(k_lo - 1 >= 0, lower, 0)
-    return np.where(k_hi >= k_lo, upper - lower, 0)
+    return np.where(k_hi >= k_lo, cum.at(k_hi) - cum.at(k_lo - 1), 0)
 
 
 def _disk_count(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -296,20 +365,18 @@ def build_maps(
     observed = np.isfinite(columns.ground_z)
     h = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z)
     if p.fill_low_radius_m is not None and not observed.all():
-        low = ndimage.minimum_filter(
-            np.where(observed, columns.ground_z, np.inf),
-            footprint=_disk(p.fill_low_radius_m / res),
-            mode="nearest",
+        low = disk_filter(
+            np.where(observed, columns.ground_z, np.inf), _disk(p.fill_low_radius_m / res), np.minimum
         )
         h = np.where(~observed & np.isfinite(low), np.minimum(h, low), h)
-    cum = _cumulative_layers(columns.obstacle)
+    cum = _cumulative_layers(columns)
     z0, dz = columns.z0_m, columns.dz_m
 
     def size(radius_m: float) -> int:
         return 2 * int(round(radius_m / res)) + 1
 
-    h_low = ndimage.minimum_filter(h, size=size(p.low_radius_m), mode="nearest")
-    h_ref = ndimage.maximum_filter(h, size=size(p.body_ref_radius_m), mode="nearest")
+    h_low = square_filter(h, size(p.low_radius_m), np.minimum)
+    h_ref = square_filter(h, size(p.body_ref_radius_m), np.maximum)
     lo, hi = p.body_band_m
     z_lo = h + lo if p.body_above_ground_m is None else np.maximum(h + lo, h_ref + p.body_above_ground_m)
     body = (_count_between(cum, z0, dz, z_lo, h + hi) > 0) | (
@@ -318,24 +385,20 @@ def build_maps(
     # A wall rising right beside a cell (higher than the body can pass over) blocks the body there.
     # The same on the top side: the rim of something tall (a rail or box seen from above with nothing seen under it).
     wall_fp = _disk(p.wall_radius_m / res)
-    body |= ndimage.maximum_filter(h, footprint=wall_fp, mode="nearest") - h > p.body_step_m
-    body |= h - ndimage.minimum_filter(h, footprint=wall_fp, mode="nearest") > p.body_step_m
+    body |= disk_filter(h, wall_fp, np.maximum) - h > p.body_step_m
+    body |= h - disk_filter(h, wall_fp, np.minimum) > p.body_step_m
     body = _remove_specks(body, p.speck_cells)
     if p.close_cells > 0 and body.any():
         st = _disk(p.close_cells)
         padded = np.pad(body, p.close_cells, mode="edge")
-        body = ndimage.binary_closing(padded, structure=st)[
-            p.close_cells : -p.close_cells, p.close_cells : -p.close_cells
-        ]
+        body = _closing(padded, st)[p.close_cells : -p.close_cells, p.close_cells : -p.close_cells]
 
     fp = _disk(p.edge_radius_m / res)
-    spread = ndimage.maximum_filter(h, footprint=fp, mode="nearest") - ndimage.minimum_filter(
-        h, footprint=fp, mode="nearest"
-    )
+    spread = disk_filter(h, fp, np.maximum) - disk_filter(h, fp, np.minimum)
     step = spread > p.edge_height_m
     step |= h - h_low > p.max_step_height_m
     step |= _count_between(cum, z0, dz, h + p.leg_band_m[0], h + p.leg_band_m[1]) > 0
-    knee = ndimage.maximum_filter(h, footprint=_disk(p.knee_radius_m / res), mode="nearest") - h
+    knee = disk_filter(h, _disk(p.knee_radius_m / res), np.maximum) - h
     step |= knee > p.knee_height_m
     step = _remove_specks(step, p.speck_cells)
     # Dense step obstacles become body obstacles.
@@ -343,19 +406,20 @@ def build_maps(
         disk = _disk(p.dense_radius_m / res)
         body |= _disk_count(step, disk) / np.count_nonzero(disk) > p.dense_fraction
     if body.any():
-        step |= ndimage.binary_dilation(body, structure=_disk(p.near_body_m / res))
+        step |= disk_filter(body, _disk(p.near_body_m / res), np.maximum, False)
     # Steppable patches narrower than min_support_m (a small box top, a sliver between obstacles) become no-step.
     r = max(int(round(p.min_support_m / 2 / res)), 1)
-    step = ndimage.binary_closing(np.pad(step, r, mode="edge"), structure=_disk(r))[r:-r, r:-r]
+    step = _closing(np.pad(step, r, mode="edge"), _disk(r))[r:-r, r:-r]
 
     # Clearance under overhangs: the lowest obstacle layer at least ceiling_above_m above the ground.
     # Read off the layer counts: below = layers under k_c; the first one at or over it is the first layer whose count
     # exceeds that, i.e. the number of layers whose count does not.
-    nz = cum.shape[0]
+    nz = cum.nz
     k_c = np.clip(np.ceil((h + p.ceiling_above_m - z0) / dz).astype(np.intp), 0, nz)
-    below = np.where(k_c > 0, np.take_along_axis(cum, np.maximum(k_c - 1, 0)[None], 0)[0], 0)
-    has = cum[-1] > below
-    k_first = np.count_nonzero(cum <= below[None], axis=0)
+    below = cum.at(k_c - 1)
+    has = cum.total.reshape(h.shape) > below
+    # Layers under the band count 0 (<= below); above it, where `has`, the total exceeds below.
+    k_first = cum.first + np.count_nonzero(cum.cum <= below.reshape(1, -1), axis=0).reshape(h.shape)
     z_c = z0 + k_first * dz - dz / 2
     clearance = np.where(has, z_c - h, np.inf)
 

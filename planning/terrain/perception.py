@@ -44,6 +44,9 @@ class Perception:
         self.last_cloud: PointCloud | None = None
         self._t_next = -np.inf
         self.timings_ms: list[float] = []
+        # The last scan's stages (ms): scan (of which raycast: MuJoCo's ray casting alone), voxels (integration),
+        # classify (columns and the ground memory), maps.
+        self.last_stage_ms: dict[str, float] = {}
 
     def ground_under_body(self, data: mujoco.MjData) -> float:
         """Gives the ground height (m) under the body: from the last maps, else from the body height."""
@@ -56,17 +59,25 @@ class Perception:
         """Scans, integrates and rebuilds the maps now (with map_params, default params.maps); gives them."""
         t0 = time.perf_counter()
         cloud = self.sensor.scan(data)
+        t1 = time.perf_counter()
         p_body = data.xpos[self.sensor.body_id]
         ground_z = float(p_body[2] - self.params.body_height_m)
         self.voxels.integrate(cloud, (float(p_body[0]), float(p_body[1])), ground_z)
+        t2 = time.perf_counter()
         columns = self.voxels.classify()
         if self.memory is not None:
             columns = self.memory.apply(columns)
+        t3 = time.perf_counter()
         self.maps = build_maps(
             columns, map_params or self.params.maps, default_ground_z=ground_z, t_s=float(data.time)
         )
+        t4 = time.perf_counter()
         self.last_cloud = cloud
-        self.timings_ms.append((time.perf_counter() - t0) * 1e3)
+        self.timings_ms.append((t4 - t0) * 1e3)
+        self.last_stage_ms = {
+            "scan": (t1 - t0) * 1e3, "raycast": self.sensor.raycast_ms, "voxels": (t2 - t1) * 1e3,
+            "classify": (t3 - t2) * 1e3, "maps": (t4 - t3) * 1e3,
+        }  # fmt: skip
         return self.maps
 
     def update(self, data: mujoco.MjData) -> TerrainMaps:

@@ -11,6 +11,7 @@ range error (stereo mismatches), which the voxel filter must remove.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import mujoco
@@ -128,6 +129,7 @@ class DepthSensor:
         self._geomid = [np.zeros(r.shape[0], dtype=np.int32) for r in self._rays_body]
         self._dist = [np.zeros(r.shape[0], dtype=np.float64) for r in self._rays_body]
         self._rng = np.random.default_rng(self.params.seed)
+        self.raycast_ms = 0.0  # the last scan's time in MuJoCo's ray casting alone (ms)
 
     def scan(self, data: mujoco.MjData) -> PointCloud:
         """Gives the noisy point cloud seen from the body pose in `data` (needs mj_kinematics or later done)."""
@@ -136,15 +138,18 @@ class DepthSensor:
         R_world_body = data.xmat[self.body_id].reshape(3, 3)
         points: list[NDArray[np.float64]] = []
         origins: list[NDArray[np.float64]] = []
+        raycast_s = 0.0
         for k, rays in enumerate(self._rays_body):
             vec = self._vec[k]
             np.matmul(rays, R_world_body.T, out=vec)
             origin = p_world_body + R_world_body @ self._p_body_cam[k]
             geomid, dist = self._geomid[k], self._dist[k]
+            t0 = time.perf_counter()
             mujoco.mj_multiRay(
                 self.model, data, origin, vec.ravel(), self._geomgroup, 1, -1, geomid, dist, None,
                 rays.shape[0], p.max_range_m,
             )  # fmt: skip
+            raycast_s += time.perf_counter() - t0
             hit = geomid >= 0
             if self._filter_after:
                 hit &= ~self._robot_geom[geomid]
@@ -157,4 +162,5 @@ class DepthSensor:
             r = np.maximum(r, 0.0)
             points.append(origin + vec[hit] * r[:, None])
             origins.append(np.broadcast_to(origin, (r.shape[0], 3)))
+        self.raycast_ms = raycast_s * 1e3
         return PointCloud(np.concatenate(points), np.concatenate(origins), float(data.time))

@@ -58,7 +58,8 @@ class Columns:
 
     origin_xy: world (x, y) of cell (0, 0)'s center (m); resolution_m: cell side (m); ground_z: (nx, ny) ground
     height (m, world), NaN where unknown; obstacle: (nx, ny, nz) obstacle occupancy; z0_m: center height of layer 0
-    (m); dz_m: layer height (m).
+    (m); dz_m: layer height (m); obstacle_layers: (first, last) layers that may hold an obstacle (none outside them;
+    None: any layer may), so the maps need not scan the empty ones.
     """
 
     origin_xy: tuple[float, float]
@@ -67,6 +68,7 @@ class Columns:
     obstacle: NDArray[np.bool_]
     z0_m: float
     dz_m: float
+    obstacle_layers: tuple[int, int] | None = None
 
 
 class VoxelMap:
@@ -89,6 +91,10 @@ class VoxelMap:
         self._weight = 1.0  # weight of the latest scan (decay**-n)
         self._ix0, self._iy0, self._iz0 = self._lattice(center_xy, ground_z_m)
         self.n_points = 0
+        # Layers that may hold hits / misses (first, last); every layer outside is all zero. Hits and misses are never
+        # decayed to zero in place, so a band only grows, until a shift moves it or drops layers off the map.
+        self._hit_layers: tuple[int, int] | None = None
+        self._miss_layers: tuple[int, int] | None = None
 
     # -- geometry -----------------------------------------------------------------------------------------------
 
@@ -121,6 +127,8 @@ class VoxelMap:
         for a in (self.hits, self.misses, self.sum_z):
             _shift_clear(a, shift)
         self._ix0, self._iy0, self._iz0 = ix0, iy0, iz0
+        self._hit_layers = _shift_band(self._hit_layers, shift[0], self.n_z)
+        self._miss_layers = _shift_band(self._miss_layers, shift[0], self.n_z)
         return True
 
     def _flat_index(self, p: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
@@ -158,25 +166,72 @@ class VoxelMap:
         flat, ok = self._flat_index(pts)
         np.add.at(self.hits.reshape(-1), flat, w)
         np.add.at(self.sum_z.reshape(-1), flat, (w * pts[ok, 2]).astype(np.float32))
+        self._hit_layers = _grow_band(self._hit_layers, flat, self.n_xy * self.n_xy)
         # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
         o = cloud.p_world_origins[:: p.carve_every]
         d = pts[:: p.carve_every] - o
         length = np.linalg.norm(d, axis=1)
         u = d / np.maximum(length, 1e-9)[:, None]
         n_k = np.maximum(np.floor((length - p.carve_margin_m) / self.res - 0.5).astype(np.intp) + 1, 0)
-        total = int(n_k.sum())
-        if total > 0:
-            first = np.repeat(np.cumsum(n_k) - n_k, n_k)
-            t = (np.arange(total) - first + 0.5) * self.res
-            # Axis by axis on flat arrays (repeat, not a gather of (total, 3) rows): the samples o + u t.
-            xyz = []
-            for c in range(3):
-                s = np.repeat(u[:, c], n_k)
-                s *= t
-                s += np.repeat(o[:, c], n_k)
-                xyz.append(s)
-            flat_f, _ = self._flat_index_xyz(*xyz)
-            np.add.at(self.misses.reshape(-1), flat_f, w)
+        n_k = np.minimum(n_k, self._samples_inside(o, u))
+        # In chunks of rays of about _CARVE_CHUNK samples, each from one camera: the passes over a chunk's samples
+        # stay in the cache (over a whole scan's ~200k samples they would stream from memory each time), and a
+        # chunk's rays share their origin, added as one vector. The same operations on the same samples, in the
+        # same order: the same misses.
+        ends = np.cumsum(n_k)
+        total = int(ends[-1]) if ends.size else 0
+        if total == 0:
+            return
+        cuts = np.searchsorted(ends, np.arange(_CARVE_CHUNK, total, _CARVE_CHUNK), side="right")
+        cameras = np.flatnonzero(np.any(o[1:] != o[:-1], axis=1)) + 1
+        bounds = np.unique(np.concatenate([[0, len(n_k)], cuts, cameras])).tolist()
+        misses = self.misses.reshape(-1)
+        inv = 1.0 / self.res
+        n, nz = self.n_xy, self.n_z
+        i0 = np.array([[self._ix0], [self._iy0], [self._iz0]], dtype=np.intp)
+        lim = np.array([[n], [n], [nz]], dtype=np.uintp)
+        uT = u.T
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+            nk = n_k[a:b]
+            m = int(nk.sum())
+            if m == 0:
+                continue
+            first = np.repeat(np.cumsum(nk) - nk, nk)
+            t = (np.arange(m) - first + 0.5) * self.res
+            # The samples o + u t, as (3, m), then their voxel (rint(x / res) - i0 per axis, as _flat_index_xyz).
+            xyz = np.repeat(uT[:, a:b], nk, axis=1)
+            xyz *= t
+            xyz += o[a][:, None]
+            xyz *= inv
+            np.rint(xyz, out=xyz)
+            idx = xyz.astype(np.intp)
+            idx -= i0
+            ok = idx.view(np.uintp) < lim  # one unsigned comparison per axis checks both bounds
+            inside = ok[0] & ok[1] & ok[2]
+            flat_f = idx[2] * n
+            flat_f += idx[0]
+            flat_f *= n
+            flat_f += idx[1]
+            flat_f = flat_f[inside]
+            np.add.at(misses, flat_f, w)
+            self._miss_layers = _grow_band(self._miss_layers, flat_f, n * n)
+
+    def _samples_inside(self, o: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.intp]:
+        """Gives per ray (origins o, unit directions u) how many of its carving samples (every voxel from half a
+        voxel on) may lie in the map: the rest lie past where the ray leaves the map's box grown by a voxel, more
+        than a voxel outside the map, and would be dropped anyway (a large count for a ray that starts outside)."""
+        res = self.res
+        n = np.array([self.n_xy, self.n_xy, self.n_z], dtype=np.float64)
+        i0 = np.array([self._ix0, self._iy0, self._iz0], dtype=np.float64)
+        lo = (i0 - 1.5) * res
+        hi = (i0 + n + 0.5) * res
+        inside = np.all((o > lo) & (o < hi), axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_axis = np.where(u > 0, (hi - o) / u, np.where(u < 0, (lo - o) / u, np.inf))
+        t_exit = np.min(t_axis, axis=1)
+        big = np.iinfo(np.intp).max // 4
+        keep = np.floor(np.minimum(t_exit / res + 0.5, big)).astype(np.intp) + 1
+        return np.where(inside, np.maximum(keep, 0), big)
 
     # -- classification -----------------------------------------------------------------------------------------
 
@@ -188,18 +243,78 @@ class VoxelMap:
         return occ, free
 
     def classify(self) -> Columns:
-        """Gives the column summary: ground heights and obstacle occupancy (every occupied non-ground voxel)."""
-        occ, free = self._occupancy()
-        ground_z, k_ground, has_ground, thin = self._ground(occ, free)
-        obstacle = occ.copy()
-        ii, jj = np.nonzero(has_ground)
-        kg = k_ground[ii, jj]
-        obstacle[kg, ii, jj] = False
-        th = thin[ii, jj]
-        obstacle[kg[th] + 1, ii[th], jj[th]] = False
-        return Columns(self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res)
+        """Gives the column summary: ground heights and obstacle occupancy (every occupied non-ground voxel).
 
-    def _ground(
+        The same result as the column-by-column rule in the module docstring, from whole-array operations over the
+        layers that hold hits: a column's scan from the bottom keeps 'supported' until its first free voxel, so its
+        ground is its lowest occupied voxel when no free voxel lies below that one, and none otherwise
+        (``_ground_reference`` is the scan itself; the tests hold the two equal)."""
+        p = self.params
+        nz, n = self.n_z, self.n_xy
+        cells = n * n
+        obstacle = np.zeros((nz, n, n), dtype=bool)
+        ground_z = np.full((n, n), np.nan)
+        if self._hit_layers is None:
+            return Columns(
+                self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
+            )
+        lo, hi = self._hit_layers
+        w = np.float32(self._weight)
+        hits = self.hits[lo : hi + 1]
+        # hits >= min_hits w and hits >= ratio misses, as one comparison with the larger bound
+        bound = p.hit_miss_ratio * self.misses[lo : hi + 1]
+        np.maximum(bound, p.min_hits * w, out=bound)
+        occ = hits >= bound
+        del bound
+        # Occupied layers lie in [lo, hi]; the lowest occupied layer of each column, and whether it has one.
+        first_occ = _first_true(occ.reshape(hi + 1 - lo, cells))
+        any_occ = first_occ <= hi - lo
+        first_occ = np.minimum(first_occ, hi - lo)
+        col = np.arange(cells)
+        k_ground = first_occ + lo
+        # A free voxel below it (free: not occupied, seen through): only layers below hi can matter. Below a
+        # column's lowest occupied voxel nothing is occupied, so there 'free' is just 'seen through': the ground
+        # stands when the lowest seen-through voxel is not below it.
+        has_ground = any_occ.copy()
+        if self._miss_layers is not None:
+            mlo, mhi = self._miss_layers
+            top = min(mhi, hi)
+            if mlo <= top:
+                seen = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells) >= p.min_misses * w
+                first_seen = _first_true(seen)
+                has_ground &= (first_seen == top + 1 - mlo) | (first_seen + mlo >= k_ground)
+        # Ground height: mean z of the points in the ground voxel and, for a thin surface, the one above it (thin:
+        # the voxel above is occupied and the one above that is not).
+        occ_flat = occ.reshape(-1)
+        top_rel = hi - lo
+        k1 = np.minimum(first_occ + 1, top_rel)
+        k2 = np.minimum(first_occ + 2, top_rel)
+        thin = has_ground & (k_ground + 2 < nz) & (first_occ + 1 <= top_rel)
+        thin &= occ_flat[k1 * cells + col] & ~np.where(
+            first_occ + 2 <= top_rel, occ_flat[k2 * cells + col], False
+        )
+        hits_flat = self.hits.reshape(-1)
+        sumz_flat = self.sum_z.reshape(-1)
+        i0 = k_ground * cells + col
+        i1 = np.minimum(k_ground + 1, nz - 1) * cells + col
+        h0 = hits_flat[i0]
+        z0s = sumz_flat[i0]
+        h1 = np.where(thin, hits_flat[i1], 0.0)
+        z1s = np.where(thin, sumz_flat[i1], 0.0)
+        ground_z = np.where(has_ground, (z0s + z1s) / np.maximum(h0 + h1, 1e-12), np.nan).astype(np.float64)
+        # Obstacles: every occupied voxel but the ground voxel (and the one above it on a thin surface).
+        band = obstacle[lo : hi + 1].reshape(hi + 1 - lo, cells)
+        band[...] = occ.reshape(hi + 1 - lo, cells)
+        g = np.flatnonzero(has_ground)
+        band[first_occ[g], g] = False
+        t = np.flatnonzero(thin)
+        band[first_occ[t] + 1, t] = False
+        return Columns(
+            self.origin_xy, self.res, ground_z.reshape(n, n), np.moveaxis(obstacle, 0, -1), self.z0, self.res,
+            (lo, hi),
+        )  # fmt: skip
+
+    def _ground_reference(
         self, occ: NDArray[np.bool_], free: NDArray[np.bool_]
     ) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.bool_], NDArray[np.bool_]]:
         nz = occ.shape[0]
@@ -234,7 +349,7 @@ class VoxelMap:
         """Gives every voxel's class, (nx, ny, nz): 0 free or unknown, GROUND, OBSTACLE, OTHER (for views, tests)."""
         p = self.params
         occ, free = self._occupancy()
-        _, k_ground, has_ground, thin = self._ground(occ, free)
+        _, k_ground, has_ground, thin = self._ground_reference(occ, free)
         layer = np.arange(occ.shape[0])[:, None, None]
         kk = k_ground[None]
         is_ground = ((layer == kk) | ((layer == kk + 1) & thin[None])) & has_ground[None]
@@ -244,6 +359,40 @@ class VoxelMap:
         labels[occ & high] = OTHER
         labels[is_ground] = GROUND
         return np.moveaxis(labels, 0, -1)
+
+
+_CARVE_CHUNK = 32768
+
+
+def _first_true(a: NDArray[np.bool_]) -> NDArray[np.intp]:
+    """Gives per column of a (rows, cols) the first row that is True, rows where none is (the same as argmax over
+    rows, where it finds one). A minimum over rows of the row numbers: a whole-row operation per row, where argmax
+    over the first axis goes column by column."""
+    rows = a.shape[0]
+    dtype = np.int16 if rows < 2**15 else np.int64
+    # row - rows where True, 0 where not (a product: several times faster than np.where with a broadcast row index)
+    k = np.multiply(a, (np.arange(rows, dtype=dtype) - rows)[:, None], dtype=dtype)
+    return np.asarray(k.min(axis=0), dtype=np.intp) + rows
+
+
+def _grow_band(
+    band: tuple[int, int] | None, flat: NDArray[np.intp], layer_cells: int
+) -> tuple[int, int] | None:
+    """Gives the layer band (first, last) grown to hold the layers of the flat voxel indices `flat`."""
+    if flat.size == 0:
+        return band
+    lo, hi = int(flat.min()) // layer_cells, int(flat.max()) // layer_cells
+    if band is None:
+        return lo, hi
+    return min(band[0], lo), max(band[1], hi)
+
+
+def _shift_band(band: tuple[int, int] | None, shift: int, nz: int) -> tuple[int, int] | None:
+    """Gives the layer band after the layers moved by `shift` (new = old + shift); None when it left the map."""
+    if band is None:
+        return None
+    lo, hi = max(band[0] + shift, 0), min(band[1] + shift, nz - 1)
+    return (lo, hi) if lo <= hi else None
 
 
 def _shift_clear(a: NDArray[np.float32], shift: tuple[int, int, int]) -> None:

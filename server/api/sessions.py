@@ -118,7 +118,7 @@ async def session_maneuver(
     s = sessions.get(session_id)
     maneuver = await run_in_threadpool(resolve_maneuver, body.maneuver, services)
     if body.speed is not None:
-        s.set_speed(body.speed)
+        await run_in_threadpool(s.set_speed, body.speed)
     await run_in_threadpool(s.start_maneuver, maneuver)
     return s.state()
 
@@ -153,14 +153,18 @@ async def session_control(
     session_id: SessionId, body: SessionControlIn, sessions: SessionsDep
 ) -> dict[str, Any]:
     s = sessions.get(session_id)
-    if body.speed is not None:
-        s.set_speed(body.speed)
-    if body.action == "pause":
-        s.pause()
-    elif body.action == "play":
-        s.resume()
-    elif body.action == "restart":
-        await run_in_threadpool(s.restart)
+
+    def control() -> None:  # in the thread pool: a session in a worker process answers over its pipe
+        if body.speed is not None:
+            s.set_speed(body.speed)
+        if body.action == "pause":
+            s.pause()
+        elif body.action == "play":
+            s.resume()
+        elif body.action == "restart":
+            s.restart()
+
+    await run_in_threadpool(control)
     return s.state()
 
 

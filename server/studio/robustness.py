@@ -1,5 +1,9 @@
-"""The studio's Robustness tab: sweep the open maneuver over two axes, watch the success heat map fill in, replay a
-failed case on the live robot.
+"""The studio's Robustness tab: sweep the open maneuver over two axes, watch the success heat map fill in, click a
+cell to list its failed cases, choose one to replay it on the live robot.
+
+Under the heat map, its cells as buttons: one row per value of the heat map's y axis, one button per x value, each
+showing successes/runs (✗ when a run failed). Clicking one lists that cell's failed cases in the "failed case"
+dropdown; choosing a case replays it at once (the button replays the chosen one again).
 
 The sweep goes through the server's sweep manager (the same queue, workers and case store as POST /sweeps); the
 open maneuver travels with it even when unsaved. A replay resets the live robot on the case's terrain, starts the
@@ -9,6 +13,7 @@ the headless run bit for bit); a start offset, friction or sensor noise of the c
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -54,7 +59,12 @@ class RobustnessPanel:
         self.session = session
         self.job: Any = None
         self.spec_doc: dict[str, Any] | None = None
-        self.failed: dict[str, str] = {}  # dropdown label → case key
+        self.failed: dict[str, str] = {}  # dropdown label → case key (every failed case of the sweep)
+        self.cells: dict[tuple[str, str], list[str]] = {}  # heat map cell (x label, y label) → its case keys
+        self.cell: tuple[str, str] | None = None  # the cell clicked last
+        self.rows: list[Any] = []  # the cell buttons: one button group per y label
+        self._grid_of: tuple[Any, ...] | None = None  # (job id, x labels, y labels) the buttons were made for
+        self._choosing = False  # set while the dropdown's options are written (its callback must not replay)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
@@ -68,8 +78,14 @@ class RobustnessPanel:
         self.img = gui.add_image(
             np.full((24, 240, 3), 255, dtype=np.uint8), label="success heat map", format="png"
         )
+        self.grid = gui.add_folder("cells: click one for its failed cases")
         self.dd_failed = gui.add_dropdown("failed case", ("—",), initial_value="—")
         self.btn_replay = gui.add_button("Replay on the live robot")
+
+        @self.dd_failed.on_update
+        def _(e: Any) -> None:
+            if not self._choosing and str(e.target.value) in self.failed:
+                self.replay(str(e.target.value))
 
         @self.dd_preset.on_update
         def _(e: Any) -> None:
@@ -170,7 +186,66 @@ class RobustnessPanel:
             failed[f"{axes}: {str(why)[:50]}"] = c["key"]
         if list(failed) != list(self.failed):
             self.failed = failed
-            self.dd_failed.options = tuple(failed) or ("—",)
+            if self.cell is None:
+                self._set_choices(tuple(failed) or ("—",))
+        if s["heatmap"] is not None:
+            self._update_cells(s["heatmap"])
+
+    # ---- the heat map's cells -------------------------------------------------------------------------------------
+    def _set_choices(self, options: tuple[str, ...]) -> None:
+        self._choosing = True
+        try:
+            self.dd_failed.options = options
+            self.dd_failed.value = options[
+                0
+            ]  # a heading (or the first case): choosing a case is then a change
+        finally:
+            self._choosing = False
+
+    def _update_cells(self, heat: dict[str, Any]) -> None:
+        """Makes (for a new sweep) or relabels the cell buttons from the heat map's counts."""
+        from planning.sweep.summary import heatmap_cell_keys
+
+        job = self.job
+        xs, ys = list(heat["x_labels"]), list(heat["y_labels"])
+        if self._grid_of != (job.id, xs, ys):
+            for row in self.rows:
+                with contextlib.suppress(Exception):
+                    row.remove()
+            self.rows = []
+            self.cells = heatmap_cell_keys(job.spec, job.cases, heat["x"], heat["y"])
+            self.cell = None
+            with self.grid:
+                for y in reversed(ys):  # as drawn: the largest y on top
+                    row = self.client.gui.add_button_group(f"{heat['y']}={y}", self._cell_labels(heat, xs, y))
+                    row.on_click(
+                        lambda e, y=y: self.select_cell(xs[list(e.target.options).index(e.target.value)], y)
+                    )
+                    self.rows.append(row)
+            self._grid_of = (job.id, xs, ys)
+            return
+        for row, y in zip(self.rows, reversed(ys), strict=True):
+            labels = self._cell_labels(heat, xs, y)
+            if tuple(row.options) != labels:
+                row.options = labels
+
+    @staticmethod
+    def _cell_labels(heat: dict[str, Any], xs: list[str], y: str) -> tuple[str, ...]:
+        j = list(heat["y_labels"]).index(y)
+        out = []
+        for i, x in enumerate(xs):
+            ok, done = heat["successes"][j][i], heat["done"][j][i]
+            out.append(f"{heat['x']}={x}: {ok}/{done}" + (" ✗" if ok < done else ""))
+        return tuple(out)
+
+    def select_cell(self, x: str, y: str) -> list[str]:
+        """Lists the failed cases of the heat map's cell (x, y) in the dropdown; returns their labels."""
+        keys = set(self.cells.get((x, y), []))
+        labels = [label for label, key in self.failed.items() if key in keys]
+        self.cell = (x, y)
+        head = f"cell {x}, {y}: " + (f"choose one of {len(labels)} failed" if labels else "no failed case")
+        self._set_choices((head, *labels))
+        return labels
 
     # ---- replay ---------------------------------------------------------------------------------------------------
     def replay(self, label: str) -> None:

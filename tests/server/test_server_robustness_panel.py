@@ -22,6 +22,15 @@ class _Widget(SimpleNamespace):
 
     on_update = on_click
 
+    def __enter__(self) -> _Widget:  # a folder
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        pass
+
+    def remove(self) -> None:
+        self.removed = True
+
 
 class _Gui:
     def __getattr__(self, name: str) -> Any:
@@ -89,4 +98,18 @@ def test_panel_shows_the_heat_map_and_replays_a_failed_case() -> None:
     kind, (t, force, duration) = session.calls[2]
     assert kind == "push" and t >= 5.0 and duration == 0.1
     assert np.allclose(force, (-200.0, 0.0, 0.0), atol=1e-6)  # 20 N·s over 0.1 s toward 180°
+    # the cells under the heat map: a row per direction, a button per impulse; a failed cell lists its failed cases
+    rows = {r.args[0]: r for r in panel.rows}
+    assert set(rows) == {f"push_direction_deg={d}" for d in (0, 90, 180, 270)}
+    row = rows["push_direction_deg=180"]
+    assert row.options[-1] == "push_impulse_ns=20: 0/1 ✗" and row.options[1] == "push_impulse_ns=5: 1/1"
+    row.value = row.options[-1]
+    row.click(SimpleNamespace(target=row))
+    assert panel.cell == ("20", "180")
+    assert panel.dd_failed.options[1:] == (label,) and "1 failed" in panel.dd_failed.options[0]
+    n = len(session.calls)
+    panel.dd_failed.value = label  # the user chooses the case: it replays at once
+    panel.dd_failed.click(SimpleNamespace(target=panel.dd_failed))
+    assert session.calls[n : n + 2] == [("reset", "flat"), ("start", "stand")]
+    assert panel.select_cell("5", "180") == []  # a cell that did not fail lists nothing
     panel.stop()

@@ -18,6 +18,7 @@ from planning.terrain.maps import (
     signed_distance,
 )
 from planning.terrain.scenes import build_terrain
+from planning.terrain.voxels import Columns
 
 
 def test_clutter_box_tops_are_steppable_only_when_low_and_wide() -> None:
@@ -140,9 +141,31 @@ def test_disk_count_matches_a_brute_force_correlation(mask: np.ndarray, radius_c
     np.testing.assert_array_equal(_disk_count(mask, disk), want)
 
 
-@settings(max_examples=30, deadline=None)
-@given(arrays(np.bool_, st.tuples(st.integers(1, 6), st.integers(1, 6), st.integers(1, 20))))
-def test_cumulative_layers_count_obstacle_layers_up_to_each_layer(obstacle: np.ndarray) -> None:
-    cum = _cumulative_layers(obstacle)
-    assert cum.shape == (obstacle.shape[2], obstacle.shape[0], obstacle.shape[1])
-    np.testing.assert_array_equal(np.moveaxis(cum, 0, -1), np.cumsum(obstacle, axis=2))
+@settings(max_examples=60, deadline=None)
+@given(
+    arrays(np.bool_, st.tuples(st.integers(1, 6), st.integers(1, 6), st.integers(1, 20))),
+    st.booleans(),
+    st.integers(-3, 25),
+)
+def test_cumulative_layers_count_obstacle_layers_up_to_each_layer(
+    obstacle: np.ndarray, give_band: bool, k_offset: int
+) -> None:
+    """The counts are kept over the band of layers that hold obstacles (given by the columns, or found); read at
+    any layer, below, in or above the band, they are the plain cumulative sum's (0 below layer 0)."""
+    nx, ny, nz = obstacle.shape
+    band = None
+    if give_band:
+        k = np.flatnonzero(obstacle.any(axis=(0, 1)))
+        band = (int(k[0]), int(k[-1])) if k.size else (0, -1)
+    columns = Columns((0.0, 0.0), 0.03, np.zeros((nx, ny)), obstacle, 0.0, 0.03, band)
+    cum = _cumulative_layers(columns)
+    want = np.cumsum(obstacle, axis=2)
+    rng = np.random.default_rng(k_offset + 3)
+    k = (
+        rng.integers(-2, nz + 2, size=(nx, ny))
+        if k_offset % 2
+        else np.full((nx, ny), k_offset % (nz + 2) - 1)
+    )
+    expected = np.where(k < 0, 0, np.take_along_axis(want, np.clip(k, 0, nz - 1)[..., None], 2)[..., 0])
+    np.testing.assert_array_equal(cum.at(k), expected)
+    np.testing.assert_array_equal(cum.total.reshape(nx, ny), want[..., -1])

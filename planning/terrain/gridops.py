@@ -1,0 +1,127 @@
+"""Min / max filters over 2D grids with square and disk footprints, in whole-array numpy operations.
+
+The maps (maps.py) filter 133 × 133 grids a dozen times a scan; scipy.ndimage's filters walk the grid line by line
+with a buffer copy per line, several times slower than a handful of whole-array ``np.minimum`` / ``np.maximum`` on
+shifted views at this size. Min and max are exact (no rounding), so these give the same values as ndimage's
+``minimum_filter`` / ``maximum_filter`` (``mode="nearest"`` or ``"constant"``) and, on booleans, as
+``binary_erosion`` / ``binary_dilation``; tests/terrain/test_terrain_gridops.py checks that on random grids.
+
+A 1D window of width w takes ⌈log2 w⌉ + 1 operations (doubling: the extremum over 2 cells, over 4, ... then two
+overlapping spans); a disk is the union of its rows, each a centred 1D window, so it takes one 1D filter per distinct
+row width plus one operation per row.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+Op = Callable[..., Any]
+
+
+def _pad(a: NDArray[Any], r: int, axis: int, cval: Any) -> NDArray[Any]:
+    """Gives the 2D grid `a` padded by r cells at both ends of `axis`: edge values (cval None) or cval."""
+    n0, n1 = a.shape
+    if axis == 0:
+        out = np.empty((n0 + 2 * r, n1), dtype=a.dtype)
+        out[r : r + n0] = a
+        if cval is None:
+            out[:r] = a[0]
+            out[r + n0 :] = a[-1]
+        else:
+            out[:r] = cval
+            out[r + n0 :] = cval
+    else:
+        out = np.empty((n0, n1 + 2 * r), dtype=a.dtype)
+        out[:, r : r + n1] = a
+        if cval is None:
+            out[:, :r] = a[:, :1]
+            out[:, r + n1 :] = a[:, -1:]
+        else:
+            out[:, :r] = cval
+            out[:, r + n1 :] = cval
+    return out
+
+
+def window_1d(a: NDArray[Any], width: int, axis: int, op: Op, cval: Any = None) -> NDArray[Any]:
+    """Gives the extremum (op: np.minimum or np.maximum) over a centred window of odd `width` along `axis` (0 or 1)
+    of a 2D grid; beyond the ends the edge value repeats (cval None, ndimage's mode="nearest") or cval stands
+    (mode="constant")."""
+    if width % 2 != 1 or width < 1:
+        raise ValueError(f"window_1d: width must be odd and positive, got {width}")
+    r = width // 2
+    if r == 0:
+        return a.copy()
+    n = a.shape[axis]
+    m = _pad(a, r, axis, cval)
+    span = 1
+    # m[i] becomes the extremum of the padded cells i .. i + span - 1 (doubling span while it fits the window).
+    if axis == 0:
+        while 2 * span <= width:
+            m = op(m[:-span], m[span:])
+            span *= 2
+        # The window of cell i is padded cells i .. i + 2r: two spans that overlap.
+        out: NDArray[Any] = op(m[:n], m[width - span : width - span + n])
+        return out
+    # Along rows, on the flat padded grid (contiguous, several times faster than strided 2D views): the window of
+    # a row's cell never reaches past its row's padding, so what wraps into the next row is never read.
+    n0, w1 = m.shape
+    f = m.reshape(-1)
+    while 2 * span <= width:
+        f = op(f[:-span], f[span:])
+        span *= 2
+    lo = width - span
+    g = op(f[: f.shape[0] - lo], f[lo:])
+    # g[k] is the window starting at flat padded cell k: row i's cells start at i * w1.
+    g = np.concatenate([g, np.empty(w1 * n0 - g.shape[0], dtype=g.dtype)])
+    out = g.reshape(n0, w1)[:, :n]
+    return out
+
+
+def square_filter(a: NDArray[Any], size: int, op: Op, cval: Any = None) -> NDArray[Any]:
+    """Gives the extremum over a centred size × size square (odd size); edges as in window_1d."""
+    return window_1d(window_1d(a, size, 0, op, cval), size, 1, op, cval)
+
+
+_ROWS: dict[tuple[tuple[int, ...], bytes], tuple[int, ...]] = {}
+
+
+def _row_halves(footprint: NDArray[np.bool_]) -> tuple[int, ...]:
+    """Gives each footprint row's half width (its run is the centred 2h + 1 cells); made once per footprint."""
+    fp = np.asarray(footprint, dtype=bool)
+    key = (fp.shape, fp.tobytes())
+    halves = _ROWS.get(key)
+    if halves is not None:
+        return halves
+    k = fp.shape[0]
+    if fp.ndim != 2 or k % 2 != 1 or fp.shape[1] != k:
+        raise ValueError(f"disk_filter: footprint must be square with an odd side, got shape {fp.shape}")
+    r = k // 2
+    out: list[int] = []
+    for row in fp:
+        w = int(np.count_nonzero(row))
+        if w == 0 or w % 2 != 1 or not row[r - w // 2 : r + w // 2 + 1].all():
+            raise ValueError("disk_filter: every footprint row must be one run centred on the middle column")
+        out.append(w // 2)
+    halves = _ROWS[key] = tuple(out)
+    return halves
+
+
+def disk_filter(a: NDArray[Any], footprint: NDArray[np.bool_], op: Op, cval: Any = None) -> NDArray[Any]:
+    """Gives the extremum over a centred footprint whose rows are centred runs (a disk, a cross, a square); edges
+    as in window_1d. Raises ValueError for any other footprint."""
+    half = _row_halves(footprint)
+    r = len(half) // 2
+    by_width: dict[int, NDArray[Any]] = {}
+    for h in set(half):
+        by_width[h] = _pad(window_1d(a, 2 * h + 1, 1, op, cval), r, 0, cval)
+    n = a.shape[0]
+    out: NDArray[Any] | None = None
+    for i, h in enumerate(half):
+        piece = by_width[h][i : i + n]
+        out = piece.copy() if out is None else op(out, piece, out=out)
+    assert out is not None
+    return out

@@ -1,0 +1,241 @@
+"""The perception's whole-array fast paths against simple reference implementations on random inputs: the min / max
+filters (gridops.py) against scipy.ndimage, the voxel carving and classification against a ray-by-ray and a
+column-by-column version, the SDF, the ground fill and the first-true search against their plain forms."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from planning.terrain.gridops import disk_filter, square_filter, window_1d
+from planning.terrain.maps import _disk, _fill_ground, signed_distance
+from planning.terrain.sensor import PointCloud
+from planning.terrain.voxels import VoxelMap, VoxelParams, _first_true
+
+_SMALL = VoxelParams(resolution_m=0.1, half_extent_m=0.5, z_below_m=0.5, z_above_m=0.5, recenter_m=0.1)
+
+
+def _grid(seed: int, bool_: bool = False) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    shape = tuple(int(v) for v in rng.integers(1, 25, 2))
+    if bool_:
+        return np.asarray(rng.random(shape) < rng.uniform(0.05, 0.7))
+    # Few distinct values, so ties (where a wrong window edge would show) are common.
+    return rng.integers(-5, 5, shape).astype(np.float64) * 0.25
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31), st.integers(0, 7), st.floats(0.5, 6.0))
+def test_min_max_filters_equal_ndimage(seed: int, half: int, radius: float) -> None:
+    """Squares, rows and disks, min and max, edge values repeated (mode "nearest") or a constant beyond the grid."""
+    a = _grid(seed)
+    size = 2 * half + 1
+    fp = _disk(radius)
+    for op, nd in ((np.minimum, ndimage.minimum_filter), (np.maximum, ndimage.maximum_filter)):
+        np.testing.assert_array_equal(square_filter(a, size, op), nd(a, size=size, mode="nearest"))
+        np.testing.assert_array_equal(window_1d(a, size, 1, op), nd(a, size=(1, size), mode="nearest"))
+        np.testing.assert_array_equal(disk_filter(a, fp, op), nd(a, footprint=fp, mode="nearest"))
+        np.testing.assert_array_equal(
+            disk_filter(a, fp, op, cval=-9.0), nd(a, footprint=fp, mode="constant", cval=-9.0)
+        )
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31), st.floats(0.5, 6.0))
+def test_boolean_disk_filters_equal_binary_morphology(seed: int, radius: float) -> None:
+    m = _grid(seed, bool_=True)
+    fp = _disk(radius)
+    dil = disk_filter(m, fp, np.maximum, False)
+    np.testing.assert_array_equal(dil, ndimage.binary_dilation(m, structure=fp))
+    np.testing.assert_array_equal(
+        disk_filter(m, fp, np.minimum, False), ndimage.binary_erosion(m, structure=fp)
+    )
+    np.testing.assert_array_equal(
+        disk_filter(dil, fp, np.minimum, False), ndimage.binary_closing(m, structure=fp)
+    )
+
+
+def test_disk_filter_refuses_a_footprint_it_cannot_split_into_rows() -> None:
+    ring = np.ones((3, 3), bool)
+    ring[1, 1] = False
+    try:
+        disk_filter(np.zeros((4, 4)), ring, np.maximum)
+    except ValueError as e:
+        assert "centred on the middle column" in str(e)
+    else:
+        raise AssertionError("a ring footprint was accepted")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31))
+def test_signed_distance_equals_the_two_full_distance_transforms(seed: int) -> None:
+    """The inside distances come from the obstacles' bounding box only; the same as over the whole map."""
+    mask = _grid(seed, bool_=True)
+    res = 0.03
+    got = signed_distance(mask, res)
+    if mask.any() and not mask.all():
+        d_out = ndimage.distance_transform_edt(~mask)
+        d_in = ndimage.distance_transform_edt(mask)
+        np.testing.assert_array_equal(got, np.where(mask, -(d_in - 0.5), d_out - 0.5) * res)
+    else:
+        assert np.all(np.abs(got) == np.hypot(*mask.shape) * res)
+
+
+def _fill_reference(ground_z: np.ndarray, rounds: int, default_z: float) -> np.ndarray:
+    """The ground fill as first written: each round an unknown cell with a known 3 × 3 neighbour takes the lowest;
+    then the nearest known value."""
+    h = ground_z.copy()
+    known = np.isfinite(h)
+    if not known.any():
+        return np.full(h.shape, default_z)
+    for _ in range(rounds):
+        if known.all():
+            break
+        m = ndimage.minimum_filter(np.where(known, h, np.inf), size=3, mode="nearest")
+        new = ~known & np.isfinite(m)
+        if not new.any():
+            break
+        h[new] = m[new]
+        known |= new
+    if not known.all():
+        _, (ix, iy) = ndimage.distance_transform_edt(~known, return_indices=True)
+        h = h[ix, iy]
+    return h
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31), st.integers(0, 6))
+def test_ground_fill_equals_the_round_by_round_reference(seed: int, rounds: int) -> None:
+    rng = np.random.default_rng(seed)
+    g = _grid(seed)
+    g[rng.random(g.shape) < rng.uniform(0.0, 1.0)] = np.nan
+    np.testing.assert_array_equal(_fill_ground(g, rounds, -1.0), _fill_reference(g, rounds, -1.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31))
+def test_first_true_equals_argmax_where_any(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    a = rng.random((int(rng.integers(1, 40)), int(rng.integers(1, 30)))) < rng.uniform(0.0, 0.3)
+    got = _first_true(a)
+    np.testing.assert_array_equal(got, np.where(a.any(axis=0), np.argmax(a, axis=0), a.shape[0]))
+
+
+def _random_cloud(rng: np.random.Generator, center: np.ndarray) -> PointCloud:
+    """Rays from two or three 'cameras' near the center (one sometimes off the map), some hits far off the map."""
+    pts, origins = [], []
+    for _ in range(int(rng.integers(2, 4))):
+        o = center + rng.uniform(-0.3, 0.3, 3) + np.array([0.0, 0.0, 0.3])
+        if rng.random() < 0.15:
+            o[int(rng.integers(0, 3))] += rng.choice([-1.5, 1.5])
+        n = int(rng.integers(5, 60))
+        d = rng.normal(size=(n, 3))
+        d[:, 2] = -np.abs(d[:, 2]) * rng.uniform(0.2, 2.0)
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        r = rng.uniform(0.0, 1.5, n)
+        pts.append(o + d * r[:, None])
+        origins.append(np.broadcast_to(o, (n, 3)))
+    return PointCloud(np.concatenate(pts), np.concatenate(origins), 0.0)
+
+
+def _misses_reference(vm: VoxelMap, cloud: PointCloud, misses: np.ndarray, w: np.float32) -> None:
+    """Adds one scan's misses ray by ray: every voxel from half a voxel on, to carve_margin short of the hit."""
+    p, res = vm.params, vm.res
+    for o, q in zip(
+        cloud.p_world_origins[:: p.carve_every], cloud.p_world_points[:: p.carve_every], strict=True
+    ):
+        d = q - o
+        length = float(np.linalg.norm(d))
+        u = d / max(length, 1e-9)
+        n = max(int(np.floor((length - p.carve_margin_m) / res - 0.5)) + 1, 0)
+        t = (np.arange(n) + 0.5) * res
+        s = [u[c] * t + o[c] for c in range(3)]
+        flat, _ = vm._flat_index_xyz(*s)
+        np.add.at(misses.reshape(-1), flat, w)
+
+
+def _integrate_reference(vm: VoxelMap, cloud: PointCloud, center: np.ndarray) -> None:
+    """One scan into vm as first written: hits and heights per point, then the misses ray by ray."""
+    vm.recenter((float(center[0]), float(center[1])), float(center[2]))
+    vm._weight /= vm.params.decay
+    w = np.float32(vm._weight)
+    pts = cloud.p_world_points
+    flat, ok = vm._flat_index(pts)
+    np.add.at(vm.hits.reshape(-1), flat, w)
+    np.add.at(vm.sum_z.reshape(-1), flat, (w * pts[ok, 2]).astype(np.float32))
+    _misses_reference(vm, cloud, vm.misses, w)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31), st.sampled_from([1, 2]))
+def test_voxel_carving_and_classification_equal_the_ray_and_column_references(seed: int, every: int) -> None:
+    """Scans from a moving center (the map shifts): the statistics equal a ray-by-ray carving of every ray to its
+    end (no clipping at the map's box, no chunks), and the columns equal the column-by-column scan from the bottom
+    (voxels.py's rule) over all layers (no bands)."""
+    rng = np.random.default_rng(seed)
+    params = VoxelParams(**{**_SMALL.__dict__, "carve_every": every})
+    fast, ref = VoxelMap(params), VoxelMap(params)
+    center = np.zeros(3)
+    for _ in range(int(rng.integers(1, 6))):
+        center = center + np.append(rng.uniform(-0.25, 0.25, 2), rng.uniform(-0.15, 0.15))
+        cloud = _random_cloud(rng, center)
+        fast.integrate(cloud, (float(center[0]), float(center[1])), float(center[2]))
+        _integrate_reference(ref, cloud, center)
+        for name in ("hits", "misses", "sum_z"):
+            np.testing.assert_array_equal(getattr(fast, name), getattr(ref, name), err_msg=name)
+        _check_classification(fast)
+
+
+def _check_classification(vm: VoxelMap) -> None:
+    occ, free = vm._occupancy()
+    ground_z, k_ground, has_ground, thin = vm._ground_reference(occ, free)
+    obstacle = occ.copy()
+    ii, jj = np.nonzero(has_ground)
+    kg = k_ground[ii, jj]
+    obstacle[kg, ii, jj] = False
+    th = thin[ii, jj]
+    obstacle[kg[th] + 1, ii[th], jj[th]] = False
+    cols = vm.classify()
+    np.testing.assert_array_equal(cols.ground_z, ground_z)
+    np.testing.assert_array_equal(cols.obstacle, np.moveaxis(obstacle, 0, -1))
+    if cols.obstacle_layers is not None:
+        lo, hi = cols.obstacle_layers
+        outside = np.ones(vm.n_z, bool)
+        outside[max(lo, 0) : hi + 1] = False
+        assert not cols.obstacle[..., outside].any()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31))
+def test_classification_equals_the_column_reference_on_random_statistics(seed: int) -> None:
+    """Hits and misses drawn at random in layer bands of their own (misses all below the hits, all above, or
+    overlapping them; sparse or dense), the bands given as the map keeps them: the columns equal the reference."""
+    rng = np.random.default_rng(seed)
+    vm = VoxelMap(_SMALL)
+    nz = vm.n_z
+    h0, h1 = sorted(int(v) for v in rng.integers(0, nz, 2))
+    m0, m1 = sorted(int(v) for v in rng.integers(0, nz, 2))
+    vm._weight = float(rng.uniform(1.0, 5.0))
+    dense = rng.uniform(0.05, 0.9)
+    hits = np.where(rng.random(vm.hits.shape) < dense, rng.uniform(0.0, 4.0, vm.hits.shape), 0.0)
+    misses = np.where(rng.random(vm.misses.shape) < dense, rng.uniform(0.0, 6.0, vm.misses.shape), 0.0)
+    hits[:h0] = hits[h1 + 1 :] = 0.0
+    misses[:m0] = misses[m1 + 1 :] = 0.0
+    vm.hits[...] = hits
+    vm.misses[...] = misses
+    vm.sum_z[...] = hits * rng.uniform(-0.5, 0.5, hits.shape)
+    vm._hit_layers, vm._miss_layers = (h0, h1), (m0, m1)
+    _check_classification(vm)
+
+
+def test_ground_above_every_seen_through_layer_stands() -> None:
+    """A column whose lowest occupied voxel lies above every layer any ray passed through has ground there."""
+    vm = VoxelMap(_SMALL)
+    vm.hits[8, 3, 3] = vm.sum_z[8, 3, 3] = 5.0
+    vm.misses[1, 5, 5] = 5.0
+    vm._hit_layers, vm._miss_layers = (8, 8), (1, 1)
+    cols = vm.classify()
+    assert cols.ground_z[3, 3] == 1.0
+    _check_classification(vm)
