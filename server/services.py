@@ -183,12 +183,16 @@ def physics_report(maneuver: Any, services: Services) -> dict[str, Any]:
         "physics_check": True,
     }
     pool = services.simulations
+    if pool.closed:
+        raise PhysicsUnavailable("the server is shutting down")
     job = pool.submit({"maneuver": maneuver.name, "physics_check": True, "terrain": "flat"}, payload)
     deadline = time.monotonic() + settings.physics_timeout_s
     while True:
         got = pool.get(job.id)
         if got is None or got[0].status in ("done", "failed", "cancelled"):
             break
+        if pool.closed:
+            raise PhysicsUnavailable("the server is shutting down")
         if time.monotonic() > deadline:
             pool.cancel(job.id)
             raise PhysicsUnavailable(f"it did not finish within {settings.physics_timeout_s:g} s (the simulation "
