@@ -28,7 +28,7 @@ from planning.maneuver.load import read_yaml
 from planning.maneuver.spec import NAME_PATTERN
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio import fields as F
-from server.studio import music
+from server.studio import moves, music
 from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, physics_marks, timeline_svg
 
 log = logging.getLogger("footfall.studio")
@@ -325,6 +325,16 @@ class ManeuverEditor:
             names = move_names(Path(self.services.settings.data_dir) / "moves") or ["(none)"]
             self.dd_move = gui.add_dropdown("move", names, initial_value=names[0])
             self.num_move_repeat = gui.add_number("repeat", 1, min=1, max=MAX_REPEAT, step=1)
+            # the move's natural parameters (server.studio.moves): set to its own values when it is picked; only
+            # those it has are enabled
+            self.num_move_params = {
+                "angle": gui.add_number("angle (°)", 0.0, min=-moves.MAX_ANGLE_DEG, max=moves.MAX_ANGLE_DEG,
+                                        step=1.0, disabled=True, hint="how far the move turns in all"),
+                "distance": gui.add_number("distance (m)", 0.0, min=0.0, max=moves.MAX_DISTANCE_M, step=0.01,
+                                           disabled=True, hint="how far the move travels in all"),
+                "amount": gui.add_number("amount (×)", 1.0, min=0.0, max=moves.MAX_AMOUNT, step=0.05,
+                                         disabled=True, hint="how far its keyframes lean, tilt and dip (1: as written)"),
+            }  # fmt: skip
             self.btn_insert_move = gui.add_button("Insert at playhead")
             self.txt_move_name = gui.add_text("new move name", "")
             self.btn_save_move = gui.add_button("Save selection as a move")
@@ -456,9 +466,11 @@ class ManeuverEditor:
         )
         self.btn_insert_move.on_click(
             lambda _e: self.insert_move(
-                str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value)
+                str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value), self.move_params()
             )
         )
+        self.dd_move.on_update(lambda e: self.show_move_params(str(e.target.value)))
+        self.show_move_params(str(self.dd_move.value))
         self.dd_grid.on_update(lambda e: setattr(self, "grid_s", GRID_CHOICES.get(str(e.target.value), 0.0)))
         self.btn_undo.on_click(lambda _e: self.undo())
         self.btn_redo.on_click(lambda _e: self.redo())
@@ -1083,10 +1095,7 @@ class ManeuverEditor:
         self.notify("Move saved", f"{name}: {len(events)} events, {len(body)} keyframes", "green")
         return path
 
-    def insert_move(self, name: str, t0: float, repeat: int = 1) -> int:
-        """Inserts a move (maneuvers/moves/NAME.yaml) `repeat` times back to back from t0 (s): its events, keyframes,
-        gaits and objectives shift by t0, its positions by where the body is planned to be at t0 (x, y); the
-        maneuver grows to hold it. Returns how many items it added (0, after telling the user, when it cannot)."""
+    def _read_move(self, name: str) -> dict[str, Any] | None:
         path = self.user_moves_dir() / f"{name}.yaml"
         if not path.is_file():
             path = MOVES_DIR / f"{name}.yaml"
@@ -1094,9 +1103,48 @@ class ManeuverEditor:
             data, _ = read_yaml(path.read_text(encoding="utf-8"))
         except (OSError, ManeuverError) as e:
             self.notify("Cannot insert", f"{name}: {e}", "red")
+            return None
+        return data if isinstance(data, dict) else None
+
+    def show_move_params(self, name: str) -> dict[str, float]:
+        """Sets the parameter inputs to a move's own values, enabling those it has; returns them."""
+        data = self._read_move(name) if name and name != "(none)" else None
+        nat = moves.natural_params(data) if data is not None else {}
+        self._move_natural = nat
+        for key, num in getattr(self, "num_move_params", {}).items():
+            try:
+                num.value = nat.get(key, 1.0 if key == "amount" else 0.0)
+                num.disabled = key not in nat
+            except Exception:  # noqa: BLE001 - the client may be gone
+                pass
+        return nat
+
+    def move_params(self) -> dict[str, float]:
+        """Returns the parameters set in the inputs that differ from the picked move's own values."""
+        nat = getattr(self, "_move_natural", {})
+        out = {}
+        for key, num in getattr(self, "num_move_params", {}).items():
+            if key in nat and abs(float(num.value) - nat[key]) > 1e-6:
+                out[key] = float(num.value)
+        return out
+
+    def insert_move(
+        self, name: str, t0: float, repeat: int = 1, params: dict[str, float] | None = None
+    ) -> int:
+        """Inserts a move (maneuvers/moves/NAME.yaml) `repeat` times back to back from t0 (s): its events, keyframes,
+        gaits and objectives shift by t0, its positions by where the body is planned to be at t0 (x, y); the
+        maneuver grows to hold it. `params` (angle, distance, amount; server.studio.moves) rescale it first.
+        Returns how many items it added (0, after telling the user, when it cannot)."""
+        data = self._read_move(name)
+        if data is None:
             return 0
-        if not isinstance(data, dict):
-            return 0
+        if params:
+            try:
+                h = float(getattr(self.services.robot, "standing_height_m", 0.52))
+                data = moves.scale_move(data, standing_height_m=h, **params)
+            except (ValueError, TypeError) as e:
+                self.notify("Cannot insert", f"{name}: {e}", "red")
+                return 0
         repeat = int(min(max(repeat, 1), MAX_REPEAT))
         dur = float(data.get("duration") or 0.0)
         t0 = self._snap(t0)
@@ -1133,7 +1181,8 @@ class ManeuverEditor:
             self.selected = {id(c) for c in added}
         self._write_static_fields(keep_scrub=True)
         self._changed(structural=True)
-        self.notify("Inserted", f"{name} × {repeat} at {t0:.2f} s", "green")
+        said = ", ".join(f"{k} {v:g}" for k, v in (params or {}).items())
+        self.notify("Inserted", f"{name}{f' ({said})' if said else ''} × {repeat} at {t0:.2f} s", "green")
         return len(added)
 
     def copy_selection(self) -> int:

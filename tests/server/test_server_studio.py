@@ -493,6 +493,21 @@ def test_moves_library_validates_and_inserts_at_the_playhead(
         and not ed.events
         and ed.meta["duration"] == pytest.approx(6.0)
     )
+    # a move's natural parameters: picking it shows its own values, inserting with another rescales it
+    ed.dd_move.value = "turn-left-45"
+    assert wait_for(lambda: ed.num_move_params["angle"].value == pytest.approx(45.0))
+    assert ed.num_move_params["distance"].disabled and not ed.num_move_params["angle"].disabled
+    ed.num_move_params["angle"].value = 90.0
+    assert ed.move_params() == {"angle": 90.0}
+    n_gaits = len(ed.gaits)
+    assert (
+        ed.insert_move("turn-left-45", 6.0, 1, ed.move_params()) == 0
+    )  # a gait segment: no timed item added
+    g = ed.gaits[n_gaits]
+    cycles = round((g["to"] - g["from"]) / g["cycle"])
+    assert cycles * g["step"][2] == pytest.approx(90.0) and g["from"] == pytest.approx(6.3)
+    assert ed.insert_move("bow", 1.0, 1, {"angle": 10.0}) == 0  # told: bow does not turn
+    ed.undo()
 
 
 def test_replay_a_preview_frame_by_frame_with_the_run_before_as_a_ghost(
