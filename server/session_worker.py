@@ -112,6 +112,8 @@ class _Publisher:
 
     def message(self, force: bool = False) -> dict[str, Any] | None:
         s = self.s
+        if s.snapshot.seq == self.seq and not force:
+            return None  # nothing new (checked without waiting for a batch in flight)
         with s.lock:
             snap = s.snapshot
             if snap.seq == self.seq and not force:
