@@ -34,8 +34,13 @@ def _free_port() -> int:
 
 
 @contextmanager
-def local_server(startup_timeout_s: float = 60.0, extra_env: dict[str, str] | None = None) -> Iterator[str]:
-    """Runs `footfall serve` (REST only, a temporary data dir) in a subprocess; yields its base URL."""
+def local_server(
+    startup_timeout_s: float = 60.0,
+    extra_env: dict[str, str] | None = None,
+    info: dict[str, Any] | None = None,
+) -> Iterator[str]:
+    """Runs `footfall serve` (REST only, a temporary data dir) in a subprocess; yields its base URL (and puts the
+    server's process id in `info["pid"]` when given a dict)."""
     port = _free_port()
     env = {**os.environ, "FOOTFALL_STUDIO": "0", "FOOTFALL_DATA_DIR": tempfile.mkdtemp(prefix="footfall-load-"),
            "FOOTFALL_HOST": "127.0.0.1", "FOOTFALL_MAX_SESSIONS": "2", **(extra_env or {})}  # fmt: skip
@@ -43,6 +48,8 @@ def local_server(startup_timeout_s: float = 60.0, extra_env: dict[str, str] | No
     proc = subprocess.Popen([sys.executable, "-c", code, str(port)], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True)  # fmt: skip
     url = f"http://127.0.0.1:{port}"
+    if info is not None:
+        info["pid"] = proc.pid
     try:
         end = time.monotonic() + startup_timeout_s
         while True:

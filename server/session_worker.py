@@ -62,6 +62,14 @@ from server.sessions import (
 
 log = logging.getLogger("footfall.sessions")
 
+# Python 3.11's fork server ignores the parent's sys.path: the parent passes it in this variable (set before the fork
+# server starts), so what it preloads (e.g. a test's fake simulation module) is found there and not imported anew by
+# every child.
+_PATH_VAR = "FOOTFALL_FORKSERVER_SYS_PATH"
+for _p in os.environ.get(_PATH_VAR, "").split(os.pathsep):
+    if _p and _p not in sys.path:
+        sys.path.append(_p)
+
 START_TIMEOUT_S = 120.0  # a new worker: fork, scene build, controller setup (seconds on a loaded machine)
 REPLACE_TIMEOUT_S = 60.0  # starting a maneuver or a reset builds a new simulation in the worker
 REQUEST_TIMEOUT_S = 10.0  # any other command (push, steer, pause, plan, ...)
@@ -82,6 +90,7 @@ def worker_context(factory: Any = None) -> Any:
         if _ctx is None:
             if "forkserver" in mp.get_all_start_methods():
                 _ctx = mp.get_context("forkserver")
+                os.environ[_PATH_VAR] = os.pathsep.join(p for p in sys.path if p)
                 extra = getattr(factory, "__module__", None)
                 _ctx.set_forkserver_preload(_PRELOAD + ([extra] if extra and extra not in _PRELOAD else []))
             else:  # pragma: no cover - Windows
@@ -99,9 +108,12 @@ class _Publisher:
         self.generation = -1
         self.plot_n = 0
         self.frames_n = 0
+        self.maneuver_id = 0  # id() of the maneuver object sent last: it is sent again only when it changes
 
     def message(self, force: bool = False) -> dict[str, Any] | None:
         s = self.s
+        if s.snapshot.seq == self.seq and not force:
+            return None  # nothing new (checked without waiting for a batch in flight)
         with s.lock:
             snap = s.snapshot
             if snap.seq == self.seq and not force:
@@ -121,6 +133,11 @@ class _Publisher:
             plot = list(s.plot)[-kp:] if kp > 0 else []
             self.plot_n = s.plot_n
             meta = s._meta()
+            maneuver = getattr(s.sim, "maneuver", None)
+            if id(maneuver) == self.maneuver_id and new_rec is None and not force:
+                maneuver = None  # unchanged (a maneuver document can be tens of kB: not 60 times a second)
+            else:
+                self.maneuver_id = id(maneuver)
         return {
             "snap": snap,
             "meta": meta,
@@ -128,7 +145,7 @@ class _Publisher:
             "new_rec": new_rec,
             "frames": frames,
             "plot": plot,
-            "maneuver": getattr(s.sim, "maneuver", None),
+            "maneuver": maneuver,
         }
 
 

@@ -1,5 +1,8 @@
 """Live simulated robots: one background thread per session stepping MuJoCo in real time, a cap, a reaper.
 
+By default the manager runs each session in a worker process of its own (server.session_worker.ProcessSession: a
+LiveSession in the child, the same API here); `Settings.session_workers = "thread"` keeps them in this process.
+
 A session owns a `LiveSim` (server.engine) and steps it in batches paced to the wall clock (times its speed).
 Readers never wait for the physics: after each batch the stepping thread publishes an immutable `Snapshot` (state
 dict, body poses, plot sample) that the REST handlers and the studio read. Commands that replace the simulation

@@ -36,8 +36,9 @@ def bench_perception(n: int = 60, terrain: str = "stairs", params: PerceptionPar
     """Gives {"p50_ms", "p99_ms", "bare_solver_p50_ms", "bare_solver_p99_ms", "cpu_p50_ms", "points", "voxels",
     "terrain", "scan", "voxels_integrate", "classify", "maps", "regions", "with_regions"} of n perception updates
     (scan → voxels → maps; bare solver: MuJoCo's ray casting alone in them; cpu: this process's CPU time, which other
-    processes on a shared machine do not inflate). Each stage is {"p50_ms", "p99_ms"} (the scan's also its bare ray
-    casting); regions is segment_regions on the maps as the loop runs it (no polygon cover), with_regions the whole."""
+    processes on a shared machine do not inflate). Each stage is {"p50_ms", "p99_ms", "cpu_p50_ms"} (the scan's also
+    its bare ray casting); regions is segment_regions on the maps as the loop runs it (no polygon cover), with_regions
+    the whole."""
     from planning.terrain.regions import RegionParams, segment_regions
 
     scene = build_terrain(terrain)
@@ -48,26 +49,32 @@ def bench_perception(n: int = 60, terrain: str = "stairs", params: PerceptionPar
     times: list[float] = []
     cpu: list[float] = []
     stages: dict[str, list[float]] = {}
+    stages_cpu: dict[str, list[float]] = {}
     region_ms: list[float] = []
+    region_cpu: list[float] = []
     region_params = RegionParams()
     for i in range(n + 3):
         x = 0.02 * i
         data.qpos[0] = x
         data.qpos[2] = 0.52 + float(scene.ground_height(x, 0.0))
         mujoco.mj_kinematics(model, data)
-        c0 = time.process_time()
+        c0 = time.thread_time()
         t0 = time.perf_counter()
         maps = perception.scan_now(data)
         t1 = time.perf_counter()
-        c1 = time.process_time()
+        c1 = time.thread_time()
         segment_regions(maps, region_params, cover=False)
         t2 = time.perf_counter()
+        c2 = time.thread_time()
         if i >= 3:  # the first scans warm caches up
             times.append((t1 - t0) * 1e3)
             cpu.append((c1 - c0) * 1e3)
             region_ms.append((t2 - t1) * 1e3)
+            region_cpu.append((c2 - c1) * 1e3)
             for k, v in perception.last_stage_ms.items():
                 stages.setdefault(k, []).append(v)
+            for k, v in perception.last_stage_cpu_ms.items():
+                stages_cpu.setdefault(k, []).append(v)
             assert perception.last_cloud is not None
             points.append(perception.last_cloud.size)
     p50, p99 = _percentiles(times)
@@ -75,23 +82,28 @@ def bench_perception(n: int = 60, terrain: str = "stairs", params: PerceptionPar
 
     def stage(name: str) -> dict:
         a, b = _percentiles(stages[name])
-        return {"p50_ms": a, "p99_ms": b}
+        return {"p50_ms": a, "p99_ms": b, "cpu_p50_ms": float(np.percentile(stages_cpu[name], 50))}
 
     whole = [a + b for a, b in zip(times, region_ms, strict=True)]
+    whole_cpu = [a + b for a, b in zip(cpu, region_cpu, strict=True)]
     return {
         "p50_ms": p50, "p99_ms": p99, "bare_solver_p50_ms": r50, "bare_solver_p99_ms": r99,
         "cpu_p50_ms": float(np.percentile(cpu, 50)), "points": int(np.median(points)),
         "voxels": int(perception.voxels.hits.size), "terrain": terrain,
-        "scan": {**stage("scan"), "bare_solver_p50_ms": r50, "bare_solver_p99_ms": r99},
+        "scan": {**stage("scan"), "bare_solver_p50_ms": r50, "bare_solver_p99_ms": r99,
+                 "bare_solver_cpu_p50_ms": float(np.percentile(stages_cpu["raycast"], 50))},
         "voxels_integrate": stage("voxels"), "classify": stage("classify"), "maps": stage("maps"),
-        "regions": dict(zip(("p50_ms", "p99_ms"), _percentiles(region_ms), strict=True)),
-        "with_regions": dict(zip(("p50_ms", "p99_ms"), _percentiles(whole), strict=True)),
+        "regions": {**dict(zip(("p50_ms", "p99_ms"), _percentiles(region_ms), strict=True)),
+                    "cpu_p50_ms": float(np.percentile(region_cpu, 50))},
+        "with_regions": {**dict(zip(("p50_ms", "p99_ms"), _percentiles(whole), strict=True)),
+                         "cpu_p50_ms": float(np.percentile(whole_cpu, 50))},
     }  # fmt: skip
 
 
 def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium",
                   params: StepQPParams | None = None, start_s_m: float = 0.7, regions: bool = False) -> dict:  # fmt: skip
-    """Gives {"p50_ms", "p99_ms", "bare_solver_p50_ms", "bare_solver_p99_ms", "footholds", "rounds_mean",
+    """Gives {"p50_ms", "p99_ms", "bare_solver_p50_ms", "bare_solver_p99_ms", "cpu_p50_ms", "cpu_p99_ms" (this
+    thread's CPU time, which other processes on a shared machine do not inflate), "footholds", "rounds_mean",
     "hard_softened", "hard_softened_by_family", "in_no_step", "terrain"} of n replans (300 Hz) of the step QP along a
     walk that starts start_s_m along the body path (so the horizon reaches the terrain at once).
 
@@ -135,6 +147,7 @@ def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium"
     target_xy = stance_xy.copy()  # where each foot is headed (the last plan's next foothold of its leg)
     n_groups = len(cad.groups)
     total: list[float] = []
+    cpu: list[float] = []
     bare: list[float] = []
     rounds = 0
     softened: dict[str, int] = {}
@@ -154,11 +167,12 @@ def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium"
                 v_feet[leg] = (target_xy[leg] - stance_xy[leg]) / cad.swing_s
         req = make_request(cad, path, cp, K, feet, v_feet, s_now_m=start_s_m + cad.speed_mps * t, phase_s=phase,
                            first_group=g_now % n_groups)  # fmt: skip
-        if polygon_of is not None:
-            polys = [polygon_of(req.p_nominal[k]) for k in range(K)]  # the cache's lookups, before the timing
-            plan = qp.solve(req, maps, polys)
-        else:
-            plan = qp.solve(req, maps)
+        polys = (
+            None if polygon_of is None else [polygon_of(req.p_nominal[k]) for k in range(K)]
+        )  # (the cache's)
+        c0 = time.thread_time()
+        plan = qp.solve(req, maps) if polys is None else qp.solve(req, maps, polys)
+        cpu.append((time.thread_time() - c0) * 1e3)
         total.append(plan.solve_ms)
         bare.append(plan.bare_solver_ms / max(plan.rounds, 1))
         rounds += plan.rounds
@@ -172,8 +186,10 @@ def bench_step_qp(n: int = 300, terrain: str = "stones", cadence: str = "medium"
                 stance_xy[leg] = target_xy[leg]
     p50, p99 = _percentiles(total)
     b50, b99 = _percentiles(bare)
+    c50, c99 = _percentiles(cpu)
     return {
-        "p50_ms": p50, "p99_ms": p99, "bare_solver_p50_ms": b50, "bare_solver_p99_ms": b99, "footholds": K,
+        "p50_ms": p50, "p99_ms": p99, "bare_solver_p50_ms": b50, "bare_solver_p99_ms": b99,
+        "cpu_p50_ms": c50, "cpu_p99_ms": c99, "footholds": K,
         "rounds_mean": rounds / n, "hard_softened": sum(softened.values()), "hard_softened_by_family": softened, "in_no_step": in_no_step, "terrain": terrain,
     }  # fmt: skip
 

@@ -22,8 +22,9 @@ from numpy.typing import NDArray
 Op = Callable[..., Any]
 
 
-def _pad(a: NDArray[Any], r: int, axis: int, cval: Any) -> NDArray[Any]:
-    """Gives the 2D grid `a` padded by r cells at both ends of `axis`: edge values (cval None) or cval."""
+def _pad(a: NDArray[Any], r: int, axis: int, cval: Any, spare_row: bool = False) -> NDArray[Any]:
+    """Gives the 2D grid `a` padded by r cells at both ends of `axis`: edge values (cval None) or cval; with
+    spare_row (axis 1), one more row (a copy of the last) below, so shifts along the flat grid stay in it."""
     n0, n1 = a.shape
     if axis == 0:
         out = np.empty((n0 + 2 * r, n1), dtype=a.dtype)
@@ -35,7 +36,8 @@ def _pad(a: NDArray[Any], r: int, axis: int, cval: Any) -> NDArray[Any]:
             out[:r] = cval
             out[r + n0 :] = cval
     else:
-        out = np.empty((n0, n1 + 2 * r), dtype=a.dtype)
+        full = np.empty((n0 + int(spare_row), n1 + 2 * r), dtype=a.dtype)
+        out = full[:n0]
         out[:, r : r + n1] = a
         if cval is None:
             out[:, :r] = a[:, :1]
@@ -43,6 +45,9 @@ def _pad(a: NDArray[Any], r: int, axis: int, cval: Any) -> NDArray[Any]:
         else:
             out[:, :r] = cval
             out[:, r + n1 :] = cval
+        if spare_row:
+            full[n0:] = out[-1:]
+            return full
     return out
 
 
@@ -56,7 +61,7 @@ def window_1d(a: NDArray[Any], width: int, axis: int, op: Op, cval: Any = None) 
     if r == 0:
         return a.copy()
     n = a.shape[axis]
-    m = _pad(a, r, axis, cval)
+    m = _pad(a, r, axis, cval, spare_row=axis == 1)
     span = 1
     # m[i] becomes the extremum of the padded cells i .. i + span - 1 (doubling span while it fits the window).
     if axis == 0:
@@ -67,8 +72,10 @@ def window_1d(a: NDArray[Any], width: int, axis: int, op: Op, cval: Any = None) 
         out: NDArray[Any] = op(m[:n], m[width - span : width - span + n])
         return out
     # Along rows, on the flat padded grid (contiguous, several times faster than strided 2D views): the window of
-    # a row's cell never reaches past its row's padding, so what wraps into the next row is never read.
-    n0, w1 = m.shape
+    # a row's cell never reaches past its row's padding, so what wraps into the next row is never read; the spare
+    # row keeps the shifted flat grid at least as long as the grid.
+    n0 = m.shape[0] - 1
+    w1 = m.shape[1]
     f = m.reshape(-1)
     while 2 * span <= width:
         f = op(f[:-span], f[span:])
@@ -76,8 +83,7 @@ def window_1d(a: NDArray[Any], width: int, axis: int, op: Op, cval: Any = None) 
     lo = width - span
     g = op(f[: f.shape[0] - lo], f[lo:])
     # g[k] is the window starting at flat padded cell k: row i's cells start at i * w1.
-    g = np.concatenate([g, np.empty(w1 * n0 - g.shape[0], dtype=g.dtype)])
-    out = g.reshape(n0, w1)[:, :n]
+    out = g[: n0 * w1].reshape(n0, w1)[:, :n]
     return out
 
 

@@ -249,12 +249,20 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
     known = np.isfinite(ground_z)
     if not known.any():
         return np.full(ground_z.shape, default_z)
-    # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown).
+    # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown). The
+    # 3 × 3 minimum on a grid framed by +inf: the same as repeating the edge cells (they are in the window already).
     h = np.where(known, ground_z, np.inf)
+    nx, ny = h.shape
+    framed = np.full((nx + 2, ny + 2), np.inf)
+    rows = np.empty((nx, ny + 2))
     for _ in range(fill_min_cells):
         if known.all():
             break
-        m = square_filter(h, 3, np.minimum)
+        framed[1:-1, 1:-1] = h
+        np.minimum(framed[:-2], framed[1:-1], out=rows)
+        np.minimum(rows, framed[2:], out=rows)
+        m = np.minimum(rows[:, :-2], rows[:, 1:-1])
+        np.minimum(m, rows[:, 2:], out=m)
         np.copyto(m, h, where=known)
         h = m
         known = np.isfinite(h)
@@ -337,15 +345,17 @@ def _count_between(
     return np.where(k_hi >= k_lo, cum.at(k_hi) - cum.at(k_lo - 1), 0)
 
 
-def _disk_count(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[np.int64]:
+def _disk_count(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[np.int32]:
     """Gives per cell the number of mask cells under a centered, symmetric footprint (edge cells repeat beyond the
     map, as ndimage's mode="nearest"): one prefix sum and one difference per footprint row."""
     r = footprint.shape[0] // 2
     padded = np.pad(mask, r, mode="edge")
-    prefix = np.zeros((padded.shape[0], padded.shape[1] + 1), np.int64)
+    prefix = np.zeros(
+        (padded.shape[0], padded.shape[1] + 1), np.int32
+    )  # counts: int32 is exact and half the bytes
     np.cumsum(padded, axis=1, out=prefix[:, 1:])
     nx, ny = mask.shape
-    count = np.zeros(mask.shape, np.int64)
+    count = np.zeros(mask.shape, np.int32)
     for i in range(footprint.shape[0]):
         row = np.flatnonzero(footprint[i])
         if row.size == 0:
@@ -418,10 +428,13 @@ def build_maps(
     k_c = np.clip(np.ceil((h + p.ceiling_above_m - z0) / dz).astype(np.intp), 0, nz)
     below = cum.at(k_c - 1)
     has = cum.total.reshape(h.shape) > below
-    # Layers under the band count 0 (<= below); above it, where `has`, the total exceeds below.
-    k_first = cum.first + np.count_nonzero(cum.cum <= below.reshape(1, -1), axis=0).reshape(h.shape)
-    z_c = z0 + k_first * dz - dz / 2
-    clearance = np.where(has, z_c - h, np.inf)
+    clearance = np.full(h.shape, np.inf)
+    cols = np.flatnonzero(has)
+    if cols.size:  # only where something hangs over (rare: under a table)
+        # Layers under the band count 0 (<= below); above it, where `has`, the total exceeds below.
+        k_first = cum.first + np.count_nonzero(cum.cum[:, cols] <= below.reshape(-1)[cols], axis=0)
+        z_c = z0 + k_first * dz - dz / 2
+        clearance.reshape(-1)[cols] = z_c - h.reshape(-1)[cols]
 
     sdf_body = signed_distance(body, res)
     sdf_step = signed_distance(step, res)

@@ -248,6 +248,7 @@ class StepQP:
         self.b_rect = block(
             4, [p_of(k) + (p_of(k - 4) if k >= 4 else []) + [self._is(k, "reach_rect")] for k in range(K)]
         )
+        # reach_oct's coefficients never change (the octagon's normals on p_k - dc_k, the slack): set once, below.
         self.b_oct = block(8, [p_of(k) + dc_of(k) + [self._is(k, "reach_oct")] for k in range(K)])
         self.b_keep = block(p.keep_planes, [p_of(k) + [self._is(k, "step_keep")] for k in range(K)])
         self.b_margin = block(p.keep_planes, [p_of(k) + [self._is(k, "margin")] for k in range(K)])
@@ -282,6 +283,27 @@ class StepQP:
                 self.l[r], self.u[r] = -p.max_body_shift_m, p.max_body_shift_m
             else:
                 self.l[r], self.u[r] = 0.0, np.inf
+        # reach_oct rows: n·p_k - n·dc_k - slack <= bound, for the octagon's 8 normals n.
+        self._oct_rows = np.asarray(self.b_oct.rows, dtype=np.intp)  # (K, 8)
+        for k in range(K):
+            for i, n in enumerate(_OCT_N):
+                self._vals[self.b_oct.ents[k][i]] = [n[0], n[1], -n[0], -n[1], -1.0]
+        # Rows cleared at each replan before the keep-out planes and body rows are set again.
+        self._clear_ents = np.concatenate(
+            [e for b in (self.b_keep, self.b_margin, self.b_fbody, self.b_cbody) for ek in b.ents for e in ek]
+        )
+        self._clear_rows = np.asarray(
+            [
+                r
+                for b in (self.b_keep, self.b_margin, self.b_fbody, self.b_cbody)
+                for rk in b.rows
+                for r in rk
+            ],
+            dtype=np.intp,
+        )
+        support = (self.b_cop, self.b_bal)
+        self._support_ents = np.concatenate([e for b in support for ek in b.ents for e in ek])
+        self._support_rows = np.asarray([r for b in support for rk in b.rows for r in rk], dtype=np.intp)
         # Cost.
         diag = np.full(self.n_var, 2 * p.w_slack_quadratic)
         diag[: 2 * K] = 2 * p.w_nominal
@@ -291,6 +313,9 @@ class StepQP:
         for k in range(K):
             for fam in FAMILIES:
                 self.q[self._is(k, fam)] = p.weights[_F[fam]]
+        self._var_pos: dict[
+            tuple[int, int], dict[int, int]
+        ] = {}  # (block, slot): variable -> place in its rows
         self._keep_planes: list[list[tuple[NDArray[np.float64], float]]] = [[] for _ in range(K)]
         self._x_prev: NDArray[np.float64] | None = None
         self._prev_maps: TerrainMaps | None = None
@@ -330,10 +355,19 @@ class StepQP:
         self.l[r], self.u[r] = -np.inf, np.inf
 
     def _coeff_on(self, block: _Block, k: int, var_coeffs: dict[int, float], slack: float) -> list[float]:
-        """Gives the row's coefficient list in the block's variable order (the slack is the last variable)."""
-        vars_k = block.vars_of[k]
-        out = [var_coeffs.get(v, 0.0) for v in vars_k[:-1]]
-        out.append(slack)
+        """Gives the row's coefficient list in the block's variable order (the slack is the last variable; a
+        variable the block's rows do not hold is left out)."""
+        key = (id(block), k)
+        pos = self._var_pos.get(key)
+        if pos is None:
+            vars_k = block.vars_of[k]
+            pos = self._var_pos[key] = {v: i for i, v in enumerate(vars_k[:-1])}
+        out = [0.0] * (len(pos) + 1)
+        for v, c in var_coeffs.items():
+            i = pos.get(v)
+            if i is not None:
+                out[i] = c
+        out[-1] = slack
         return out
 
     # -- the replan ---------------------------------------------------------------------------------------------
@@ -382,16 +416,14 @@ class StepQP:
             carried = [
                 [] if r is None else _region_planes(r, p.keep_clearance_m, p.keep_planes) for r in regions
             ]
+        # Every keep-out, margin and body row cleared at once, then the planes that stand set again.
+        self._vals[self._clear_ents] = 0.0
+        self.l[self._clear_rows] = -np.inf
+        self.u[self._clear_rows] = np.inf
         for k in range(K):
             self._keep_planes[k] = carried[k]
-            for i in range(p.keep_planes):
-                if i < len(self._keep_planes[k]):
-                    self._set_keep_row(k, i, *self._keep_planes[k][i])
-                else:
-                    self._clear_row(self.b_keep, k, i)
-                    self._clear_row(self.b_margin, k, i)
-            self._clear_row(self.b_fbody, k, 0)
-            self._clear_row(self.b_cbody, k, 0)
+            for i in range(min(len(self._keep_planes[k]), p.keep_planes)):
+                self._set_keep_row(k, i, *self._keep_planes[k][i])
         bare = 0.0
         rounds = 0
         x = None
@@ -468,6 +500,20 @@ class StepQP:
         """Rows whose values do not depend on the iterate: reach, self-collision, CoP, balance."""
         p = self.params
         K = self.K
+        # reach_oct: n·(p - hip - dc) <= r cos(pi/8) ... the inscribed octagon of the reach circle (its
+        # coefficients are set once; the bounds of all slots at once).
+        dz = np.asarray(req.hip_height, dtype=np.float64)
+        r = np.sqrt(np.maximum(p.leg_length_m**2 - dz**2, 1e-4)) * np.cos(np.pi / 8)
+        self.l[self._oct_rows] = -np.inf
+        # cop and balance rows: cleared for every slot; _fill_support sets those that stand.
+        self._vals[self._support_ents] = 0.0
+        self.l[self._support_rows] = -np.inf
+        self.u[self._support_rows] = np.inf
+        # One 2-vector dot per row, as the rows were filled one by one (a matrix product may round differently).
+        p_hip = np.asarray(req.p_hip, dtype=np.float64)
+        self.u[self._oct_rows] = [
+            [rk + float(n @ hk) for n in _OCT_N] for rk, hk in zip(r.tolist(), p_hip, strict=True)
+        ]
         t_td = req.t_touchdown
         t_lo = req.t_liftoff
         # the slots of each leg, and the times as Python floats, for the stance lookups below
@@ -492,28 +538,18 @@ class StepQP:
                     center = req.p_feet[leg]
                     halves = p.stride_box_m
                     axes = (ex, ey)
+                # Rows on (p_k, slack): e·p_k - s <= c + h and e·p_k + s >= c - h.
                 for a, (e, h) in enumerate(zip(axes, halves, strict=True)):
                     c = float(e @ center)
-                    coeffs = self._coeff_on(self.b_rect, k, {ip: e[0], ip + 1: e[1]}, -1.0)
-                    self._set_row(self.b_rect, k, 2 * a, coeffs, -np.inf, c + h)
-                    coeffs = self._coeff_on(self.b_rect, k, {ip: e[0], ip + 1: e[1]}, 1.0)
-                    self._set_row(self.b_rect, k, 2 * a + 1, coeffs, c - h, np.inf)
+                    e0, e1 = float(e[0]), float(e[1])
+                    self._set_row(self.b_rect, k, 2 * a, [e0, e1, -1.0], -np.inf, c + h)
+                    self._set_row(self.b_rect, k, 2 * a + 1, [e0, e1, 1.0], c - h, np.inf)
             else:
-                jp = self._ip(k - 4)
+                # Rows on (p_k, p_{k-4}, slack): the stride box around the leg's previous foothold.
                 for a, (e, h) in enumerate(zip((ex, ey), p.stride_box_m, strict=True)):
-                    vc = {ip: e[0], ip + 1: e[1], jp: -e[0], jp + 1: -e[1]}
-                    self._set_row(self.b_rect, k, 2 * a, self._coeff_on(self.b_rect, k, vc, -1.0), -np.inf, h)
-                    self._set_row(
-                        self.b_rect, k, 2 * a + 1, self._coeff_on(self.b_rect, k, vc, 1.0), -h, np.inf
-                    )
-            # reach_oct: n·(p - hip - dc) <= r cos(pi/8) ... the inscribed octagon of the reach circle.
-            dz = float(req.hip_height[k])
-            r = float(np.sqrt(max(p.leg_length_m**2 - dz**2, 1e-4)))
-            idc = self._idc(k)
-            for i, n in enumerate(_OCT_N):
-                vc = {ip: n[0], ip + 1: n[1], idc: -n[0], idc + 1: -n[1]}
-                self._set_row(self.b_oct, k, i, self._coeff_on(self.b_oct, k, vc, -1.0), -np.inf,
-                              r * np.cos(np.pi / 8) + float(n @ req.p_hip[k]))  # fmt: skip
+                    e0, e1 = float(e[0]), float(e[1])
+                    self._set_row(self.b_rect, k, 2 * a, [e0, e1, -e0, -e1, -1.0], -np.inf, h)
+                    self._set_row(self.b_rect, k, 2 * a + 1, [e0, e1, -e0, -e1, 1.0], -h, np.inf)
             # Where every leg stands at touchdown k and in the middle of phase k.
             t_mid = self._phase_mid(k, t_td)
             stance_td = self._stance(k, float(t_td[k]), slots_of, lo_l, td_l)
@@ -568,9 +604,7 @@ class StepQP:
         c = req.c_body[k]
         idc = self._idc(k)
         nominal = {leg: (req.p_nominal[ref] if isinstance(ref, int) else ref) for leg, ref in stance.items()}
-        for i in range(4):
-            self._clear_row(self.b_cop, k, i)
-            self._clear_row(self.b_bal, k, i)
+        # (its cop and balance rows were cleared by _fill_static, all slots at once)
         n_st = len(stance)
         t_td = req.t_touchdown
         if n_st < 2 or np.any(np.abs(t_td[k + 1 :] - t_td[k]) < 1e-6):

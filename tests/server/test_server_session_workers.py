@@ -49,7 +49,7 @@ def test_each_session_has_a_worker_of_its_own_and_stopping_reaps_it(client: Test
     a, b = _new(client), _new(client)
     pids = {manager.get(a).pid, manager.get(b).pid}
     assert len(pids) == 2 and os.getpid() not in pids and all(_alive(p) for p in pids)
-    assert wait_for(lambda: client.get(f"/sessions/{a}/state").json()["t"] > 0.1)
+    assert wait_for(lambda: client.get(f"/sessions/{a}/state").json()["t"] > 0.1, 10.0)
     pa = manager.get(a).pid
     assert client.delete(f"/sessions/{a}").status_code == 204
     assert not _alive(pa), "a deleted session's worker is gone (reaped: not even a zombie)"
@@ -77,7 +77,7 @@ def test_a_killed_worker_is_reported_and_never_hangs_a_request(client: TestClien
     assert client.post(f"/sessions/{sid}/reset").json()["status"] == "running"
     assert s.pid != old and _alive(s.pid)
     t1 = client.get(f"/sessions/{sid}/state").json()["t"]
-    assert wait_for(lambda: client.get(f"/sessions/{sid}/state").json()["t"] > t1 + 0.05)
+    assert wait_for(lambda: client.get(f"/sessions/{sid}/state").json()["t"] > t1 + 0.05, 10.0)
 
 
 def test_a_killed_server_leaves_no_session_worker(tmp_path: Path) -> None:
