@@ -394,7 +394,6 @@ def _physics_failure_music_and_beats(
     """The issue's broken edit: `jump` with FL's touchdown dragged 1.42 → 1.55 s passes the rules, but Validate runs
     the physics check: a red dot on that touchdown, the other events' margins as dots. Then music: a click track
     loaded, its beats drawn, a keyframe dragged snaps to a beat."""
-    api = server["api"]
     svg = "svg[data-footfall-timeline]"
     page.get_by_label("Maneuver", exact=True).click()
     page.get_by_role("option", name="jump", exact=True).click()
