@@ -640,7 +640,9 @@ class StudioClient:
             self.md_status.content = "**no live robot** (server at its session cap) — authoring only"
             return
         self._sync_sliders()
-        self.md_status.content = status_line(s.state(), self.fps)
+        st = s.state()
+        self.md_status.content = status_line(st, self.fps)
+        self.editor.show_clock(st)  # the loaded music follows the preview
 
 
 def page_script_html() -> str:
