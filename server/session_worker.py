@@ -447,6 +447,7 @@ class ProcessSession(LiveSession):
             self.status = meta["status"]
             self.error = meta["error"]
         self.mode, self.terrain, self.maps = meta["mode"], meta["terrain"], meta["maps"]
+        self.robot = meta.get("robot", self.robot)
         self.speed, self.command = meta["speed"], meta["command"]
         self.rtf, self.dropped_s, self.steps = meta["realtime_factor"], meta["dropped_s"], m["steps"]
         if m["new_rec"] is not None:
@@ -551,18 +552,20 @@ class ProcessSession(LiveSession):
             return
         self._call("restart", timeout=REPLACE_TIMEOUT_S)
 
-    def reset(self, terrain: str | None = None, maps: str | None = None) -> None:
-        if self._revive(terrain, maps):
+    def reset(self, terrain: str | None = None, maps: str | None = None, robot: str | None = None) -> None:
+        if self._revive(terrain, maps, robot):
             return
-        self._call("reset", terrain, maps, timeout=REPLACE_TIMEOUT_S)
+        self._call("reset", terrain, maps, robot, timeout=REPLACE_TIMEOUT_S)
+        self.robot = robot or self.robot
 
-    def _revive(self, terrain: str | None = None, maps: str | None = None) -> bool:
+    def _revive(self, terrain: str | None = None, maps: str | None = None, robot: str | None = None) -> bool:
         """A session whose worker died gets a new one (at the start, as a reset); returns whether it did."""
         if self._dead is None:
             return False
         old = self._proc
         self.terrain = terrain or self.terrain
         self.maps = maps or self.maps
+        self.robot = robot or self.robot
         self._generation_base = self.generation + 1  # the new worker's generations start again at 0
         self._spawn()
         self._reap(old)

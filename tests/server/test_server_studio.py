@@ -349,6 +349,24 @@ def test_rest_steering_shows_on_the_sliders(studio_app: tuple[TestClient, Any], 
     tab.dd_terrain.value = "flat"
 
 
+def test_the_robot_picker_redraws_the_tab_on_another_robot(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    client, _ = studio_app
+    names = [e["name"] for e in client.get("/robots").json()]
+    assert set(tab.dd_robot.options) == set(names) and tab.dd_robot.value == "spot"
+    sid, view = tab.session.id, tab.view
+    tab.dd_robot.value = "go1"  # resets the tab's session on go1: a new simulation, the scene redrawn
+    assert client.get(f"/sessions/{sid}/state").json()["robot"] == "go1"
+    assert wait_for(lambda: tab.view is not None and tab.view is not view, 10.0)
+    body_z = float(tab.session.snapshot.xpos[0][2])
+    assert 0.2 < body_z < 0.4, body_z  # go1 stands ~0.30 m high (spot 0.52 m)
+    tab.dd_robot.value = "spot"
+    assert wait_for(
+        lambda: tab.session.robot == "spot" and float(tab.session.snapshot.xpos[0][2]) > 0.45, 10.0
+    )
+
+
 def test_plots_count_seconds_not_dates(studio_app: tuple[TestClient, Any], tab: Any) -> None:
     for plot in (tab.plot_solver, tab.plot_vel):
         assert plot.scales["x"]["time"] is False and plot.axes[0]["label"] == "t (s)"
