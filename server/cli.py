@@ -252,6 +252,16 @@ def cmd_walk(a: argparse.Namespace) -> int:
     return EXIT_OK if report["success"] else EXIT_FAILED
 
 
+def _lines_of(path: Path) -> dict[str, int] | None:
+    from planning.maneuver import ManeuverError
+    from planning.maneuver.load import read_source
+
+    try:
+        return read_source(path)[1]
+    except ManeuverError:
+        return None
+
+
 def cmd_validate(a: argparse.Namespace) -> int:
     from planning.maneuver import ManeuverError, check_maneuver, find_maneuver
 
@@ -260,7 +270,19 @@ def cmd_validate(a: argparse.Namespace) -> int:
     except ManeuverError as e:
         raise UsageError(str(e.problems[0])) from None
     # the file itself, not a parsed maneuver: a shape problem does not hide the rules' findings on the rest
-    result = check_maneuver(path, _robot(a.robot), dry_solve=not a.no_solve)
+    robot = _robot(a.robot)
+    result = check_maneuver(path, robot, dry_solve=not a.no_solve)
+    if result.ok and not a.no_physics:
+        from planning.maneuver import load_maneuver
+        from planning.maneuver.physics import run_physics, with_physics
+        from planning.sim.run import RunOptions
+
+        print("physics check: simulating the maneuver headless ...", file=sys.stderr)
+        report = run_physics(load_maneuver(path), RunOptions(robot=a.robot), robot_model=robot)
+        result = with_physics(result, report, _lines_of(path))
+        ph = result.physics or {}
+        print(f"physics check: {'succeeded' if ph.get('success') else 'FAILED'}; {ph.get('simulated_s')} s "
+              f"simulated in {ph.get('wall_s')} s", file=sys.stderr)  # fmt: skip
     name = result.maneuver.name if result.maneuver is not None else path.stem
     for p in result.failures:
         print(f"failure: {p.located() if hasattr(p, 'located') else p}")
@@ -393,13 +415,21 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--robot", default="spot", help="robot: spot (default), go1 or an MJCF file (PATH.xml)")
     w.set_defaults(fn=cmd_walk)
 
-    v = sub.add_parser("validate", help="check a maneuver without simulating (warnings and failures)")
+    v = sub.add_parser(
+        "validate",
+        help="check a maneuver: rules, dry solve, and a headless physics check (warnings, failures)",
+    )
     v.add_argument("maneuver", metavar="MANEUVER", help="a library name or a .yaml path")
     v.add_argument("--robot", default="spot", help="robot to check reach against (a name or PATH.xml)")
     v.add_argument(
         "--no-solve",
         action="store_true",
         help="skip the dry solve (the centroidal solver run along the plan)",
+    )
+    v.add_argument(
+        "--no-physics",
+        action="store_true",
+        help="skip the physics check (the whole maneuver simulated headless in MuJoCo, measured per event)",
     )
     v.set_defaults(fn=cmd_validate)
 

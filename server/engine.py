@@ -508,4 +508,9 @@ def run_headless(job: dict[str, Any]) -> dict[str, Any]:
         )
         return run_walk(command, opts, progress=progress)
     maneuver = parse_maneuver(job["maneuver"])
+    if job.get("physics_check"):
+        # validation's physics check: the same run, measured per event, stopped once its failure is certain
+        from planning.maneuver.physics import run_physics
+
+        return run_physics(maneuver, opts, progress=progress)
     return run_maneuver(maneuver, opts, progress=progress)

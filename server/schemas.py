@@ -193,8 +193,19 @@ class SimulationPublic(BaseModel):
 SessionMaps = Literal["truth", "sensor"]
 
 
+RobotName = Annotated[
+    str,
+    Field(
+        max_length=64,
+        description="a robot GET /robots lists (default: the server's robot)",
+        examples=["go1"],
+    ),
+]
+
+
 class SessionCreate(_In):
     terrain: TerrainIn = "flat"
+    robot: RobotName | None = None
     mode: Literal["steer", "maneuver"] = "maneuver"
     maps: SessionMaps = Field(
         "truth",
@@ -206,6 +217,7 @@ class SessionCreate(_In):
 class SessionCreated(BaseModel):
     id: str
     terrain: str
+    robot: str
     mode: str
     maps: str
     state_url: str
@@ -239,6 +251,7 @@ class SessionPushIn(_In):
 
 class SessionResetIn(_In):
     terrain: TerrainIn | None = None
+    robot: RobotName | None = None
     maps: SessionMaps | None = None
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
+import time
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -161,9 +162,82 @@ def validate(maneuver: Any, services: Services, lines: dict[str, int] | None = N
     return result
 
 
-def require_valid(maneuver: Any, services: Services, lines: dict[str, int] | None = None) -> Any:
-    """Returns the validation result when it has no failures; ApiError 422 with the failures otherwise."""
+class PhysicsUnavailable(Exception):
+    """The physics check could not run (too long, timed out, the worker failed); the message says why."""
+
+
+def physics_report(maneuver: Any, services: Services) -> dict[str, Any]:
+    """Runs the physics check of a maneuver on the simulation pool (it waits its turn with the queued simulations)
+    and returns its run report; QueueFull when the queue is full, PhysicsUnavailable when it cannot run. Blocks:
+    call it off the event loop."""
+    settings = services.settings
+    if maneuver.duration > settings.max_sim_duration_s:
+        raise PhysicsUnavailable(f"the maneuver lasts {maneuver.duration:g} s; the server simulates at most "
+                                 f"{settings.max_sim_duration_s:g} s")  # fmt: skip
+    payload = {
+        "maneuver": maneuver.model_dump(by_alias=True, mode="json"),
+        "terrain": "flat",
+        "pushes": [],
+        "duration": None,
+        "robot": settings.robot,
+        "physics_check": True,
+    }
+    pool = services.simulations
+    if pool.closed:
+        raise PhysicsUnavailable("the server is shutting down")
+    job = pool.submit({"maneuver": maneuver.name, "physics_check": True, "terrain": "flat"}, payload)
+    deadline = time.monotonic() + settings.physics_timeout_s
+    while True:
+        got = pool.get(job.id)
+        if got is None or got[0].status in ("done", "failed", "cancelled"):
+            break
+        if pool.closed:
+            raise PhysicsUnavailable("the server is shutting down")
+        if time.monotonic() > deadline:
+            pool.cancel(job.id)
+            raise PhysicsUnavailable(f"it did not finish within {settings.physics_timeout_s:g} s (the simulation "
+                                     "queue is busy); validate again later")  # fmt: skip
+        time.sleep(0.05)
+    done = got[0] if got is not None else job
+    if done.status != "done" or not isinstance(done.report, dict):
+        log.warning("physics check of %s: %s", maneuver.name, done.error)
+        raise PhysicsUnavailable(f"the run did not finish: {done.error or done.status}")
+    return done.report
+
+
+def validate_with_physics(
+    maneuver: Any, services: Services, lines: dict[str, int] | None = None, physics: bool | None = None
+) -> Any:
+    """Returns `validate` plus, when the rules and the dry solve pass, the physics check (physics_report) judged
+    into it. physics None: the server's setting (on unless FOOTFALL_VALIDATE_PHYSICS=0). Blocks: call it off the
+    event loop."""
+    from planning.maneuver.physics import skipped, with_physics
+
     result = validate(maneuver, services, lines)
+    if not (services.settings.validate_physics if physics is None else physics):
+        return result
+    if not result.ok:
+        return skipped(result, "the maneuver has failures without simulating it")
+    try:
+        return with_physics(result, physics_report(maneuver, services), lines)
+    except PhysicsUnavailable as e:
+        return skipped(result, f"the physics check could not run: {e}")
+    except (KeyError, TypeError, ValueError) as e:  # an odd report must not turn into a 500
+        log.warning("physics check of %s: judging its report raised %r", maneuver.name, e)
+        return skipped(result, f"the physics check's report could not be read ({type(e).__name__})")
+
+
+def require_valid(
+    maneuver: Any, services: Services, lines: dict[str, int] | None = None, physics: bool | None = False
+) -> Any:
+    """Returns the validation result when it has no failures; ApiError 422 with the failures otherwise.
+    physics: also run the physics check (validate_with_physics); off by default (a simulation validates what it
+    runs without running it twice)."""
+    result = (
+        validate_with_physics(maneuver, services, lines, physics)
+        if physics is not False
+        else validate(maneuver, services, lines)
+    )
     if not result.ok:
         n = len(result.failures)
         first = result.failures[0] if result.failures else "invalid"

@@ -62,6 +62,14 @@ from server.sessions import (
 
 log = logging.getLogger("footfall.sessions")
 
+# Python 3.11's fork server ignores the parent's sys.path: the parent passes it in this variable (set before the fork
+# server starts), so what it preloads (e.g. a test's fake simulation module) is found there and not imported anew by
+# every child.
+_PATH_VAR = "FOOTFALL_FORKSERVER_SYS_PATH"
+for _p in os.environ.get(_PATH_VAR, "").split(os.pathsep):
+    if _p and _p not in sys.path:
+        sys.path.append(_p)
+
 START_TIMEOUT_S = 120.0  # a new worker: fork, scene build, controller setup (seconds on a loaded machine)
 REPLACE_TIMEOUT_S = 60.0  # starting a maneuver or a reset builds a new simulation in the worker
 REQUEST_TIMEOUT_S = 10.0  # any other command (push, steer, pause, plan, ...)
@@ -82,6 +90,7 @@ def worker_context(factory: Any = None) -> Any:
         if _ctx is None:
             if "forkserver" in mp.get_all_start_methods():
                 _ctx = mp.get_context("forkserver")
+                os.environ[_PATH_VAR] = os.pathsep.join(p for p in sys.path if p)
                 extra = getattr(factory, "__module__", None)
                 _ctx.set_forkserver_preload(_PRELOAD + ([extra] if extra and extra not in _PRELOAD else []))
             else:  # pragma: no cover - Windows
@@ -103,6 +112,8 @@ class _Publisher:
 
     def message(self, force: bool = False) -> dict[str, Any] | None:
         s = self.s
+        if s.snapshot.seq == self.seq and not force:
+            return None  # nothing new (checked without waiting for a batch in flight)
         with s.lock:
             snap = s.snapshot
             if snap.seq == self.seq and not force:
@@ -436,6 +447,7 @@ class ProcessSession(LiveSession):
             self.status = meta["status"]
             self.error = meta["error"]
         self.mode, self.terrain, self.maps = meta["mode"], meta["terrain"], meta["maps"]
+        self.robot = meta.get("robot", self.robot)
         self.speed, self.command = meta["speed"], meta["command"]
         self.rtf, self.dropped_s, self.steps = meta["realtime_factor"], meta["dropped_s"], m["steps"]
         if m["new_rec"] is not None:
@@ -540,18 +552,20 @@ class ProcessSession(LiveSession):
             return
         self._call("restart", timeout=REPLACE_TIMEOUT_S)
 
-    def reset(self, terrain: str | None = None, maps: str | None = None) -> None:
-        if self._revive(terrain, maps):
+    def reset(self, terrain: str | None = None, maps: str | None = None, robot: str | None = None) -> None:
+        if self._revive(terrain, maps, robot):
             return
-        self._call("reset", terrain, maps, timeout=REPLACE_TIMEOUT_S)
+        self._call("reset", terrain, maps, robot, timeout=REPLACE_TIMEOUT_S)
+        self.robot = robot or self.robot
 
-    def _revive(self, terrain: str | None = None, maps: str | None = None) -> bool:
+    def _revive(self, terrain: str | None = None, maps: str | None = None, robot: str | None = None) -> bool:
         """A session whose worker died gets a new one (at the start, as a reset); returns whether it did."""
         if self._dead is None:
             return False
         old = self._proc
         self.terrain = terrain or self.terrain
         self.maps = maps or self.maps
+        self.robot = robot or self.robot
         self._generation_base = self.generation + 1  # the new worker's generations start again at 0
         self._spawn()
         self._reap(old)

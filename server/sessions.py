@@ -352,12 +352,11 @@ class LiveSession:
         self.plot_n += 1
 
     # ---- commands (from REST handlers and the studio) -----------------------------------------------------------
-    def _replace(self, maneuver: Any, terrain: str | None = None) -> None:
+    def _replace(self, maneuver: Any, terrain: str | None = None, robot: str | None = None) -> None:
         terrain = terrain or self.terrain
+        robot = robot or self.robot
         try:
-            sim = self._factory(
-                maneuver, terrain, self.robot
-            )  # built outside the lock: MuJoCo compile takes ms
+            sim = self._factory(maneuver, terrain, robot)  # built outside the lock: MuJoCo compile takes ms
         except Exception as e:  # noqa: BLE001 - the session keeps running what it ran before
             log.warning("session %s: cannot start %s: %r", self.id, getattr(maneuver, "name", "?"), e)
             raise SessionError(
@@ -367,6 +366,7 @@ class LiveSession:
         with self.lock:
             self.sim = sim
             self.terrain = terrain
+            self.robot = robot
             self.status = "running" if self.status != "paused" else "paused"
             self.error = None
             self.generation += 1
@@ -387,15 +387,16 @@ class LiveSession:
         """Starts the current maneuver again from the stance."""
         self._replace(self.sim.maneuver)
 
-    def reset(self, terrain: str | None = None, maps: str | None = None) -> None:
-        """Back to the start at the origin (optionally on another terrain, or planning a walk on other maps: "truth"
-        or "sensor"): standing, or in steer mode walking with a zero command; clears a crash."""
+    def reset(self, terrain: str | None = None, maps: str | None = None, robot: str | None = None) -> None:
+        """Back to the start at the origin (optionally on another terrain, another robot (what the simulation
+        loads: a shipped name or a path), or planning a walk on other maps: "truth" or "sensor"): standing, or in
+        steer mode walking with a zero command; clears a crash."""
         if maps is not None:
             self.maps = maps
         gait = str(self.command["gait"]) if self.command else "trot"
         self.command = None
         self.status = "running"
-        self._replace(self._entry_spec(self.mode, gait, self.maps), terrain)
+        self._replace(self._entry_spec(self.mode, gait, self.maps), terrain, robot)
 
     def pause(self) -> None:
         """Stops stepping; when this returns, no batch is in flight and the state is the paused one."""
@@ -529,9 +530,15 @@ class SessionManager:
             self._sessions.clear()
 
     def create(
-        self, terrain: str, mode: Mode = "maneuver", origin: str = "api", maps: str = "truth"
+        self,
+        terrain: str,
+        mode: Mode = "maneuver",
+        origin: str = "api",
+        maps: str = "truth",
+        robot: str | None = None,
     ) -> LiveSession:
-        """Returns a new running session; SessionLimit when the cap is reached."""
+        """Returns a new running session (on `robot`, what the simulation loads; default the server's robot);
+        SessionLimit when the cap is reached."""
         with self._lock:
             # sessions being started count too: two tabs opening at once must not both take the studio's last slot
             studio = sum(1 for x in self._sessions.values() if x.origin == "studio") + self._reserved_studio
@@ -557,7 +564,7 @@ class SessionManager:
                 from server.session_worker import ProcessSession
 
                 cls = ProcessSession
-            s = cls(sid, terrain, mode, self.settings.robot, self.factory, origin, self.clock, maps)
+            s = cls(sid, terrain, mode, robot or self.settings.robot, self.factory, origin, self.clock, maps)
             try:
                 s.start()
             except BaseException:

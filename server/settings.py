@@ -20,6 +20,8 @@ Environment variables (all optional):
 | ``FOOTFALL_STUDIO`` | ``1`` | ``0``: REST API only, no viser studio |
 | ``FOOTFALL_BACKEND`` | ``local`` | ``ray``: queued simulations and sweeps run as Ray tasks (``footfall serve --backend``) |
 | ``FOOTFALL_RAY_ADDRESS`` | unset | the Ray cluster to use (unset: a local Ray started by the server) |
+| ``FOOTFALL_VALIDATE_PHYSICS`` | ``1`` | ``0``: validation skips its physics check unless a request asks (``?physics=true``) |
+| ``FOOTFALL_PHYSICS_TIMEOUT_S`` | ``300`` | longest a validation waits for its physics check (queue included), s |
 """
 
 from __future__ import annotations
@@ -96,6 +98,10 @@ class Settings:
     max_sim_duration_s: float = 120.0
     backend: str = "local"  # where queued simulations and sweeps run: local worker processes, or "ray"
     ray_address: str | None = None  # backend ray: the cluster (None: a local Ray started on first use)
+    validate_physics: bool = True  # validation runs the physics check unless the request says physics=false
+    physics_timeout_s: float = (
+        300.0  # a validation waits at most this long for its physics check (queue included)
+    )
 
     @property
     def user_dir(self) -> Path:
@@ -117,7 +123,7 @@ class Settings:
                 raise SettingsError(f"{name}: {v} is not a TCP port (0..65535)")
         positive = (
             "max_body_bytes", "max_events", "max_keyframes", "max_sessions", "session_idle_s", "sim_workers",
-            "max_queued_simulations", "max_sim_duration_s", "reaper_period_s",
+            "max_queued_simulations", "max_sim_duration_s", "reaper_period_s", "physics_timeout_s",
         )  # fmt: skip
         for name in positive:
             if not math.isfinite(getattr(self, name)):
@@ -177,5 +183,7 @@ class Settings:
         read("FOOTFALL_MAX_BODY_BYTES", "max_body_bytes", int)
         read("FOOTFALL_BACKEND", "backend", str)
         read("FOOTFALL_RAY_ADDRESS", "ray_address", str)
+        read("FOOTFALL_VALIDATE_PHYSICS", "validate_physics", flag)
+        read("FOOTFALL_PHYSICS_TIMEOUT_S", "physics_timeout_s", float)
         values.update({k: v for k, v in overrides.items() if v is not None})
         return cls(**values).check()

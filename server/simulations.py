@@ -145,6 +145,11 @@ class SimulationPool:
                 job.status, job.finished = "cancelled", time.time()
             return job
 
+    @property
+    def closed(self) -> bool:
+        """True once shut down: nothing queued runs any more."""
+        return self._closed
+
     def list(self) -> list[Job]:
         with self._lock:
             return list(self._jobs.values())

@@ -245,6 +245,22 @@ class Hint(_Model):
     t: Time = Field(0.0, description="when it starts, s")
 
 
+MIN_BPM, MAX_BPM = 30.0, 360.0  # tempos a maneuver can keep (the studio's beat finder reports 60 to 180)
+
+
+class Music(_Model):
+    """The music a maneuver is danced to: its tempo and where its first beat falls on the maneuver's clock (the
+    studio shows the beat grid and snaps to it); the audio file itself is not part of the maneuver."""
+
+    bpm: Annotated[float, Field(strict=True, ge=MIN_BPM, le=MAX_BPM)] = Field(
+        description="tempo, beats per minute"
+    )
+    offset: Time = Field(0.0, description="time of the first beat on the maneuver's clock, s")
+    file: str | None = Field(
+        None, max_length=200, description="the audio file's name, for the user (not read)"
+    )
+
+
 class Maneuver(_Model):
     """A maneuver: sparse events, gait segments, body keyframes, cost weights and custom objectives."""
 
@@ -270,6 +286,9 @@ class Maneuver(_Model):
     weights: Weights = Field(default_factory=lambda: Weights.model_validate({}))
     objectives: tuple[Objective, ...] = ()
     hints: tuple[Hint, ...] = Field((), max_length=16, description="passive maneuvers played beside this one")
+    music: Music | None = Field(
+        None, description="optional: the tempo and first beat of the music it is set to"
+    )
 
 
 def maneuver_json_schema() -> dict[str, Any]:

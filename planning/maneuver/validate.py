@@ -66,14 +66,20 @@ class ValidationResult:
     maneuver: Maneuver | None = None
     schedule: Schedule | None = None
     body: BodyReference | None = None
+    # the physics check's section (planning.maneuver.physics), when it ran
+    physics: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """Returns the REST answer: {"ok", "warnings", "failures"} with problems as dicts."""
-        return {
+        """Returns the REST answer: {"ok", "warnings", "failures"} with problems as dicts (and "physics", the
+        physics check's measurements, when it ran)."""
+        out: dict[str, Any] = {
             "ok": self.ok,
             "warnings": [p.to_dict() for p in self.warnings],
             "failures": [p.to_dict() for p in self.failures],
         }
+        if self.physics is not None:
+            out["physics"] = self.physics
+        return out
 
     def raise_for_failures(self) -> Maneuver:
         """Returns the maneuver when there is no failure; raises ManeuverError with the failures otherwise."""

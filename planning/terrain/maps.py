@@ -249,12 +249,20 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
     known = np.isfinite(ground_z)
     if not known.any():
         return np.full(ground_z.shape, default_z)
-    # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown).
+    # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown). The
+    # 3 × 3 minimum on a grid framed by +inf: the same as repeating the edge cells (they are in the window already).
     h = np.where(known, ground_z, np.inf)
+    nx, ny = h.shape
+    framed = np.full((nx + 2, ny + 2), np.inf)
+    rows = np.empty((nx, ny + 2))
     for _ in range(fill_min_cells):
         if known.all():
             break
-        m = square_filter(h, 3, np.minimum)
+        framed[1:-1, 1:-1] = h
+        np.minimum(framed[:-2], framed[1:-1], out=rows)
+        np.minimum(rows, framed[2:], out=rows)
+        m = np.minimum(rows[:, :-2], rows[:, 1:-1])
+        np.minimum(m, rows[:, 2:], out=m)
         np.copyto(m, h, where=known)
         h = m
         known = np.isfinite(h)

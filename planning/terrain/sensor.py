@@ -130,6 +130,7 @@ class DepthSensor:
         self._dist = [np.zeros(r.shape[0], dtype=np.float64) for r in self._rays_body]
         self._rng = np.random.default_rng(self.params.seed)
         self.raycast_ms = 0.0  # the last scan's time in MuJoCo's ray casting alone (ms)
+        self.raycast_cpu_ms = 0.0  # the same in this thread's CPU time (ms)
 
     def scan(self, data: mujoco.MjData) -> PointCloud:
         """Gives the noisy point cloud seen from the body pose in `data` (needs mj_kinematics or later done)."""
@@ -139,17 +140,19 @@ class DepthSensor:
         points: list[NDArray[np.float64]] = []
         origins: list[NDArray[np.float64]] = []
         raycast_s = 0.0
+        raycast_cpu_s = 0.0
         for k, rays in enumerate(self._rays_body):
             vec = self._vec[k]
             np.matmul(rays, R_world_body.T, out=vec)
             origin = p_world_body + R_world_body @ self._p_body_cam[k]
             geomid, dist = self._geomid[k], self._dist[k]
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.thread_time()
             mujoco.mj_multiRay(
                 self.model, data, origin, vec.ravel(), self._geomgroup, 1, -1, geomid, dist, None,
                 rays.shape[0], p.max_range_m,
             )  # fmt: skip
             raycast_s += time.perf_counter() - t0
+            raycast_cpu_s += time.thread_time() - c0
             hit = geomid >= 0
             if self._filter_after:
                 hit &= ~self._robot_geom[geomid]
@@ -163,4 +166,5 @@ class DepthSensor:
             points.append(origin + vec[hit] * r[:, None])
             origins.append(np.broadcast_to(origin, (r.shape[0], 3)))
         self.raycast_ms = raycast_s * 1e3
+        self.raycast_cpu_ms = raycast_cpu_s * 1e3
         return PointCloud(np.concatenate(points), np.concatenate(origins), float(data.time))

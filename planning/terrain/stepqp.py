@@ -313,6 +313,9 @@ class StepQP:
         for k in range(K):
             for fam in FAMILIES:
                 self.q[self._is(k, fam)] = p.weights[_F[fam]]
+        self._var_pos: dict[
+            tuple[int, int], dict[int, int]
+        ] = {}  # (block, slot): variable -> place in its rows
         self._keep_planes: list[list[tuple[NDArray[np.float64], float]]] = [[] for _ in range(K)]
         self._x_prev: NDArray[np.float64] | None = None
         self._prev_maps: TerrainMaps | None = None
@@ -352,10 +355,19 @@ class StepQP:
         self.l[r], self.u[r] = -np.inf, np.inf
 
     def _coeff_on(self, block: _Block, k: int, var_coeffs: dict[int, float], slack: float) -> list[float]:
-        """Gives the row's coefficient list in the block's variable order (the slack is the last variable)."""
-        vars_k = block.vars_of[k]
-        out = [var_coeffs.get(v, 0.0) for v in vars_k[:-1]]
-        out.append(slack)
+        """Gives the row's coefficient list in the block's variable order (the slack is the last variable; a
+        variable the block's rows do not hold is left out)."""
+        key = (id(block), k)
+        pos = self._var_pos.get(key)
+        if pos is None:
+            vars_k = block.vars_of[k]
+            pos = self._var_pos[key] = {v: i for i, v in enumerate(vars_k[:-1])}
+        out = [0.0] * (len(pos) + 1)
+        for v, c in var_coeffs.items():
+            i = pos.get(v)
+            if i is not None:
+                out[i] = c
+        out[-1] = slack
         return out
 
     # -- the replan ---------------------------------------------------------------------------------------------

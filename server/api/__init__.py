@@ -2,7 +2,7 @@
 
 from fastapi import APIRouter
 
-from server.api import health, maneuvers, sessions, simulations, studio, sweeps, terrains
+from server.api import health, maneuvers, robots, sessions, simulations, studio, sweeps, terrains
 
 api_router = APIRouter()
 api_router.include_router(health.router)
@@ -12,5 +12,6 @@ api_router.include_router(sessions.router)
 api_router.include_router(studio.router)
 api_router.include_router(terrains.router)
 api_router.include_router(sweeps.router)
+api_router.include_router(robots.router)
 
 __all__ = ["api_router"]

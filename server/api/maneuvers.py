@@ -15,7 +15,7 @@ from fastapi import APIRouter, Header, Query, Request, Response
 from fastapi import Path as PathParam
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse, PlainTextResponse
-from pydantic import BaseModel
+from pydantic import BaseModel, Field
 
 from planning.maneuver import ManeuverError
 from planning.maneuver.load import read_yaml
@@ -27,7 +27,7 @@ from server.services import (
     read_maneuver_body,
     require_valid,
     to_maneuver,
-    validate,
+    validate_with_physics,
 )
 from server.storage import check_name, problems_to_fields
 
@@ -78,12 +78,31 @@ class ManeuverSaved(BaseModel):
     etag: str
     created: bool
     warnings: list[dict[str, Any]]
+    physics: dict[str, Any] | None = None  # the physics check (see ValidationAnswer)
 
 
 class ValidationAnswer(BaseModel):
     ok: bool
     warnings: list[dict[str, Any]]
     failures: list[dict[str, Any]]
+    physics: dict[str, Any] | None = Field(
+        None,
+        description="the physics check (the maneuver run headless in MuJoCo): ran, success, fell, failure_reason, "
+        "the event responsible for a failure, and per event (t, leg, type, path) the margins measured in the phase "
+        "it starts: peak_torque_use (share of the joint's limit), friction_use (share of the maneuver's friction), "
+        "stability_margin_m (capture point to support polygon), timing_error_s and place_error_m of touchdowns, "
+        "margin (1 unused .. 0 at a limit) and status (ok, warning, failure, not reached)",
+    )
+
+
+PhysicsParam = Annotated[
+    bool | None,
+    Query(
+        description="run the physics check (the whole maneuver simulated headless, about 0.3-1 s of CPU per "
+        "simulated second; it waits its turn with the queued simulations). Default: on, unless the server "
+        "runs with FOOTFALL_VALIDATE_PHYSICS=0"
+    ),
+]
 
 
 @router.get(
@@ -99,7 +118,9 @@ def list_maneuvers(store: StoreDep) -> list[dict[str, Any]]:
     openapi_extra=VALIDATE_BODY,
     summary="Check a maneuver without simulating: warnings (fixable) and failures (blocking)",
 )
-async def validate_maneuver_body(request: Request, services: ServicesDep) -> dict[str, Any]:
+async def validate_maneuver_body(
+    request: Request, services: ServicesDep, physics: PhysicsParam = None
+) -> dict[str, Any]:
     raw = await request.body()
     content_type = request.headers.get("content-type")
 
@@ -114,11 +135,12 @@ async def validate_maneuver_body(request: Request, services: ServicesDep) -> dic
             if e.status != 422:
                 raise
             return {"ok": False, "warnings": [], "failures": e.errors}
-        result = validate(maneuver, services, body.lines)
+        result = validate_with_physics(maneuver, services, body.lines, physics)
         return {
             "ok": bool(result.ok),
             "warnings": problems_to_fields(list(result.warnings)),
             "failures": problems_to_fields(list(result.failures)),
+            "physics": result.physics,
         }
 
     return await run_in_threadpool(work)
@@ -205,6 +227,7 @@ async def put_maneuver(
     services: ServicesDep,
     if_match: Annotated[str | None, Header(max_length=500)] = None,
     if_none_match: Annotated[str | None, Header(max_length=500)] = None,
+    physics: PhysicsParam = None,
 ) -> JSONResponse:
     check_name(name)
     raw = await request.body()
@@ -218,7 +241,7 @@ async def put_maneuver(
         maneuver = to_maneuver(body.data, body.lines, services.settings, services.robot)
         if maneuver.name != name:
             raise field_error(422, "name", f"must match the URL ({name!r}), got {maneuver.name!r}")
-        result = require_valid(maneuver, services, body.lines)
+        result = require_valid(maneuver, services, body.lines, physics)
         stored, created = services.store.save(
             name, maneuver_text(body, maneuver), if_match=if_match, if_none_match=if_none_match
         )
@@ -228,6 +251,7 @@ async def put_maneuver(
             "etag": stored.etag,
             "created": created,
             "warnings": problems_to_fields(list(result.warnings)),
+            "physics": result.physics,
         }
         return JSONResponse(
             answer, status_code=201 if created else 200,

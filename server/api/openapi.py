@@ -44,9 +44,9 @@ WHY = {
 
 # what a resource adds to what an operation's shape implies: (method, path) → statuses
 EXTRA: dict[tuple[str, str], tuple[int, ...]] = {
-    ("PUT", "/maneuvers/{name}"): (409, 428),
+    ("PUT", "/maneuvers/{name}"): (409, 428, 429),  # 429: the physics check finds the simulation queue full
     ("DELETE", "/maneuvers/{name}"): (409,),
-    ("POST", "/maneuvers/validate"): (415,),
+    ("POST", "/maneuvers/validate"): (415, 429),
     ("POST", "/simulations"): (409, 429),
     ("DELETE", "/simulations/{job_id}"): (409,),
     ("POST", "/sessions"): (429,),

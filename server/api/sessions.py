@@ -14,6 +14,7 @@ from fastapi.responses import HTMLResponse, JSONResponse
 
 from server.deps import ServicesDep, SessionsDep, WriteAccess
 from server.errors import ApiError
+from server.robots import default_name, resolve_robot
 from server.schemas import (
     SessionControlIn,
     SessionCreate,
@@ -39,11 +40,15 @@ SessionId = Annotated[str, Path(max_length=64, description="the id POST /session
 )
 async def create_session(body: SessionCreate, sessions: SessionsDep, services: ServicesDep) -> JSONResponse:
     terrain = await run_in_threadpool(resolve_terrain, str(body.terrain), services.settings)
-    s = await run_in_threadpool(sessions.create, terrain, body.mode, "api", body.maps)
+    robot = (
+        None if body.robot is None else await run_in_threadpool(resolve_robot, body.robot, services.settings)
+    )
+    s = await run_in_threadpool(sessions.create, terrain, body.mode, "api", body.maps, robot)
     return JSONResponse(
         {
             "id": s.id,
             "terrain": s.terrain,
+            "robot": body.robot or default_name(services.settings),
             "mode": s.mode,
             "maps": s.maps,
             "state_url": f"/sessions/{s.id}/state",
@@ -135,7 +140,7 @@ def session_push(session_id: SessionId, body: SessionPushIn, sessions: SessionsD
 @router.post(
     "/{session_id}/reset",
     dependencies=[WriteAccess],
-    summary="Back to standing at the origin, optionally on another terrain (also clears a crash)",
+    summary="Back to standing at the origin, optionally on another terrain or robot (also clears a crash)",
 )
 async def session_reset(
     session_id: SessionId, sessions: SessionsDep, services: ServicesDep, body: SessionResetIn | None = None
@@ -144,7 +149,10 @@ async def session_reset(
     terrain = None
     if body is not None and body.terrain is not None:
         terrain = await run_in_threadpool(resolve_terrain, str(body.terrain), services.settings)
-    await run_in_threadpool(s.reset, terrain, body.maps if body is not None else None)
+    robot = None
+    if body is not None and body.robot is not None:
+        robot = await run_in_threadpool(resolve_robot, body.robot, services.settings)
+    await run_in_threadpool(s.reset, terrain, body.maps if body is not None else None, robot)
     return s.state()
 
 

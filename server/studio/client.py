@@ -343,6 +343,9 @@ class StudioClient:
         gui = self.client.gui
         names = list(terrain_names())
         self.dd_terrain = gui.add_dropdown("terrain", names, initial_value="flat")
+        from server.studio.robot_picker import add_robot_picker
+
+        self.dd_robot = add_robot_picker(self)
         self._build_custom_terrain()
         # what a walk on a terrain plans on: the scene's own maps keep real time, the depth sensor's are what a robot
         # would see (slower than real time; the "depth cloud" overlay shows its scans)
@@ -604,7 +607,7 @@ class StudioClient:
             visuals = s.sim.visuals() if hasattr(s.sim, "visuals") else None
         if visuals is None:
             return
-        key = (s.terrain, len(visuals.robot_geoms))
+        key = (s.terrain, s.robot, len(visuals.robot_geoms))
         if self.view is not None and getattr(self.view, "_key", None) == key:
             return
         if self.view is not None:
@@ -637,7 +640,9 @@ class StudioClient:
             self.md_status.content = "**no live robot** (server at its session cap) — authoring only"
             return
         self._sync_sliders()
-        self.md_status.content = status_line(s.state(), self.fps)
+        st = s.state()
+        self.md_status.content = status_line(st, self.fps)
+        self.editor.show_clock(st)  # the loaded music follows the preview
 
 
 def page_script_html() -> str:

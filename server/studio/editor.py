@@ -28,8 +28,8 @@ from planning.maneuver.load import read_yaml
 from planning.maneuver.spec import NAME_PATTERN
 from server.storage import Conflict, StorageError, dump_yaml
 from server.studio import fields as F
-from server.studio import music
-from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, timeline_svg
+from server.studio import moves, music
+from server.studio.timeline import LEG_COLORS, LEG_ROWS, Bar, Mark, physics_marks, timeline_svg
 
 log = logging.getLogger("footfall.studio")
 FORMAT = "footfall/maneuver@1"
@@ -131,6 +131,8 @@ class ManeuverEditor:
         self.result: Any = None
         self.problems_by_item: dict[int, list[Any]] = {}
         self.general_problems: list[Any] = []
+        self.physics: dict[str, Any] | None = None  # the last physics check's section (for the document at
+        self._physics_rev = -1  # this edit count: marks of an older document are not drawn)
         # gui
         self.item_ui: dict[int, ItemUi] = {}
         self._holder_items: list[Any] = []
@@ -169,7 +171,7 @@ class ManeuverEditor:
         data = json.loads(json.dumps(data, default=str))
         with self.lock:
             self.meta = {k: data.get(k) for k in ("format", "name", "title", "description", "duration", "start",
-                                                  "tracks", "friction") if k in data}  # fmt: skip
+                                                  "tracks", "friction", "music") if k in data}  # fmt: skip
             self.meta.setdefault("format", FORMAT)
             self.events = [dict(e) for e in data.get("events") or [] if isinstance(e, dict)]
             self.keyframes = [dict(k) for k in data.get("body") or [] if isinstance(k, dict)]
@@ -183,6 +185,7 @@ class ManeuverEditor:
             self.selected.clear()
             self.view = None
         self._write_static_fields()
+        self._music_from_document()
         self._show_in_library(name)
         self.rebuild_items()
         self.request_validation(0.0)
@@ -322,6 +325,16 @@ class ManeuverEditor:
             names = move_names(Path(self.services.settings.data_dir) / "moves") or ["(none)"]
             self.dd_move = gui.add_dropdown("move", names, initial_value=names[0])
             self.num_move_repeat = gui.add_number("repeat", 1, min=1, max=MAX_REPEAT, step=1)
+            # the move's natural parameters (server.studio.moves): set to its own values when it is picked; only
+            # those it has are enabled
+            self.num_move_params = {
+                "angle": gui.add_number("angle (°)", 0.0, min=-moves.MAX_ANGLE_DEG, max=moves.MAX_ANGLE_DEG,
+                                        step=1.0, disabled=True, hint="how far the move turns in all"),
+                "distance": gui.add_number("distance (m)", 0.0, min=0.0, max=moves.MAX_DISTANCE_M, step=0.01,
+                                           disabled=True, hint="how far the move travels in all"),
+                "amount": gui.add_number("amount (×)", 1.0, min=0.0, max=moves.MAX_AMOUNT, step=0.05,
+                                         disabled=True, hint="how far its keyframes lean, tilt and dip (1: as written)"),
+            }  # fmt: skip
             self.btn_insert_move = gui.add_button("Insert at playhead")
             self.txt_move_name = gui.add_text("new move name", "")
             self.btn_save_move = gui.add_button("Save selection as a move")
@@ -335,6 +348,8 @@ class ManeuverEditor:
             )
             self.num_beat_offset = gui.add_number("first beat (s)", 0.0, min=0.0, max=10.0, step=0.005)
             self.cb_snap_beats = gui.add_checkbox("snap to beats", False)
+            self.html_audio = gui.add_html("")  # the loaded music, played with the preview (page.js)
+            self.html_clock = gui.add_html(music.clock_html(0.0, False, 1.0, ""))
         with gui.add_folder("Timeline tools", expand_by_default=False):
             self.dd_grid = gui.add_dropdown("snap to", tuple(GRID_CHOICES), initial_value="0.05 s")
             self.btn_undo = gui.add_button("Undo")
@@ -356,6 +371,12 @@ class ManeuverEditor:
         with gui.add_folder("Check and preview", expand_by_default=True):
             self.md_validation = gui.add_markdown("")
             self.btn_validate = gui.add_button("Validate")
+            self.cb_physics = gui.add_checkbox(
+                "physics check",
+                True,
+                hint="Validate also runs the whole maneuver headless in MuJoCo (a few seconds) and marks each "
+                "event on the timeline with the margins measured (torque, friction, stability, touchdown errors)",
+            )
             self.btn_preview = gui.add_button("Preview", color="green")
             self.btn_pause = gui.add_button("Play / pause")
             self.btn_restart = gui.add_button("Restart")
@@ -432,9 +453,10 @@ class ManeuverEditor:
             self.load_music(bytes(f.content), str(f.name))
 
         def retime(_e: Any) -> None:
-            if self.beats is not None:
+            if self.beats is not None and not self._suspend:
                 self.beats = music.Beats(float(self.num_bpm.value), float(self.num_beat_offset.value),
                                          self.beats.duration_s)  # fmt: skip
+                self._keep_music()
                 self._refresh_timeline()
 
         self.num_bpm.on_update(retime)
@@ -444,9 +466,11 @@ class ManeuverEditor:
         )
         self.btn_insert_move.on_click(
             lambda _e: self.insert_move(
-                str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value)
+                str(self.dd_move.value), self._scrub_t(), int(self.num_move_repeat.value), self.move_params()
             )
         )
+        self.dd_move.on_update(lambda e: self.show_move_params(str(e.target.value)))
+        self.show_move_params(str(self.dd_move.value))
         self.dd_grid.on_update(lambda e: setattr(self, "grid_s", GRID_CHOICES.get(str(e.target.value), 0.0)))
         self.btn_undo.on_click(lambda _e: self.undo())
         self.btn_redo.on_click(lambda _e: self.redo())
@@ -874,6 +898,10 @@ class ManeuverEditor:
             return None
         b = music.find_beats(x, rate)
         self.beats = b
+        try:
+            self.html_audio.content = music.audio_html(music.playable_wav(x, rate))
+        except Exception:  # noqa: BLE001 - no GUI
+            pass
         self._suspend = True
         try:
             self.num_bpm.value = b.bpm
@@ -884,8 +912,60 @@ class ManeuverEditor:
             f"**{name}**: {b.bpm:g} bpm, first beat at {b.offset_s:.3f} s, {b.duration_s:.1f} s long"
         )
         self.cb_snap_beats.value = True
+        self._keep_music(name)
         self._refresh_timeline()
         return b
+
+    def show_clock(self, state: dict[str, Any]) -> None:
+        """Tells the tab where the preview is (the page plays the loaded music in step with it): called with the
+        live session's state a few times a second; writes only when something changed."""
+        if not self.html_audio.content:
+            return
+        playing = (state.get("status") == "running" and state.get("mode") == "maneuver"
+                   and not state.get("done") and not state.get("fell"))  # fmt: skip
+        t = float(state.get("t") or 0.0)
+        html_ = music.clock_html(t if playing else round(t, 1), playing, float(state.get("speed") or 1.0),
+                                 f"{state.get('generation')}:{state.get('maneuver')}")  # fmt: skip
+        if html_ != self.html_clock.content:
+            self.html_clock.content = html_
+
+    def _keep_music(self, file: str | None = None) -> None:
+        """Writes the music's tempo and first beat into the document (`music`: the file keeps them)."""
+        if self.beats is None:
+            return
+        with self.lock:
+            old = self.meta.get("music") if isinstance(self.meta.get("music"), dict) else {}
+            kept: dict[str, Any] = {
+                "bpm": _r(float(self.beats.bpm), 3),
+                "offset": _r(float(self.beats.offset_s), 4),
+            }
+            name = file if file is not None else (old or {}).get("file")
+            if name:
+                kept["file"] = str(name)[:200]
+            if old == kept:
+                return
+            self.meta["music"] = kept
+        self._changed()
+
+    def _music_from_document(self) -> None:
+        """Shows the beat grid of a document's `music` (tempo and first beat; the audio is the user's to load)."""
+        m = self.meta.get("music")
+        if not isinstance(m, dict) or not isinstance(m.get("bpm"), (int, float)):
+            return
+        offset = float(m.get("offset") or 0.0)
+        self.beats = music.Beats(float(m["bpm"]), offset, float(self.meta.get("duration") or 60.0))
+        self._suspend = True
+        try:
+            self.num_bpm.value = float(m["bpm"])
+            self.num_beat_offset.value = offset
+            name = f"**{m['file']}**" if m.get("file") else "the maneuver's music"
+            self.md_music.content = (
+                f"{name}: {float(m['bpm']):g} bpm, first beat at {offset:.3f} s (kept in the file)"
+            )
+        except Exception:  # noqa: BLE001 - no GUI
+            pass
+        finally:
+            self._suspend = False
 
     def _snap(self, t: float) -> float:
         if self.beats is not None and bool(self.cb_snap_beats.value):
@@ -1015,10 +1095,7 @@ class ManeuverEditor:
         self.notify("Move saved", f"{name}: {len(events)} events, {len(body)} keyframes", "green")
         return path
 
-    def insert_move(self, name: str, t0: float, repeat: int = 1) -> int:
-        """Inserts a move (maneuvers/moves/NAME.yaml) `repeat` times back to back from t0 (s): its events, keyframes,
-        gaits and objectives shift by t0, its positions by where the body is planned to be at t0 (x, y); the
-        maneuver grows to hold it. Returns how many items it added (0, after telling the user, when it cannot)."""
+    def _read_move(self, name: str) -> dict[str, Any] | None:
         path = self.user_moves_dir() / f"{name}.yaml"
         if not path.is_file():
             path = MOVES_DIR / f"{name}.yaml"
@@ -1026,9 +1103,48 @@ class ManeuverEditor:
             data, _ = read_yaml(path.read_text(encoding="utf-8"))
         except (OSError, ManeuverError) as e:
             self.notify("Cannot insert", f"{name}: {e}", "red")
+            return None
+        return data if isinstance(data, dict) else None
+
+    def show_move_params(self, name: str) -> dict[str, float]:
+        """Sets the parameter inputs to a move's own values, enabling those it has; returns them."""
+        data = self._read_move(name) if name and name != "(none)" else None
+        nat = moves.natural_params(data) if data is not None else {}
+        self._move_natural = nat
+        for key, num in getattr(self, "num_move_params", {}).items():
+            try:
+                num.value = nat.get(key, 1.0 if key == "amount" else 0.0)
+                num.disabled = key not in nat
+            except Exception:  # noqa: BLE001 - the client may be gone
+                pass
+        return nat
+
+    def move_params(self) -> dict[str, float]:
+        """Returns the parameters set in the inputs that differ from the picked move's own values."""
+        nat = getattr(self, "_move_natural", {})
+        out = {}
+        for key, num in getattr(self, "num_move_params", {}).items():
+            if key in nat and abs(float(num.value) - nat[key]) > 1e-6:
+                out[key] = float(num.value)
+        return out
+
+    def insert_move(
+        self, name: str, t0: float, repeat: int = 1, params: dict[str, float] | None = None
+    ) -> int:
+        """Inserts a move (maneuvers/moves/NAME.yaml) `repeat` times back to back from t0 (s): its events, keyframes,
+        gaits and objectives shift by t0, its positions by where the body is planned to be at t0 (x, y); the
+        maneuver grows to hold it. `params` (angle, distance, amount; server.studio.moves) rescale it first.
+        Returns how many items it added (0, after telling the user, when it cannot)."""
+        data = self._read_move(name)
+        if data is None:
             return 0
-        if not isinstance(data, dict):
-            return 0
+        if params:
+            try:
+                h = float(getattr(self.services.robot, "standing_height_m", 0.52))
+                data = moves.scale_move(data, standing_height_m=h, **params)
+            except (ValueError, TypeError) as e:
+                self.notify("Cannot insert", f"{name}: {e}", "red")
+                return 0
         repeat = int(min(max(repeat, 1), MAX_REPEAT))
         dur = float(data.get("duration") or 0.0)
         t0 = self._snap(t0)
@@ -1065,7 +1181,8 @@ class ManeuverEditor:
             self.selected = {id(c) for c in added}
         self._write_static_fields(keep_scrub=True)
         self._changed(structural=True)
-        self.notify("Inserted", f"{name} × {repeat} at {t0:.2f} s", "green")
+        said = ", ".join(f"{k} {v:g}" for k, v in (params or {}).items())
+        self.notify("Inserted", f"{name}{f' ({said})' if said else ''} × {repeat} at {t0:.2f} s", "green")
         return len(added)
 
     def copy_selection(self) -> int:
@@ -1169,7 +1286,8 @@ class ManeuverEditor:
                 self._checks_done.notify_all()
 
     def validate_now(self, announce: bool = False) -> Any:
-        """Validates the document, shows the problems on their items; returns the result (None: shape errors)."""
+        """Validates the document, shows the problems on their items; returns the result (None: shape errors).
+        announce (the Validate button): also starts the physics check in the background when its box is ticked."""
         rev = self._rev
         doc, ev_ids, kf_ids = self.document()
         try:
@@ -1181,11 +1299,35 @@ class ManeuverEditor:
                 maneuver, self.services.robot
             )  # the one validation: CLI and REST call it too
             problems = [*result.failures, *result.warnings]
+        physics = bool(announce and result is not None and result.ok and self._physics_wanted())
+        if not self._show_result(rev, result, problems, ev_ids, kf_ids):
+            return result
+        if announce and not physics:
+            n_f = sum(1 for p in problems if p.severity == "failure")
+            n_w = len(problems) - n_f
+            self.notify("Validation", "valid" if n_f == 0 else f"{n_f} failures, {n_w} warnings",
+                        "green" if n_f == 0 else "red")  # fmt: skip
+        if physics:
+            self._start_physics(rev, maneuver, result, ev_ids, kf_ids)
+        return result
+
+    def _physics_wanted(self) -> bool:
+        try:
+            return bool(self.cb_physics.value)
+        except Exception:  # noqa: BLE001 - no GUI (a test's editor)
+            return True
+
+    def _show_result(
+        self, rev: int, result: Any, problems: list[Any], ev_ids: list[int], kf_ids: list[int]
+    ) -> bool:
+        """Shows a validation's problems on their items and the timeline; False when a newer document's are shown."""
         with self.lock:
             if rev < self._shown_rev:
-                return result  # a newer document's problems are shown already
+                return False  # a newer document's problems are shown already
             self._shown_rev = rev
             self.result = result
+            if getattr(result, "physics", None) is not None:
+                self.physics, self._physics_rev = result.physics, rev
             self.problems_by_item = {}
             self.general_problems = []
             for p in problems:
@@ -1198,12 +1340,53 @@ class ManeuverEditor:
         self._refresh_timeline()
         self.refresh_markers()
         self._refresh_scrub()
-        if announce:
-            n_f = sum(1 for p in problems if p.severity == "failure")
-            n_w = len(problems) - n_f
-            self.notify("Validation", "valid" if n_f == 0 else f"{n_f} failures, {n_w} warnings",
-                        "green" if n_f == 0 else "red")  # fmt: skip
-        return result
+        return True
+
+    def _start_physics(
+        self, rev: int, maneuver: Any, result: Any, ev_ids: list[int], kf_ids: list[int]
+    ) -> None:
+        """Runs the physics check on the simulation pool in a background thread (close waits for it); its marks
+        and problems are shown if the document did not change meanwhile."""
+        with self._checks_done:
+            if getattr(self, "_closed", False):
+                return
+            self._checks_running += 1
+        try:
+            self.md_validation.content += "\n\n⏳ physics check: simulating the maneuver headless…"
+        except Exception:  # noqa: BLE001
+            pass
+
+        def work() -> None:
+            from planning.maneuver.physics import skipped, with_physics
+            from server.services import PhysicsUnavailable, physics_report
+            from server.simulations import QueueFull
+
+            try:
+                try:
+                    checked = with_physics(result, physics_report(maneuver, self.services))
+                except (PhysicsUnavailable, QueueFull) as e:
+                    checked = skipped(result, f"the physics check could not run: {e}")
+                if rev != self._rev:
+                    return  # edited meanwhile: these marks belong to an older document
+                problems = [*checked.failures, *checked.warnings]
+                self._show_result(rev, checked, problems, ev_ids, kf_ids)
+                ph = checked.physics or {}
+                if not ph.get("ran"):
+                    self.notify("Physics check not run", str(ph.get("reason", "")), "yellow")
+                elif checked.ok:
+                    self.notify("Validation", f"valid — the physics check succeeded ({len(checked.warnings)} "
+                                              "warnings)", "green")  # fmt: skip
+                else:
+                    first = checked.failures[0] if checked.failures else ""
+                    self.notify("Validation", f"the physics check fails: {first}"[:300], "red")
+            except Exception:  # noqa: BLE001 - a background check must not die noisily
+                log.exception("studio physics check")
+            finally:
+                with self._checks_done:
+                    self._checks_running -= 1
+                    self._checks_done.notify_all()
+
+        threading.Thread(target=work, name="footfall-physics-check", daemon=True).start()
 
     def _item_of_path(self, path: str, ev_ids: list[int], kf_ids: list[int]) -> int | None:
         m = _PATH_RE.match(path or "")
@@ -1251,6 +1434,13 @@ class ManeuverEditor:
         n_f = sum(1 for p in all_ps if p.severity == "failure")
         n_w = len(all_ps) - n_f
         lines = [f"**{'✔ valid' if n_f == 0 else '✖ invalid'}** — {n_f} failures, {n_w} warnings"]
+        ph = self.physics if self._physics_rev == self._shown_rev else None
+        if ph is not None and ph.get("ran"):
+            verdict = "succeeded" if ph.get("success") else f"**failed**: {ph.get('failure_reason')}"
+            lines.append(f"- physics check {verdict} ({ph.get('simulated_s')} s simulated in {ph.get('wall_s')} s; "
+                         "dots on the timeline: margins per event, hover for the numbers)")  # fmt: skip
+        elif ph is not None:
+            lines.append(f"- physics check not run: {ph.get('reason')}")
         lines += [
             f"- {'✖' if p.severity == 'failure' else '⚠'} `{p.path or 'file'}`: {p.message}" for p in general
         ]
@@ -1303,6 +1493,7 @@ class ManeuverEditor:
                 view=self.view,
                 selected=set(self.selected),
                 beats=beats,
+                physics=physics_marks(self.physics) if self._physics_rev == self._rev else (),
             )
         except Exception:  # noqa: BLE001
             pass

@@ -64,6 +64,46 @@ def read_wav(data: bytes) -> tuple[np.ndarray, int]:
     return x, rate
 
 
+PLAY_RATE_HZ = 22050  # the copy of the music the tab plays: mono, 16-bit, at most this rate
+PLAY_MAX_S = 75.0  # ... and this long (a maneuver lasts at most 60 s)
+
+
+def playable_wav(x: np.ndarray, rate: int) -> bytes:
+    """Returns a small WAV file (mono, 16-bit, ≤ PLAY_RATE_HZ, ≤ PLAY_MAX_S) of mono samples x at `rate` Hz, for the
+    tab to play beside the preview: block averages as the (crude) low-pass before dropping samples."""
+    k = max(1, int(np.ceil(rate / PLAY_RATE_HZ)))
+    x = np.asarray(x[: int(PLAY_MAX_S * rate)], dtype=float)
+    n = len(x) // k
+    y = x[: n * k].reshape(n, k).mean(axis=1) if k > 1 else x
+    pcm = (np.clip(y, -1.0, 1.0) * 32767.0).astype("<i2")
+    buf = io.BytesIO()
+    with wave.open(buf, "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(int(round(rate / k)))
+        w.writeframes(pcm.tobytes())
+    return buf.getvalue()
+
+
+def audio_html(wav: bytes) -> str:
+    """Returns the tab's audio element for a WAV file's bytes (page.js starts, seeks and pauses it with the
+    preview)."""
+    import base64
+
+    src = "data:audio/wav;base64," + base64.b64encode(wav).decode("ascii")
+    return (f'<audio data-footfall-audio="1" controls preload="auto" src="{src}" '
+            'style="width: 100%; height: 28px"></audio>')  # fmt: skip
+
+
+def clock_html(t: float, playing: bool, rate: float, run: str) -> str:
+    """Returns the hidden element that tells page.js where the preview is: its time (s), whether it plays, at what
+    speed, and which run (a new run restarts the music)."""
+    import html as _html
+
+    return (f'<span data-footfall-clock="1" data-t="{t:.3f}" data-playing="{1 if playing else 0}" '
+            f'data-rate="{rate:.3f}" data-run="{_html.escape(run)}" style="display: none"></span>')  # fmt: skip
+
+
 def find_beats(x: np.ndarray, rate: int) -> Beats:
     """Returns the tempo and beat phase of mono samples x at `rate` Hz."""
     hop = max(1, int(HOP_S * rate))

@@ -5,6 +5,9 @@
 //    shaded adjust window (its ± time), a keyframe diamond; click to select (shift adds), drag on empty rows to box
 //    select, drag on the time axis to move the playhead, wheel to zoom, shift+wheel to pan. Each gesture is sent to
 //    the server as one JSON op through the hidden "timeline edits" text input; the server snaps, applies, redraws.
+// 3. The loaded music plays in step with the preview: the server writes the preview's time, speed and state into a
+//    hidden clock element a few times a second; between writes the time runs on at that speed here; the audio is
+//    started, sought (when off by more than 0.15 s) and paused to follow it.
 (function () {
   if (window.__footfall) return;
   var ff = (window.__footfall = {n: 0});
@@ -140,4 +143,30 @@
     }
     send({op: "view", t0: t0, t1: t1});
   }, {capture: true, passive: false});
+
+  var clock = {run: null, t: 0, at: 0, playing: false, rate: 1};
+  function syncAudio() {
+    var audio = document.querySelector("audio[data-footfall-audio]");
+    var el = document.querySelector("[data-footfall-clock]");
+    if (!audio || !el) return;
+    var d = el.dataset, t = parseFloat(d.t) || 0, now = performance.now() / 1000;
+    if (d.t !== clock.raw || d.playing !== clock.rawPlaying || d.run !== clock.run) {
+      clock = {raw: d.t, rawPlaying: d.playing, run: d.run, t: t, at: now, playing: d.playing === "1",
+               rate: parseFloat(d.rate) || 1};
+    }
+    var want = clock.playing ? clock.t + (now - clock.at) * clock.rate : clock.t;
+    ff.audioTarget = want;
+    if (!clock.playing) {
+      if (!audio.paused) audio.pause();
+      return;
+    }
+    if (want >= (audio.duration || Infinity)) return;
+    audio.playbackRate = Math.min(4, Math.max(0.25, clock.rate));
+    if (Math.abs(audio.currentTime - want) > 0.15) audio.currentTime = want;
+    if (audio.paused) {
+      var p = audio.play();
+      if (p && p.catch) p.catch(function () {});  // a tab nobody clicked in may not play sound yet
+    }
+  }
+  setInterval(syncAudio, 100);
 })();

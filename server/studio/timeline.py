@@ -44,6 +44,52 @@ class Mark:
     item_id: int | None = None
 
 
+@dataclass(frozen=True)
+class PhysicsMark:
+    """What the physics check measured at one event: drawn as a dot under the event on its leg's row, colored by
+    its margin (1 unused .. 0 at a limit), red when the check failed on it; `numbers` is its tooltip."""
+
+    leg: str
+    t: float
+    status: str  # "ok" | "warning" | "failure" | "not reached"
+    margin: float
+    numbers: str
+
+
+def margin_color(status: str, margin: float) -> str:
+    """Returns a mark's color: red on the failure, grey when the run ended before the event, else green (margin
+    ≥ 0.5), yellow (≥ 0.25), orange (below)."""
+    if status == "failure":
+        return "#ff3b30"
+    if status == "not reached":
+        return "#6b7280"
+    return "#34c759" if margin >= 0.5 else "#ffcc00" if margin >= 0.25 else "#ff9500"
+
+
+def physics_marks(section: dict[str, object] | None) -> list[PhysicsMark]:
+    """Returns the marks of a validation answer's `physics` section (none when the check did not run)."""
+    if not section or not section.get("ran"):
+        return []
+    out = []
+    for e in section.get("events") or []:  # type: ignore[attr-defined]
+        parts = [f"{e['leg']} {e['type']} at {float(e['t']):.2f} s — {e.get('status', 'ok')}, margin "
+                 f"{float(e.get('margin', 1.0)):.2f}",
+                 f"peak torque {float(e.get('peak_torque_use', 0.0)):.0%} of limit ({e.get('peak_torque_joint') or '-'})",
+                 f"friction use {float(e.get('friction_use', 0.0)):.0%}"]  # fmt: skip
+        if e.get("stability_margin_m") is not None:
+            parts.append(f"stability margin {float(e['stability_margin_m']) * 100:+.1f} cm")
+        if e.get("timing_error_s") is not None:
+            parts.append(f"touchdown timing {float(e['timing_error_s']) * 1e3:+.0f} ms, "
+                         f"place {float(e.get('place_error_m') or 0.0) * 100:.1f} cm")  # fmt: skip
+        elif e.get("type") == "touchdown" and e.get("reached", True):
+            parts.append("touchdown not found in the run")
+        if e.get("backup_ticks"):
+            parts.append(f"{e['backup_ticks']} backup-controller ticks")
+        out.append(PhysicsMark(str(e["leg"]), float(e["t"]), str(e.get("status", "ok")),
+                               float(e.get("margin", 1.0)), "\n".join(parts)))  # fmt: skip
+    return out
+
+
 def _ids(*ids: int | None) -> str:
     return " ".join(str(i) for i in ids if i is not None)
 
@@ -58,6 +104,7 @@ def timeline_svg(
     view: tuple[float, float] | None = None,
     selected: Collection[int] = (),
     beats: Sequence[float] = (),
+    physics: Sequence[PhysicsMark] = (),
 ) -> str:
     """Returns an inline SVG of the timeline showing `view` = (t0, t1) s (default: the whole maneuver)."""
     d = max(duration_s, 1e-3)
@@ -138,6 +185,17 @@ def timeline_svg(
         out.append(
             f'<path {grab} d="M {xx:.1f} {yy - 6:.1f} L {xx + 5:.1f} {yy:.1f} L {xx:.1f} {yy + 6:.1f} L {xx - 5:.1f} '
             f'{yy:.1f} Z" fill="{fill}"{stroke}><title>{m.row} at {m.t:.2f} s</title></path>'
+        )
+    # the physics check's measurements: a dot under each event (the failure's larger, ringed)
+    for pm in physics:
+        if not (v0 - 1e-9 <= pm.t <= v1 + 1e-9) or pm.leg not in LEG_ROWS:
+            continue
+        big = pm.status == "failure"
+        ring = ' stroke="#ffffff" stroke-width="1.2"' if big else ""
+        out.append(
+            f'<circle data-physics="{html.escape(pm.status)}" data-margin="{pm.margin:.3f}" cx="{x(pm.t):.1f}" '
+            f'cy="{y(pm.leg) + 16:.1f}" r="{3.2 if big else 2.2}" fill="{margin_color(pm.status, pm.margin)}"{ring}>'
+            f"<title>{html.escape(pm.numbers)}</title></circle>"
         )
     # time axis (drag on it to move the playhead)
     ya = TOP + ROW_H * len(rows) + 2

@@ -17,6 +17,7 @@ from planning.maneuver.spec import (
     Maneuver,
     MaximizeHeight,
     MinimizeTorque,
+    Music,
     Touchdown,
     Weights,
 )
@@ -30,6 +31,7 @@ MODELS = [
     LiftoffAdjust,
     MaximizeHeight,
     MinimizeTorque,
+    Music,
     Touchdown,
     Weights,
 ]
@@ -75,3 +77,24 @@ def test_schema_spells_out_the_choices() -> None:
     gait = maneuver_json_schema()["$defs"]["Gait"]
     assert "from" in gait["properties"] and "from_" not in gait["properties"]
     assert gait["properties"]["duty"]["exclusiveMaximum"] == 1.0
+
+
+def test_music_is_optional_kept_and_checked(mk) -> None:
+    """A maneuver keeps the tempo and first beat of its music; files without it load unchanged."""
+    from planning.maneuver import ManeuverError, parse_maneuver
+    from planning.maneuver.spec import MAX_BPM
+
+    assert parse_maneuver(mk()).music is None
+    m = parse_maneuver(mk(music={"bpm": 124, "offset": 0.35, "file": "song.wav"}))
+    assert m.music is not None and (m.music.bpm, m.music.offset, m.music.file) == (124.0, 0.35, "song.wav")
+    assert m.model_dump(by_alias=True, exclude_none=True)["music"] == {
+        "bpm": 124.0,
+        "offset": 0.35,
+        "file": "song.wav",
+    }
+    with pytest.raises(ManeuverError) as e:
+        parse_maneuver(mk(music={"bpm": MAX_BPM + 1, "offset": -0.1, "tempo": 3}))
+    text = str(e.value)
+    assert "music.bpm: must be at most 360" in text and "music.offset: must be at least 0" in text
+    assert "music.tempo" in text
+    assert maneuver_json_schema()["$defs"]["Music"]["properties"]["bpm"]["maximum"] == MAX_BPM

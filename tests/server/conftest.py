@@ -15,8 +15,9 @@ from server.settings import Settings
 
 @pytest.fixture
 def settings(tmp_path: Path) -> Settings:
+    # validation's physics check is asked for by the tests about it (?physics=true): the others stay quick
     return Settings(data_dir=tmp_path / "data", max_sessions=3, sim_workers=1, max_queued_simulations=4,
-                    reaper_period_s=0.2)  # fmt: skip
+                    reaper_period_s=0.2, validate_physics=False)  # fmt: skip
 
 
 @pytest.fixture

@@ -123,3 +123,22 @@ def make_client(settings: Settings, **kw: Any) -> Iterator[TestClient]:
     app = create_app(settings, **kw)
     with TestClient(app, raise_server_exceptions=False) as c:
         yield c
+
+
+def falling_runner(job: dict[str, Any]) -> dict[str, Any]:
+    """A physics check whose robot falls after the first touchdown of the maneuver's events (a run report with the
+    per-event margins of planning.maneuver.physics); other jobs as fake_runner."""
+    if not job.get("physics_check"):
+        return fake_runner(job)
+    events = []
+    for i, e in enumerate(job["maneuver"].get("events") or []):
+        row = {"t": e["t"], "leg": e["leg"], "type": e["type"], "path": f"events[{i}]", "explicit": True,
+               "reached": True, "phase": i, "peak_torque_use": 0.99, "peak_torque_joint": f"{e['leg']} knee",
+               "friction_use": 0.4, "stability_margin_m": -0.1, "backup_ticks": 0}  # fmt: skip
+        if e["type"] == "touchdown":
+            row.update(time_window_s=0.05, place_window_m=0.0, timing_error_s=0.09, place_error_m=0.02,
+                       within_window=True)  # fmt: skip
+        events.append(row)
+    return {"maneuver": job["maneuver"]["name"], "success": False, "fell": True, "fall_time_s": 2.0,
+            "failure_reason": "fell: body dropped to 0.20 m at t=2.00 s", "duration_s": 2.0,
+            "timing": {"wall_s": 0.5, "rtf": 4.0}, "events": events}  # fmt: skip

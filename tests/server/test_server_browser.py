@@ -8,6 +8,7 @@ no error. Leaves a screenshot in artifacts/. Without /usr/bin/chromium (or Playw
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -31,6 +32,7 @@ CHROMIUM_ARGS = [
     "--disable-background-networking",
     "--disable-component-update",
     "--disable-sync",
+    "--autoplay-policy=no-user-gesture-required",  # the music plays with the preview (a user has clicked Preview)
 ]
 ERROR_WORDS = ("Studio error", "Not valid", "Preview failed", "No live robot", "Cannot open", "crashed")
 
@@ -361,4 +363,87 @@ def test_keys_timeline_drag_undo_broken_edit_and_save(server: dict[str, Any], tm
         while page.get_by_label("Maneuver", exact=True).input_value() != "jump-dragged":
             assert time.monotonic() < end, page.get_by_label("Maneuver", exact=True).input_value()
             time.sleep(0.2)
+        _physics_failure_music_and_beats(page, server, tmp_path, px_per_s, wait_svg)
         assert not problems, problems
+
+
+def _click_wav(path: Path, bpm: float = 120.0, offset_s: float = 0.25, seconds: float = 8.0) -> Path:
+    """Writes a mono 16-bit WAV of clicks on every beat (over a little noise)."""
+    import wave
+
+    import numpy as np
+
+    rate = 22050
+    x = np.random.default_rng(1).normal(0.0, 0.01, int(rate * seconds))
+    n = int(0.03 * rate)
+    click = 0.8 * np.sin(2 * np.pi * 880 * np.arange(n) / rate) * np.exp(-np.arange(n) / (0.01 * rate))
+    for tb in np.arange(offset_s, seconds - 0.05, 60.0 / bpm):
+        i = int(tb * rate)
+        x[i : i + n] += click[: len(x[i : i + n])]
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(rate)
+        w.writeframes((np.clip(x, -1, 1) * 32767).astype("<i2").tobytes())
+    return path
+
+
+def _physics_failure_music_and_beats(
+    page: Any, server: dict[str, Any], tmp_path: Path, px_per_s: float, wait_svg: Any
+) -> None:
+    """The issue's broken edit: `jump` with FL's touchdown dragged 1.42 → 1.55 s passes the rules, but Validate runs
+    the physics check: a red dot on that touchdown, the other events' margins as dots. Then music: a click track
+    loaded, its beats drawn, a keyframe dragged snaps to a beat, saved: the file keeps the tempo; previewed: the
+    music plays."""
+    svg = "svg[data-footfall-timeline]"
+    page.get_by_label("Maneuver", exact=True).click()
+    page.get_by_role("option", name="jump", exact=True).click()
+    page.get_by_role("button", name="Open", exact=True).click()
+    wait_svg(lambda h: "FL swing 1.20 → 1.42 s" in h, "jump is open again")
+    box = page.locator(f"{svg} rect[data-part=end]").first.bounding_box()
+    _drag(page, box, 0.13 * px_per_s)
+    wait_svg(
+        lambda h: "FL swing 1.20 → 1.55 s" in h and "#ff3b30" not in h, "FL's touchdown at 1.55 s, valid"
+    )
+    page.get_by_role("button", name="Validate", exact=True).click()
+    wait_svg(lambda h: 'data-physics="failure"' in h, "the physics check's failure shows on the timeline")
+    html_ = page.locator(svg).inner_html()
+    assert html_.count('data-physics="failure"') == 1 and html_.count("<circle") == 8
+    assert "FL touchdown at 1.55 s — failure" in html_
+    page.locator(svg).scroll_into_view_if_needed()  # Validate scrolled the panel down to its button
+    page.screenshot(path=str(ARTIFACTS / "studio-physics-failure.png"))
+    # music: load a click track at 120 bpm, its beats show; a keyframe dragged lands on a beat
+    page.get_by_text("Music", exact=True).first.dispatch_event("click")
+    with page.expect_file_chooser() as chooser:
+        page.get_by_role("button", name="Load music (WAV)").click()
+    chooser.value.set_files(str(_click_wav(tmp_path / "clicks.wav")))
+    wait_svg(lambda h: h.count('stroke-dasharray="1 2"') >= 6, "the beat grid is drawn")
+    page.locator(svg).scroll_into_view_if_needed()
+    kbox = page.locator(f"{svg} path[data-part=move]").nth(3).bounding_box()  # the keyframe at 2.80 s
+    _drag(page, kbox, 0.12 * px_per_s)
+
+    def on_beat(h: str) -> bool:  # the beats found are 120 bpm from ~0.25 s (within a few ms)
+        times = [float(v) for v in re.findall(r"body at ([0-9.]+) s", h)]
+        return 2.8 not in times and any(min(abs(t - 2.75), abs(t - 3.25)) < 0.03 for t in times)
+
+    wait_svg(on_beat, "the keyframe snapped to a beat")
+    page.screenshot(path=str(ARTIFACTS / "studio-music-beats.png"))
+    # saved: the file keeps the tempo and first beat
+    name_box = page.get_by_label("save as name", exact=True)
+    if not name_box.is_visible():  # the File folder is still open from the first save
+        page.get_by_text("File", exact=True).first.dispatch_event("click")
+    name_box.fill("jump-on-beat")
+    page.get_by_role("button", name="Save as", exact=True).click()
+    doc = _saved(server["api"], "jump-on-beat")
+    assert doc["music"]["bpm"] == pytest.approx(120.0, abs=1.0), doc.get("music")
+    assert doc["music"]["offset"] == pytest.approx(0.25, abs=0.03) and doc["music"]["file"] == "clicks.wav"
+    last = sorted(k["t"] for k in doc["body"])[-1]
+    assert min(abs(last - (0.25 + 0.5 * k)) for k in range(12)) < 0.02, last  # on a beat
+    # the preview plays the music in step
+    page.get_by_role("button", name="Preview", exact=True).click()
+    end = time.monotonic() + 60
+    # (paused again after a fall, it keeps the time it reached: it only advances while it plays)
+    js = "() => { const a = document.querySelector('audio[data-footfall-audio]'); return a ? a.currentTime : -1 }"
+    while (played := page.evaluate(js)) <= 0.2:
+        assert time.monotonic() < end, f"the music did not play with the preview ({played})"
+        time.sleep(0.2)

@@ -21,7 +21,14 @@ from server.settings import Settings
 _PARENT = Path(tempfile.mkdtemp(prefix="footfall-fuzz-"))  # private: the suite reads only what it made
 _DATA = _PARENT / "data"
 app = create_app(
-    Settings(data_dir=_DATA, max_sessions=2, max_queued_simulations=2, max_body_bytes=64 * 1024),
+    # validation's physics check off by default (each would queue a run); `?physics=true` is still fuzzed
+    Settings(
+        data_dir=_DATA,
+        max_sessions=2,
+        max_queued_simulations=2,
+        max_body_bytes=64 * 1024,
+        validate_physics=False,
+    ),  # fmt: skip
     sim_factory=FakeSim,
     sim_runner=fake_runner,
 )

@@ -36,7 +36,7 @@ pytestmark = pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads proces
 
 @pytest.fixture
 def settings(tmp_path: Path) -> Settings:
-    return Settings(data_dir=tmp_path, session_workers="process", reaper_period_s=0.2)
+    return Settings(data_dir=tmp_path, session_workers="process", reaper_period_s=0.2, validate_physics=False)
 
 
 @pytest.fixture

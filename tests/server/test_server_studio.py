@@ -349,6 +349,24 @@ def test_rest_steering_shows_on_the_sliders(studio_app: tuple[TestClient, Any], 
     tab.dd_terrain.value = "flat"
 
 
+def test_the_robot_picker_redraws_the_tab_on_another_robot(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    client, _ = studio_app
+    names = [e["name"] for e in client.get("/robots").json()]
+    assert set(tab.dd_robot.options) == set(names) and tab.dd_robot.value == "spot"
+    sid, view = tab.session.id, tab.view
+    tab.dd_robot.value = "go1"  # resets the tab's session on go1: a new simulation, the scene redrawn
+    assert client.get(f"/sessions/{sid}/state").json()["robot"] == "go1"
+    assert wait_for(lambda: tab.view is not None and tab.view is not view, 10.0)
+    body_z = float(tab.session.snapshot.xpos[0][2])
+    assert 0.2 < body_z < 0.4, body_z  # go1 stands ~0.30 m high (spot 0.52 m)
+    tab.dd_robot.value = "spot"
+    assert wait_for(
+        lambda: tab.session.robot == "spot" and float(tab.session.snapshot.xpos[0][2]) > 0.45, 10.0
+    )
+
+
 def test_plots_count_seconds_not_dates(studio_app: tuple[TestClient, Any], tab: Any) -> None:
     for plot in (tab.plot_solver, tab.plot_vel):
         assert plot.scales["x"]["time"] is False and plot.axes[0]["label"] == "t (s)"
@@ -493,6 +511,21 @@ def test_moves_library_validates_and_inserts_at_the_playhead(
         and not ed.events
         and ed.meta["duration"] == pytest.approx(6.0)
     )
+    # a move's natural parameters: picking it shows its own values, inserting with another rescales it
+    ed.dd_move.value = "turn-left-45"
+    assert wait_for(lambda: ed.num_move_params["angle"].value == pytest.approx(45.0))
+    assert ed.num_move_params["distance"].disabled and not ed.num_move_params["angle"].disabled
+    ed.num_move_params["angle"].value = 90.0
+    assert ed.move_params() == {"angle": 90.0}
+    n_gaits = len(ed.gaits)
+    assert (
+        ed.insert_move("turn-left-45", 6.0, 1, ed.move_params()) == 0
+    )  # a gait segment: no timed item added
+    g = ed.gaits[n_gaits]
+    cycles = round((g["to"] - g["from"]) / g["cycle"])
+    assert cycles * g["step"][2] == pytest.approx(90.0) and g["from"] == pytest.approx(6.3)
+    assert ed.insert_move("bow", 1.0, 1, {"angle": 10.0}) == 0  # told: bow does not turn
+    ed.undo()
 
 
 def test_replay_a_preview_frame_by_frame_with_the_run_before_as_a_ghost(
@@ -575,7 +608,36 @@ def test_music_on_the_timeline_and_snapping_to_beats(studio_app: tuple[TestClien
     ]  # 2.80 s: dragged 0.1 s later it lands on the beat at 2.75 + 0.5 = 3.25 s? no: nearest
     ed.drag([id(kf)], "move", 0.1)
     assert kf["t"] == pytest.approx(b.snap(2.9), abs=1e-3) and kf["t"] == pytest.approx(2.75, abs=0.03)
+    # the tab gets a small copy of the music to play, and a clock that follows the preview
+    assert ed.html_audio.content.startswith("<audio data-footfall-audio")
+    assert len(ed.html_audio.content) < 2_000_000
+    state = {
+        "status": "running",
+        "mode": "maneuver",
+        "t": 1.25,
+        "speed": 0.5,
+        "generation": 3,
+        "maneuver": "jump",
+    }
+    ed.show_clock(state)
+    assert 'data-t="1.250" data-playing="1" data-rate="0.500" data-run="3:jump"' in ed.html_clock.content
+    ed.show_clock({**state, "status": "paused"})
+    assert 'data-playing="0"' in ed.html_clock.content
+    ed.show_clock({**state, "fell": True})
+    assert 'data-playing="0"' in ed.html_clock.content
+    # the maneuver keeps its tempo and first beat: saved, reopened without the audio, the grid comes back
+    kept = ed.document()[0]["music"]
+    assert kept == {"bpm": pytest.approx(b.bpm), "offset": pytest.approx(b.offset_s), "file": "click.wav"}
+    ed.save("jump-on-beat")
+    stored = ed.services.store.get("jump-on-beat")
+    assert "music:" in stored.text and "click.wav" in stored.text
+    ed.beats = None
+    assert ed.open("jump-on-beat") and ed.beats is not None
+    assert ed.beats.bpm == pytest.approx(b.bpm) and ed.num_beat_offset.value == pytest.approx(b.offset_s)
+    ed.num_bpm.value = 100.0  # retimed by hand: the document follows
+    assert wait_for(lambda: ed.document()[0]["music"]["bpm"] == pytest.approx(100.0))
     ed.cb_snap_beats.value = False  # the tab is shared with the other tests
+    ed.beats = None
 
 
 def test_save_a_selection_as_a_move_and_insert_it(studio_app: tuple[TestClient, Any], tab: Any) -> None:
@@ -596,3 +658,30 @@ def test_save_a_selection_as_a_move_and_insert_it(studio_app: tuple[TestClient, 
     assert ed.insert_move("my-step", 1.0) == 2 + len(kfs) + 1
     lifts = [e["t"] for e in ed.events if e["type"] == "liftoff"]
     assert lifts == [pytest.approx(1.0 + float(lo["t"]) - min(float(lo["t"]), *(float(k["t"]) for k in kfs)))]
+
+
+@pytest.mark.sim
+def test_validate_runs_the_physics_check_and_marks_the_timeline(
+    studio_app: tuple[TestClient, Any], tab: Any
+) -> None:
+    """The issue's edit: `jump` with FL's touchdown 1.42 → 1.55 s passes the rules and the dry solve, but Validate
+    (physics check on by default) runs it headless on the simulation pool: a failure on that touchdown's item, a red
+    dot under it on the timeline with the numbers in its tooltip, the other events' dots colored by margin."""
+    ed = tab.editor
+    assert ed.open("jump") and ed.cb_physics.value is True
+    lo, td = next(p for p in ed._steps_of("FL"))
+    ed._set(td, "t", 1.55)
+    assert ed.validate_now().ok  # rules and dry solve: valid
+    ed.validate_now(announce=True)  # the Validate button: the physics check follows in the background
+    assert wait_for(lambda: ed._physics_rev == ed._rev and ed.physics is not None, 120.0), ed.physics
+    assert ed.physics["ran"] and not ed.physics["success"], ed.physics
+    assert ed.physics["responsible"]["leg"] == "FL" and ed.physics["responsible"]["t"] == pytest.approx(1.55)
+    assert ed._severity(id(td)) == "failure" and not ed.result.ok
+    svg = ed.html_timeline.content
+    assert svg.count('data-physics="failure"') == 1 and svg.count("<circle data-physics") == 8
+    assert "FL touchdown at 1.55 s — failure" in svg and "peak torque" in svg
+    assert "physics check **failed**" in ed.md_validation.content
+    # an edit makes the marks stale: they go
+    ed._set(td, "t", 1.42)
+    ed.validate_now()
+    assert "data-physics" not in ed.html_timeline.content

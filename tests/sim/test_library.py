@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from planning.maneuver import SHIPPED_LIBRARY, find_maneuver, load_maneuver
+from planning.maneuver.physics import PhysicsRun, judge_physics
 from planning.sim.run import ManeuverSession, RunOptions
 
 pytestmark = pytest.mark.sim
@@ -122,8 +123,12 @@ def test_every_shipped_maneuver_has_a_check() -> None:
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_shipped_maneuver_succeeds_in_mujoco(name: str) -> None:
-    sess = ManeuverSession(load_maneuver(find_maneuver(name)), RunOptions())
-    rep = sess.run()
+    """Run through validation's physics check (the same run, measured per event): it passes, and so does the run."""
+    check = PhysicsRun(load_maneuver(find_maneuver(name)), RunOptions())
+    sess, rep = check.session, check.run()
+    failures, _, physics = judge_physics(rep)
+    assert failures == [] and physics["success"] and not physics["stopped_early"], failures
+    assert len(physics["events"]) == 2 * len(rep["touchdowns"])  # every event measured
     assert rep["success"], rep["failure_reason"]
     assert not rep["fell"]
     assert rep["solver"]["fallback_ticks"] <= 0.1 * rep["solver"]["balance_ticks"]
