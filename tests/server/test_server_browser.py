@@ -393,7 +393,8 @@ def _physics_failure_music_and_beats(
 ) -> None:
     """The issue's broken edit: `jump` with FL's touchdown dragged 1.42 → 1.55 s passes the rules, but Validate runs
     the physics check: a red dot on that touchdown, the other events' margins as dots. Then music: a click track
-    loaded, its beats drawn, a keyframe dragged snaps to a beat."""
+    loaded, its beats drawn, a keyframe dragged snaps to a beat, saved: the file keeps the tempo; previewed: the
+    music plays."""
     svg = "svg[data-footfall-timeline]"
     page.get_by_label("Maneuver", exact=True).click()
     page.get_by_role("option", name="jump", exact=True).click()
@@ -427,3 +428,22 @@ def _physics_failure_music_and_beats(
 
     wait_svg(on_beat, "the keyframe snapped to a beat")
     page.screenshot(path=str(ARTIFACTS / "studio-music-beats.png"))
+    # saved: the file keeps the tempo and first beat
+    name_box = page.get_by_label("save as name", exact=True)
+    if not name_box.is_visible():  # the File folder is still open from the first save
+        page.get_by_text("File", exact=True).first.dispatch_event("click")
+    name_box.fill("jump-on-beat")
+    page.get_by_role("button", name="Save as", exact=True).click()
+    doc = _saved(server["api"], "jump-on-beat")
+    assert doc["music"]["bpm"] == pytest.approx(120.0, abs=1.0), doc.get("music")
+    assert doc["music"]["offset"] == pytest.approx(0.25, abs=0.03) and doc["music"]["file"] == "clicks.wav"
+    last = sorted(k["t"] for k in doc["body"])[-1]
+    assert min(abs(last - (0.25 + 0.5 * k)) for k in range(12)) < 0.02, last  # on a beat
+    # the preview plays the music in step
+    page.get_by_role("button", name="Preview", exact=True).click()
+    end = time.monotonic() + 60
+    # (paused again after a fall, it keeps the time it reached: it only advances while it plays)
+    js = "() => { const a = document.querySelector('audio[data-footfall-audio]'); return a ? a.currentTime : -1 }"
+    while (played := page.evaluate(js)) <= 0.2:
+        assert time.monotonic() < end, f"the music did not play with the preview ({played})"
+        time.sleep(0.2)
