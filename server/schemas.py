@@ -134,6 +134,16 @@ def _exactly_one_of(*keys: str) -> Any:
     return extra
 
 
+RobotName = Annotated[
+    str,
+    Field(
+        max_length=64,
+        description="a robot GET /robots lists (default: the server's robot)",
+        examples=["go1"],
+    ),
+]
+
+
 class SimulationCreate(_In):
     """A queued headless run: a maneuver (library name or inline document) or a walk, on a terrain."""
 
@@ -144,6 +154,7 @@ class SimulationCreate(_In):
     )
     walk: WalkIn | None = None
     terrain: TerrainIn = "flat"
+    robot: RobotName | None = None
     pushes: Annotated[list[PushIn | PushSpec], Field(max_length=50)] = Field(default_factory=list)
     duration: _num(0.0, 120.0, lo_open=True) | None = Field(  # type: ignore[valid-type]
         None, description="simulated seconds (default: the maneuver's)"
@@ -191,16 +202,6 @@ class SimulationPublic(BaseModel):
 # ---- sessions ---------------------------------------------------------------------------------------------------
 # what a live session's terrain walk plans on: the scene's own maps, or the simulated depth sensor's
 SessionMaps = Literal["truth", "sensor"]
-
-
-RobotName = Annotated[
-    str,
-    Field(
-        max_length=64,
-        description="a robot GET /robots lists (default: the server's robot)",
-        examples=["go1"],
-    ),
-]
 
 
 class SessionCreate(_In):

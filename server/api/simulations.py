@@ -11,6 +11,7 @@ from fastapi.responses import JSONResponse
 from planning.sim.world import PushSpecError, parse_push
 from server.deps import ServicesDep, SimulationsDep, WriteAccess
 from server.errors import ApiError, field_error
+from server.robots import default_name, resolve_robot
 from server.schemas import PushIn, SimulationAccepted, SimulationCreate, SimulationPublic
 from server.services import resolve_maneuver
 from server.terrains import resolve_terrain
@@ -54,14 +55,18 @@ async def create_simulation(
 ) -> JSONResponse:
     pushes = _pushes(body.pushes)
     terrain = await run_in_threadpool(resolve_terrain, str(body.terrain), services.settings)
+    robot = (
+        None if body.robot is None else await run_in_threadpool(resolve_robot, body.robot, services.settings)
+    )
     common = {
         "terrain": terrain,
         "pushes": pushes,
         "duration": body.duration,
-        "robot": services.settings.robot,
+        "robot": robot or services.settings.robot,
     }
     request: dict[str, Any] = {
         "terrain": body.terrain,
+        "robot": body.robot or default_name(services.settings),
         "pushes": [{"t": t, "force": list(f), "duration": d} for t, f, d in pushes],
         "duration": body.duration,
     }

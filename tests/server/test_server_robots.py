@@ -89,3 +89,11 @@ def test_bad_robots_are_422_naming_the_field(rclient: TestClient, robot: Any, re
     r = rclient.post(f"/sessions/{sid}/reset", json={"robot": robot})
     assert r.status_code == 422 and "robot" in r.text
     assert len(BUILT) == n + 1  # nothing was built for the refused robot
+
+
+def test_simulations_run_on_a_named_robot(rclient: TestClient) -> None:
+    r = rclient.post("/simulations", json={"maneuver": "stand", "robot": "go1"})
+    assert r.status_code == 202, r.text
+    assert rclient.get(r.headers["Location"]).json()["request"]["robot"] == "go1"
+    r = rclient.post("/simulations", json={"maneuver": "stand", "robot": "nope"})
+    assert r.status_code == 422 and r.json()["errors"][0]["field"] == "robot", r.text
