@@ -157,9 +157,15 @@ class WalkController:
     def use_terrain(self, terrain: TerrainPipeline) -> None:
         """Walks on the unified terrain pipeline: its perception and body-path stages run first, and every
         step-plan tick the controller applies its decision (command, gait, body height and pitch, swing ground)
-        and its footholds."""
+        and its footholds. The swing planner and the handler take the pipeline's swing settings (the same on every
+        terrain)."""
         self.terrain = terrain
         self._fast_gait = self.gait
+        sp = self.handler.swing_planner
+        sp.set_params(terrain.params.swing.applied_to(sp.params))
+        self.handler.params = replace(
+            self.handler.params, replan_height_from_plan_m=terrain.params.replan_height_from_plan_m
+        )
         if terrain.goal is not None:
             self.set_goal(*terrain.goal)
         self.navigator_overlays = terrain.overlays
@@ -192,6 +198,8 @@ class WalkController:
             standing_height_m=self.robot.standing_height_m,
             p_body_hip=np.asarray(self.robot.p_body_hip, dtype=np.float64)[:, :2],
             dt_s=1.0 / self.params.step_rate_hz,
+            l_upper_m=self.robot.l_upper,
+            l_lower_m=self.robot.l_lower,
         )
 
     # ---- inputs -----------------------------------------------------------------------------------------------

@@ -36,6 +36,7 @@ from planning.steps import SteeringCommand
 from planning.steps.gait import get_gait
 from planning.steps.select import Selection
 from planning.steps.state import StepPath, rotate_yaw
+from planning.swing.params import SwingParams
 from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
 from planning.terrain.maps import TerrainMaps, maps_from_scene
 from planning.terrain.overlays import map_overlays, plan_overlays
@@ -63,15 +64,27 @@ class DecisionParams:
     nominal foothold lies this deep inside its polygon the step QP is not solved (its region rows would be
     inactive); freeze_s: a touchdown closer than
     this keeps its last foothold; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
-    max to min as the largest move of a next foothold off its nominal grows to this; slow_gait, slow_below: the
-    gait below this share of max speed (with slow_hysteresis above it to leave); lookahead_m, yaw_gain,
+    max to min as the largest move of a next foothold off its nominal grows to this; pace_m: and as the next
+    touchdowns are moved back against the heading off their nominal places by this on average (the body is
+    paced by its footholds: a stance pair held back by its regions is not overrun by the body, which would leave
+    the body off the line between them and roll it over); slow_gait, slow_gap_m, gap_behind_m, gap_ahead_m: the
+    gait where a gap wider than slow_gap_m lies on the feet's lines from gap_behind_m behind the body to
+    gap_ahead_m ahead (far enough ahead that the switch is made before the front feet reach it); lookahead_m, yaw_gain,
     max_yaw_rate_rps, goal_gain, goal_tolerance_m: path following; max_pitch_rad, max_pitch_rate_rps, pitch_gain: body pitch (the footholds' plane's
     slope × pitch_gain);
     max_height_offset_m: the body's offset from the footholds' plane above the mean contact height at most this;
     min_height_m, body_top_m, head_margin_m, crouch_ahead_m, ceiling_above_m: under an overhang within crouch_ahead_m
     the body height is lowered to keep body_top_m + head_margin_m under it, down to min_height_m (overhangs at
     least ceiling_above_m above the ground count); swing_margin_m: the swing ground is dilated by the foot radius
-    plus this; path_rate_hz: body path replans."""
+    plus this; path_rate_hz: body path replans; shin_clear_m: a foothold keeps the ground at least this far from
+    its shin's axis (knee from the leg's lengths, the hip where the body will be at touchdown), looking at the
+    ground from shin_behind_m behind the foot along the heading to a few cm ahead, where it stands more than
+    shin_edge_m above the foothold (an edge the foot stepped down from, a box behind it); a foothold that does not
+    is moved along the heading, within shin_search_m and its polygon, to the nearest place that does (a
+    half-plane added to its polygon); reach_frac: a foothold lies no farther from its hip at touchdown (in the
+    ground plane) than the leg at this share of its full length (thigh + shank) reaches with the hip at the
+    standing height: regions beyond are not chosen, and a polygon reaching beyond is bounded along the heading
+    the same way."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -84,10 +97,11 @@ class DecisionParams:
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
     shift_slow_m: float = 0.15
+    pace_m: float = 0.10
     slow_gait: str | None = "crawl"
     slow_gap_m: float = 0.25
     gap_behind_m: float = 0.3
-    gap_ahead_m: float = 0.8
+    gap_ahead_m: float = 1.3
     climb_gaits: tuple[str, ...] = ("climb", "stairs")
     max_stride_m: float = 0.3
     base_swing_s: float = 0.2
@@ -109,6 +123,11 @@ class DecisionParams:
     ceiling_above_m: float = 0.30
     swing_margin_m: float = 0.01
     path_rate_hz: float = 2.0
+    shin_clear_m: float = 0.10
+    shin_search_m: float = 0.30
+    shin_behind_m: float = 0.40
+    shin_edge_m: float = 0.03
+    reach_frac: float = 0.9
 
 
 # ---- typed inputs and outputs ----------------------------------------------------------------------------------
@@ -121,7 +140,8 @@ class TerrainView:
     t_s: now; p_world_body (3,), yaw; p_world_foot (4, 3): foot centres; stance (4,): feet down; z_contact: the
     mean contact height the controller holds its body height above; gait: the gait walked; operator:
     the operator's command (used when there is no goal); goal (2,) or None; pitch_rad: the pitch target now;
-    foot_radius_m, standing_height_m, p_body_hip (4, 2): from the RobotModel; dt_s: the step-plan period."""
+    foot_radius_m, standing_height_m, p_body_hip (4, 2), l_upper_m, l_lower_m (thigh and shank; 0: no shin rule):
+    from the RobotModel; dt_s: the step-plan period."""
 
     t_s: float
     p_world_body: NDArray[np.float64]
@@ -141,6 +161,8 @@ class TerrainView:
     standing_height_m: float
     p_body_hip: NDArray[np.float64]
     dt_s: float
+    l_upper_m: float = 0.0
+    l_lower_m: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -193,13 +215,16 @@ class FootholdMemory:
 class FootholdDecision:
     """The footholds decided for a step path: p_world_touchdown (N, 3) in the path's order; regions: the polygon
     of each QP slot (None: free); plan: the step QP's answer (None: not solved); max_shift_m: the largest move of a
-    next touchdown off its nominal; memory: what the next decision keeps."""
+    next touchdown off its nominal; memory: what the next decision keeps; back_m: how far the next touchdowns
+    were moved back against the heading off their nominal places, on average over the legs (moves forward count
+    0)."""
 
     p_world_touchdown: NDArray[np.float64]
     regions: tuple[ConvexRegion | None, ...]
     plan: StepPlan | None
     max_shift_m: float
     memory: FootholdMemory
+    back_m: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,7 +250,10 @@ def decide(
     """Gives the body command, gait, body height and pitch and the swing ground (see the module docstring)."""
     p = params
     shift = 0.0 if last is None else last.max_shift_m
-    frac = float(np.clip(1.0 - shift / max(p.shift_slow_m, 1e-9), 0.0, 1.0))
+    back = 0.0 if last is None else last.back_m
+    frac = float(
+        np.clip(min(1.0 - shift / max(p.shift_slow_m, 1e-9), 1.0 - back / max(p.pace_m, 1e-9)), 0.0, 1.0)
+    )
     lo = p.min_speed_mps / max(p.max_speed_mps, 1e-9)
     share = lo + (1.0 - lo) * frac
     cap = p.max_speed_mps * share
@@ -400,12 +428,15 @@ def choose_region(
     keep_xy: NDArray[np.float64] | None,
     p: DecisionParams,
     in_flight: bool = False,
+    hip: NDArray[np.float64] | None = None,
+    reach_m: float = np.inf,
 ) -> int:
     """Gives the region (label; 0: none) for a foothold whose nominal place is xy (2,), for a leg whose last
     foothold was at height z_ref (m): among the regions with an inset cell within search_m, those within
     max_rise_m of z_ref, the one of least distance + w_height × |height change|; the region under keep_xy (the
     previous choice) is kept unless another costs keep_m less, and while the foot is in flight (in_flight) as long
-    as it is within reach at all: a swing commits to its region at liftoff."""
+    as it is within reach at all: a swing commits to its region at liftoff. hip (2,): the leg's hip at touchdown;
+    cells farther than reach_m from it (in the ground plane) are out of reach."""
     res = regions.resolution_m
     ox, oy = regions.origin_xy
     w = int(math.ceil(p.search_m / res))
@@ -423,8 +454,12 @@ def choose_region(
     dx = ox + (i0 + ci) * res - float(xy[0])
     dy = oy + (j0 + cj) * res - float(xy[1])
     dist = np.hypot(dx, dy)
-    dz = np.abs(maps.ground_height[i0 + ci, j0 + cj] - z_ref)
-    cost = np.where((dist <= p.search_m) & (dz <= p.max_rise_m), dist + p.w_height * dz, np.inf)
+    hc = maps.ground_height[i0 + ci, j0 + cj]
+    dz = np.abs(hc - z_ref)
+    ok = (dist <= p.search_m) & (dz <= p.max_rise_m)
+    if hip is not None and np.isfinite(reach_m):
+        ok &= np.hypot(dx + float(xy[0]) - float(hip[0]), dy + float(xy[1]) - float(hip[1])) <= reach_m
+    cost = np.where(ok, dist + p.w_height * dz, np.inf)
     best = np.full(int(labs.max()) + 1, np.inf)
     np.minimum.at(best, labs, cost)
     choice = int(np.argmin(best))
@@ -435,6 +470,158 @@ def choose_region(
         if 0 < prev < best.size and best[prev] <= best[choice] + (np.inf if in_flight else p.keep_m):
             return prev
     return choice
+
+
+def knee_points(
+    hip: NDArray[np.float64], feet: NDArray[np.float64], l_upper: float, l_lower: float
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Gives the knees (C, 2) of a leg whose hip is at hip (2,) and whose foot is at each of feet (C, 2), all
+    (along the heading, up) in the leg's plane, with the knee behind the hip-foot line (a knee that points back;
+    a foot beyond the leg's length: the leg straight toward it, as the body will come down to it), and whether
+    each foot is far enough from the hip for the leg to fold to it."""
+    d = feet - hip[None, :]
+    D = np.hypot(d[:, 0], d[:, 1])
+    reach = D > abs(l_upper - l_lower) + 1e-3
+    Ds = np.where(reach, np.minimum(D, l_upper + l_lower - 1e-3), 1.0)
+    a = (l_upper**2 - l_lower**2 + Ds**2) / (2.0 * Ds)
+    h = np.sqrt(np.maximum(l_upper**2 - a**2, 0.0))
+    e = d / Ds[:, None]
+    perp = np.stack([-e[:, 1], e[:, 0]], axis=1)
+    perp *= np.where(perp[:, 0] > 0.0, -1.0, 1.0)[:, None]  # toward the back
+    return hip[None, :] + a[:, None] * e + h[:, None] * perp, reach
+
+
+def _ground_nearest(maps: TerrainMaps, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Gives the ground height (m) of the cells nearest to world (x, y) (border cells beyond the map)."""
+    nx, ny = maps.ground_height.shape
+    res = maps.resolution_m
+    ix = np.clip(np.rint((x - maps.origin_xy[0]) / res), 0, nx - 1).astype(np.intp)
+    iy = np.clip(np.rint((y - maps.origin_xy[1]) / res), 0, ny - 1).astype(np.intp)
+    return np.asarray(maps.ground_height[ix, iy], dtype=np.float64)
+
+
+def reach_xy(view: TerrainView, p: DecisionParams) -> float:
+    """Gives how far (m) a foothold may lie from its hip at touchdown in the ground plane: where the leg at
+    reach_frac of its full length (thigh + shank) meets the ground with the hip at the standing height (inf
+    without the leg's lengths)."""
+    length = p.reach_frac * (view.l_upper_m + view.l_lower_m)
+    if view.l_upper_m <= 0.0 or length <= view.standing_height_m:
+        return np.inf
+    return math.sqrt(length**2 - view.standing_height_m**2)
+
+
+def hip_height(view: TerrainView, leg: int) -> float:
+    """Gives the height (m) of leg `leg`'s hip: the body's height target above the mean contact height, the
+    pitch target applied to the hip's offset along the body."""
+    return view.z_contact + view.height_m - math.sin(view.pitch_rad) * float(view.p_body_hip[leg, 0])
+
+
+def leg_clearance(
+    view: TerrainView,
+    maps: TerrainMaps,
+    leg: int,
+    hip_xy: NDArray[np.float64],
+    feet_xy: NDArray[np.float64],
+    p: DecisionParams,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Gives, for footholds feet_xy (C, 2) of leg `leg` with its hip at hip_xy (2,) at touchdown: the least
+    distance (m) from the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it
+    stands more than shin_edge_m above the ground's own slope at the foot carried back (a slope is no edge) (inf:
+    no such ground; -inf: out of reach), and whether the foot is within reach of the hip (reach_xy)."""
+    c, sn = math.cos(view.yaw), math.sin(view.yaw)
+    u = np.array([c, sn])
+    res = maps.resolution_m
+    s_feet = feet_xy @ u
+    z_feet = _ground_nearest(maps, feet_xy[:, 0], feet_xy[:, 1])
+    feet2 = np.stack([s_feet, z_feet + view.foot_radius_m], axis=1)
+    z_hip = hip_height(view, leg)
+    hip2 = np.array([float(hip_xy @ u), z_hip])
+    within = np.hypot(*(feet_xy - hip_xy[None, :]).T) <= reach_xy(view, p)
+    ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
+    pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
+    g = _ground_nearest(maps, pts[..., 0], pts[..., 1])
+    # the ground's own slope at the foot along the heading: the gentler of the one-sided differences over two
+    # cells (a nosing just behind the foot leaves the side ahead; on a slope both are the slope's)
+    step = 2.0 * res
+    ahead = feet_xy + step * u[None, :]
+    behind = feet_xy - step * u[None, :]
+    fwd = (_ground_nearest(maps, ahead[:, 0], ahead[:, 1]) - z_feet) / step
+    bwd = (z_feet - _ground_nearest(maps, behind[:, 0], behind[:, 1])) / step
+    slope = np.where(np.abs(fwd) <= np.abs(bwd), fwd, bwd)
+    base = z_feet[:, None] + slope[:, None] * ds[None, :]
+    edge = g > base + p.shin_edge_m
+    if not edge.any():
+        return np.full(len(feet_xy), np.inf), within
+    pt2 = np.stack([s_feet[:, None] + ds[None, :], g], axis=-1)  # (C, M, 2)
+    knee, reach = knee_points(hip2, feet2, view.l_upper_m, view.l_lower_m)
+    shin = feet2 - knee  # (C, 2)
+    t = np.clip(
+        np.sum((pt2 - knee[:, None, :]) * shin[:, None, :], axis=-1)
+        / np.maximum(np.sum(shin * shin, axis=1), 1e-12)[:, None],
+        0.0,
+        1.0,
+    )
+    off = pt2 - (knee[:, None, :] + t[..., None] * shin[:, None, :])
+    dist = np.hypot(off[..., 0], off[..., 1])
+    clear = np.min(np.where(edge, dist, np.inf), axis=1)
+    return np.where(reach, clear, -np.inf), within
+
+
+def leg_bounds(
+    view: TerrainView,
+    maps: TerrainMaps,
+    leg: int,
+    hip_xy: NDArray[np.float64],
+    nom: NDArray[np.float64],
+    poly: ConvexRegion,
+    p: DecisionParams,
+) -> list[tuple[NDArray[np.float64], float]]:
+    """Gives half-planes (a (2,), b: a·x <= b) along the heading keeping a foothold of leg `leg` where its shin
+    clears the ground behind it by shin_clear_m and its hip is within reach (see leg_clearance): none when the
+    nominal foothold's place in its polygon already is; else bounds around the nearest place within shin_search_m
+    inside the polygon that is (or, none being, the one of the most clearance within reach, or the nearest one
+    within reach): the run of such places along the heading, bounded where it ends inside the polygon."""
+    if view.l_upper_m <= 0.0 or view.l_lower_m <= 0.0:
+        return []
+    c, sn = math.cos(view.yaw), math.sin(view.yaw)
+    u = np.array([c, sn])
+    base = poly.project(nom)
+    clear0, within0 = leg_clearance(view, maps, leg, hip_xy, base[None, :], p)
+    if clear0[0] >= p.shin_clear_m and within0[0]:
+        return []  # (most footholds: one evaluation)
+    res = maps.resolution_m
+    ds = np.arange(-p.shin_search_m, p.shin_search_m + 1e-9, res)
+    ds = np.append(0.0, ds[np.abs(ds) > 1e-9])
+    cand = base[None, :] + ds[:, None] * u[None, :]
+    inside = np.asarray(poly.contains(cand, 1e-6), dtype=bool)
+    inside[0] = True  # the nominal's own place
+    ds, cand = ds[inside], cand[inside]
+    clear, within = leg_clearance(view, maps, leg, hip_xy, cand, p)
+    ok = (clear >= p.shin_clear_m) & within
+    if ok[0]:
+        return []
+    if ok.any():
+        good = ok
+    elif within.any():
+        best = float(np.max(np.where(within, clear, -np.inf)))
+        good = within & (clear >= best - 1e-9) if np.isfinite(best) else within
+    else:
+        return []
+    order = np.argsort(ds)
+    d_sorted, g_sorted = ds[order], good[order]
+    k = int(np.argmin(np.where(g_sorted, np.abs(d_sorted), np.inf)))
+    lo = hi = k
+    while lo > 0 and g_sorted[lo - 1]:
+        lo -= 1
+    while hi < d_sorted.size - 1 and g_sorted[hi + 1]:
+        hi += 1
+    s0 = float(base @ u)
+    out: list[tuple[NDArray[np.float64], float]] = []
+    if lo > 0:  # places behind the run are not good: the foot at least this far along the heading
+        out.append((-u, -(s0 + float(d_sorted[lo]))))
+    if hi < d_sorted.size - 1:  # nor ahead of it
+        out.append((u, s0 + float(d_sorted[hi])))
+    return out
 
 
 def step_request(
@@ -510,6 +697,11 @@ def choose_footholds(
     z_ref = z_stance.copy()
     cache = {} if polygon_cache is None else polygon_cache
     res = regions.resolution_m
+    t_abs = path.t_touchdown[order]
+    bodies = path.body.position(t_abs)[:, :2]
+    yaws = np.asarray(path.body.yaw(t_abs), dtype=np.float64).reshape(-1)
+    hips = bodies + rotate_yaw(yaws, view.p_body_hip[legs])
+    reach = reach_xy(view, p)
     for j, k in enumerate(order):
         leg = int(legs[j])
         nom = path.p_world_touchdown[k, :2]
@@ -520,7 +712,7 @@ def choose_footholds(
             else None
         )
         flying = first and not bool(view.stance[leg])
-        label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying)
+        label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying, hips[j], reach)
         poly = None
         if label:
             key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
@@ -530,19 +722,42 @@ def choose_footholds(
         polys.append(poly)
         if poly is not None:
             z_ref[leg] = float(poly.height_at(poly.project(nom)))
+    # Each polygon of the next touchdowns with its bounds along the heading (the shin clear of edges behind the
+    # foot, the hip in reach).
+    rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
+    for j, (q, k) in enumerate(zip(polys, order, strict=True)):
+        if q is None:
+            rows.append(None)
+            continue
+        bounds = (
+            leg_bounds(view, maps, int(legs[j]), hips[j], path.p_world_touchdown[k, :2], q, p)
+            if j < 4
+            else []
+        )
+        if not bounds:
+            rows.append((q.A, q.b))
+        else:
+            rows.append(
+                (
+                    np.vstack([q.A, *[a[None, :] for a, _ in bounds]]),
+                    np.append(q.b, [b for _, b in bounds]),
+                )
+            )
     # Every nominal foothold already inside its polygon: the region rows are inactive, the selection stands.
     inside = all(
-        q is None or bool(q.contains(path.p_world_touchdown[k, :2], -p.inside_margin_m))
-        for q, k in zip(polys, order, strict=True)
+        r is None or bool(np.all(r[0] @ path.p_world_touchdown[k, :2] <= r[1] - p.inside_margin_m))
+        for r, k in zip(rows, order, strict=True)
     )
     req = None if inside else step_request(view, path, order, view.height_m)
     plan = None
     if req is not None:
-        plan = qp.solve(req, maps, [None if q is None else (q.A, q.b) for q in polys])
+        plan = qp.solve(req, maps, rows)
         if not np.all(np.isfinite(plan.footholds)):
             plan = None
     t_rel = path.t_touchdown[order] - view.t_s
     shift = 0.0
+    back = 0.0
+    u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
     for j, k in enumerate(order):
         leg = int(legs[j])
         held = j < 4 and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
@@ -553,10 +768,12 @@ def choose_footholds(
             p_new[k, :2] = xy
             p_new[k, 2] = float(maps.height_at(float(xy[0]), float(xy[1])))
         if j < 4:
-            shift = max(shift, float(np.linalg.norm(p_new[k, :2] - path.p_world_touchdown[k, :2])))
+            move = p_new[k, :2] - path.p_world_touchdown[k, :2]
+            shift = max(shift, float(np.linalg.norm(move)))
+            back += max(0.0, -float(move @ u)) / 4.0
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
-    return FootholdDecision(p_new, tuple(polys), plan, shift, FootholdMemory(mem_t, mem_p, z_stance))
+    return FootholdDecision(p_new, tuple(polys), plan, shift, FootholdMemory(mem_t, mem_p, z_stance), back)
 
 
 # ---- the stack the controller calls ------------------------------------------------------------------------------
@@ -565,7 +782,10 @@ def choose_footholds(
 @dataclass(frozen=True)
 class PipelineParams:
     """The unified terrain pipeline. use_sensor: maps from the depth sensor (False: the scene's ground truth,
-    re-centred on the body every truth_recenter_m); perception_rate_hz: scans (maps and regions) a second."""
+    re-centred on the body every truth_recenter_m); perception_rate_hz: scans (maps and regions) a second; swing:
+    what the pipeline's walk changes in the swing planner's parameters (SwingParams fields), the same on every
+    terrain (see TerrainSwing); replan_height_from_plan_m: HandlerParams.replan_height_from_plan_m while walking
+    on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m)."""
 
     use_sensor: bool = True
     truth_half_extent_m: float = 2.5
@@ -575,16 +795,55 @@ class PipelineParams:
     path: BodyPathParams = field(default_factory=BodyPathParams)
     decision: DecisionParams = field(default_factory=DecisionParams)
     step_qp: StepQPParams = field(default_factory=lambda: _regions_qp())
+    swing: TerrainSwing = field(default_factory=lambda: TerrainSwing())
+    replan_height_from_plan_m: float = 0.03
+
+
+@dataclass(frozen=True)
+class TerrainSwing:
+    """The swing planner on the pipeline's walk, one set on every terrain (SwingParams' fields of the same names):
+    a late foot high above its touchdown comes down faster (late_descent_gain_per_s); a step up over an edge rises
+    first, from a wait point fixed at lift-off and as high as the leg reaches (rise_first_*), rise_first_margin_m
+    over the edge; vertical accelerations at most a_max_z_mps2 (the gentleness family scaled to keep its
+    fractions of it); edges above the foot probed at cliff_rings_m with cliff_margin_m; no cap of the apex over
+    the ground on the way (terrain_apex_m None) and no extra apex over an obstacle (apex_free_over_obstacles)."""
+
+    late_descent_gain_per_s: float = 5.0
+    a_max_z_mps2: float = 40.0
+    terrain_apex_m: float | None = None
+    apex_free_over_obstacles: bool = False
+    cliff_margin_m: float = 0.03
+    cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.03)
+    rise_first_margin_m: float = 0.05
+    rise_first_gap_m: float = 0.08
+    rise_first_anchored: bool = True
+    rise_first_within_reach: bool = True
+
+    def applied_to(self, sp: SwingParams) -> SwingParams:
+        """Gives sp with these fields set, its gentleness family's accelerations kept at the same m/s²."""
+        scale = sp.a_max_z_mps2 / self.a_max_z_mps2
+        family = tuple(dataclasses.replace(v, accel_frac=v.accel_frac * scale) for v in sp.vertical_family)
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        return dataclasses.replace(sp, vertical_family=family, **fields)
 
 
 def _regions_qp() -> StepQPParams:
     """The step QP of the regions pipeline: room for a polygon's half-planes per slot, and a region's rows (the
     step_keep family) harder than reach: a foot goes to its region even where its reachable rectangle, an estimate
     from its speed now, says it is late; a front and a hind foot may share a stone (15 cm apart along the body,
-    not 25); at most 400 OSQP iterations (warm-started each tick: a conflicted replan stops early, not at 4000)."""
+    not 25); at most 400 OSQP iterations (warm-started each tick: a conflicted replan stops early, not at 4000);
+    no margin pull beyond the polygon (margin_m = keep_clearance_m): the polygon is already inset by the foot's
+    radius and the edge margin, and the QP's 4 cm pull on top left 7 cm of a 30 cm stair tread, moving every
+    foothold ~10 cm off its nominal place (measured: the stairs climb rolled over with it and crossed without)."""
     w = list(StepQPParams().weights)
     w[2] = 3e4
-    return StepQPParams(keep_planes=12, weights=tuple(w), self_longitudinal_m=0.15, max_iter=400)
+    return StepQPParams(
+        keep_planes=14,
+        weights=tuple(w),
+        self_longitudinal_m=0.15,
+        max_iter=400,
+        margin_m=StepQPParams().keep_clearance_m,
+    )
 
 
 def _p(values: list[float], q: float) -> float | None:
@@ -655,9 +914,10 @@ class TerrainPipeline:
             p.decision,
             regions=dataclasses.replace(p.decision.regions, foot_radius_m=float(robot.foot_radius_m)),
         )
-        if self.decision_params.regions.max_planes + 4 > p.step_qp.keep_planes:
+        if self.decision_params.regions.max_planes + 6 > p.step_qp.keep_planes:
             raise ValueError(
                 "PipelineParams: step_qp.keep_planes must hold a region's polygon (regions.max_planes + 4 edges)"
+                " and its two bounds along the heading"
             )
         self.perception = Perception(model, body, p.perception) if p.use_sensor else None
         self.qp = StepQP(p.step_qp)

@@ -51,7 +51,11 @@ def test_robot_description_naming_a_missing_joint(tmp_path, capsys) -> None:
 
 def test_validate_shipped_maneuver(capsys) -> None:
     assert main(["validate", "bow"]) == 0
-    assert "bow: valid" in capsys.readouterr().out
+    out = capsys.readouterr()
+    assert "bow: valid" in out.out and "physics check: succeeded; 6.0 s simulated" in out.err
+    assert main(["validate", "--no-physics", "bow"]) == 0
+    out = capsys.readouterr()
+    assert "bow: valid" in out.out and "physics" not in out.err
 
 
 @pytest.mark.sim

@@ -19,6 +19,8 @@ from planning.terrain.decision import (
     TerrainWorld,
     choose_region,
     decide,
+    leg_bounds,
+    leg_clearance,
     swing_ground,
 )
 from planning.terrain.maps import maps_from_grids
@@ -157,6 +159,85 @@ def test_the_swing_ground_is_the_height_map_dilated_by_the_foot() -> None:
     assert g(0.84, 0.0) == pytest.approx(0.0)
     assert g(0.78, 0.0) == pytest.approx(-0.3)
     assert g(np.array([0.75, 1.0]), np.array([0.0, 0.0])).shape == (2,)
+
+
+def _steps_down() -> TerrainWorld:
+    """A landing at 0.6 m up to x = 1.0 m, then treads 0.3 m long, each 0.15 m lower (going down along +x)."""
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (110, 60))
+    h = 0.6 - 0.15 * np.clip(np.floor((X - 1.0) / 0.3) + 1.0, 0.0, 4.0)
+    return _world(xs, ys, np.asarray(h, dtype=np.float64))
+
+
+def _leg_view(body_x: float, z_contact: float) -> TerrainView:
+    v = _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3]))
+    return dataclass_replace(
+        v, p_world_body=np.array([body_x, 0.0, 1.0]), z_contact=z_contact, l_upper_m=0.32, l_lower_m=0.34
+    )
+
+
+def test_a_foot_stepping_down_is_kept_where_its_shin_clears_the_edge_it_stepped_over() -> None:
+    world = _steps_down()
+    maps, regions = world.maps, world.regions
+    # the body on the landing, a front foot stepping down onto the first tread (0.45 m, x 1.0–1.3)
+    view = _leg_view(0.85, 0.6)
+    hip = np.array([0.85 + 0.3, 0.1])
+    feet = np.column_stack([np.arange(1.05, 1.3, 0.03), np.full(9, 0.1)])
+    clear, within = leg_clearance(view, maps, 0, hip, feet, P)
+    assert np.all(within)
+    # the farther past the nosing, the farther the shin from it: too near just past it, clear at the tread's end
+    assert clear[0] < P.shin_clear_m <= clear[-1] and np.all(np.diff(clear) > 0.0)
+    label = regions.label_at(1.15, 0.1)
+    poly = convex_around(regions, label, np.array([1.08, 0.1]), P.window_m)
+    assert poly is not None
+    bounds = leg_bounds(view, maps, 0, hip, np.array([1.08, 0.1]), poly, P)
+    # one bound: the foot at least some way past the nosing (along +x), not past the tread's end
+    assert len(bounds) == 1 and bounds[0][0][0] == pytest.approx(-1.0)
+    x_min = -bounds[0][1]
+    assert 1.1 < x_min <= float(np.max(poly.vertices[:, 0])) + 1e-9
+    # the same foothold on flat ground (the landing): no bound
+    flat = regions.label_at(0.6, 0.1)
+    poly_flat = convex_around(regions, flat, np.array([0.6, 0.1]), P.window_m)
+    assert poly_flat is not None
+    view_flat = _leg_view(0.3, 0.6)
+    assert leg_bounds(view_flat, maps, 0, np.array([0.6, 0.1]), np.array([0.6, 0.1]), poly_flat, P) == []
+
+
+def test_going_down_a_slope_is_not_stepping_down_an_edge() -> None:
+    # 15° down along +x from x = 0: the ground behind a foot is higher, but along the slope under it
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (110, 60))
+    h = np.asarray(-math.tan(math.radians(15.0)) * np.maximum(X, 0.0), dtype=np.float64)
+    world = _world(xs, ys, h)
+    label = world.regions.label_at(1.0, 0.1)
+    poly = convex_around(world.regions, label, np.array([1.0, 0.1]), P.window_m)
+    assert poly is not None
+    view = _leg_view(0.7, -0.19)
+    hip = np.array([1.0, 0.1])
+    clear, _ = leg_clearance(view, world.maps, 0, hip, np.array([[1.0, 0.1]]), P)
+    assert clear[0] == np.inf
+    assert leg_bounds(view, world.maps, 0, hip, np.array([1.0, 0.1]), poly, P) == []
+
+
+def test_a_foothold_beyond_the_legs_reach_is_bounded_back_toward_the_hip() -> None:
+    world = _steps_down()
+    maps, regions = world.maps, world.regions
+    view = _leg_view(0.0, 0.6)
+    hip = np.array([0.3, 0.1])
+    # 0.45 m ahead of the hip on the landing: beyond where 90 % of the leg's 0.66 m reaches from 0.52 m up
+    nom = np.array([0.75, 0.1])
+    poly = convex_around(regions, regions.label_at(0.6, 0.1), nom, P.window_m)
+    assert poly is not None
+    _, within = leg_clearance(view, maps, 0, hip, nom[None, :], P)
+    assert not within[0]
+    bounds = leg_bounds(view, maps, 0, hip, nom, poly, P)
+    assert len(bounds) == 1 and bounds[0][0][0] == pytest.approx(1.0)
+    reach = math.sqrt((0.9 * 0.66) ** 2 - 0.52**2)
+    assert bounds[0][1] == pytest.approx(0.3 + reach, abs=RES + 1e-6)
+    # the region choice leaves out what is out of reach
+    assert choose_region(regions, maps, np.array([0.9, 0.1]), 0.6, None, P, hip=hip[:2], reach_m=reach) == 0
 
 
 def dataclass_replace(obj, **kw):  # type: ignore[no-untyped-def]
