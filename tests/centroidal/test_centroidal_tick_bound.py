@@ -3,6 +3,8 @@ driven by ticks that run out of work (the last good plan drives on) still trots.
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from planning.centroidal.scenarios import run, trot
@@ -12,7 +14,7 @@ from planning.centroidal.solver import CentroidalParams, CentroidalSolver
 @pytest.mark.parametrize(("iterations", "solves", "ok_rate"), [(30, 2, 0.3), (60, 3, 0.9)])
 def test_tick_work_stays_within_its_bound(model, iterations: int, solves: int, ok_rate: float) -> None:
     solver = CentroidalSolver(
-        CentroidalParams(time_budget_ms=1e3, max_tick_iterations=iterations, max_tick_solves=solves)
+        CentroidalParams(time_budget_ms=math.inf, max_tick_iterations=iterations, max_tick_solves=solves)
     )
     sc = trot(model, vx=0.5)
     log = run(sc, solver, duration_s=1.5)

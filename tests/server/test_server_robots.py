@@ -97,3 +97,20 @@ def test_simulations_run_on_a_named_robot(rclient: TestClient) -> None:
     assert rclient.get(r.headers["Location"]).json()["request"]["robot"] == "go1"
     r = rclient.post("/simulations", json={"maneuver": "stand", "robot": "nope"})
     assert r.status_code == 422 and r.json()["errors"][0]["field"] == "robot", r.text
+
+
+def test_the_servers_own_robot_file_is_listed_and_is_the_default(tmp_path: Path) -> None:
+    from server.robots import default_name, list_robots, resolve_robot
+
+    xml = tmp_path / "models" / "go1.xml"  # a file named like a shipped robot
+    xml.parent.mkdir()
+    xml.write_text((ASSETS / "go1.xml").read_text())
+    desc = yaml.safe_load((ASSETS / "go1.yaml").read_text())
+    (tmp_path / "models" / "go1.footfall.yaml").write_text(
+        yaml.safe_dump({k: v for k, v in desc.items() if k not in ("name", "title", "mjcf")})
+    )
+    s = Settings(data_dir=tmp_path / "data", robot=str(xml))
+    listed = {e["name"]: e for e in list_robots(s)}
+    assert listed["server-go1"] == {"name": "server-go1", "source": "server", "default": True}
+    assert listed["go1"]["source"] == "shipped" and default_name(s) == "server-go1"
+    assert resolve_robot("server-go1", s) == str(xml.resolve())

@@ -29,7 +29,9 @@ def test_click_a_failed_cell_and_replay_its_case(tmp_path: Path) -> None:
         page.set_default_timeout(90_000)  # software WebGL on a loaded 2-core machine renders slowly
         page.goto(f"http://127.0.0.1:{services.studio.port}/", wait_until="domcontentloaded")
         page.get_by_role("button", name="Preview", exact=True).wait_for(timeout=60_000)
-        end = time.monotonic() + 30
+        end = (
+            time.monotonic() + 90
+        )  # the live robot is a worker process: seconds to start on a loaded machine
         while not (tabs := [c for c in services.studio.clients.values() if c.session is not None
                             and getattr(c, "robustness", None) is not None]):  # fmt: skip
             assert time.monotonic() < end, "the studio tab got no live robot"
