@@ -21,7 +21,7 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 test: lint
-	$(BIN)/pytest -n 2 -q -m "not load"
+	$(BIN)/pytest -n 2 -q -m "not load" --durations=12
 	$(BIN)/pytest -q -p no:xdist -m load tests/server
 
 bench: $(STAMP)
