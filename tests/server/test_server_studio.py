@@ -680,6 +680,8 @@ def test_validate_runs_the_physics_check_and_marks_the_timeline(
     assert wait_for(lambda: ed._physics_rev == ed._rev and ed.physics is not None, 120.0), ed.physics
     assert ed.physics["ran"] and not ed.physics["success"], ed.physics
     assert ed.physics["responsible"]["leg"] == "FL" and ed.physics["responsible"]["t"] == pytest.approx(1.55)
+    # the result is stored, then the items and the timeline are redrawn from it (the checking thread, just after)
+    assert wait_for(lambda: 'data-physics="failure"' in ed.html_timeline.content, 30.0)
     assert ed._severity(id(td)) == "failure" and not ed.result.ok
     svg = ed.html_timeline.content
     assert svg.count('data-physics="failure"') == 1 and svg.count("<circle data-physics") == 8
