@@ -38,6 +38,7 @@ class SolverDriver:
         self.fallback_ticks = 0
         self.statuses: dict[str, int] = {}
         self.qp_ms: list[float] = []
+        self.qp_iterations: list[int] = []  # ADMM iterations of each tick (its work, alike on any load)
         self.linearization_errors: list[float] = []
 
     def solve(self, problem: CentroidalProblem, t: float) -> CentroidalSolution:
@@ -46,6 +47,7 @@ class SolverDriver:
         self.solver_ticks += 1
         self.statuses[sol.status] = self.statuses.get(sol.status, 0) + 1
         self.qp_ms.append(sol.qp_ms)
+        self.qp_iterations.append(sol.qp_iterations)
         if np.isfinite(sol.linearization_error):
             self.linearization_errors.append(float(sol.linearization_error))
         if sol.ok:
