@@ -138,7 +138,10 @@ class StepPlanner:
         target_gait = self.clock.pending or self.clock.gait
         filtered = self.steering.update(cmd if not self._stopped else SteeringCommand(), dt, target_gait)
         self._trot_for_speed(cmd, filtered)
-        if self._stand_when_slow and math.hypot(filtered.vx, filtered.vy) < self.params.stop_stepping_below_mps:
+        if (
+            self._stand_when_slow
+            and math.hypot(filtered.vx, filtered.vy) < self.params.stop_stepping_below_mps
+        ):
             self._stand_when_slow = False
             self.clock.request("stand")
         reference = reference_step_path(
