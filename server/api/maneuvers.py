@@ -85,7 +85,9 @@ class ManeuverSaved(BaseModel):
 
 class ValidationAnswer(BaseModel):
     ok: bool
-    robot: str | None = Field(None, description="the robot the maneuver was checked for (?robot, or the server's)")
+    robot: str | None = Field(
+        None, description="the robot the maneuver was checked for (?robot, or the server's)"
+    )
     warnings: list[dict[str, Any]]
     failures: list[dict[str, Any]]
     physics: dict[str, Any] | None = Field(
