@@ -418,7 +418,8 @@ class RobotModel:
         p = p_body_foot - self.p_body_hip[leg]
         px, py, pz = p[:, 0], p[:, 1], p[:, 2]
         y = self._side(leg)
-        lu, ll = float(self._lu[leg]), float(self._ll[leg])  # Python floats: the same IEEE arithmetic, less overhead
+        # Python floats: the same IEEE arithmetic, less overhead
+        lu, ll = float(self._lu[leg]), float(self._ll[leg])
         r2 = py * py + pz * pz - y * y
         ok = r2 > 0.0
         # rows with r2 ≤ 0 are out of reach: taking the root of 0 there keeps NaNs (and their warnings) out
@@ -429,7 +430,7 @@ class RobotModel:
         zs = zp - self._z_flex[leg]
         D = np.hypot(px, zs)
         ok &= (D <= self._d_max[leg] + 1e-9) & (D >= self._d_min[leg] - 1e-9)
-        c2 = np.minimum(np.maximum((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0), 1.0)  # np.clip, cheaper
+        c2 = np.minimum(np.maximum((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0), 1.0)  # np.clip
         psi2 = self._knee_branch[leg] * np.arccos(c2)
         psi1 = np.arctan2(-px, -zs) - np.arctan2(ll * np.sin(psi2), lu + ll * np.cos(psi2))
         sg = self._sign[leg]

@@ -199,7 +199,8 @@ class Analyzer:
         d = p1[:2] - p0[:2]
         dd = float(d @ d)
         if dd > 1e-12:
-            prog = np.minimum(np.maximum(((xw - p0[0]) * d[0] + (yw - p0[1]) * d[1]) / dd, 0.0), 1.0)  # np.clip
+            u = ((xw - p0[0]) * d[0] + (yw - p0[1]) * d[1]) / dd
+            prog = np.minimum(np.maximum(u, 0.0), 1.0)  # np.clip, without its dispatch cost
         else:
             prog = np.linspace(0.0, 1.0, len(xw))
         h_ref = p0[2] + prog * (p1[2] - p0[2])
