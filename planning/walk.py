@@ -382,6 +382,9 @@ class WalkController:
         t.v_world_body = v
         t.R_world_body = R
         t.omega_world = np.array([0.0, 0.0, cmd.yaw_rate])
+        # turning while moving: the velocity turns with the yaw rate, so the body needs the centripetal
+        # acceleration ω × v (2.25 m/s² on a 1 m radius at 1.5 m/s; without it the body slid out of the circle)
+        t.a_world_body = np.array([-cmd.yaw_rate * v[1], cmd.yaw_rate * v[0], 0.0])
 
     def _swing(self, s: RobotState) -> None:
         self.handler.plan_swings(s, self.target.v_world_body)
