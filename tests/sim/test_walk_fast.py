@@ -79,3 +79,11 @@ def test_takes_a_25_ns_sideways_push_while_trotting_at_1_5_mps() -> None:
     rep = run_walk(WalkCommand(1.5, settle_s=2.0), RunOptions(duration_s=5.5, pushes=[push]))
     assert rep["success"] and not rep["fell"], rep["failure_reason"]
     assert abs(rep["mean_velocity"]["vx"] - 1.5) <= 0.1 * 1.5
+
+
+@pytest.mark.parametrize("gait", ["bound", "gallop"])
+def test_bounds_and_gallops_at_1_2_mps(gait: str) -> None:
+    # with the fast trot's swing limits (their swings last 0.16 s): both held 0.8 m/s at most before
+    rep = run_walk(WalkCommand(1.2, gait=gait, settle_s=2.5), RunOptions(duration_s=5.0))
+    assert rep["success"] and not rep["fell"], rep["failure_reason"]
+    assert abs(rep["mean_velocity"]["vx"] - 1.2) <= 0.05 * 1.2
