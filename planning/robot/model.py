@@ -10,6 +10,7 @@ Joint angles everywhere are MuJoCo's.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -91,6 +92,13 @@ def _read_yaml(path: Path) -> dict[str, Any]:
 def description_beside(xml: Path) -> Path:
     """The optional description of an MJCF file: ``NAME.footfall.yaml`` in the same folder."""
     return xml.with_name(xml.stem + ".footfall.yaml")
+
+
+@lru_cache(maxsize=1)
+def reference_leg_joint_inertia() -> np.ndarray:
+    """Gives (4, 3) the leg joints' inertia of the reference robot (the shipped spot, which the controllers' joint
+    gains were tuned on), kg·m²."""
+    return load_robot("spot").leg_joint_inertia
 
 
 def load_robot(name_or_path: str | Path = "spot", strict: bool = True) -> RobotModel:
@@ -236,6 +244,24 @@ class RobotModel:
             self.problems.append(f"the standing pose is out of reach: {e}")
             self.q_nominal = np.zeros((4, 3))
         self.inertia_body = self._composite_inertia()
+        self.leg_joint_inertia = self._leg_joint_inertia()
+
+    def _leg_joint_inertia(self) -> np.ndarray:
+        """Gives (4, 3) each leg joint's inertia in the standing pose (kg·m²): the joint-space mass matrix's diagonal
+        from MuJoCo, the leg below the joint and the joint's armature."""
+        m = self.model
+        d = mujoco.MjData(m)
+        d.qpos[:] = self.home_qpos()
+        mujoco.mj_forward(m, d)
+        e, col = np.zeros(m.nv), np.zeros(m.nv)
+
+        def diag(dof: int) -> float:  # M[dof, dof] (mj_mulM: the same call in every MuJoCo version)
+            e[:] = 0.0
+            e[dof] = 1.0
+            mujoco.mj_mulM(m, d, col, e)
+            return float(col[dof])
+
+        return np.array([[diag(int(m.jnt_dofadr[j])) for j in lg.joint_ids] for lg in self.legs])
 
     def _standing_pose(self, det: Detected, desc: dict[str, Any]) -> None:
         """Standing height and nominal footholds: the description's, else the home keyframe's, else guessed."""
