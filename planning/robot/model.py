@@ -108,6 +108,8 @@ def load_robot(name_or_path: str | Path = "spot", strict: bool = True) -> RobotM
     Raises RobotDescriptionError naming every problem; with strict=False a robot that could be built is returned
     with its problems in ``.problems`` (what `footfall robot check` prints)."""
     p = Path(name_or_path)
+    if p.suffix.lower() in (".xml", ".yaml", ".yml"):
+        p = p.expanduser()  # a path may start with ~ (sweep specs name robots in the user's cache)
     if p.suffix.lower() == ".xml":
         side = description_beside(p)
         desc = _read_yaml(side) if side.exists() else {}
