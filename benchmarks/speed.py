@@ -19,7 +19,7 @@ import numpy as np
 #: Spot's published top speed (Boston Dynamics' specification): forward, m/s.
 SPOT_PUBLISHED = {"forward": 1.6}
 
-GAITS = ("trot", "pace", "bound", "walk")
+GAITS = ("trot", "pace", "bound", "gallop", "walk")
 
 #: The steering limits during a ramp: above anything the robot reaches (m/s, rad/s), gaits' own limits off.
 UNLIMITED = {"max_vx_mps": 5.0, "max_vy_mps": 3.0, "max_yaw_rate_rps": 5.0, "gait_limits": False}

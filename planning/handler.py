@@ -16,6 +16,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from planning.robot import LEGS, RobotModel
+from planning.robot.model import reference_leg_joint_inertia
 from planning.sim.world import RobotState
 from planning.stance import StanceHandler
 from planning.swing import (
@@ -115,8 +116,12 @@ class Handler:
         self.p_touchdown = np.zeros((4, 3))
         self.p_contact = np.zeros((4, 3))  # where each stance foot stands (contact point)
         self.plans: dict[int, SwingPlan] = {}
-        self.kp = np.array(p.kp_swing)
-        self.kd = np.array(p.kd_swing)
+        # swing gains per leg and joint: the parameters' (tuned on the reference robot) scaled up by how much a joint's
+        # inertia (leg and armature, from MuJoCo) exceeds the reference robot's, so the swing keeps its bandwidth and
+        # damping ratio on heavier legs (kp, kd ∝ I); lighter legs keep the parameters' gains
+        heavier = np.maximum(1.0, robot.leg_joint_inertia / reference_leg_joint_inertia())
+        self.kp = np.array(p.kp_swing) * heavier
+        self.kd = np.array(p.kd_swing) * heavier
         self.tau = np.zeros((4, 3))
         self.touchdown_overrides: dict[int, np.ndarray] = {}  # solver-adjusted touchdown places by leg
         self.waypoints: list[np.ndarray | None] = [None] * 4
@@ -348,7 +353,7 @@ class Handler:
             plan = self.plans.get(leg)
             if plan is None:
                 # not planned yet this tick: hold the joints where they are, compensating gravity
-                self.tau[leg] = s.tau_bias[leg] - self.kd * s.qd[leg]
+                self.tau[leg] = s.tau_bias[leg] - self.kd[leg] * s.qd[leg]
                 continue
             q_des, qd_des, tau_ff = swing_joint_command(
                 self.robot,
@@ -363,7 +368,10 @@ class Handler:
                 s.omega_world,
             )
             self.tau[leg] = (
-                self.kp * (q_des - s.q[leg]) + self.kd * (qd_des - s.qd[leg]) + tau_ff + s.tau_bias[leg]
+                self.kp[leg] * (q_des - s.q[leg])
+                + self.kd[leg] * (qd_des - s.qd[leg])
+                + tau_ff
+                + s.tau_bias[leg]
             )
         tau_max = self.robot.tau_max
         np.minimum(np.maximum(self.tau, -tau_max, out=self.tau), tau_max, out=self.tau)  # np.clip

@@ -88,9 +88,22 @@ class WalkParams:
     goal_speed_mps: float = 0.5  # speed cap when walking to a goal
     goal_tolerance_m: float = 0.08  # stop within this of the goal
     max_position_lead_m: float = 0.05  # the body target leads the body by at most this (m)
+    # the gaits whose swings get the fast settings below (the trot above 0.9 m/s; the flight-less bound and gallop,
+    # whose 0.16 s swings need them at any speed)
+    fast_swing_gaits: tuple[str, ...] = ("trot_fast", "bound", "gallop")
     # the swing feet's horizontal limits while trotting fast (trot_fast): the longer steps need them (m/s, m/s²)
     fast_swing_v_max_xy_mps: float = 6.0
     fast_swing_a_max_xy_mps2: float = 120.0
+    # ... a late foot descends this fast (m/s; 0.6 otherwise: at 2 m/s a late foot still 6 cm up left the body on
+    # one diagonal for 0.1 s and it rolled over)
+    fast_swing_late_descent_mps: float = 1.2
+    # ... a foot that trips is elevated but not stopped (the trip's immediate "stop forward motion" response lasts
+    # this long, s; 0.15 otherwise): a foot stopped at 2 m/s is left behind its hip and the diagonal breaks
+    fast_trip_response_s: float = 0.0
+    # ... and a swing near its plan's height is replanned from the plan's height (HandlerParams.
+    # replan_height_from_plan_m, m): replanned from the measured foot, the hind feet rose 6-9 cm past their
+    # planned top at 2 m/s and landed late
+    fast_replan_height_from_plan_m: float = 0.03
     steps: StepPlannerParams = field(default_factory=StepPlannerParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     handler: HandlerParams = field(default_factory=HandlerParams)
@@ -142,6 +155,7 @@ class WalkController:
         self._yaw_des = 0.0
         self._t_last = 0.0
         self._swing_slow: SwingParams | None = None  # the swing parameters to restore after trot_fast
+        self._handler_slow: HandlerParams | None = None  # ... and the handler's
         self.problems = StepPathProblems(robot)
         self.driver = (
             SolverDriver(robot, None, p.solution_max_age_s, p.centroidal) if p.use_centroidal else None
@@ -295,25 +309,33 @@ class WalkController:
         self.plan.update(sel)
 
     def _swing_for_speed(self) -> None:
-        """Raises the swing feet's horizontal limits while the gait is trot_fast; restores them after."""
-        fast = self.planner.clock.gait.name == "trot_fast"
+        """Raises the swing feet's horizontal limits and speeds up their late touchdowns and trip responses while
+        the gait is trot_fast (WalkParams.fast_*); restores them after."""
+        fast = self.planner.clock.gait.name in self.params.fast_swing_gaits
         if fast == (self._swing_slow is not None):
             return
         sp = self.handler.swing_planner
         if fast:
             self._swing_slow = sp.params
+            self._handler_slow = self.handler.params
             p = self.params
             sp.set_params(
                 replace(
                     sp.params,
                     v_max_xy_mps=p.fast_swing_v_max_xy_mps,
                     a_max_xy_mps2=p.fast_swing_a_max_xy_mps2,
+                    late_descent_mps=p.fast_swing_late_descent_mps,
+                    trip_response_s=p.fast_trip_response_s,
                 )
             )
+            self.handler.params = replace(
+                self.handler.params, replan_height_from_plan_m=p.fast_replan_height_from_plan_m
+            )
         else:
-            assert self._swing_slow is not None
+            assert self._swing_slow is not None and self._handler_slow is not None
             sp.set_params(self._swing_slow)
-            self._swing_slow = None
+            self.handler.params = self._handler_slow
+            self._swing_slow = self._handler_slow = None
 
     def _centroidal(self, s: RobotState) -> None:
         sel = self.plan.selection
@@ -363,6 +385,9 @@ class WalkController:
         t.v_world_body = v
         t.R_world_body = R
         t.omega_world = np.array([0.0, 0.0, cmd.yaw_rate])
+        # turning while moving: the velocity turns with the yaw rate, so the body needs the centripetal
+        # acceleration ω × v (2.25 m/s² on a 1 m radius at 1.5 m/s; without it the body slid out of the circle)
+        t.a_world_body = np.array([-cmd.yaw_rate * v[1], cmd.yaw_rate * v[0], 0.0])
 
     def _swing(self, s: RobotState) -> None:
         self.handler.plan_swings(s, self.target.v_world_body)

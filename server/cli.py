@@ -371,7 +371,9 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--vx", type=float, default=0.0, metavar="V", help="forward speed, m/s")
     w.add_argument("--vy", type=float, default=0.0, metavar="V", help="sideways speed (left), m/s")
     w.add_argument("--yaw-rate", type=float, default=0.0, metavar="W", help="turning rate (left), rad/s")
-    w.add_argument("--gait", default="trot", metavar="NAME", help="trot (default), walk, pace or bound")
+    w.add_argument(
+        "--gait", default="trot", metavar="NAME", help="trot (default), walk, pace, bound or gallop"
+    )
     w.add_argument("--goal", metavar="X,Y", help="walk to this point (m, start frame) instead of a velocity")
     w.add_argument(
         "--weights",

@@ -144,11 +144,23 @@ def check_limits(maneuver: Any, settings: Settings) -> list[Problem]:
     return out
 
 
-def validate(maneuver: Any, services: Services, lines: dict[str, int] | None = None) -> Any:
-    """Returns the ValidationResult of a parsed maneuver for the server's robot (problems with YAML lines): the
-    same check as `footfall validate`, dry solve included."""
+def robot_model(services: Services, robot: str | None = None) -> Any:
+    """Gives the RobotModel of `robot` (what a simulation loads: a shipped name or a path, as resolve_robot gives
+    it), or of the server's robot when None."""
+    if robot is None:
+        return services.robot
+    from server.engine import _robot
+
+    return _robot(robot)
+
+
+def validate(
+    maneuver: Any, services: Services, lines: dict[str, int] | None = None, robot: str | None = None
+) -> Any:
+    """Returns the ValidationResult of a parsed maneuver for `robot` (resolved: see robot_model; None: the server's
+    robot), problems with YAML lines: the same check as `footfall validate`, dry solve included."""
     try:
-        result = check_maneuver(maneuver, services.robot)
+        result = check_maneuver(maneuver, robot_model(services, robot))
     except Exception as e:  # noqa: BLE001 - a checker that chokes on odd input must not turn into a 500
         log.warning("validation of %s raised %r", getattr(maneuver, "name", "?"), e)
         failure = Problem(
@@ -166,7 +178,7 @@ class PhysicsUnavailable(Exception):
     """The physics check could not run (too long, timed out, the worker failed); the message says why."""
 
 
-def physics_report(maneuver: Any, services: Services) -> dict[str, Any]:
+def physics_report(maneuver: Any, services: Services, robot: str | None = None) -> dict[str, Any]:
     """Runs the physics check of a maneuver on the simulation pool (it waits its turn with the queued simulations)
     and returns its run report; QueueFull when the queue is full, PhysicsUnavailable when it cannot run. Blocks:
     call it off the event loop."""
@@ -179,7 +191,7 @@ def physics_report(maneuver: Any, services: Services) -> dict[str, Any]:
         "terrain": "flat",
         "pushes": [],
         "duration": None,
-        "robot": settings.robot,
+        "robot": robot or settings.robot,
         "physics_check": True,
     }
     pool = services.simulations
@@ -206,20 +218,24 @@ def physics_report(maneuver: Any, services: Services) -> dict[str, Any]:
 
 
 def validate_with_physics(
-    maneuver: Any, services: Services, lines: dict[str, int] | None = None, physics: bool | None = None
+    maneuver: Any,
+    services: Services,
+    lines: dict[str, int] | None = None,
+    physics: bool | None = None,
+    robot: str | None = None,
 ) -> Any:
     """Returns `validate` plus, when the rules and the dry solve pass, the physics check (physics_report) judged
     into it. physics None: the server's setting (on unless FOOTFALL_VALIDATE_PHYSICS=0). Blocks: call it off the
     event loop."""
     from planning.maneuver.physics import skipped, with_physics
 
-    result = validate(maneuver, services, lines)
+    result = validate(maneuver, services, lines, robot)
     if not (services.settings.validate_physics if physics is None else physics):
         return result
     if not result.ok:
         return skipped(result, "the maneuver has failures without simulating it")
     try:
-        return with_physics(result, physics_report(maneuver, services), lines)
+        return with_physics(result, physics_report(maneuver, services, robot), lines)
     except PhysicsUnavailable as e:
         return skipped(result, f"the physics check could not run: {e}")
     except (KeyError, TypeError, ValueError) as e:  # an odd report must not turn into a 500

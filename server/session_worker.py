@@ -31,7 +31,6 @@ import signal
 import sys
 import threading
 import time
-from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,7 +44,6 @@ import numpy as np
 
 from server.sessions import (
     MAX_FRAMES,
-    PLOT_SAMPLES,
     PUBLISH_PERIOD_S,
     LiveSession,
     Mode,
@@ -313,29 +311,7 @@ class ProcessSession(LiveSession):
         maps: str = "truth",
     ) -> None:
         # not LiveSession.__init__: the simulation is built in the worker
-        self.id = session_id
-        self.terrain = terrain
-        self.mode = mode
-        self.maps = maps
-        self.robot = robot
-        self.origin = origin
-        self._factory = factory
-        self._clock = clock
-        self.created = clock()
-        self.last_access = self.created
-        self.lock = threading.RLock()  # guards self.recording (as in LiveSession)
-        self.status = "running"
-        self.error: str | None = None
-        self.speed = 1.0
-        self.command = None
-        self.dropped_s = 0.0
-        self.rtf = 0.0
-        self.steps = 0
-        self.generation = 0
-        self.recording = Recording("stand", terrain)
-        self.plot = deque(maxlen=PLOT_SAMPLES)
-        self.plot_n = 0
-        self._seq = 0
+        self._init_fields(session_id, terrain, mode, robot, factory, origin, clock, maps)
         self._meta_cache: dict[str, Any] = {}
         self._rec_ops: list[tuple[str, Any]] = []  # recording changes waiting for self.lock (see _apply)
         self._send_lock = threading.Lock()

@@ -165,6 +165,28 @@ class LiveSession:
         clock: Callable[[], float] = time.monotonic,
         maps: str = "truth",
     ) -> None:
+        self._init_fields(session_id, terrain, mode, robot, factory, origin, clock, maps)
+        self.sim: Sim = factory(self._entry_spec(mode, maps=maps), terrain, robot)
+        self.rtf = 1.0
+        self.recording = Recording(self._maneuver_name(), terrain)
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self.snapshot = self._take_snapshot()
+        self._thread = threading.Thread(target=self._run, name=f"footfall-session-{session_id}", daemon=True)
+
+    def _init_fields(
+        self,
+        session_id: str,
+        terrain: str,
+        mode: Mode,
+        robot: str,
+        factory: SimFactory,
+        origin: str,
+        clock: Callable[[], float],
+        maps: str,
+    ) -> None:
+        """The session's own fields, whichever design steps its simulation (a thread here, a worker process in
+        `server.session_worker.ProcessSession`)."""
         self.id = session_id
         self.terrain = terrain
         self.mode: Mode = mode
@@ -175,24 +197,19 @@ class LiveSession:
         self._clock = clock
         self.created = clock()
         self.last_access = self.created
-        self.lock = threading.RLock()  # guards self.sim
-        self.sim: Sim = factory(self._entry_spec(mode, maps=maps), terrain, robot)
+        self.lock = threading.RLock()  # guards self.sim (self.recording in a worker-process session)
         self.status: Status = "running"
         self.error: str | None = None
         self.speed = 1.0
         self.command: dict[str, Any] | None = None  # the last steering command
         self.dropped_s = 0.0  # simulated time skipped because the session fell behind the wall clock
-        self.rtf = 1.0  # measured simulated seconds per wall second over the last ~2 s (while running)
+        self.rtf = 0.0  # measured simulated seconds per wall second over the last ~2 s (while running)
         self.steps = 0
         self.generation = 0  # bumped whenever the simulation is replaced (studio rebuilds the terrain)
-        self.recording = Recording(self._maneuver_name(), terrain)
+        self.recording = Recording("stand", terrain)
         self.plot: deque[PlotSample] = deque(maxlen=PLOT_SAMPLES)
         self.plot_n = 0  # plot samples taken in all
-        self._stop = threading.Event()
-        self._wake = threading.Event()
         self._seq = 0
-        self.snapshot = self._take_snapshot()
-        self._thread = threading.Thread(target=self._run, name=f"footfall-session-{session_id}", daemon=True)
 
     # ---- lifecycle ----------------------------------------------------------------------------------------------
     def start(self) -> None:

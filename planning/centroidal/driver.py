@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import replace
 from typing import Any
 
@@ -38,14 +39,21 @@ class SolverDriver:
         self.fallback_ticks = 0
         self.statuses: dict[str, int] = {}
         self.qp_ms: list[float] = []
+        self.qp_iterations: list[int] = []  # ADMM iterations of each tick (its work, alike on any load)
+        self.tick_cpu_ms: list[
+            float
+        ] = []  # each tick's CPU time (this thread's: preemption by other work excluded)
         self.linearization_errors: list[float] = []
 
     def solve(self, problem: CentroidalProblem, t: float) -> CentroidalSolution:
         """Solves the tick's problem; returns the solution (kept for driving when ok)."""
+        c0 = time.thread_time()
         sol = self.solver.solve(problem)
+        self.tick_cpu_ms.append((time.thread_time() - c0) * 1e3)
         self.solver_ticks += 1
         self.statuses[sol.status] = self.statuses.get(sol.status, 0) + 1
         self.qp_ms.append(sol.qp_ms)
+        self.qp_iterations.append(sol.qp_iterations)
         if np.isfinite(sol.linearization_error):
             self.linearization_errors.append(float(sol.linearization_error))
         if sol.ok:

@@ -404,6 +404,7 @@ class CentroidalSolver:
         self._solves_left: float = math.inf
         self._max_iter_now = p.max_iter
         self._tick_iterations = 0
+        self._loose: Any = None  # the last solve's answer at eps_abs when its polish failed (see _run_qp)
         self.last_snapshot: QPSnapshot | None = None
         self.last_info: list[Any] = []
 
@@ -993,6 +994,14 @@ class CentroidalSolver:
                 or (time.perf_counter() - t0) * 1e3 > prm.time_budget_ms
                 or not self._work_left()
             ):
+                loose = self._loose
+                if loose is not None and loose is not res:
+                    # The accurate answer needs cuts the tick has no work left for; the same solve's answer at
+                    # eps_abs (before the tight tolerance) may need none: then it stands, the best the tick had.
+                    lsol = self._unpack(loose.x, tk)
+                    lv = self._violations(lsol, tk, record=False)
+                    if not (lv[2].any() or lv[3].any()):
+                        res, sol, len_viol, cone_viol = loose, lsol, lv[0], lv[1]
                 break
             rounds += 1
             n_cuts += int(new_len.sum() + new_cone.sum())
@@ -1083,7 +1092,8 @@ class CentroidalSolver:
     def _run_qp(self) -> Any:
         """Solves the QP as it stands (at most _max_iter_now ADMM iterations, and what the tick has left); when
         polishing fails (a degenerate active set), goes on to the tight tolerance from where ADMM stopped, so the
-        forces are accurate either way."""
+        forces are accurate either way. The answer at eps_abs is kept in _loose (None when polishing did not fail):
+        a tick out of work may keep it (``_cut_rounds``), and a tight run out of iterations returns it."""
         p = self.params
         cap = self._iteration_cap(self._max_iter_now)
         self._qp.update_settings(max_iter=cap)
@@ -1091,22 +1101,26 @@ class CentroidalSolver:
         self._solves_left -= 1
         self._iters_left -= int(res.info.iter)
         self._tick_iterations += int(res.info.iter)
+        self._loose = None
         if (
             p.polish
             and int(res.info.status_val) == 1
             and int(res.info.status_polish) != 1
             and p.eps_fallback < p.eps_abs
         ):
+            self._loose = res
             self._qp.update_settings(
                 eps_abs=p.eps_fallback,
                 eps_rel=p.eps_fallback,
                 polishing=False,
                 max_iter=self._iteration_cap(cap),
             )
-            res = self._qp.solve(raise_error=False)
-            self._iters_left -= int(res.info.iter)
-            self._tick_iterations += int(res.info.iter)
+            tight = self._qp.solve(raise_error=False)
+            self._iters_left -= int(tight.info.iter)
+            self._tick_iterations += int(tight.info.iter)
             self._qp.update_settings(eps_abs=p.eps_abs, eps_rel=p.eps_rel, polishing=True)
+            if int(tight.info.status_val) == 1:
+                res = tight
         return res
 
     # ----------------------------------------------------------------------------------------------------------
@@ -1134,9 +1148,10 @@ class CentroidalSolver:
         }
 
     def _violations(
-        self, sol: dict[str, np.ndarray], tk: _Tick
+        self, sol: dict[str, np.ndarray], tk: _Tick, record: bool = True
     ) -> tuple[float, float, np.ndarray, np.ndarray]:
-        """Checks the nonlinear constraints on a solution; points the cut rows of violated ones at the violation.
+        """Checks the nonlinear constraints on a solution; points the cut rows of violated ones at the violation
+        (record False: only checks).
 
         Returns (worst leg-length violation m, worst cone violation as a fraction of μ f_n, new length cuts
         (K_max-1,4), new cone cuts (N_max,4)).
@@ -1162,7 +1177,7 @@ class CentroidalSolver:
         over = np.where(act, np.maximum(too_long, model.leg_length_min_m - dist - give), 0.0)
         new_len = np.zeros_like(self._len_on)
         new_len[: K - 1] = over > prm.leg_length_tol_m
-        if new_len.any():
+        if record and new_len.any():
             self._len_on |= new_len
             self._len_dir[new_len] = (vec / np.maximum(dist, 1e-9)[..., None])[new_len[: K - 1]]
             flip = new_len[: K - 1] & self._relax[: K - 1]
@@ -1181,7 +1196,7 @@ class CentroidalSolver:
         )
         new_cone = np.zeros(self._cone_dir.shape[:2], dtype=bool)
         new_cone[:N] = (cone_rel > prm.cone_tol) & (ftn > 1e-9)
-        if new_cone.any():
+        if record and new_cone.any():
             # The pyramid turns to face the violating force (exact there); the two cut rows keep the faces it
             # had before (their tangent planes stay): the polytope tightens around where the forces go.
             self._cone_dir[new_cone, 1] = self._cone_dir[new_cone, 0]

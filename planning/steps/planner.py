@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,7 +25,8 @@ class StepPlannerParams:
     push_margin_m: a standing robot whose capture point leaves its support polygon by more than this (m) starts
     stepping. settle_speed_mps: a stopped robot stepping after a push stands again below this speed (m/s).
     fast_trot_above_mps / fast_trot_below_mps: a trot commanded faster forward than the first switches to
-    trot_fast (a longer swing) and back below the second (m/s; the gap keeps it from switching to and fro)."""
+    trot_fast (a longer swing) and back below the second (m/s; the gap keeps it from switching to and fro).
+    stop_stepping_below_mps: a stop asked faster than this decelerates stepping first (m/s)."""
 
     steering: SteeringParams = field(default_factory=SteeringParams)
     reference: ReferenceParams = field(default_factory=ReferenceParams)
@@ -37,6 +39,10 @@ class StepPlannerParams:
     settle_speed_mps: float = 0.1
     fast_trot_above_mps: float = 0.9
     fast_trot_below_mps: float = 0.7
+    # a stop asked while the filtered command is faster than this (m/s, forward and sideways) goes on stepping while
+    # the steering filter ramps the command down at its deceleration limits, and stands once below it (measured:
+    # at 2 m/s a stop that lifts no foot again fell within 0.7 s)
+    stop_stepping_below_mps: float = 0.5
 
 
 class StepPlanner:
@@ -62,6 +68,7 @@ class StepPlanner:
         self.last: Selection | None = None
         self._t_last = t0
         self._stopped = False
+        self._stand_when_slow = False  # a stop asked at speed: stand once the command has ramped down
 
     def set_gait(self, gait: Gait | str) -> None:
         """Switches gait (at the clock's next safe boundary); "stand" stops."""
@@ -70,14 +77,19 @@ class StepPlanner:
             self.stop()
             return
         self.walk_gait = g
-        self._stopped = False
+        self._stopped = self._stand_when_slow = False
         self.clock.request(g)
 
     def stop(self) -> None:
         """Comes to a stable stand: feet in the air finish their swing, no new liftoffs; commands are ignored
-        until set_gait is called (a push that moves the capture point out of the support still makes it step)."""
+        until set_gait is called (a push that moves the capture point out of the support still makes it step).
+        Asked at speed (above stop_stepping_below_mps), it first steps on while the command ramps down."""
         self._stopped = True
-        self.clock.request("stand")
+        c = self.steering.command
+        if self.clock.gait.is_stand or math.hypot(c.vx, c.vy) < self.params.stop_stepping_below_mps:
+            self.clock.request("stand")
+        else:  # at speed: the command ramps down while stepping on (tick), then the stand
+            self._stand_when_slow = True
 
     def set_weights(self, weights: Weights | str) -> None:
         """Sets Qp, Qr (a Weights or a preset name); takes effect at the next tick."""
@@ -126,6 +138,12 @@ class StepPlanner:
         target_gait = self.clock.pending or self.clock.gait
         filtered = self.steering.update(cmd if not self._stopped else SteeringCommand(), dt, target_gait)
         self._trot_for_speed(cmd, filtered)
+        if (
+            self._stand_when_slow
+            and math.hypot(filtered.vx, filtered.vy) < self.params.stop_stepping_below_mps
+        ):
+            self._stand_when_slow = False
+            self.clock.request("stand")
         reference = reference_step_path(
             filtered,
             state,

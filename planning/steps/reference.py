@@ -25,11 +25,16 @@ GroundHeight = Callable[[F64, F64], object]
 @dataclass(frozen=True)
 class ReferenceParams:
     """n_cycles: gait cycles planned ahead (touchdowns per leg). capture_gain: -, gain of the capture-point
-    feedback term on a leg's first touchdown. capture_decay: -, factor on that gain per later touchdown."""
+    feedback term on a leg's first touchdown. capture_decay: -, factor on that gain per later touchdown.
+    centripetal_gain: -, footholds outward of a turn by this times the centripetal acceleration / ω²."""
 
     n_cycles: int = 2
     capture_gain: float = 1.0
     capture_decay: float = 0.5
+    # turning while moving: each foothold moves outward of the arc by this times a/ω² (a = yaw rate × speed, the
+    # centripetal acceleration; ω² = g/h the pendulum's), so the body leans into the turn; without it a trot on a
+    # 1 m radius at 1.5 m/s slid out of the circle and fell
+    centripetal_gain: float = 1.0
 
     def __post_init__(self) -> None:
         if self.n_cycles < 1:
@@ -108,6 +113,10 @@ def reference_step_path(
     v_err = state.v_world_com[:2] - body.velocity_world(t_now)
     gain = p.capture_gain * p.capture_decay ** touchdown_rank(leg)
     xy = xy + gain[:, None] * (v_err / omega)[None, :]
+    if cmd.yaw_rate != 0.0 and p.centripetal_gain != 0.0 and leg.shape[0]:
+        v_td = body.velocity_world(sched.t_touchdown + 0.5 * t_stance)  # (K, 2)
+        a_in = cmd.yaw_rate * np.column_stack([-v_td[:, 1], v_td[:, 0]])  # ω × v, toward the turn's center
+        xy = xy - p.centripetal_gain * a_in / (omega * omega)
     if ground_height is not None and leg.shape[0]:
         z = eval_map(ground_height, xy[:, 0], xy[:, 1])
     else:

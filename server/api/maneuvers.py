@@ -22,10 +22,12 @@ from planning.maneuver.load import read_yaml
 from planning.maneuver.spec import NAME_PATTERN
 from server.deps import ServicesDep, StoreDep, WriteAccess
 from server.errors import ApiError, field_error
+from server.robots import default_name, resolve_robot
 from server.services import (
     maneuver_text,
     read_maneuver_body,
     require_valid,
+    robot_model,
     to_maneuver,
     validate_with_physics,
 )
@@ -83,6 +85,9 @@ class ManeuverSaved(BaseModel):
 
 class ValidationAnswer(BaseModel):
     ok: bool
+    robot: str | None = Field(
+        None, description="the robot the maneuver was checked for (?robot, or the server's)"
+    )
     warnings: list[dict[str, Any]]
     failures: list[dict[str, Any]]
     physics: dict[str, Any] | None = Field(
@@ -105,6 +110,16 @@ PhysicsParam = Annotated[
 ]
 
 
+RobotParam = Annotated[
+    str | None,
+    Query(
+        description="check for this robot (a name GET /robots lists; the maneuver scaled to it, its torque and "
+        "reach, and the physics check run on it). Default: the server's robot",
+        max_length=200,
+    ),
+]
+
+
 @router.get(
     "", response_model=list[ManeuverSummary], summary="The library: shipped (read-only) and user maneuvers"
 )
@@ -119,25 +134,29 @@ def list_maneuvers(store: StoreDep) -> list[dict[str, Any]]:
     summary="Check a maneuver without simulating: warnings (fixable) and failures (blocking)",
 )
 async def validate_maneuver_body(
-    request: Request, services: ServicesDep, physics: PhysicsParam = None
+    request: Request, services: ServicesDep, physics: PhysicsParam = None, robot: RobotParam = None
 ) -> dict[str, Any]:
     raw = await request.body()
     content_type = request.headers.get("content-type")
 
     def work() -> dict[str, Any]:
+        settings = services.settings
+        load = None if robot is None else resolve_robot(robot, settings)  # 422 naming `robot` when not listed
+        name = robot if robot is not None else default_name(settings)
         body = read_maneuver_body(raw, content_type)
         if not isinstance(body.data, dict):
             kind = "empty" if body.data is None else f"a {type(body.data).__name__}"
             raise field_error(422, "body", f"must be a mapping of fields (a maneuver document), got {kind}")
         try:
-            maneuver = to_maneuver(body.data, body.lines, services.settings, services.robot)
+            maneuver = to_maneuver(body.data, body.lines, settings, robot_model(services, load))
         except ApiError as e:
             if e.status != 422:
                 raise
-            return {"ok": False, "warnings": [], "failures": e.errors}
-        result = validate_with_physics(maneuver, services, body.lines, physics)
+            return {"ok": False, "robot": name, "warnings": [], "failures": e.errors}
+        result = validate_with_physics(maneuver, services, body.lines, physics, load)
         return {
             "ok": bool(result.ok),
+            "robot": name,
             "warnings": problems_to_fields(list(result.warnings)),
             "failures": problems_to_fields(list(result.failures)),
             "physics": result.physics,

@@ -115,6 +115,8 @@ class ManeuverEditor:
         self.authorized = authorized
         self.start_preview = start_preview
         self.world_offset = world_offset
+        # what the tab's picked robot loads (robot_picker sets it; None: the server's robot)
+        self.robot_load: Callable[[], str | None] = lambda: None
         self.lock = threading.RLock()
         # the document
         self.meta: dict[str, Any] = {}
@@ -1295,9 +1297,10 @@ class ManeuverEditor:
         except ManeuverError as e:
             problems, result = list(e.problems), None
         else:
-            result = check_maneuver(
-                maneuver, self.services.robot
-            )  # the one validation: CLI and REST call it too
+            from server.services import robot_model
+
+            # the one validation (CLI and REST call it too), for the tab's picked robot
+            result = check_maneuver(maneuver, robot_model(self.services, self.robot_load()))
             problems = [*result.failures, *result.warnings]
         physics = bool(announce and result is not None and result.ok and self._physics_wanted())
         if not self._show_result(rev, result, problems, ev_ids, kf_ids):
@@ -1363,7 +1366,7 @@ class ManeuverEditor:
 
             try:
                 try:
-                    checked = with_physics(result, physics_report(maneuver, self.services))
+                    checked = with_physics(result, physics_report(maneuver, self.services, self.robot_load()))
                 except (PhysicsUnavailable, QueueFull) as e:
                     checked = skipped(result, f"the physics check could not run: {e}")
                 if rev != self._rev:

@@ -17,6 +17,13 @@ def current_robot(tab: Any) -> str:
     return name_of(s.robot if s is not None else settings.robot, settings)
 
 
+def picked_load(tab: Any) -> str:
+    """Gives what a simulation loads for the tab's picked robot (its session's; the server's without a session):
+    the Author tab's Validate and physics check use it."""
+    s = tab.session
+    return str(s.robot if s is not None else tab.services.settings.robot)
+
+
 def use_robot(tab: Any, name: str) -> bool:
     """Resets the tab's session on the robot `name` (REST rules: a listed name, loaded once); False, with a
     notification saying why, when it cannot be used."""
@@ -43,6 +50,9 @@ def add_robot_picker(tab: Any) -> Any:
     if current not in names:
         names.append(current)
     dd = tab.client.gui.add_dropdown("robot", tuple(names), initial_value=current)
+    editor = getattr(tab, "editor", None)
+    if editor is not None:
+        editor.robot_load = lambda: picked_load(tab)  # validate for the robot the tab drives
 
     @dd.on_update
     def _(e: Any) -> None:
@@ -55,4 +65,4 @@ def add_robot_picker(tab: Any) -> Any:
     return dd
 
 
-__all__ = ["add_robot_picker", "current_robot", "use_robot"]
+__all__ = ["add_robot_picker", "current_robot", "picked_load", "use_robot"]

@@ -89,3 +89,14 @@ def test_grid_properties(t_now, events, horizon, base):
     for e in events:
         if t_now + 1e-6 < e < t[-1] - 1e-6:
             assert np.min(np.abs(t - e)) < 1e-9
+
+
+def test_an_event_just_after_a_knot_gets_no_millisecond_step():
+    # a liftoff 1 ms from now and a touchdown 9 ms later: without the gap, steps of 1 and 9 ms
+    events = [0.001, 0.010, 0.26]
+    plain = make_time_grid(0.0, events, 0.8, base_dt=0.05, max_knots=100)
+    assert np.diff(plain)[:2] == pytest.approx([0.001, 0.009])
+    t = make_time_grid(0.0, events, 0.8, base_dt=0.05, max_knots=100, min_event_gap_s=0.012)
+    assert np.diff(t).min() >= 0.012 - 1e-12
+    assert np.min(np.abs(t - 0.26)) < 1e-12  # events further out keep their knots
+    assert t[1] == pytest.approx(0.05) and t[-1] == pytest.approx(0.8)

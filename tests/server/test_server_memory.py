@@ -6,15 +6,12 @@ A real server process; 200 cycles of create a session, run a maneuver a moment, 
 
 from __future__ import annotations
 
-import os
-import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import httpx
 import pytest
+from served import served
 
 CYCLES = 200
 ALLOWED_GROWTH_MB = 50.0
@@ -32,27 +29,8 @@ def _rss_mb(pid: int) -> float:
     not Path("/proc/self/status").exists(), reason="reads the server's RSS from /proc (Linux)"
 )
 def test_rss_returns_after_200_session_cycles(tmp_path: Path) -> None:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    env = {
-        **os.environ,
-        "FOOTFALL_STUDIO": "0",
-        "FOOTFALL_DATA_DIR": str(tmp_path),
-        "FOOTFALL_MAX_SESSIONS": "2",
-    }
-    server = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--port", str(port)], env=env,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
-    try:
-        c = httpx.Client(base_url=f"http://127.0.0.1:{port}", timeout=30.0)
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                c.get("/health")
-                break
-            except httpx.TransportError:
-                assert server.poll() is None and time.monotonic() < deadline, "the server did not start"
-                time.sleep(0.2)
+    with served(tmp_path, FOOTFALL_MAX_SESSIONS="2") as server:
+        c = httpx.Client(base_url=f"http://127.0.0.1:{server.port}", timeout=30.0)
 
         def cycle() -> None:
             r = c.post("/sessions", json={})
@@ -65,15 +43,12 @@ def test_rss_returns_after_200_session_cycles(tmp_path: Path) -> None:
 
         for _ in range(5):  # imports, the robot model, the validation cache: what a first session leaves
             cycle()
-        start = _rss_mb(server.pid)
+        start = _rss_mb(server.proc.pid)
         samples = []
         for i in range(CYCLES):
             cycle()
             if (i + 1) % 50 == 0:
-                samples.append(round(_rss_mb(server.pid) - start, 1))
-        grown = _rss_mb(server.pid) - start
+                samples.append(round(_rss_mb(server.proc.pid) - start, 1))
+        grown = _rss_mb(server.proc.pid) - start
         print(f"RSS {start:.0f} MB after warm-up, growth every 50 cycles {samples} MB, final +{grown:.1f} MB")
         assert grown < ALLOWED_GROWTH_MB, (start, samples)
-    finally:
-        server.terminate()
-        server.wait(timeout=30)

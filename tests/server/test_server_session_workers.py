@@ -5,15 +5,13 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
+from served import alive, served
 from server_fakes import FakeSim, fake_runner, make_client
 
 # The API's session tests, collected here a second time with this module's `client`: sessions in worker processes.
@@ -27,7 +25,6 @@ from test_server_sessions import (  # noqa: F401 - collected by pytest
     test_steer_without_a_steering_backend_is_409,
     wait_for,
 )
-from test_server_shutdown import _alive, _call, _children
 
 from server.settings import Settings
 
@@ -48,11 +45,11 @@ def test_each_session_has_a_worker_of_its_own_and_stopping_reaps_it(client: Test
     manager = client.app.state.services.sessions  # type: ignore[attr-defined]
     a, b = _new(client), _new(client)
     pids = {manager.get(a).pid, manager.get(b).pid}
-    assert len(pids) == 2 and os.getpid() not in pids and all(_alive(p) for p in pids)
+    assert len(pids) == 2 and os.getpid() not in pids and all(alive(p) for p in pids)
     assert wait_for(lambda: client.get(f"/sessions/{a}/state").json()["t"] > 0.1, 10.0)
     pa = manager.get(a).pid
     assert client.delete(f"/sessions/{a}").status_code == 204
-    assert not _alive(pa), "a deleted session's worker is gone (reaped: not even a zombie)"
+    assert not alive(pa), "a deleted session's worker is gone (reaped: not even a zombie)"
     assert client.get(f"/sessions/{b}/state").json()["status"] == "running"
 
 
@@ -72,50 +69,20 @@ def test_a_killed_worker_is_reported_and_never_hangs_a_request(client: TestClien
         assert time.monotonic() - t0 < 2.0, path
         assert r.status_code == 409 and "crashed" in r.json()["detail"], (path, r.text)
     assert client.get("/health").status_code == 200
-    assert not _alive(old), "the dead worker was reaped"
+    assert not alive(old), "the dead worker was reaped"
     # a reset starts a new worker
     assert client.post(f"/sessions/{sid}/reset").json()["status"] == "running"
-    assert s.pid != old and _alive(s.pid)
+    assert s.pid != old and alive(s.pid)
     t1 = client.get(f"/sessions/{sid}/state").json()["t"]
     assert wait_for(lambda: client.get(f"/sessions/{sid}/state").json()["t"] > t1 + 0.05, 10.0)
 
 
 def test_a_killed_server_leaves_no_session_worker(tmp_path: Path) -> None:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]
-    env = {
-        **os.environ,
-        "FOOTFALL_STUDIO": "0",
-        "FOOTFALL_DATA_DIR": str(tmp_path),
-        "FOOTFALL_SESSION_WORKERS": "process",
-    }
-    server = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--port", str(port)], env=env,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
-    children: set[int] = set()
-    try:
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                _call(port, "GET", "/health")
-                break
-            except OSError:
-                assert server.poll() is None and time.monotonic() < deadline, "the server did not start"
-                time.sleep(0.2)
+    with served(tmp_path, FOOTFALL_SESSION_WORKERS="process") as s:
         for _ in range(2):
-            _call(port, "POST", "/sessions", {"terrain": "flat"})
-        children = _children(server.pid)
-        assert len(children) >= 3, "two session workers and the fork server they start from"
-        server.send_signal(signal.SIGKILL)  # no shutdown, no exit handlers: the workers see their pipes close
-        server.wait(timeout=30)
-        deadline = time.monotonic() + 10
-        while any(_alive(c) for c in children) and time.monotonic() < deadline:
-            time.sleep(0.1)
-        assert not [c for c in children if _alive(c)], "a session worker outlived the server"
-    finally:
-        if server.poll() is None:
-            server.kill()
-            server.wait()
-        for c in children:
-            if _alive(c):
-                os.kill(c, signal.SIGKILL)
+            s.call("POST", "/sessions", {"terrain": "flat"})
+        kids = s.children()
+        assert len(kids) >= 3, "two session workers and the fork server they start from"
+        s.proc.send_signal(signal.SIGKILL)  # no shutdown, no exit handlers: the workers see their pipes close
+        s.proc.wait(timeout=30)
+        assert not s.wait_gone(kids), "a session worker outlived the server"

@@ -365,6 +365,10 @@ def test_the_robot_picker_redraws_the_tab_on_another_robot(
     assert wait_for(lambda: tab.view is not None and tab.view is not view, 10.0)
     body_z = float(tab.session.snapshot.xpos[0][2])
     assert 0.2 < body_z < 0.4, body_z  # go1 stands ~0.30 m high (spot 0.52 m)
+    # the Author tab validates for the picked robot: the maneuver comes back scaled to the go1's height
+    assert tab.editor.robot_load() == "go1"
+    checked = tab.editor.validate_now()
+    assert checked is not None and max(k.position[2] for k in checked.maneuver.body) < 0.4
     tab.dd_robot.value = "spot"
     assert wait_for(
         lambda: tab.session.robot == "spot" and float(tab.session.snapshot.xpos[0][2]) > 0.45, 10.0

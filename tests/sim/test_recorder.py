@@ -18,6 +18,7 @@ def _state(t: float, feet_z: list[float], contact: list[bool], x0: float = 0.0) 
         t=t,
         p_world_foot=feet,
         contact=np.array(contact),
+        loaded=np.array(contact),  # the feet the ground pushes (hard feet: the ones in contact)
         p_world_body=np.array([0.0, 0.0, 0.5]),
         R_world_body=np.eye(3),
         v_world_body=np.zeros(3),

@@ -80,3 +80,18 @@ def test_stop_comes_to_a_stand_and_a_push_makes_it_step() -> None:
     for _ in range(100):  # the shove is over: once settled, it stands again
         sim.tick(planner, SteeringCommand())
     assert planner.clock.gait.is_stand
+
+
+def test_stop_at_speed_steps_on_while_the_command_ramps_down() -> None:
+    planner = StepPlanner(robot(), gait="trot")
+    sim = _Kinematic()
+    for _ in range(200):
+        sim.tick(planner, SteeringCommand(1.5, 0.0, 0.0))
+    assert planner.steering.command.vx > planner.params.stop_stepping_below_mps
+    planner.stop()
+    sim.tick(planner, SteeringCommand(1.5, 0.0, 0.0))  # ignored after stop
+    assert not planner.clock.gait.is_stand and planner.clock.pending is None  # still stepping
+    assert planner.steering.command.vx < 1.5
+    for _ in range(150):
+        sim.tick(planner, SteeringCommand(1.5, 0.0, 0.0))
+    assert planner.clock.gait.is_stand and abs(planner.steering.command.vx) < 0.05
