@@ -12,7 +12,7 @@ from planning.swing.planner import SwingPlan
 _G_WORLD = (0.0, 0.0, -9.81)  # m/s²
 _DEFAULT = SwingParams()
 _DAMP_IK = 1e-4 * np.eye(3)
-_DAMP_VEL_LAMBDA = 1e-6
+_DAMP_VEL = 1e-6 * np.eye(3)
 
 
 def swing_joint_command(
@@ -70,40 +70,13 @@ def swing_joint_command(
         err = p_body - robot.fk_leg(leg, q)
         q_des = q + np.linalg.solve(J.T @ J + _DAMP_IK, J.T @ err)
         q_des = np.clip(q_des, robot.q_min[leg], robot.q_max[leg])
-    qd_des = np.array(_damped_solve(robot.jacobian_leg(leg, q_des).tolist(), v_body, _DAMP_VEL_LAMBDA))
+    # (np.linalg.solve kept: a closed-form 3×3 solve is ~20 µs cheaper but not bit-identical to LAPACK's, and the
+    # stairs crossings flip on last-bit differences)
+    J_des = robot.jacobian_leg(leg, q_des)
+    qd_des = np.linalg.solve(J_des.T @ J_des + _DAMP_VEL, J_des.T @ np.array(v_body))
     (j00, j01, j02), (j10, j11, j12), (j20, j21, j22) = robot.jacobian_leg(leg, q).tolist()
     fx, fy, fz = f_body
     tau_ff = np.array(
         [j00 * fx + j10 * fy + j20 * fz, j01 * fx + j11 * fy + j21 * fz, j02 * fx + j12 * fy + j22 * fz]
     )
     return q_des, qd_des, tau_ff
-
-
-def _damped_solve(
-    J: list[list[float]], b: tuple[float, float, float], lam: float
-) -> tuple[float, float, float]:
-    """Returns x solving (JᵀJ + λI) x = Jᵀb for a 3×3 J, in closed form (Cramer's rule on the symmetric matrix;
-    np.linalg.solve costs ~20 µs of dispatch for a 3×3)."""
-    (j00, j01, j02), (j10, j11, j12), (j20, j21, j22) = J
-    b0, b1, b2 = b
-    a00 = j00 * j00 + j10 * j10 + j20 * j20 + lam
-    a01 = j00 * j01 + j10 * j11 + j20 * j21
-    a02 = j00 * j02 + j10 * j12 + j20 * j22
-    a11 = j01 * j01 + j11 * j11 + j21 * j21 + lam
-    a12 = j01 * j02 + j11 * j12 + j21 * j22
-    a22 = j02 * j02 + j12 * j12 + j22 * j22 + lam
-    r0 = j00 * b0 + j10 * b1 + j20 * b2
-    r1 = j01 * b0 + j11 * b1 + j21 * b2
-    r2 = j02 * b0 + j12 * b1 + j22 * b2
-    c00 = a11 * a22 - a12 * a12
-    c01 = a02 * a12 - a01 * a22
-    c02 = a01 * a12 - a02 * a11
-    det = a00 * c00 + a01 * c01 + a02 * c02
-    c11 = a00 * a22 - a02 * a02
-    c12 = a01 * a02 - a00 * a12
-    c22 = a00 * a11 - a01 * a01
-    return (
-        (c00 * r0 + c01 * r1 + c02 * r2) / det,
-        (c01 * r0 + c11 * r1 + c12 * r2) / det,
-        (c02 * r0 + c12 * r1 + c22 * r2) / det,
-    )
