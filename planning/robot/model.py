@@ -108,6 +108,8 @@ def load_robot(name_or_path: str | Path = "spot", strict: bool = True) -> RobotM
     Raises RobotDescriptionError naming every problem; with strict=False a robot that could be built is returned
     with its problems in ``.problems`` (what `footfall robot check` prints)."""
     p = Path(name_or_path)
+    if p.suffix.lower() in (".xml", ".yaml", ".yml"):
+        p = p.expanduser()  # a path may start with ~ (sweep specs name robots in the user's cache)
     if p.suffix.lower() == ".xml":
         side = description_beside(p)
         desc = _read_yaml(side) if side.exists() else {}
@@ -444,7 +446,8 @@ class RobotModel:
         p = p_body_foot - self.p_body_hip[leg]
         px, py, pz = p[:, 0], p[:, 1], p[:, 2]
         y = self._side(leg)
-        lu, ll = self._lu[leg], self._ll[leg]
+        # Python floats: the same IEEE arithmetic, less overhead
+        lu, ll = float(self._lu[leg]), float(self._ll[leg])
         r2 = py * py + pz * pz - y * y
         ok = r2 > 0.0
         # rows with r2 ≤ 0 are out of reach: taking the root of 0 there keeps NaNs (and their warnings) out
@@ -455,7 +458,7 @@ class RobotModel:
         zs = zp - self._z_flex[leg]
         D = np.hypot(px, zs)
         ok &= (D <= self._d_max[leg] + 1e-9) & (D >= self._d_min[leg] - 1e-9)
-        c2 = np.clip((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0, 1.0)
+        c2 = np.minimum(np.maximum((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0), 1.0)  # np.clip
         psi2 = self._knee_branch[leg] * np.arccos(c2)
         psi1 = np.arctan2(-px, -zs) - np.arctan2(ll * np.sin(psi2), lu + ll * np.cos(psi2))
         sg = self._sign[leg]
@@ -464,14 +467,17 @@ class RobotModel:
         q[:, 1] = sg[1] * (psi1 - a)
         q[:, 2] = sg[2] * (psi2 - b + a)
         lo, hi = self.q_min[leg] - 1e-9, self.q_max[leg] + 1e-9
-        for k in (1, 2):
-            up = (q[:, k] < lo[k]) & (q[:, k] + 2 * np.pi >= lo[k]) & (q[:, k] + 2 * np.pi <= hi[k])
-            down = (q[:, k] > hi[k]) & (q[:, k] - 2 * np.pi >= lo[k]) & (q[:, k] - 2 * np.pi <= hi[k])
-            if up.any():
-                q[up, k] += 2 * np.pi
-            if down.any():
-                q[down, k] -= 2 * np.pi
-        ok &= ((q >= lo) & (q <= hi)).all(axis=1)
+        inside = (q >= lo) & (q <= hi)
+        if not inside[:, 1:].all():  # only angles out of range may wrap
+            for k in (1, 2):
+                up = (q[:, k] < lo[k]) & (q[:, k] + 2 * np.pi >= lo[k]) & (q[:, k] + 2 * np.pi <= hi[k])
+                down = (q[:, k] > hi[k]) & (q[:, k] - 2 * np.pi >= lo[k]) & (q[:, k] - 2 * np.pi <= hi[k])
+                if up.any():
+                    q[up, k] += 2 * np.pi
+                if down.any():
+                    q[down, k] -= 2 * np.pi
+            inside = (q >= lo) & (q <= hi)
+        ok &= inside.all(axis=1)
         return q, ok
 
     def knee_body_many(self, leg: int, q: np.ndarray) -> np.ndarray:

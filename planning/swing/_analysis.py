@@ -80,6 +80,8 @@ class LegProblem:
     zs_gentlest: np.ndarray | None = None  # (K,) its samples
     z_gentlest_ok: bool = False  # it arrives on time
     poses: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # body pose at ts[k], by k
+    # the same poses stacked, by the bytes of the sample indices they are for
+    pose_stacks: dict[bytes, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     hold: Hold | None = None  # rise first: the foot waits in x and y until it clears the terrain ahead
     hip_z_min: float = math.inf  # lowest hip over the swing, m
     z_v_z1: tuple[float, float, float] = (
@@ -197,7 +199,8 @@ class Analyzer:
         d = p1[:2] - p0[:2]
         dd = float(d @ d)
         if dd > 1e-12:
-            prog = np.clip(((xw - p0[0]) * d[0] + (yw - p0[1]) * d[1]) / dd, 0.0, 1.0)
+            u = ((xw - p0[0]) * d[0] + (yw - p0[1]) * d[1]) / dd
+            prog = np.minimum(np.maximum(u, 0.0), 1.0)  # np.clip, without its dispatch cost
         else:
             prog = np.linspace(0.0, 1.0, len(xw))
         h_ref = p0[2] + prog * (p1[2] - p0[2])
@@ -393,28 +396,20 @@ class Analyzer:
         foot_c[:, 0] = v.xw[idx]
         foot_c[:, 1] = v.yw[idx]
         np.add(zs[idx], self.r_foot, out=foot_c[:, 2])
-        poses = prob.poses
-        body = prob.body
-        pose_list = []
-        p_body_foot = np.empty((n, 3))
-        for i, k in enumerate(idx.tolist()):
-            pose = poses.get(k)
-            if pose is None:
-                pose = poses[k] = body.pose_at(float(prob.ts[k]))
-            p_w, R = pose
-            pose_list.append(pose)
-            p_body_foot[i] = R.T @ (foot_c[i] - p_w)
+        p_ws, Rs = self._poses(prob, idx)
+        # body-frame feet of all samples at once: Rᵀ (foot − p) per sample
+        p_body_foot = np.einsum("nji,nj->ni", Rs, foot_c - p_ws)
         # one vectorized IK over the samples (rows out of reach are skipped, as ik_leg's ReachError was)
         q, ok = self.robot.ik_leg_many(prob.leg, p_body_foot)
-        kept_i = np.flatnonzero(ok).tolist()
-        if not kept_i:
+        if not ok.any():
             return 0.0, 0.0, None
         knee_b = self.robot.knee_body_many(prob.leg, q)
-        kn = np.empty((len(kept_i), 3))
-        for j, i in enumerate(kept_i):
-            p_w, R = pose_list[i]
-            kn[j] = p_w + R @ knee_b[i]
-        kept = idx[kept_i]
+        if ok.all():
+            kept = idx
+            kn = p_ws + np.einsum("nij,nj->ni", Rs, knee_b)
+        else:
+            kept = idx[ok]
+            kn = p_ws[ok] + np.einsum("nij,nj->ni", Rs[ok], knee_b[ok])
         kt = 0.0
         if v.knee_terrain:
             gk = (
@@ -431,6 +426,26 @@ class Analyzer:
             if sev > ks:
                 ks, blame = sev, o.leg
         return kt, ks, blame
+
+    def _poses(self, prob: LegProblem, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The body's predicted positions (n,3) and orientations (n,3,3) at samples idx, stacked (cached per
+        problem and index set: the knee checks of every candidate path use the same samples)."""
+        key = idx.tobytes()
+        out = prob.pose_stacks.get(key)
+        if out is None:
+            poses = prob.poses
+            body = prob.body
+            pose_list = []
+            for k in idx.tolist():
+                pose = poses.get(k)
+                if pose is None:
+                    pose = poses[k] = body.pose_at(float(prob.ts[k]))
+                pose_list.append(pose)
+            out = prob.pose_stacks[key] = (
+                np.array([pw for pw, _ in pose_list]),
+                np.array([R for _, R in pose_list]),
+            )
+        return out
 
     # ---- vertical policy check ----------------------------------------------------------------------------
     def vertical_ok(self, prob: LegProblem, v: Verdict, zs: np.ndarray) -> bool:

@@ -142,6 +142,18 @@ class TerrainMaps:
         nx, ny = self.shape
         fx = np.minimum(np.maximum(fx, 0.0), nx - 1.000001)  # np.clip, without its dispatch cost
         fy = np.minimum(np.maximum(fy, 0.0), ny - 1.000001)
+        if grid.ndim == 2 and grid.flags.c_contiguous:
+            # gathers from the flat grid by one index (four 1-D takes cost about half of four 2-D fancy indexings);
+            # the same cells and the same arithmetic
+            ixf, iyf = np.floor(fx), np.floor(fy)
+            ax, ay = fx - ixf, fy - iyf
+            k = (ixf * ny + iyf).astype(np.intp)
+            flat = grid.ravel()
+            bx = 1 - ax
+            v = (flat.take(k) * bx + flat.take(k + ny) * ax) * (1 - ay) + (
+                flat.take(k + 1) * bx + flat.take(k + (ny + 1)) * ax
+            ) * ay
+            return float(v) if v.ndim == 0 else v
         ix = np.floor(fx).astype(np.intp)
         iy = np.floor(fy).astype(np.intp)
         ax = (fx - ix)[..., None] if grid.ndim == 3 else fx - ix

@@ -317,3 +317,10 @@ def test_swing_gains_follow_heavier_leg_joints(tmp_path: Path) -> None:
     h = Handler(heavy)
     assert np.allclose(h.kp[:, 2], p.kp_swing[2] * ratio) and np.allclose(h.kd[:, 2], p.kd_swing[2] * ratio)
     assert np.allclose(h.kp[:, :2], p.kp_swing[0])  # the hips' inertia is unchanged
+
+
+def test_a_robot_path_may_start_with_the_home_directory(
+    critter: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("HOME", str(critter.parent))
+    assert load_robot("~/critter.xml").mass_kg == load_robot(critter).mass_kg
