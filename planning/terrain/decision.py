@@ -64,10 +64,15 @@ class DecisionParams:
     nominal foothold lies this deep inside its polygon the step QP is not solved (its region rows would be
     inactive); freeze_s: a touchdown closer than
     this keeps its last foothold; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
-    max to min as the largest move of a next foothold off its nominal grows to this; pace_m: and as the next
+    max to min as the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a
+    move forward along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it
+    steps down over, asks the body to keep up, not to lag behind it); pace_m: and as the next
     touchdowns are moved back against the heading off their nominal places by this on average (the body is
     paced by its footholds: a stance pair held back by its regions is not overrun by the body, which would leave
-    the body off the line between them and roll it over); slow_gait, slow_gap_m, gap_behind_m, gap_ahead_m: the
+    the body off the line between them and roll it over); hump_above_start: the swing time the gait must give
+    (cadence) counts only ground that rises above the foot's own height as well as above its straight path (a
+    foot stepping down past an edge at its own height needs no rise, and keeps the walk's short swings);
+    slow_gait, slow_gap_m, gap_behind_m, gap_ahead_m: the
     gait where a gap wider than slow_gap_m lies on the feet's lines from gap_behind_m behind the body to
     gap_ahead_m ahead (far enough ahead that the switch is made before the front feet reach it); lookahead_m, yaw_gain,
     max_yaw_rate_rps, goal_gain, goal_tolerance_m: path following; max_pitch_rad, max_pitch_rate_rps, pitch_gain: body pitch (the footholds' plane's
@@ -97,6 +102,8 @@ class DecisionParams:
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
     shift_slow_m: float = 0.15
+    shift_counts_ahead: bool = False
+    hump_above_start: bool = True
     pace_m: float = 0.10
     slow_gait: str | None = "crawl"
     slow_gap_m: float = 0.25
@@ -280,7 +287,7 @@ def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | Non
         return view.gait
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
         return p.slow_gait
-    rise = swing_hump(view, world, last)
+    rise = swing_hump(view, world, last, p.hump_above_start)
     need = p.base_swing_s + rise / p.rise_speed_mps
     for name in (view.fast_gait, *p.climb_gaits):
         if get_gait(name).swing_s >= need - 1e-9:
@@ -288,7 +295,9 @@ def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | Non
     return p.climb_gaits[-1] if p.climb_gaits else view.fast_gait
 
 
-def swing_hump(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None) -> float:
+def swing_hump(
+    view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, hump_above_start: bool = False
+) -> float:
     """Gives how far (m) the ground (the swing ground) rises above the straight line from each foot to its chosen
     next foothold, the most over the legs: what a swing must rise over beyond the step's own height change (a
     riser's nosing, a box's edge; about 0 on a slope or over a gap)."""
@@ -304,7 +313,11 @@ def swing_hump(view: TerrainView, world: TerrainWorld, last: FootholdDecision | 
     u = np.linspace(0.1, 0.9, 9)[None, :, None]
     pts = a[:, None, :] * (1.0 - u) + b[:, None, :] * u
     g = np.asarray(world.swing_ground(pts[..., 0], pts[..., 1]), dtype=np.float64)
-    return float(max(np.max(g - pts[..., 2]), 0.0))
+    if not hump_above_start:
+        return float(max(np.max(g - pts[..., 2]), 0.0))
+    # only what lies above the foot's own height as well: stepping down past an edge at the foot's height
+    # asks for no rise
+    return float(max(np.max(g - np.maximum(pts[..., 2], a[:, None, 2])), 0.0))
 
 
 def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> float:
@@ -769,7 +782,8 @@ def choose_footholds(
             p_new[k, 2] = float(maps.height_at(float(xy[0]), float(xy[1])))
         if j < 4:
             move = p_new[k, :2] - path.p_world_touchdown[k, :2]
-            shift = max(shift, float(np.linalg.norm(move)))
+            ahead = max(0.0, float(move @ u)) if not p.shift_counts_ahead else 0.0
+            shift = max(shift, float(np.linalg.norm(move - ahead * u)))
             back += max(0.0, -float(move @ u)) / 4.0
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
@@ -834,10 +848,15 @@ def _regions_qp() -> StepQPParams:
     not 25); at most 400 OSQP iterations (warm-started each tick: a conflicted replan stops early, not at 4000);
     no margin pull beyond the polygon (margin_m = keep_clearance_m): the polygon is already inset by the foot's
     radius and the edge margin, and the QP's 4 cm pull on top left 7 cm of a 30 cm stair tread, moving every
-    foothold ~10 cm off its nominal place (measured: the stairs climb rolled over with it and crossed without)."""
+    foothold ~10 cm off its nominal place (measured: the stairs climb rolled over with it and crossed without);
+    a swinging foot's reachable rectangle from a foot acceleration of 200 m/s², not 40: at 40 a foot rising first
+    over a riser, fast forward late in its swing, had its target pushed 6-12 cm further on in its last 60 ms (the
+    rectangle p0 + v0 T ± a T²/2 is narrow then), and the diagonal pair it landed in, 80 cm long, rolled the body
+    over on every stairs climb; the swing planner brakes the foot instead."""
     w = list(StepQPParams().weights)
     w[2] = 3e4
     return StepQPParams(
+        max_foot_accel=200.0,
         keep_planes=14,
         weights=tuple(w),
         self_longitudinal_m=0.15,

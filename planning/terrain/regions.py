@@ -483,8 +483,9 @@ def convex_around(
     score = np.sqrt(d2) - np.minimum(depth - regions.params.inset_m, 2.0 * res)
     seed = cells[int(np.argmin(score))]
     outside = _border_points(mine, xs, ys, regions.depth_m[i0:i1, j0:j1])
-    # Cells of the region beyond the window are not known to be free of edges: the window bounds the polygon.
-    box = _box_of(cells)
+    # Cells of the region beyond the window are not known to be free of edges: the window bounds the polygon (half
+    # a cell past the inset cells' centres, as in the cover: the inset's own bound lies between cells).
+    box = _box_of(cells, 0.5 * res)
     return _grow(
         seed,
         outside,
