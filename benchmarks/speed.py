@@ -42,7 +42,7 @@ class Direction:
 
 
 DIRECTIONS = (
-    Direction("forward", 0, "m/s", 0.4, 0.2, 2.6),
+    Direction("forward", 0, "m/s", 0.4, 0.2, 3.2),
     Direction("sideways", 1, "m/s", 0.2, 0.1, 1.4),
     Direction("turning", 2, "rad/s", 0.5, 0.25, 3.0),
 )

@@ -79,6 +79,14 @@ def _airborne(seconds: float) -> Check:
     return check
 
 
+def _all(*checks: Check) -> Check:
+    def check(rep: dict[str, Any], sess: ManeuverSession) -> None:
+        for c in checks:
+            c(rep, sess)
+
+    return check
+
+
 def _waved(rep: dict[str, Any], sess: ManeuverSession) -> None:
     assert len(rep["waypoints"]) >= 4 and max(w["error_m"] for w in rep["waypoints"]) < 0.02
 
@@ -108,6 +116,7 @@ CHECKS: dict[str, Check] = {
     "spin": _turned(360.0),
     "jump": _airborne(0.12),
     "pronk": _airborne(0.5),
+    "pronk-forward": _all(_airborne(0.5), _walked(1.5, 0.0)),
     "bound": _walked(0.6, 0.0),
     "leg-wave": _waved,
     "front-stand": _rear_lifted,
