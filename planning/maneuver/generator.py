@@ -196,7 +196,9 @@ class ProblemGenerator:
         phases = self.phases
         if contact_measured is not None and p_world_foot_measured is not None:
             phases = reconcile_contacts(phases, t, contact_measured, p_world_foot_measured)
-        recovering = contact_measured is not None and self._pushed_off_support(state, contact_measured, phases)
+        recovering = contact_measured is not None and self._pushed_off_support(
+            state, contact_measured, phases
+        )
         if recovering:
             self.recovery_ticks += 1
         end = t + (pr.recovery_horizon_s if recovering else pr.horizon_s)
@@ -269,5 +271,6 @@ def _inside_distance(points: np.ndarray, q: np.ndarray) -> float:
         e = b - a
         n = float(np.hypot(e[0], e[1]))
         if n > 1e-9:
-            d = min(d, float(e[0] * (q[1] - a[1]) - e[1] * (q[0] - a[0])) / n)  # counter-clockwise: left is in
+            # counter-clockwise ring: a point on the left of an edge is inside
+            d = min(d, float(e[0] * (q[1] - a[1]) - e[1] * (q[0] - a[0])) / n)
     return d
