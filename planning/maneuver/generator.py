@@ -66,6 +66,10 @@ class GeneratorParams:
     recovery_horizon_s: float = 0.5
     recovery_fz_min_n: float = 1.0
     recovery_hold_s: float = 0.3
+    recovery_deviation_m: float = (
+        0.05  # ... and only when it is this far from the plan's own capture point (a
+    )
+    # landing that the maneuver plans moving, a pronk-forward's, is no push)
 
 
 class ProblemGenerator:
@@ -225,7 +229,8 @@ class ProblemGenerator:
         self, state: BodyState, contact_measured: np.ndarray, phases: tuple[ContactPhase, ...]
     ) -> bool:
         """Whether the problem at state.t is one of a push recovery: four feet planted (measured and planned) and
-        the capture point within recovery_margin_m of their polygon's edge or outside it (or held after that)."""
+        the capture point within recovery_margin_m of their polygon's edge or outside it, recovery_deviation_m away
+        from the plan's (or held after that)."""
         t = state.t
         planted = [p for p in phases if p.t_touchdown <= t < p.t_liftoff]
         if not bool(np.all(contact_measured)) or len(planted) != 4:
@@ -233,8 +238,13 @@ class ProblemGenerator:
             return False
         feet = np.array([p.p_world_foot[:2] for p in planted])
         h = float(state.p_world[2] - np.mean([p.p_world_foot[2] for p in planted]))
-        xi = state.p_world[:2] + state.v_world[:2] * math.sqrt(max(h, 1e-3) / 9.81)
+        tc = math.sqrt(max(h, 1e-3) / 9.81)
+        xi = state.p_world[:2] + state.v_world[:2] * tc
         if _inside_distance(feet, xi) < self.params.recovery_margin_m:
+            p_ref, v_ref, R_ref, _ = self.trunk_target(t)
+            xi_ref = (p_ref + R_ref @ self.model.p_body_com)[:2] + v_ref[:2] * tc
+            if np.hypot(*(xi - xi_ref)) < self.params.recovery_deviation_m:
+                return t < self.recovering_until
             self.recovering_until = t + self.params.recovery_hold_s
         return t < self.recovering_until
 
