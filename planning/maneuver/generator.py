@@ -30,6 +30,7 @@ from planning.centroidal.timegrid import make_time_grid
 from planning.geometry import rpy_to_R
 from planning.maneuver.body import BodyReference
 from planning.maneuver.expand import Schedule
+from planning.maneuver.frame import PlanFrame
 from planning.maneuver.hints import HintedBody
 from planning.maneuver.spec import Lean, Maneuver, MaximizeHeight, Weights
 from planning.robot import RobotModel
@@ -66,7 +67,7 @@ class ProblemGenerator:
         schedule: Schedule,
         body: BodyReference | HintedBody,
         robot: RobotModel,
-        offset_world: np.ndarray | None = None,
+        offset_world: np.ndarray | PlanFrame | None = None,
         params: GeneratorParams | None = None,
     ) -> None:
         self.maneuver = maneuver
@@ -74,7 +75,13 @@ class ProblemGenerator:
         self.body = body
         self.robot = robot
         self.params = p = params or GeneratorParams()
-        self.offset = np.zeros(3) if offset_world is None else np.asarray(offset_world, dtype=float)
+        # where the maneuver frame sits in the world (the start pose; a bare (3,) array: a translation)
+        if isinstance(offset_world, PlanFrame):
+            self.frame = offset_world
+        else:
+            o = np.zeros(3) if offset_world is None else np.asarray(offset_world, dtype=float)
+            self.frame = PlanFrame(float(o[0]), float(o[1]), float(o[2]))
+        self.offset = self.frame.t
         self.model = BodyModel.from_robot(robot)
         self.phases = self._phases()
         self.events = np.array(sorted({e.t for e in schedule.events()}))
@@ -105,7 +112,7 @@ class ProblemGenerator:
         sch = self.schedule
         for leg in range(4):
             t_down = -1.0
-            p_down = sch.p_start_foot[leg] + self.offset
+            p_down = self.frame.point(sch.p_start_foot[leg])
             normal = np.array([0.0, 0.0, 1.0])
             td_window = (0.0, 0.0)
             radius, region = 0.0, None
@@ -126,11 +133,11 @@ class ProblemGenerator:
                     )
                 )
                 t_down = sw.t_touchdown
-                p_down = sw.p_touchdown + self.offset
-                normal = np.asarray(sw.normal, dtype=float)
+                p_down = self.frame.point(sw.p_touchdown)
+                normal = self.frame.vector(np.asarray(sw.normal, dtype=float))
                 td_window = (sw.adjust.time_s, sw.adjust.time_s)
                 radius = float(sw.adjust.radius_m or 0.0)
-                region = None if sw.adjust.region_xy is None else sw.adjust.region_xy + self.offset[:2]
+                region = None if sw.adjust.region_xy is None else self.frame.xy(sw.adjust.region_xy)
             out.append(
                 ContactPhase(
                     leg,
@@ -154,14 +161,16 @@ class ProblemGenerator:
                 out.append(Objective("maximize_height", o.t[0], o.t[1], o.weight))
             elif isinstance(o, Lean):
                 d = o.direction
-                out.append(Objective("lean", o.t[0], o.t[1], o.weight, (float(d[0]), float(d[1]))))
+                dw = self.frame.direction_xy(np.array([float(d[0]), float(d[1])]))
+                out.append(Objective("lean", o.t[0], o.t[1], o.weight, (float(dw[0]), float(dw[1]))))
         return out
 
     # ---- per tick --------------------------------------------------------------------------------------------
     def trunk_target(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Returns the trunk's target (p (3,), v (3,), R (3,3), ω (3,)) at t (hints included)."""
         p, v, rpy, omega = self.body.sample(t)
-        return p + self.offset, v, rpy_to_R(rpy), omega
+        f = self.frame
+        return f.point(p), f.vector(v), f.rotation(rpy_to_R(rpy)), f.vector(omega)
 
     def problem_at(
         self,

@@ -14,6 +14,7 @@ from planning.balance import BodyTarget
 from planning.controller import Controller, ControllerParams
 from planning.geometry import rpy_to_R
 from planning.maneuver import BodyReference, Maneuver, build_schedule
+from planning.maneuver.frame import PlanFrame
 from planning.maneuver.generator import ProblemGenerator
 from planning.maneuver.hints import HintedBody, load_hints
 from planning.maneuver.scale import scale_to_robot
@@ -55,9 +56,9 @@ class _WorldSwing:
 class _WorldPlan:
     """A maneuver's schedule seen in the world: the maneuver frame sits on the ground under the start pose."""
 
-    def __init__(self, schedule: Any, offset: np.ndarray) -> None:
+    def __init__(self, schedule: Any, frame: PlanFrame) -> None:
         self.schedule = schedule
-        self.offset = offset
+        self.frame = frame
         self._cache: dict[int, _WorldSwing] = {}
 
     def swing_at(self, leg: int, t: float) -> _WorldSwing | None:
@@ -69,8 +70,8 @@ class _WorldPlan:
             wp = None
             if sw.waypoints is not None:
                 wp = sw.waypoints.copy()
-                wp[:, 1:4] += self.offset
-            w = _WorldSwing(sw.leg, sw.t_liftoff, sw.t_touchdown, sw.p_touchdown + self.offset, wp)
+                wp[:, 1:4] = self.frame.point(wp[:, 1:4])
+            w = _WorldSwing(sw.leg, sw.t_liftoff, sw.t_touchdown, self.frame.point(sw.p_touchdown), wp)
             self._cache[id(sw)] = w
         return w
 
@@ -78,9 +79,9 @@ class _WorldPlan:
 class _WaypointMonitor:
     """Records where each swing waypoint's foot actually was at the waypoint's time."""
 
-    def __init__(self, schedule: Any, offset: np.ndarray, foot_radius_m: float) -> None:
+    def __init__(self, schedule: Any, frame: PlanFrame, foot_radius_m: float) -> None:
         self.todo = sorted(
-            (float(w[0]), sw.leg, w[1:4] + offset)
+            (float(w[0]), sw.leg, frame.point(w[1:4]))
             for sw in schedule.all_swings()
             if sw.waypoints is not None
             for w in sw.waypoints
@@ -215,26 +216,29 @@ class ManeuverSession(_Session):
         self.schedule = build_schedule(maneuver, self.robot)
         base = BodyReference.from_maneuver(maneuver, self.robot, self.schedule)
         self.body_ref = HintedBody(base, load_hints(maneuver, self.robot), maneuver)
-        z0 = float(self.scene.ground_height(0.0, 0.0))
-        self._offset = np.array([0.0, 0.0, z0])
-        self.generator = ProblemGenerator(maneuver, self.schedule, self.body_ref, self.robot, self._offset)
+        # the plan is relative to the start pose: its frame sits on the ground under it, along its heading
+        x0, y0, yaw0 = options.start_offset
+        self.frame = PlanFrame(x0, y0, float(self.scene.ground_height(x0, y0)), yaw0)
+        self._offset = self.frame.t
+        self.generator = ProblemGenerator(maneuver, self.schedule, self.body_ref, self.robot, self.frame)
         self.controller = Controller(
             self.robot,
             self._target,
             options.controller,
-            contact_plan=_WorldPlan(self.schedule, self._offset),
+            contact_plan=_WorldPlan(self.schedule, self.frame),
             generator=self.generator,
         )
-        self.waypoints = _WaypointMonitor(self.schedule, self._offset, self.robot.foot_radius_m)
+        self.waypoints = _WaypointMonitor(self.schedule, self.frame, self.robot.foot_radius_m)
         self._start_loop(self.controller.stages, self.controller.actuate, [self.waypoints])
         self._tgt = BodyTarget(np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
 
     def _target(self, t: float) -> BodyTarget:
         p, v, rpy, omega = self.body_ref.sample(t)
-        self._tgt.p_world_body = p + self._offset
-        self._tgt.v_world_body = v
-        self._tgt.R_world_body = rpy_to_R(rpy)
-        self._tgt.omega_world = omega
+        f = self.frame
+        self._tgt.p_world_body = f.point(p)
+        self._tgt.v_world_body = f.vector(v)
+        self._tgt.R_world_body = f.rotation(rpy_to_R(rpy))
+        self._tgt.omega_world = f.vector(omega)
         return self._tgt
 
     def _duration(self) -> float:
@@ -248,6 +252,7 @@ class ManeuverSession(_Session):
         err = np.zeros((len(rec.t), 3))
         for k, t in enumerate(rec.t):
             _, v_ref, rpy_ref, w_ref = self.body_ref.sample(t)
+            v_ref = self.frame.vector(v_ref)
             yaw = rec.rpy_body[k][2]
             c, sn = np.cos(yaw), np.sin(yaw)
             v_ref_h = np.array([c * v_ref[0] + sn * v_ref[1], -sn * v_ref[0] + c * v_ref[1]])
@@ -262,14 +267,14 @@ class ManeuverSession(_Session):
         t_end = self.world.t
         # final pose against the last keyframe (or the held start pose)
         p_goal, _, rpy_goal, _ = self.body_ref.sample(t_end)
-        p_goal = p_goal + self._offset
+        p_goal = self.frame.point(p_goal)
         pos_err = float(np.linalg.norm(s.p_world_body - p_goal))
-        dyaw = float((s.yaw - rpy_goal[2] + np.pi) % (2 * np.pi) - np.pi)
+        dyaw = float((s.yaw - rpy_goal[2] - self.frame.yaw + np.pi) % (2 * np.pi) - np.pi)
         planned = [
             (
                 sw.leg,
                 sw.t_touchdown,
-                sw.p_touchdown + self._offset,
+                self.frame.point(sw.p_touchdown),
                 sw.adjust.time_s,
                 sw.adjust.radius_m or 0.0,
             )
