@@ -56,6 +56,20 @@ class GeneratorParams:
     # per s² of touchdown/liftoff shift at the maneuver's default weight: high enough that the solver moves an
     # event only when the plan needs it (a shift of 30 ms costs about as much as 1 cm held for a second)
     touchdown_time_weight: float = 1000.0
+    # Push recovery on four planted feet: when the measured capture point (CoM + v·√(h/g)) comes within
+    # recovery_margin_m of the feet's support polygon edge (or leaves it), the problems look only
+    # recovery_horizon_s ahead and the minimum normal force drops to recovery_fz_min_n (the feet on the far side
+    # may unload while the body rolls back), until recovery_hold_s after the capture point is back inside. With the
+    # full horizon the linearized plan of a body tipping past its feet diverges (no usable plan for ~0.3 s after a
+    # 10 N·s sideways push on a 12.7 kg Go1; docs/robot-notes.md).
+    recovery_margin_m: float = 0.01
+    recovery_horizon_s: float = 0.5
+    recovery_fz_min_n: float = 1.0
+    recovery_hold_s: float = 0.3
+    recovery_deviation_m: float = (
+        0.05  # ... and only when it is this far from the plan's own capture point (a
+    )
+    # landing that the maneuver plans moving, a pronk-forward's, is no push)
 
 
 class ProblemGenerator:
@@ -105,6 +119,8 @@ class ProblemGenerator:
         self.pose_scale = w.pose / _DEFAULT_WEIGHTS.pose
         self.objectives = tuple(self._objectives())
         self.base_dt = p.base_dt_s
+        self.recovering_until = -math.inf  # push recovery (see GeneratorParams) holds until this time
+        self.recovery_ticks = 0  # problems built in push recovery
 
     # ---- static parts (built once) -----------------------------------------------------------------------------
     def _phases(self) -> tuple[ContactPhase, ...]:
@@ -184,7 +200,12 @@ class ProblemGenerator:
         phases = self.phases
         if contact_measured is not None and p_world_foot_measured is not None:
             phases = reconcile_contacts(phases, t, contact_measured, p_world_foot_measured)
-        end = t + pr.horizon_s
+        recovering = contact_measured is not None and self._pushed_off_support(
+            state, contact_measured, phases
+        )
+        if recovering:
+            self.recovery_ticks += 1
+        end = t + (pr.recovery_horizon_s if recovering else pr.horizon_s)
         phases = tuple(
             p
             for p in phases
@@ -198,11 +219,34 @@ class ProblemGenerator:
             targets=self.targets(grid),
             model=self.model,
             mu=self.maneuver.friction,
-            fz_min_N=pr.fz_min_n,
+            fz_min_N=pr.recovery_fz_min_n if recovering else pr.fz_min_n,
             fz_max_N=pr.fz_max_n,
             weights=self.weights,
             objectives=self.objectives,
         )
+
+    def _pushed_off_support(
+        self, state: BodyState, contact_measured: np.ndarray, phases: tuple[ContactPhase, ...]
+    ) -> bool:
+        """Whether the problem at state.t is one of a push recovery: four feet planted (measured and planned) and
+        the capture point within recovery_margin_m of their polygon's edge or outside it, recovery_deviation_m away
+        from the plan's (or held after that)."""
+        t = state.t
+        planted = [p for p in phases if p.t_touchdown <= t < p.t_liftoff]
+        if not bool(np.all(contact_measured)) or len(planted) != 4:
+            self.recovering_until = -math.inf
+            return False
+        feet = np.array([p.p_world_foot[:2] for p in planted])
+        h = float(state.p_world[2] - np.mean([p.p_world_foot[2] for p in planted]))
+        tc = math.sqrt(max(h, 1e-3) / 9.81)
+        xi = state.p_world[:2] + state.v_world[:2] * tc
+        if _inside_distance(feet, xi) < self.params.recovery_margin_m:
+            p_ref, v_ref, R_ref, _ = self.trunk_target(t)
+            xi_ref = (p_ref + R_ref @ self.model.p_body_com)[:2] + v_ref[:2] * tc
+            if np.hypot(*(xi - xi_ref)) < self.params.recovery_deviation_m:
+                return t < self.recovering_until
+            self.recovering_until = t + self.params.recovery_hold_s
+        return t < self.recovering_until
 
     def targets(self, grid: np.ndarray) -> BodyTargets:
         """Returns the per-knot CoM targets: the body reference sampled at the knots, weighted near keyframes."""
@@ -226,3 +270,17 @@ class ProblemGenerator:
             w[-1] += self.params.keyframe_scale * self.pose_scale  # the final pose
         W = np.repeat(w[:, None], 3, axis=1)
         return BodyTargets(p, R, W, W.copy(), v, om)
+
+
+def _inside_distance(points: np.ndarray, q: np.ndarray) -> float:
+    """Returns how far q (2,) lies inside the convex hull of a few points (K,2) (negative: outside), m."""
+    c = points.mean(axis=0)
+    ring = points[np.argsort(np.arctan2(points[:, 1] - c[1], points[:, 0] - c[0]))]
+    d = math.inf
+    for a, b in zip(ring, np.roll(ring, -1, axis=0), strict=True):
+        e = b - a
+        n = float(np.hypot(e[0], e[1]))
+        if n > 1e-9:
+            # counter-clockwise ring: a point on the left of an edge is inside
+            d = min(d, float(e[0] * (q[1] - a[1]) - e[1] * (q[0] - a[0])) / n)
+    return d
