@@ -32,8 +32,8 @@ def test_click_a_failed_cell_and_replay_its_case(tmp_path: Path) -> None:
         end = (
             time.monotonic() + 90
         )  # the live robot is a worker process: seconds to start on a loaded machine
-        while not (tabs := [c for c in services.studio.clients.values() if c.session is not None
-                            and getattr(c, "robustness", None) is not None]):  # fmt: skip
+        ready = lambda c: c.session is not None and getattr(c, "ready", False)  # noqa: E731 - every panel built
+        while not (tabs := [c for c in services.studio.clients.values() if ready(c)]):
             assert time.monotonic() < end, "the studio tab got no live robot"
             time.sleep(0.2)
         tab = tabs[0]
