@@ -22,6 +22,17 @@ from typing import Any
 from planning.sim.run import RunOptions, WalkCommand, WalkSession
 
 
+def _timing(simulated_s: float, wall: float, cpu: float) -> dict[str, float]:
+    """Simulated seconds with the wall and CPU seconds they took, and the real-time factor against each."""
+    return {
+        "simulated_s": simulated_s,
+        "wall_s": round(wall, 2),
+        "cpu_s": round(cpu, 2),
+        "real_time_factor_wall": round(simulated_s / wall, 3),
+        "real_time_factor_cpu": round(simulated_s / cpu, 3),
+    }
+
+
 def footfall_side(vx: float, duration_s: float) -> dict[str, Any]:
     cmd = WalkCommand(vx, 0.0, 0.0, "trot", centroidal=True, terrain_aware=False)
     session = WalkSession(cmd, RunOptions(duration_s=duration_s))
@@ -29,11 +40,7 @@ def footfall_side(vx: float, duration_s: float) -> dict[str, Any]:
     report = session.run(None)
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     return {
-        "simulated_s": duration_s,
-        "wall_s": round(wall, 2),
-        "cpu_s": round(cpu, 2),
-        "real_time_factor_wall": round(duration_s / wall, 3),
-        "real_time_factor_cpu": round(duration_s / cpu, 3),
+        **_timing(duration_s, wall, cpu),
         "mean_vx": report["mean_velocity"]["vx"],
         "fell": report["fell"],
         "solver_statuses": report["solver"]["statuses"],
@@ -48,11 +55,7 @@ def peer_side(command: str, simulated_s: float) -> dict[str, Any]:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return {
-        "simulated_s": simulated_s,
-        "wall_s": round(wall, 2),
-        "cpu_s": round(cpu, 2),
-        "real_time_factor_wall": round(simulated_s / wall, 3),
-        "real_time_factor_cpu": round(simulated_s / cpu, 3),
+        **_timing(simulated_s, wall, cpu),
         "returncode": out.returncode,
         "last_line": (out.stdout.strip().splitlines() or [""])[-1][-300:],
     }
