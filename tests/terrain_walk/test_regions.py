@@ -43,15 +43,17 @@ def test_an_unknown_pipeline_is_refused_by_name() -> None:
         run_walk(cmd, RunOptions(terrain="slope", duration_s=0.1))
 
 
+@pytest.mark.parametrize("maps", ["truth", "sensor"])
 @pytest.mark.parametrize("family", ["stairs", "stones", "clutter", "slope", "rough"])
-def test_the_shipped_sweeps_run_both_pipelines_on_the_same_variants(family: str) -> None:
+def test_the_shipped_sweeps_run_both_pipelines_on_the_same_variants(family: str, maps: str) -> None:
     from planning.sweep.cases import expand
     from planning.sweep.spec import load_spec
 
-    cases = [c["params"] for c in expand(load_spec(f"sweeps/pipelines-{family}.yaml"))]
+    name = f"pipelines-{family}" if maps == "truth" else f"pipelines-sensor-{family}"
+    cases = [c["params"] for c in expand(load_spec(f"sweeps/{name}.yaml"))]
     by_pipeline: dict[str, set[tuple[object, ...]]] = {"modes": set(), "regions": set()}
     for p in cases:
-        assert p["terrain"] == family and p["walk"]["maps"] == "truth"
+        assert p["terrain"] == family and p["walk"]["maps"] == maps
         variant = (p["seed"], tuple(p["walk"]["goal"]), tuple(sorted(p["terrain_params"].items())))
         by_pipeline[p["walk"]["terrain_pipeline"]].add(variant)
     assert len(by_pipeline["regions"]) == 4 and by_pipeline["regions"] == by_pipeline["modes"]
