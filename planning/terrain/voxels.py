@@ -414,7 +414,7 @@ def _shift_band(band: tuple[int, int] | None, shift: int, nz: int) -> tuple[int,
     return (lo, hi) if lo <= hi else None
 
 
-def _shift_clear(a: NDArray[np.float32], shift: tuple[int, int, int]) -> None:
+def _shift_clear(a: NDArray[np.float32], shift: tuple[int, ...]) -> None:
     """Moves the content of `a` by `shift` cells (new[i] = old[i - shift]); cells that come in are zeroed. One copy
     of the part that stays, whatever the number of axes shifted."""
     if not any(shift):
