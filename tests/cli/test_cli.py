@@ -26,6 +26,8 @@ def test_terrains_lists_names(capsys) -> None:
         (["run", "stand", "--robot", "atlas"], "robot 'atlas': no such robot description"),
         (["validate", "missing/dir/x.yaml"], "no such file: missing/dir/x.yaml"),
         (["walk", "--terrain", "stairs", "--maps", "lidar"], "--maps 'lidar': one of sensor, truth, off"),
+        (["walk", "--terrain", "stairs", "--speed", "1.0"], "--speed 1.0 m/s is outside [0.2, 0.5] m/s"),
+        (["walk", "--vx", "1.0", "--speed", "1.0"], "--speed: only on a terrain"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, needle, capsys) -> None:
