@@ -357,7 +357,9 @@ class WalkController:
             np.subtract(s.p_world_foot, s.p_world_com, out=self.balance.r_com_foot)
             self.balance.r_com_foot[:, 2] -= self.robot.foot_radius_m
         else:
-            self.f_des[:] = self.balance.contact_forces(s, self.target, stance)
+            # the friction assumed, lowered after foot slips (Handler.friction_scale)
+            mu = self.balance.params.mu * self.handler.friction_scale
+            self.f_des[:] = self.balance.contact_forces(s, self.target, stance, mu=mu)
 
     def _update_target(self, s: RobotState) -> None:
         dt = s.t - self._t_last

@@ -193,6 +193,20 @@ class _Session:
     def report(self, wall_s: float) -> dict[str, Any]:
         raise NotImplementedError
 
+    def _slips_report(self) -> dict[str, Any]:
+        """The stance feet that slid (planning.handler: HandlerParams.slip_*): how many slips, per leg, each one's
+        start and duration (the first 100), and the lowest share of the nominal friction the forces assumed."""
+        h = self._handler()
+        log = getattr(h, "slip_log", [])
+        return {
+            "count": len(log),
+            "per_leg": {name: sum(1 for e in log if e[0] == i) for i, name in enumerate(LEGS)},
+            "events": [
+                {"leg": LEGS[leg], "t": round(t, 4), "duration_s": round(d, 4)} for leg, t, d in log[:100]
+            ],
+            "friction_scale_min": round(float(getattr(h, "friction_scale_min", 1.0)), 4),
+        }
+
     def _common_report(self, wall_s: float) -> dict[str, Any]:
         t_end = self.world.t
         rec = self.recorder
@@ -225,6 +239,7 @@ class _Session:
                 }
                 for p in self.world.pushes
             ],
+            "foot_slips": self._slips_report(),
             "trips": [
                 {"leg": LEGS[leg], "t": round(tr.t_s, 4), "kind": tr.kind.name.lower()}
                 for leg, tr in self._handler().trip_log

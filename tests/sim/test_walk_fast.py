@@ -26,6 +26,8 @@ def test_trots_at_2_mps_forward_from_a_stand_and_stops_at_speed() -> None:
     assert not sess.loop.fell, sess.loop.failure_reason
     assert sess.controller.planner.clock.gait.name == "trot_fast"
     assert abs(np.mean(vx) - 2.0) <= 0.05 * 2.0
+    # a stance foot rolling on its sphere at 2 m/s on the default floor is not a slip (planning.handler)
+    assert sess.controller.handler.slip_log == [] and sess.controller.handler.friction_scale == 1.0
     sess.controller.planner.stop()
     for _ in range(int(2.5 / dt)):
         sess.loop.step()
