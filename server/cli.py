@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -256,6 +257,15 @@ def cmd_walk(a: argparse.Namespace) -> int:
         robot=a.robot,
         seed=a.seed,
     )
+    if scene != "flat" and a.maps != "off" and goal is None:
+        from planning.sim.run import TERRAIN_SPEED_DEFAULT_MPS, terrain_speed_limit
+
+        cap = TERRAIN_SPEED_DEFAULT_MPS if a.speed is None else a.speed
+        if math.hypot(a.vx, a.vy) > cap + 1e-9:
+            more = (
+                "" if cap >= terrain_speed_limit(scene) else f"; --speed up to {terrain_speed_limit(scene)}"
+            )
+            print(f"note: on {scene} the terrain speed caps --vx/--vy at {cap} m/s{more}", file=sys.stderr)
     progress = _Progress("walk")
     report = run_walk(cmd, opts, progress=progress)
     progress.done()
