@@ -83,9 +83,15 @@ class BalanceController:
         return self.wrench
 
     def contact_forces(
-        self, s: RobotState, target: BodyTarget, stance: np.ndarray, p_world_contact: np.ndarray | None = None
+        self,
+        s: RobotState,
+        target: BodyTarget,
+        stance: np.ndarray,
+        p_world_contact: np.ndarray | None = None,
+        mu: float | None = None,
     ) -> np.ndarray:
-        """Returns contact forces (4,3) N, world frame, zero on legs not in stance."""
+        """Returns contact forces (4,3) N, world frame, zero on legs not in stance; mu: the friction coefficient
+        (None: BalanceParams.mu)."""
         w = self.desired_wrench(s, target)
         contact_pts = s.p_world_foot if p_world_contact is None else p_world_contact
         np.subtract(contact_pts, s.p_world_com, out=self.r_com_foot)
@@ -95,7 +101,7 @@ class BalanceController:
             w[3:],
             self.r_com_foot,
             stance,
-            mu=self.params.mu,
+            mu=self.params.mu if mu is None else mu,
             fz_min_n=self.params.fz_min_n,
             fz_max_n=self.fz_max_n,
         )

@@ -111,7 +111,8 @@ class Controller:
             np.subtract(s.p_world_foot, s.p_world_com, out=self.balance.r_com_foot)
             self.balance.r_com_foot[:, 2] -= self.robot.foot_radius_m
         else:
-            self.f_des[:] = self.balance.contact_forces(s, self.target, stance)
+            mu = self.balance.params.mu * self.handler.friction_scale  # lowered after foot slips
+            self.f_des[:] = self.balance.contact_forces(s, self.target, stance, mu=mu)
 
     def _swing(self, s: RobotState) -> None:
         v = None if self.target is None else self.target.v_world_body

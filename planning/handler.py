@@ -89,6 +89,24 @@ class HandlerParams:
     # on rising 12 cm past its planned top and landed late. The stairs mode turns it on (StairsMode).
     replan_height_from_plan_m: float = 0.0
     mu: float = 0.6
+    # Foot slip: a stance foot (down for slip_settle_s, so not the touchdown's impact; measured in contact within
+    # the last slip_contact_s: a sliding foot's contact flickers; planned to carry at least slip_min_load_n: a
+    # nearly unloaded foot, e.g. before its liftoff, is dragged along) whose measured horizontal
+    # speed stays above slip_speed_mps for slip_min_s is a slip (a foot rolling on its sphere moves its center at
+    # up to ~0.1 m/s at 1 m/s and ~0.23 m/s at 2 m/s, measured on a 0.8 floor). Each slip lowers the friction the
+    # forces assume (the balance QP's and the stance handler's mu) by slip_friction_factor, down to
+    # slip_friction_min of the nominal; every slip_recover_s without a slip it rises back by slip_recover_step of
+    # the nominal (in steps: a friction changing every tick would refactor the QPs every tick).
+    slip_speed_mps: float = 0.4
+    slip_contact_s: float = 0.03
+    slip_start_s: float = 0.1  # none in a run's first 0.1 s (the feet settle from the spawn pose; Go1's slid)
+    slip_min_load_n: float = 20.0
+    slip_min_s: float = 0.01
+    slip_settle_s: float = 0.02
+    slip_friction_factor: float = 0.5
+    slip_friction_min: float = 0.25
+    slip_recover_s: float = 1.0
+    slip_recover_step: float = 0.1
 
 
 class Handler:
@@ -132,6 +150,16 @@ class Handler:
             tuple[int, TripEvent]
         ] = []  # (leg, trip) in time order  # (K,4) [t, x, y, z] of each leg's current swing
         self.ground: GroundHeightFn | None = None  # the terrain the swings clear (None: flat)
+        # foot slips (see HandlerParams.slip_*): each (leg, t the slip began, how long it lasted so far, s)
+        self.slip_log: list[list[Any]] = []
+        self.friction_scale = 1.0  # the share of the nominal friction the forces assume now
+        self.friction_scale_min = 1.0  # ... its lowest so far
+        self._fast_since = np.full(4, np.nan)  # since when a stance foot has been above slip_speed_mps
+        self._slip_entry: list[list[Any] | None] = [None] * 4  # the slip in progress, per leg
+        self._t_last_slip = -np.inf
+        self._t_contact = np.full(4, -np.inf)  # when each foot was last measured in contact
+        self._fz_planned = np.zeros(4)  # the normal force each foot was last asked for (torques), N
+        self._t_start = 0.0  # the first phase update's time
         self._initialized = False
 
     # ---- phases (500 Hz) -------------------------------------------------------------------------------------
@@ -140,6 +168,7 @@ class Handler:
         t = s.t
         r = self.robot.foot_radius_m
         if not self._initialized:
+            self._t_start = t
             self.p_contact[:] = s.p_world_foot
             self.p_contact[:, 2] -= r
             self._initialized = True
@@ -199,6 +228,51 @@ class Handler:
             elif s.contact[leg]:  # LATE
                 self._land(leg, s)
         np.equal(self.phase, _STANCE, out=self.stance)
+        self._detect_slips(s)
+
+    @property
+    def mu(self) -> float:
+        """The friction coefficient the stance forces assume now (the nominal, lowered after slips)."""
+        return self.params.mu * self.friction_scale
+
+    def _detect_slips(self, s: RobotState) -> None:
+        """Flags stance feet sliding on the ground (HandlerParams.slip_*), logs each slip, and lowers the assumed
+        friction on each new one (raises it back in steps while none slips)."""
+        p = self.params
+        t = s.t
+        v = s.v_world_foot
+        self._t_contact[s.contact] = t
+        if t - self._t_start < p.slip_start_s:
+            return
+        fast = (
+            self.stance
+            & (self._fz_planned >= p.slip_min_load_n)
+            & (t - self._t_contact <= p.slip_contact_s)
+            & (t - self.t_landed >= p.slip_settle_s)
+            & (v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] > p.slip_speed_mps * p.slip_speed_mps)
+        )
+        for leg in range(4):
+            entry = self._slip_entry[leg]
+            if not fast[leg]:
+                self._fast_since[leg] = np.nan
+                self._slip_entry[leg] = None
+                continue
+            if np.isnan(self._fast_since[leg]):
+                self._fast_since[leg] = t
+            elif entry is not None:
+                entry[2] = t - entry[1]
+            elif t - self._fast_since[leg] >= p.slip_min_s:
+                entry = [leg, float(self._fast_since[leg]), t - float(self._fast_since[leg])]
+                self._slip_entry[leg] = entry
+                self.slip_log.append(entry)
+                self.friction_scale = max(p.slip_friction_min, self.friction_scale * p.slip_friction_factor)
+                self.friction_scale_min = min(self.friction_scale_min, self.friction_scale)
+                self._t_last_slip = t
+        if any(e is not None for e in self._slip_entry):
+            self._t_last_slip = t  # the recovery waits for the slips to end
+        elif self.friction_scale < 1.0 and t - self._t_last_slip >= p.slip_recover_s:
+            self.friction_scale = min(1.0, self.friction_scale + p.slip_recover_step)
+            self._t_last_slip = t
 
     def _tripped(self, leg: int, s: RobotState) -> bool:
         """Detects a trip of a swing leg from the contacts the simulator measured (seed FIG. 16) and records it."""
@@ -336,13 +410,14 @@ class Handler:
     def torques(self, s: RobotState, f_des: np.ndarray, p_com_foot: np.ndarray | None = None) -> np.ndarray:
         """Returns joint torques (4,3): stance legs realize f_des, swing legs track their trajectories."""
         p = self.params
+        self._fz_planned[:] = f_des[:, 2]
         tau = self.stance_handler.solve(
             f_des,
             s.J_world_foot,
             self.stance,
             self.robot.tau_max,
             tau_bias_leg=s.tau_bias,
-            mu=p.mu,
+            mu=self.mu,
             p_com_foot_world=p_com_foot,
         )
         self.tau[:] = tau

@@ -131,6 +131,7 @@ class WalkController:
         self.balance = BalanceController(robot, p.balance)
         self.command = SteeringCommand()
         self._then_gait: str | None = None
+        self._via_gait: str | None = None  # the gait walked for one cycle on the way to _then_gait
         self._trot_since: float | None = None
         self.goal: np.ndarray | None = None
         # Terrain hooks (terrain-aware walking sets them): maps for step screening and foothold heights; a
@@ -225,18 +226,21 @@ class WalkController:
     def set_goal(self, x: float, y: float) -> None:
         self.goal = np.array([x, y], dtype=float)
 
-    # switches that go through a trot (measured: straight from a bound to a crawl the robot falls)
-    _VIA_TROT: frozenset[tuple[str, str]] = frozenset({("bound", "walk")})
+    # switches that go through another gait for one cycle (measured: straight from a bound to a crawl the robot
+    # fell; from trot_fast to a bound at 1.3-1.4 m/s it fell, through a gallop it holds)
+    _VIA: dict[tuple[str, str], str] = {("bound", "walk"): "trot", ("trot_fast", "bound"): "gallop"}
 
     def set_gait(self, gait: str) -> None:
-        """Switches gait while walking (at the planner's next safe boundary); some switches go through a trot."""
+        """Switches gait while walking (at the planner's next safe boundary); some switches go through another
+        gait for one cycle (_VIA)."""
         current = self.planner.clock.gait.name
         self.gait = gait
-        if (current, gait) in self._VIA_TROT:
-            self._then_gait = gait
-            self.planner.set_gait("trot")
+        via = self._VIA.get((current, gait))
+        if via is not None:
+            self._then_gait, self._via_gait = gait, via
+            self.planner.set_gait(via)
             return
-        self._then_gait = None
+        self._then_gait = self._via_gait = None
         self.planner.set_gait(gait)
 
     def _goal_command(self, s: RobotState) -> SteeringCommand:
@@ -269,11 +273,12 @@ class WalkController:
 
     def _step_plan(self, s: RobotState) -> None:
         clock = self.planner.clock
-        if self._then_gait is not None and clock.pending is None and clock.gait.name == "trot":
+        via = self._via_gait
+        if self._then_gait is not None and clock.pending is None and self.planner.walk_gait.name == via:
             self._trot_since = s.t if self._trot_since is None else self._trot_since
-            if s.t - self._trot_since >= clock.gait.cycle_s:  # one full trot cycle, then on to the asked gait
+            if s.t - self._trot_since >= clock.gait.cycle_s:  # one full cycle, then on to the asked gait
                 self.planner.set_gait(self._then_gait)
-                self._then_gait, self._trot_since = None, None
+                self._then_gait, self._via_gait, self._trot_since = None, None, None
         view = None
         decision = None
         if self.terrain is not None:
@@ -357,7 +362,9 @@ class WalkController:
             np.subtract(s.p_world_foot, s.p_world_com, out=self.balance.r_com_foot)
             self.balance.r_com_foot[:, 2] -= self.robot.foot_radius_m
         else:
-            self.f_des[:] = self.balance.contact_forces(s, self.target, stance)
+            # the friction assumed, lowered after foot slips (Handler.friction_scale)
+            mu = self.balance.params.mu * self.handler.friction_scale
+            self.f_des[:] = self.balance.contact_forces(s, self.target, stance, mu=mu)
 
     def _update_target(self, s: RobotState) -> None:
         dt = s.t - self._t_last

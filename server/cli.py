@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -71,14 +72,15 @@ def _parse_pushes(specs: list[str] | None) -> list[Any]:
     return out
 
 
-def _check_terrain(text: str, seed: int) -> None:
-    """Builds the terrain once (a name, a name with parameters, or a file) so that a bad one is a usage error."""
+def _check_terrain(text: str, seed: int) -> str:
+    """Builds the terrain once (a name, a name with parameters, or a file) so that a bad one is a usage error;
+    gives the scene's name."""
     from planning.terrain.spec import TerrainSpecError, load_terrain
 
     if not 0 <= seed < 2**32:
         raise UsageError(f"--seed {seed}: must be within 0 to 2^32 - 1")
     try:
-        load_terrain(text, seed)
+        return str(load_terrain(text, seed).name)
     except TerrainSpecError as e:
         raise UsageError(f"--terrain {text!r}: {e}") from None
 
@@ -207,7 +209,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
     from planning.sim.run import RunOptions, WalkCommand, run_walk
     from planning.steps.gait import GAIT_NAMES
 
-    _check_terrain(a.terrain, a.seed)
+    scene = _check_terrain(a.terrain, a.seed)
     pushes = _parse_pushes(a.push)
     goal = _parse_goal(a.goal)
     if a.gait not in GAIT_NAMES or a.gait == "stand":
@@ -222,6 +224,16 @@ def cmd_walk(a: argparse.Namespace) -> int:
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
     if a.maps not in ("sensor", "truth", "off"):
         raise UsageError(f"--maps {a.maps!r}: one of sensor, truth, off")
+    if a.speed is not None:
+        from planning.sim.run import check_terrain_speed
+
+        if scene == "flat":
+            raise UsageError(
+                "--speed: only on a terrain (on flat ground --vx and the gait's limits set the speed)"
+            )
+        why = check_terrain_speed(a.speed, scene)
+        if why is not None:
+            raise UsageError(f"--speed {why}")
     _robot(a.robot)
     cmd = WalkCommand(
         a.vx,
@@ -235,6 +247,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
         terrain_aware=False if a.maps == "off" else None,
         terrain_sensor=a.maps == "sensor",
         terrain_pipeline=a.terrain_pipeline,
+        terrain_speed_mps=a.speed,
     )
     opts = RunOptions(
         terrain=a.terrain,
@@ -244,6 +257,15 @@ def cmd_walk(a: argparse.Namespace) -> int:
         robot=a.robot,
         seed=a.seed,
     )
+    if scene != "flat" and a.maps != "off" and goal is None:
+        from planning.sim.run import TERRAIN_SPEED_DEFAULT_MPS, terrain_speed_limit
+
+        cap = TERRAIN_SPEED_DEFAULT_MPS if a.speed is None else a.speed
+        if math.hypot(a.vx, a.vy) > cap + 1e-9:
+            more = (
+                "" if cap >= terrain_speed_limit(scene) else f"; --speed up to {terrain_speed_limit(scene)}"
+            )
+            print(f"note: on {scene} the terrain speed caps --vx/--vy at {cap} m/s{more}", file=sys.stderr)
     progress = _Progress("walk")
     report = run_walk(cmd, opts, progress=progress)
     progress.done()
@@ -397,6 +419,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     w.add_argument("--terrain", default="flat", metavar="TERRAIN", help=_TERRAIN_HELP)
     w.add_argument("--seed", type=int, default=0, help="the terrain scene's random layout (default 0)")
+    w.add_argument(
+        "--speed",
+        type=float,
+        metavar="V",
+        help="on a terrain: the speed to the goal and the cap on --vx/--vy, m/s (default 0.5; up to 1.0 on slope "
+        "and rough, 0.5 elsewhere; the terrain's own caps still apply)",
+    )
     w.add_argument(
         "--maps",
         default="sensor",

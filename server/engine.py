@@ -500,8 +500,10 @@ def run_headless(job: dict[str, Any]) -> dict[str, Any]:
         w = dict(job["walk"])
         goal = w.pop("goal", None)
         maps = w.pop("maps", "sensor")
+        speed = w.pop("terrain_speed", None)
         command = WalkCommand(
             **w,
+            terrain_speed_mps=speed,
             goal=None if goal is None else (float(goal[0]), float(goal[1])),
             terrain_aware=False if maps == "off" else None,
             terrain_sensor=maps == "sensor",

@@ -107,6 +107,11 @@ class WalkIn(_In):
         "sensor",
         description="on a terrain: the simulated depth sensor's maps, the scene's own (perfect perception), or none",
     )
+    terrain_speed: _num(0.2, 1.0) | None = Field(  # type: ignore[valid-type]
+        None,
+        description="on a terrain: the speed to the goal and the cap on vx/vy, m/s (default 0.5; up to 1.0 on "
+        "slope and rough, 0.5 elsewhere; the terrain's own caps still apply)",
+    )
 
 
 # a library name: documented with its pattern, checked by the library (its message says what a name is)

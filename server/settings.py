@@ -83,6 +83,7 @@ class Settings:
     allow_open: bool = False
     robot: str = "spot"
     studio: bool = True
+    studio_shadows: bool = True  # a new studio tab draws shadows (each tab can switch them in View)
     # limits
     max_body_bytes: int = 256 * 1024
     max_events: int = 2000  # explicit events plus events expanded from gaits
@@ -175,6 +176,7 @@ class Settings:
         read("FOOTFALL_ALLOW_OPEN", "allow_open", flag)
         read("FOOTFALL_ROBOT", "robot", str)
         read("FOOTFALL_STUDIO", "studio", flag)
+        read("FOOTFALL_STUDIO_SHADOWS", "studio_shadows", flag)
         read("FOOTFALL_MAX_SESSIONS", "max_sessions", int)
         read("FOOTFALL_SESSION_IDLE_S", "session_idle_s", float)
         read("FOOTFALL_SESSION_WORKERS", "session_workers", str)

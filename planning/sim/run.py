@@ -28,6 +28,42 @@ from planning.terrain.spec import load_terrain
 POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
 YAW_TOLERANCE_RAD = 0.2
 
+# A terrain walk's speed (WalkCommand.terrain_speed_mps; `footfall walk --speed`, REST walk `terrain_speed`): the
+# navigator's speed to a goal and its cap on a steered command, m/s. The default is the navigator's own
+# (NavigatorParams.max_speed_mps, 0.5); a walk may ask for up to its terrain's limit, raised only where a faster walk
+# was measured to hold with the depth sensor (slope and rough seeds 0-3: 1.0 m/s held, no fall; the slope at 1.5
+# fell). The terrain's own caps still apply under it (one tread per step on stairs, the stones speed, the slow gait
+# in clutter, dense no-step ground, obstacles ahead); TERRAIN_SPEED_MIN_MPS is the navigators' min_speed_mps.
+TERRAIN_SPEED_DEFAULT_MPS = 0.5
+TERRAIN_SPEED_MIN_MPS = 0.2
+TERRAIN_SPEED_LIMITS_MPS: dict[str, float] = {"slope": 1.0, "rough": 1.0}
+
+
+def terrain_speed_limit(terrain: str) -> float:
+    """Gives the highest terrain speed a walk on this terrain (a scene name; any other: a user's) may ask, m/s."""
+    return TERRAIN_SPEED_LIMITS_MPS.get(terrain, TERRAIN_SPEED_DEFAULT_MPS)
+
+
+def _cadences_up_to(robot: RobotModel, speed: float) -> Any:
+    """Gives the navigator's cadence choice (CadenceParams) with its fastest cadence's body speed raised to `speed`
+    (m/s) when below it: a cadence's speed caps a walk to a goal."""
+    from planning.terrain.cadence import CadenceParams
+
+    fastest = max(CadenceParams().cadences, key=lambda c: c.speed_mps)
+    cadences = tuple(
+        dataclasses.replace(c, speed_mps=max(c.speed_mps, speed)) if c is fastest else c
+        for c in CadenceParams().cadences
+    )
+    return CadenceParams.from_robot(robot, cadences=cadences)
+
+
+def check_terrain_speed(speed: float, terrain: str) -> str | None:
+    """Gives why a terrain speed (m/s) cannot be walked on this terrain, or None when it can."""
+    top = terrain_speed_limit(terrain)
+    if not (TERRAIN_SPEED_MIN_MPS <= speed <= top):
+        return f"{speed} m/s is outside [{TERRAIN_SPEED_MIN_MPS}, {top}] m/s, the speed range on {terrain!r}"
+    return None
+
 
 @dataclass(frozen=True)
 class RunOptions:
@@ -157,6 +193,20 @@ class _Session:
     def report(self, wall_s: float) -> dict[str, Any]:
         raise NotImplementedError
 
+    def _slips_report(self) -> dict[str, Any]:
+        """The stance feet that slid (planning.handler: HandlerParams.slip_*): how many slips, per leg, each one's
+        start and duration (the first 100), and the lowest share of the nominal friction the forces assumed."""
+        h = self._handler()
+        log = getattr(h, "slip_log", [])
+        return {
+            "count": len(log),
+            "per_leg": {name: sum(1 for e in log if e[0] == i) for i, name in enumerate(LEGS)},
+            "events": [
+                {"leg": LEGS[leg], "t": round(t, 4), "duration_s": round(d, 4)} for leg, t, d in log[:100]
+            ],
+            "friction_scale_min": round(float(getattr(h, "friction_scale_min", 1.0)), 4),
+        }
+
     def _common_report(self, wall_s: float) -> dict[str, Any]:
         t_end = self.world.t
         rec = self.recorder
@@ -189,6 +239,7 @@ class _Session:
                 }
                 for p in self.world.pushes
             ],
+            "foot_slips": self._slips_report(),
             "trips": [
                 {"leg": LEGS[leg], "t": round(tr.t_s, 4), "kind": tr.kind.name.lower()}
                 for leg, tr in self._handler().trip_log
@@ -389,6 +440,9 @@ class WalkCommand:
     terrain_pipeline: str = "modes"
     stop_at_goal: bool = False  # end the run once the body has held within half the goal tolerance for 1 s
     sensor_noise_m: float | None = None  # the depth sensor's range noise floor (1σ, m; None: SensorParams')
+    # on a terrain: the speed to a goal and the cap on a steered command (m/s; None: TERRAIN_SPEED_DEFAULT_MPS; at
+    # most terrain_speed_limit(terrain))
+    terrain_speed_mps: float | None = None
 
 
 class WalkSession(_Session):
@@ -423,6 +477,14 @@ class WalkSession(_Session):
             from planning.terrain.navigate import NavigatorParams, attach_navigator
 
             params = NavigatorParams(use_sensor=command.terrain_sensor)
+            speed = command.terrain_speed_mps
+            if speed is not None:
+                why = check_terrain_speed(speed, self.scene.name)
+                if why is not None:
+                    raise ValueError(f"WalkCommand.terrain_speed_mps: {why}")
+                params = dataclasses.replace(
+                    params, max_speed_mps=speed, cadence=_cadences_up_to(self.robot, speed)
+                )
             if command.sensor_noise_m is not None:
                 perception = params.perception
                 sensor = dataclasses.replace(perception.sensor, noise_m=command.sensor_noise_m)
@@ -432,13 +494,17 @@ class WalkSession(_Session):
             if command.terrain_pipeline == "regions":
                 from planning.terrain.decision import PipelineParams, TerrainPipeline
 
+                pipeline = PipelineParams(use_sensor=command.terrain_sensor, perception=params.perception)
+                if speed is not None:
+                    decision = dataclasses.replace(pipeline.decision, max_speed_mps=speed)
+                    pipeline = dataclasses.replace(pipeline, decision=decision)
                 self.navigator = TerrainPipeline(
                     self.robot,
                     self.world.model,
                     self.world.data,
                     command.goal,
                     self.scene,
-                    PipelineParams(use_sensor=command.terrain_sensor, perception=params.perception),
+                    pipeline,
                 )
                 self.controller.use_terrain(self.navigator)
             elif command.terrain_pipeline == "modes":
@@ -514,6 +580,7 @@ class WalkSession(_Session):
                 "weights": c.weights,
                 "capture_point_selection": c.capture_point_selection,
                 "centroidal": c.centroidal,
+                "terrain_speed_mps": c.terrain_speed_mps,
             },
             "final_pose_error": {
                 "position_m": None if pos_err is None else round(pos_err, 4),

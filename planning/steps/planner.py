@@ -78,6 +78,11 @@ class StepPlanner:
             return
         self.walk_gait = g
         self._stopped = self._stand_when_slow = False
+        if g.name == "trot" and not self.clock.gait.is_stand:
+            # a trot asked while walking at speed goes straight to trot_fast (through the trot, from a gallop at
+            # 1.2 m/s, it fell: the trot's swing limits and cycle for one switch's time at a trot_fast speed)
+            if self.steering.command.vx > self.params.fast_trot_above_mps:
+                g = _FAST_TROT
         self.clock.request(g)
 
     def stop(self) -> None:

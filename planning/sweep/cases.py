@@ -276,7 +276,9 @@ def _params(spec: SweepSpec, coords: dict[str, Any], index: int, maneuvers: Mane
             raise SweepSpecError([f"run.walk.gait: unknown gait {w['gait']!r}"])
         dx = _number("goal_dx_m", coords.get("goal_dx_m", d.goal_dx_m))
         dy = _number("goal_dy_m", coords.get("goal_dy_m", d.goal_dy_m))
-        if w["goal"] is not None:
+        if w["goal"] == "terrain":
+            w["goal_offset"] = [_clean(dx), _clean(dy)]  # the terrain's goal is known once it is built
+        elif w["goal"] is not None:
             w["goal"] = [_clean(w["goal"][0] + dx), _clean(w["goal"][1] + dy)]
         elif dx or dy:
             raise SweepSpecError(["axes.goal_*: goal offsets need run.walk.goal"])
@@ -351,12 +353,19 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
 
         return run_maneuver(parse_maneuver(params["maneuver"]), opts)
     w = params["walk"]
+    goal = w["goal"]
+    if goal == "terrain":
+        from planning.terrain.spec import load_terrain
+
+        gx, gy = load_terrain(terrain, seed=params["seed"]).goal_xy
+        dx, dy = w.get("goal_offset", (0.0, 0.0))
+        goal = (gx + dx, gy + dy)
     cmd = WalkCommand(
         vx=w["vx"],
         vy=w["vy"],
         yaw_rate=w["yaw_rate"],
         gait=w["gait"],
-        goal=None if w["goal"] is None else (w["goal"][0], w["goal"][1]),
+        goal=None if goal is None else (goal[0], goal[1]),
         centroidal=w["solver"] == "centroidal",
         terrain_aware=False if w["maps"] == "off" else None,
         terrain_sensor=w["maps"] == "sensor",

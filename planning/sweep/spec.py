@@ -64,7 +64,11 @@ class Push(_Model):
 class Walk(_Model):
     """Steering mode: a goal (x, y m) to reach, or a velocity command."""
 
-    goal: tuple[float, float] | None = Field(None, description="walk to this point (m); None: velocity")
+    goal: tuple[float, float] | Literal["terrain"] | None = Field(
+        None,
+        description="walk to this point (m); 'terrain': the terrain's own goal (its goal_x_m: 6 m, or 1 m past a "
+        "terrain that ends beyond 5 m); None: velocity",
+    )
     vx: Annotated[float, Field(ge=-5, le=5)] = 0.0
     vy: Annotated[float, Field(ge=-5, le=5)] = 0.0
     yaw_rate: Annotated[float, Field(ge=-5, le=5)] = 0.0
@@ -170,6 +174,11 @@ class Summary(_Model):
     by: list[str] | None = None
     heatmap: tuple[str, str] | None = None
     bins: Annotated[int, Field(ge=1, le=100)] = 5
+    success: Literal["report", "clean"] = Field(
+        "report",
+        description="what counts as a success: the run report's verdict, or 'clean': that and no body collision and "
+        "no touchdown in a no-step cell (a terrain crossing's measure)",
+    )
 
 
 class SweepSpec(_Model):

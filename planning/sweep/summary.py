@@ -134,11 +134,28 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
     }
 
 
+def clean_record(rec: dict[str, Any]) -> dict[str, Any]:
+    """The record with a successful run that touched the terrain with its body or stepped into a no-step cell
+    counted as a failure (summary.success: clean)."""
+    rep = rec.get("report") if rec.get("status") == "done" else None
+    if not rep or not rep.get("success"):
+        return rec
+    bodies, no_step = int(rep.get("body_collisions") or 0), int(rep.get("no_step_touchdowns") or 0)
+    if not bodies and not no_step:
+        return rec
+    why = ", ".join(
+        w for n, w in ((bodies, f"{bodies} body collisions"), (no_step, f"{no_step} no-step touchdowns")) if n
+    )
+    return {**rec, "report": {**rep, "success": False, "failure_reason": f"not clean: {why}"}}
+
+
 def summarize(
     spec: SweepSpec, cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]
 ) -> dict[str, Any]:
     """The summary of the cases given their records by key (a case without a record is pending)."""
     by = list(spec.summary.by) if spec.summary.by is not None else default_by(spec, cases)
+    if spec.summary.success == "clean":
+        records = {k: clean_record(r) for k, r in records.items()}
     names = axis_names(cases)
     for a in by:
         if a not in names:

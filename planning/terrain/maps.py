@@ -120,6 +120,12 @@ class TerrainMaps:
         )
 
     def _nearest(self, grid: NDArray[Any], x: ArrayLike, y: ArrayLike, outside: Any) -> Any:
+        if isinstance(x, float) and isinstance(y, float) and math.isfinite(x + y):
+            # One point: the same cell on Python floats (round() rounds half to even, as np.rint).
+            nx, ny = grid.shape[:2]
+            i = round((x - self.origin_xy[0]) / self.resolution_m)
+            j = round((y - self.origin_xy[1]) / self.resolution_m)
+            return grid.item(i, j) if 0 <= i < nx and 0 <= j < ny else outside
         fx, fy = self._frac(x, y)
         nx, ny = self.shape
         ix = np.rint(fx).astype(np.intp)

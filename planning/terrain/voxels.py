@@ -95,6 +95,10 @@ class VoxelMap:
         # decayed to zero in place, so a band only grows, until a shift moves it or drops layers off the map.
         self._hit_layers: tuple[int, int] | None = None
         self._miss_layers: tuple[int, int] | None = None
+        # Per layer, a bound on its largest hits (at least the largest; the same scale as hits): a layer under
+        # min_hits holds no occupied voxel, so classify skips it. Raised where a scan adds hits, scaled with them
+        # when they are renormalized, moved with a vertical shift (a horizontal one drops columns: still a bound).
+        self._layer_max = np.zeros(self.n_z, np.float32)
 
     # -- geometry -----------------------------------------------------------------------------------------------
 
@@ -128,6 +132,7 @@ class VoxelMap:
             _shift_clear(a, shift)
         self._ix0, self._iy0, self._iz0 = ix0, iy0, iz0
         self._hit_layers = _shift_band(self._hit_layers, shift[0], self.n_z)
+        _shift_clear(self._layer_max, shift[:1])
         self._miss_layers = _shift_band(self._miss_layers, shift[0], self.n_z)
         return True
 
@@ -157,7 +162,7 @@ class VoxelMap:
         self.recenter(center_xy, ground_z)
         self._weight /= p.decay
         if self._weight > 1e6:  # renormalize before float32 loses the small counts
-            for a in (self.hits, self.misses, self.sum_z):
+            for a in (self.hits, self.misses, self.sum_z, self._layer_max):
                 a /= self._weight
             self._weight = 1.0
         w = np.float32(self._weight)
@@ -167,6 +172,7 @@ class VoxelMap:
         np.add.at(self.hits.reshape(-1), flat, w)
         np.add.at(self.sum_z.reshape(-1), flat, (w * pts[ok, 2]).astype(np.float32))
         self._hit_layers = _grow_band(self._hit_layers, flat, self.n_xy * self.n_xy)
+        np.maximum.at(self._layer_max, flat // (self.n_xy * self.n_xy), self.hits.reshape(-1)[flat])
         # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
         o = cloud.p_world_origins[:: p.carve_every]
         d = pts[:: p.carve_every] - o
@@ -233,6 +239,10 @@ class VoxelMap:
         keep = np.floor(np.minimum(t_exit / res + 0.5, big)).astype(np.intp) + 1
         return np.where(inside, np.maximum(keep, 0), big)
 
+    def _recount_layer_max(self) -> None:
+        """Sets each layer's hit bound to its largest hits (for statistics written directly, as tests do)."""
+        self._layer_max = self.hits.reshape(self.n_z, -1).max(axis=1)
+
     # -- classification -----------------------------------------------------------------------------------------
 
     def _occupancy(self) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
@@ -258,8 +268,17 @@ class VoxelMap:
             return Columns(
                 self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
             )
-        lo, hi = self._hit_layers
         w = np.float32(self._weight)
+        # Only the layers whose hits may reach min_hits can hold an occupied voxel (see _layer_max); the band
+        # trimmed to them gives the same columns (above its top no voxel is occupied, so nothing seen through
+        # there can lie under a column's ground).
+        lo, hi = self._hit_layers
+        can = np.flatnonzero(self._layer_max[lo : hi + 1] >= p.min_hits * w)
+        if can.size == 0:
+            return Columns(
+                self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
+            )
+        lo, hi = lo + int(can[0]), lo + int(can[-1])
         hits = self.hits[lo : hi + 1]
         # hits >= min_hits w and hits >= ratio misses, as one comparison with the larger bound
         bound = p.hit_miss_ratio * self.misses[lo : hi + 1]
@@ -395,7 +414,7 @@ def _shift_band(band: tuple[int, int] | None, shift: int, nz: int) -> tuple[int,
     return (lo, hi) if lo <= hi else None
 
 
-def _shift_clear(a: NDArray[np.float32], shift: tuple[int, int, int]) -> None:
+def _shift_clear(a: NDArray[np.float32], shift: tuple[int, ...]) -> None:
     """Moves the content of `a` by `shift` cells (new[i] = old[i - shift]); cells that come in are zeroed. One copy
     of the part that stays, whatever the number of axes shifted."""
     if not any(shift):

@@ -29,6 +29,17 @@ def walk_runner() -> Any:
     return getattr(sim_run, "run_walk", None)
 
 
+def _terrain_speed_problem(terrain: str, speed: float) -> str | None:
+    """Gives why a walk's terrain_speed (m/s) cannot be walked on this terrain (a resolved terrain string)."""
+    from planning.sim.run import check_terrain_speed
+    from planning.terrain.spec import load_terrain
+
+    name = str(load_terrain(terrain).name)
+    if name == "flat":
+        return "only on a terrain (on flat ground vx and the gait's limits set the speed)"
+    return check_terrain_speed(speed, name)
+
+
 def _pushes(items: list[PushIn | str]) -> list[tuple[float, tuple[float, float, float], float]]:
     out = []
     for i, p in enumerate(items):
@@ -73,6 +84,10 @@ async def create_simulation(
     if body.walk is not None:
         if walk_runner() is None:
             raise field_error(409, "walk", "steering not available in this build; run a maneuver instead")
+        if body.walk.terrain_speed is not None:
+            why = await run_in_threadpool(_terrain_speed_problem, terrain, body.walk.terrain_speed)
+            if why is not None:
+                raise field_error(422, "body.walk.terrain_speed", why)
         walk = body.walk.model_dump()
         payload: dict[str, Any] = {"walk": walk, **common}
         request.update({"maneuver": None, "walk": walk})

@@ -28,6 +28,11 @@ PERCEPTION = {
     "depth sensor": "sensor",
 }  # the studio's names for a session's maps
 FRAME_HZ = 75.0  # at most this many robot pose updates per second to the browser (the session publishes ≤ 60)
+STILL_M = (
+    2e-4  # a pose whose bodies all moved less than this (m; quaternion components alike) since the last one
+)
+# sent is not sent: a robot standing still costs the browser no redraws (its GPU is often a software one)
+FPS_WINDOW_S = 2.0  # the frame rate shown (and in GET /studio) counts the poses sent over this many seconds
 POLL_S = 0.004  # the render loop looks for a new snapshot this often: a pose goes out within 4 ms of its publishing
 OVERLAY_HZ = 10.0
 PLOT_HZ = 4.0
@@ -59,6 +64,7 @@ class StudioClient:
         self.token = ""
         self._stop = threading.Event()
         self._frames: deque[float] = deque(maxlen=200)
+        self._sent_pose: tuple[np.ndarray, np.ndarray] | None = None  # the robot's pose the browser last got
         self._last_note = 0.0
         self.steer_cmd = {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}
         self.take: Take | None = None  # the preview being replayed (refreshed while it records)
@@ -97,10 +103,10 @@ class StudioClient:
 
     @property
     def fps(self) -> float:
-        f = list(self._frames)
-        if len(f) < 2 or f[-1] - f[0] <= 0:
-            return 0.0
-        return (len(f) - 1) / (f[-1] - f[0])
+        """Robot poses sent per second over the last FPS_WINDOW_S (0 while the robot stands still)."""
+        now = time.perf_counter()
+        f = [t for t in list(self._frames) if now - t <= FPS_WINDOW_S]
+        return len(f) / FPS_WINDOW_S
 
     def _open_session(self, terrain: str = "flat") -> None:
         try:
@@ -527,6 +533,12 @@ class StudioClient:
         cb_edit = gui.add_checkbox("authoring markers", True)
         cb_edit.on_update(lambda e: self.editor.set_visible(bool(e.target.value)))
         self.cb_follow = gui.add_checkbox("camera follows the robot", False)
+        # Shadows cost a software-rendering browser (no GPU) most of a core for every frame drawn
+        self.cb_shadows = gui.add_checkbox("shadows", self.services.settings.studio_shadows)
+        self.cb_shadows.on_update(
+            lambda e: self.client.scene.configure_default_lights(cast_shadow=bool(e.target.value))
+        )
+        self.client.scene.configure_default_lights(cast_shadow=self.services.settings.studio_shadows)
         self.btn_reset_view = gui.add_button("Reset view")
         self.btn_reset_view.on_click(lambda _e: self.reset_view())
 
@@ -574,6 +586,7 @@ class StudioClient:
                         and snap.seq != last_seq
                         and t0 - last_sent >= min_gap
                         and not replaying
+                        and self._moved(snap.xpos, snap.xquat)
                     ):
                         last_seq, last_sent = snap.seq, t0
                         with self.client.atomic():
@@ -601,8 +614,21 @@ class StudioClient:
                 time.sleep(0.5)
             time.sleep(POLL_S)
 
+    def _moved(self, xpos: np.ndarray, xquat: np.ndarray) -> bool:
+        """Whether any body moved by at least STILL_M since the pose last sent (and remembers this one if so)."""
+        sent = self._sent_pose
+        if sent is not None and sent[0].shape == xpos.shape and sent[1].shape == xquat.shape:
+            if (
+                np.abs(xpos - sent[0]).max(initial=0.0) < STILL_M
+                and np.abs(xquat - sent[1]).max(initial=0.0) < STILL_M
+            ):
+                return False
+        self._sent_pose = (xpos.copy(), xquat.copy())
+        return True
+
     def _rebuild_scene(self, s: LiveSession) -> None:
         self.generation = s.generation
+        self._sent_pose = None  # a new scene gets the pose at once
         with s.lock:
             visuals = s.sim.visuals() if hasattr(s.sim, "visuals") else None
         if visuals is None:

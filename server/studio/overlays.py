@@ -9,6 +9,9 @@ from typing import Any
 
 import numpy as np
 
+SAME_M = (
+    1e-4  # an overlay whose points all moved less than this (m) is not sent again: no re-upload, no redraw
+)
 DEFAULT_OFF_WORDS = ("potential", "reference", "error", "cloud")  # shown on request only: busy or diagnostic
 
 
@@ -66,6 +69,9 @@ class OverlayView:
         self.enabled: dict[str, bool] = {}
         self.handles: dict[str, Any] = {}
         self.on_new = on_new
+        self._drawn: dict[
+            str, tuple[str, np.ndarray, tuple[int, int, int], float]
+        ] = {}  # what each handle shows
 
     def set_enabled(self, name: str, on: bool) -> None:
         self.enabled[name] = on
@@ -92,9 +98,16 @@ class OverlayView:
             kind, arr = geo
             node = f"{self.root}/{name}"
             color = _color(entry)
+            size = _point_size(entry)
+            h = self.handles.get(name)
+            if h is not None and self._unchanged(name, kind, arr, color, size):
+                if not h.visible:
+                    h.visible = True
+                continue
+            self._drawn[name] = (kind, arr, color, size)
             if kind == "points":
                 self.handles[name] = self.scene.add_point_cloud(
-                    node, points=arr, colors=color, point_size=_point_size(entry), point_shape="circle"
+                    node, points=arr, colors=color, point_size=size, point_shape="circle"
                 )
             else:
                 self.handles[name] = self.scene.add_line_segments(
@@ -104,6 +117,20 @@ class OverlayView:
             if name not in overlays:
                 h.visible = False
 
+    def _unchanged(
+        self, name: str, kind: str, arr: np.ndarray, color: tuple[int, int, int], size: float
+    ) -> bool:
+        drawn = self._drawn.get(name)
+        if (
+            drawn is None
+            or drawn[0] != kind
+            or drawn[2] != color
+            or drawn[3] != size
+            or drawn[1].shape != arr.shape
+        ):
+            return False
+        return bool(np.abs(drawn[1] - arr).max(initial=0.0) < SAME_M)
+
     def clear(self) -> None:
         for h in self.handles.values():
             try:
@@ -111,3 +138,4 @@ class OverlayView:
             except Exception:  # noqa: BLE001
                 pass
         self.handles.clear()
+        self._drawn.clear()

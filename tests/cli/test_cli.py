@@ -26,6 +26,8 @@ def test_terrains_lists_names(capsys) -> None:
         (["run", "stand", "--robot", "atlas"], "robot 'atlas': no such robot description"),
         (["validate", "missing/dir/x.yaml"], "no such file: missing/dir/x.yaml"),
         (["walk", "--terrain", "stairs", "--maps", "lidar"], "--maps 'lidar': one of sensor, truth, off"),
+        (["walk", "--terrain", "stairs", "--speed", "1.0"], "--speed 1.0 m/s is outside [0.2, 0.5] m/s"),
+        (["walk", "--vx", "1.0", "--speed", "1.0"], "--speed: only on a terrain"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, needle, capsys) -> None:
@@ -124,3 +126,15 @@ def test_walk_summary_gives_the_perception_and_step_qp_times() -> None:
     line = _summary(report)
     assert "perception p50 31.0 ms (10248 points a scan)" in line
     assert "step QP 2001 replans, p50 7.16 ms (bare OSQP 3.12 ms)" in line
+
+
+def test_walk_notes_when_the_terrain_speed_caps_the_command(capsys) -> None:
+    """A steered terrain walk asked faster than its terrain speed says so, and how far --speed goes there."""
+    argv = ["walk", "--terrain", "slope", "--maps", "truth", "--vx", "1.0", "--duration", "0.02"]
+    main(argv)
+    assert (
+        "note: on slope the terrain speed caps --vx/--vy at 0.5 m/s; --speed up to 1.0"
+        in capsys.readouterr().err
+    )
+    main([*argv, "--speed", "1.0"])
+    assert "note:" not in capsys.readouterr().err

@@ -49,7 +49,11 @@ def _free_port() -> int:
 def server() -> Iterator[dict[str, Any]]:
     """`footfall serve` with the studio, in a subprocess on free ports, with a throwaway data directory."""
     port, viewer = _free_port(), _free_port()
-    env = {**os.environ, "FOOTFALL_DATA_DIR": tempfile.mkdtemp(prefix="footfall-browser-")}
+    env = {
+        **os.environ,
+        "FOOTFALL_DATA_DIR": tempfile.mkdtemp(prefix="footfall-browser-"),
+        "FOOTFALL_STUDIO_SHADOWS": "0",
+    }
     code = "import sys; from server.app import serve; serve('127.0.0.1', int(sys.argv[1]), int(sys.argv[2]))"
     log = tempfile.NamedTemporaryFile("w+", prefix="footfall-serve-", suffix=".log", delete=False)
     proc = subprocess.Popen(
@@ -166,7 +170,7 @@ def _browser_page(tmp_path: Path) -> Iterator[tuple[Any, list[str]]]:
     with sync_playwright() as pw:
         ctx = pw.chromium.launch_persistent_context(
             str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True,
-            viewport={"width": 1400, "height": 900},
+            viewport={"width": 1024, "height": 700},
         )  # fmt: skip
         try:
             page = ctx.pages[0] if ctx.pages else ctx.new_page()

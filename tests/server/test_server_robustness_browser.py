@@ -19,7 +19,7 @@ from server.sweeps import SweepJob
 
 @pytest.mark.browser
 def test_click_a_failed_cell_and_replay_its_case(tmp_path: Path) -> None:
-    s = Settings(data_dir=tmp_path / "data", viewer_port=0, max_sessions=2)
+    s = Settings(data_dir=tmp_path / "data", viewer_port=0, max_sessions=2, studio_shadows=False)
     app = create_app(s, with_studio=True)
     with (
         TestClient(app, raise_server_exceptions=False) as client,

@@ -60,8 +60,9 @@ def test_headless_walk_maps_reach_the_navigator() -> None:
     from server.engine import run_headless
 
     job = {"id": "t", "terrain": "slope", "pushes": [], "duration": 1.0, "robot": "spot", "maneuver": None}
-    truth = run_headless({**job, "walk": {"vx": 0.3, "maps": "truth"}})
+    truth = run_headless({**job, "walk": {"vx": 0.3, "maps": "truth", "terrain_speed": 1.0}})
     assert truth["navigator"]["scans"] >= 5
+    assert truth["command"]["terrain_speed_mps"] == 1.0
     blind = run_headless({**job, "walk": {"vx": 0.3, "maps": "off"}})
     assert "navigator" not in blind
 
@@ -89,6 +90,8 @@ def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
         ({"maneuver": "bow", "walk": {"vx": 0.3}}, 422, ""),
         ({"walk": {"vx": 0.3, "gait": "moonwalk"}}, 422, "body.walk.gait"),
         ({"walk": {"vx": 9.0}}, 422, "body.walk.vx"),
+        ({"walk": {"vx": 1.0, "terrain_speed": 1.0}, "terrain": "stairs"}, 422, "body.walk.terrain_speed"),
+        ({"walk": {"vx": 1.0, "terrain_speed": 3.0}, "terrain": "slope"}, 422, "body.walk.terrain_speed"),
     ],
 )
 def test_bad_simulation_requests(client: TestClient, body: dict[str, Any], status: int, field: str) -> None:

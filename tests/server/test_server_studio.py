@@ -94,24 +94,38 @@ def _tab_fps(client: TestClient, tab: Any) -> float:
     return float(client.get("/studio").json()["fps"].get(str(tab.client.client_id), 0.0))
 
 
+def _fps_while_trotting(client: TestClient, tab: Any, at_least: float) -> bool:
+    """Whether the tab gets at least `at_least` poses a second while its robot trots (a robot standing still is
+    not sent: the studio only sends poses that moved); the robot is put back standing at the origin after."""
+    sid = tab.session.id
+    r = client.post(f"/sessions/{sid}/steer", json={"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0, "gait": "trot"})
+    assert r.status_code == 200, r.text
+    try:
+        return wait_for(lambda: _tab_fps(client, tab) >= at_least, 20.0)
+    finally:
+        client.post(f"/sessions/{sid}/reset")
+
+
 def test_a_tab_gets_a_live_robot(studio_app: tuple[TestClient, Any], tab: Any) -> None:
     client, _ = studio_app
     sid = tab.session.id
     sessions = {s["id"]: s for s in client.get("/sessions").json()}
     assert sessions[sid]["origin"] == "studio"
     # poses stream to the tab (how fast depends on the machine's load: the rate is checked on its own below)
-    assert wait_for(lambda: _tab_fps(client, tab) >= 5.0, 20.0), client.get("/studio").json()
+    assert _fps_while_trotting(client, tab, 5.0), client.get("/studio").json()
+    # standing still, the robot costs the tab no frames
+    assert wait_for(lambda: _tab_fps(client, tab) < 1.0, 20.0), client.get("/studio").json()
     assert tab.view is not None and len(tab.view.bodies) >= 13  # trunk + 4 × (hip, upper, lower)
 
 
 @pytest.mark.load
 def test_a_tab_gets_its_robot_at_50_fps(studio_app: tuple[TestClient, Any], tab: Any) -> None:
-    """The pose rate a tab gets, over its last 200 frames, while the session keeps real time: sessions publish 60
+    """The pose rate a tab gets while its robot trots and the session keeps real time: sessions publish 60
     snapshots a second and a tab sends each within 4 ms. Measured 48/s with the machine's load average at 12 (56
     published); with the suite's other worker running simulations on 2 cores it fell further, so it runs with the
     load tests, on its own."""
     client, _ = studio_app
-    assert wait_for(lambda: _tab_fps(client, tab) >= 50.0, 20.0), client.get("/studio").json()
+    assert _fps_while_trotting(client, tab, 50.0), client.get("/studio").json()
 
 
 def test_a_check_of_an_older_document_does_not_hide_newer_problems(

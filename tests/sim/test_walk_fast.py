@@ -26,6 +26,8 @@ def test_trots_at_2_mps_forward_from_a_stand_and_stops_at_speed() -> None:
     assert not sess.loop.fell, sess.loop.failure_reason
     assert sess.controller.planner.clock.gait.name == "trot_fast"
     assert abs(np.mean(vx) - 2.0) <= 0.05 * 2.0
+    # a stance foot rolling on its sphere at 2 m/s on the default floor is not a slip (planning.handler)
+    assert sess.controller.handler.slip_log == [] and sess.controller.handler.friction_scale == 1.0
     sess.controller.planner.stop()
     for _ in range(int(2.5 / dt)):
         sess.loop.step()
@@ -87,3 +89,27 @@ def test_bounds_and_gallops_at_1_2_mps(gait: str) -> None:
     rep = run_walk(WalkCommand(1.2, gait=gait, settle_s=2.5), RunOptions(duration_s=5.0))
     assert rep["success"] and not rep["fell"], rep["failure_reason"]
     assert abs(rep["mean_velocity"]["vx"] - 1.2) <= 0.05 * 1.2
+
+
+def test_switches_trot_bound_gallop_trot_at_1_3_mps() -> None:
+    # gait switches at speed, 2.5 s in each gait at 1.3 m/s: the trot at speed is trot_fast; trot_fast -> bound goes
+    # through one gallop cycle (straight, it fell at 1.3-1.4 m/s) and a trot asked at speed goes straight to trot_fast
+    # (through the slow trot, from a gallop at 1.2 m/s, it fell)
+    sess = WalkSession(WalkCommand(vx=1.3), RunOptions(duration_s=12.0))
+    steps = int(2.5 / sess.world.dt)
+    for gait, clock_gait in (
+        ("trot", "trot_fast"),
+        ("bound", "bound"),
+        ("gallop", "gallop"),
+        ("trot", "trot_fast"),
+    ):
+        sess.controller.set_gait(gait)
+        vx = []
+        for k in range(steps):
+            sess.loop.step()
+            if k >= steps - int(1.0 / sess.world.dt):
+                s = sess.loop.state
+                vx.append(float((s.R_world_body.T @ s.v_world_body)[0]))
+        assert not sess.loop.fell, f"fell in {gait}: {sess.loop.failure_reason}"
+        assert sess.controller.planner.clock.gait.name == clock_gait
+        assert abs(np.mean(vx) - 1.3) <= 0.2 * 1.3, (gait, np.mean(vx))

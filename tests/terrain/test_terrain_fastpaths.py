@@ -185,6 +185,8 @@ def test_voxel_carving_and_classification_equal_the_ray_and_column_references(se
         _integrate_reference(ref, cloud, center)
         for name in ("hits", "misses", "sum_z"):
             np.testing.assert_array_equal(getattr(fast, name), getattr(ref, name), err_msg=name)
+        # each layer's hit bound (which classify trims the band by) is at least its largest hits
+        assert (fast._layer_max >= fast.hits.reshape(fast.n_z, -1).max(axis=1)).all()
         _check_classification(fast)
 
 
@@ -227,6 +229,7 @@ def test_classification_equals_the_column_reference_on_random_statistics(seed: i
     vm.misses[...] = misses
     vm.sum_z[...] = hits * rng.uniform(-0.5, 0.5, hits.shape)
     vm._hit_layers, vm._miss_layers = (h0, h1), (m0, m1)
+    vm._recount_layer_max()
     _check_classification(vm)
 
 
@@ -236,6 +239,27 @@ def test_ground_above_every_seen_through_layer_stands() -> None:
     vm.hits[8, 3, 3] = vm.sum_z[8, 3, 3] = 5.0
     vm.misses[1, 5, 5] = 5.0
     vm._hit_layers, vm._miss_layers = (8, 8), (1, 1)
+    vm._recount_layer_max()
     cols = vm.classify()
     assert cols.ground_z[3, 3] == 1.0
     _check_classification(vm)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**31))
+def test_one_point_lookups_equal_the_array_lookups(seed: int) -> None:
+    """The maps' one-point lookups (Python floats: the planners' many single queries) give what the array path
+    gives: points on the map, on half-cell boundaries (rounding half to even), at its border and off it."""
+    from planning.terrain.maps import maps_from_grids
+
+    rng = np.random.default_rng(seed)
+    nx, ny = int(rng.integers(3, 12)), int(rng.integers(3, 12))
+    res = float(rng.choice([0.03, 0.05, 0.1]))
+    origin = (float(rng.uniform(-1, 1)), float(rng.uniform(-1, 1)))
+    maps = maps_from_grids(origin, res, rng.normal(size=(nx, ny)), rng.random((nx, ny)) < 0.4)
+    k = rng.integers(-2, max(nx, ny) + 2, (40, 2)) + rng.choice([0.0, 0.5, -0.5, 0.3, 0.49], (40, 2))
+    for fx, fy in k:
+        x, y = origin[0] + float(fx) * res, origin[1] + float(fy) * res
+        for f in (maps.no_step, maps.no_body, maps.clearance_at, maps.height_at, maps.sdf_step):
+            one, arr = f(x, y), f(np.array([x]), np.array([y]))[0]
+            assert one == arr and type(one) is type(arr.item()), (f.__name__, x, y, one, arr)

@@ -157,3 +157,43 @@ def test_replay_finds_the_same_maps_and_reports_a_changed_one(
     monkeypatch.setattr(maps_module, "signed_distance", lambda m, r: original(m, r) + 1e-9)
     assert compare(path) > 0
     assert "sdf_step_m: max difference" in capsys.readouterr().out
+
+
+def test_fewer_rays_where_dense_leave_the_stairs_maps_as_a_seed_change_does() -> None:
+    """SensorParams.dense_spacing_m leaves out odd checkerboard rays where their neighbours hit close: after the
+    first scan (nothing known: every ray) a quarter or more of the rays go, and the maps differ from the full scan's
+    about as much as another noise seed's do. Measured: 11776 rays, then 8300-8580; observed cells -1.1 %; ground
+    (> 1 cm) or step cells differing 2.5 % (another seed: 2.1 %)."""
+    from planning.terrain.perception import PerceptionParams
+    from planning.terrain.sensor import SensorParams
+
+    scene = build_terrain("stairs")
+    model = mujoco.MjModel.from_xml_string(scene.mjcf(STAND_IN))
+    data = mujoco.MjData(model)
+    full = Perception(model, "robot")
+    other_seed = Perception(model, "robot", PerceptionParams(sensor=SensorParams(seed=1)))
+    fewer = Perception(model, "robot", PerceptionParams(sensor=SensorParams(dense_spacing_m=0.03)))
+    cast = []
+    for i in range(6):
+        x = 0.1 * i
+        data.qpos[0] = x
+        data.qpos[2] = 0.52 + float(scene.ground_height(x, 0.0))
+        mujoco.mj_kinematics(model, data)
+        m_full, m_seed, m_fewer = (p.scan_now(data) for p in (full, other_seed, fewer))
+        cast.append(fewer.sensor.rays_cast)
+        assert full.sensor.rays_cast == full.sensor.n_rays
+    assert cast[0] == fewer.sensor.n_rays
+    assert max(cast[1:]) <= 0.8 * fewer.sensor.n_rays and min(cast[1:]) >= 0.5 * fewer.sensor.n_rays, cast
+
+    def differ(a, b) -> float:
+        both = a.observed & b.observed
+        ground = np.abs(a.ground_height - b.ground_height)[both] > 0.01
+        return max(float(ground.mean()), float((a.step_obstacle != b.step_obstacle).mean()))
+
+    assert abs(m_fewer.observed.mean() - m_full.observed.mean()) < 0.02
+    assert differ(m_fewer, m_full) <= 2.0 * differ(m_seed, m_full) + 0.005, (
+        differ(m_fewer, m_full),
+        differ(m_seed, m_full),
+    )
+    with pytest.raises(ValueError, match="dense_spacing_m"):
+        DepthSensor(model, "robot", SensorParams(dense_spacing_m=-0.01))
