@@ -233,6 +233,19 @@ def _drag(page: Any, box: dict[str, float], dx: float, at: str = "center") -> No
     page.mouse.up()
 
 
+def _scroll_to(page: Any, selector: str) -> None:
+    """Scrolls the element into view; the studio redraws the timeline (a new element) whenever it changes, so an
+    element replaced mid-scroll is found again."""
+    for attempt in range(5):
+        try:
+            page.locator(selector).scroll_into_view_if_needed()
+            return
+        except Exception as e:  # noqa: BLE001 - playwright's Error: the element was replaced
+            if "not attached" not in str(e) or attempt == 4:
+                raise
+            time.sleep(0.3)
+
+
 def _saved(api: str, name: str) -> dict[str, Any]:
     end = time.monotonic() + 30
     while (r := httpx.get(f"{api}/maneuvers/{name}", timeout=5)).status_code != 200:
@@ -394,7 +407,7 @@ def _physics_failure_music_and_beats(
     html_ = page.locator(svg).inner_html()
     assert html_.count('data-physics="failure"') == 1 and html_.count("<circle") == 8
     assert "FL touchdown at 1.55 s — failure" in html_
-    page.locator(svg).scroll_into_view_if_needed()  # Validate scrolled the panel down to its button
+    _scroll_to(page, svg)  # Validate scrolled the panel down to its button
     page.screenshot(path=str(ARTIFACTS / "studio-physics-failure.png"))
     # music: load a click track at 120 bpm, its beats show; a keyframe dragged lands on a beat
     page.get_by_text("Music", exact=True).first.dispatch_event("click")
@@ -402,7 +415,7 @@ def _physics_failure_music_and_beats(
         page.get_by_role("button", name="Load music (WAV)").click()
     chooser.value.set_files(str(_click_wav(tmp_path / "clicks.wav")))
     wait_svg(lambda h: h.count('stroke-dasharray="1 2"') >= 6, "the beat grid is drawn")
-    page.locator(svg).scroll_into_view_if_needed()
+    _scroll_to(page, svg)
     kbox = page.locator(f"{svg} path[data-part=move]").nth(3).bounding_box()  # the keyframe at 2.80 s
     _drag(page, kbox, 0.12 * px_per_s)
 
