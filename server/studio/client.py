@@ -28,10 +28,9 @@ PERCEPTION = {
     "depth sensor": "sensor",
 }  # the studio's names for a session's maps
 FRAME_HZ = 75.0  # at most this many robot pose updates per second to the browser (the session publishes ≤ 60)
-STILL_M = (
-    2e-4  # a pose whose bodies all moved less than this (m; quaternion components alike) since the last one
-)
-# sent is not sent: a robot standing still costs the browser no redraws (its GPU is often a software one)
+# A pose whose bodies all moved less than STILL_M (m; quaternion components alike) since the last one sent is not
+# sent: a robot standing still costs the browser no redraws (its GPU is often a software one).
+STILL_M = 2e-4
 FPS_WINDOW_S = 2.0  # the frame rate shown (and in GET /studio) counts the poses sent over this many seconds
 POLL_S = 0.004  # the render loop looks for a new snapshot this often: a pose goes out within 4 ms of its publishing
 OVERLAY_HZ = 10.0
