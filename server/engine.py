@@ -84,6 +84,22 @@ def walk_command(
     return WalkCommand(vx=vx, vy=vy, yaw_rate=yaw_rate, gait=gait, terrain_sensor=maps == "sensor")
 
 
+def _with_terrain_speed(command: Any, terrain: str) -> Any:
+    """Gives a live session's walk command with its terrain speed at the terrain's limit (TERRAIN_SPEED_LIMITS_MPS,
+    the same as `footfall walk --speed` and REST's terrain_speed may ask): the studio's sliders then set the speed,
+    up to that limit, instead of the navigator's default cap. A command with its own terrain speed, flat ground
+    and terrain files keep theirs."""
+    import dataclasses
+
+    from planning.sim.run import terrain_speed_limit
+    from planning.terrain.spec import as_spec
+
+    name = as_spec(terrain).name
+    if command.terrain_speed_mps is not None or name is None or name == "flat":
+        return command
+    return dataclasses.replace(command, terrain_speed_mps=terrain_speed_limit(name))
+
+
 def steering_gaits() -> tuple[str, ...]:
     """Returns the gaits steering mode can walk with (empty without a steering backend)."""
     try:
@@ -207,6 +223,7 @@ class LiveSim:
         walk_cls = getattr(run, "WalkCommand", None)
         self.walking = walk_cls is not None and isinstance(spec, walk_cls)
         if self.walking:
+            spec = _with_terrain_speed(spec, terrain)
             self.maneuver: Any = WalkLabel(spec.gait)
             self.session: Any = run.WalkSession(spec, options, robot=_robot(robot))
         else:
