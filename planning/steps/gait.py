@@ -75,8 +75,8 @@ _GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], f
     ("trot",      0.50,   0.60,   (0.00,  0.50,  0.50,  0.00),  0.10,          1.6),
     ("trot_fast", 0.40,   0.50,   (0.00,  0.50,  0.50,  0.00),  0.10,          2.0),
     ("pace",      0.36,   0.60,   (0.00,  0.50,  0.00,  0.50),  0.10,          1.0),
-    ("bound",     0.40,   0.60,   (0.00,  0.00,  0.50,  0.50),  0.12,          1.6),
-    ("gallop",    0.40,   0.60,   (0.50,  0.60,  0.00,  0.10),  0.12,          1.4),
+    ("bound",     0.32,   0.60,   (0.00,  0.00,  0.50,  0.50),  0.12,          1.6),
+    ("gallop",    0.32,   0.60,   (0.50,  0.60,  0.00,  0.10),  0.12,          1.4),
 )  # fmt: skip
 
 # own sideways / turning limits (m/s, rad/s): the trots held 1.0 m/s sideways (ramped up to it) and 2.25 rad/s in
