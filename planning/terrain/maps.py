@@ -49,7 +49,9 @@ class MapParams:
     these heights are step obstacles; min_support_m: steppable patches narrower than this are no-step; knee_radius_m, knee_height_m: a cell with ground higher by knee_height_m within
     knee_radius_m is a step obstacle (the knee would hit); near_body_m: step obstacles around body obstacles;
     dense_radius_m, dense_fraction: where step obstacles cover more than this share of the disk, the area becomes a
-    body obstacle; speck_cells: obstacle components smaller than this are removed; close_cells: body-map closing
+    body obstacle (dense_counts_high False: cells that are step obstacles only for standing higher than
+    max_step_height_m above the lowest ground nearby do not count: a stone's top beside a pit is no obstacle to the
+    body above it); speck_cells: obstacle components smaller than this are removed; close_cells: body-map closing
     radius (cells); fill_min_cells: unknown cells within this many cells of known ones take the lowest neighbor;
     ceiling_above_m: overhangs at least this high count for clearance; fill_low_radius_m: an unknown cell's ground is
     at most the lowest observed ground within this radius (None: not; the shadow behind a stone's far edge then
@@ -72,6 +74,7 @@ class MapParams:
     near_body_m: float = 0.08
     dense_radius_m: float = 0.3
     dense_fraction: float = 0.85
+    dense_counts_high: bool = True
     speck_cells: int = 3
     close_cells: int = 2
     fill_min_cells: int = 12
@@ -424,15 +427,17 @@ def build_maps(
     fp = _disk(p.edge_radius_m / res)
     spread = disk_filter(h, fp, np.maximum) - disk_filter(h, fp, np.minimum)
     step = spread > p.edge_height_m
-    step |= h - h_low > p.max_step_height_m
     step |= _count_between(cum, z0, dz, h + p.leg_band_m[0], h + p.leg_band_m[1]) > 0
     knee = disk_filter(h, _disk(p.knee_radius_m / res), np.maximum) - h
     step |= knee > p.knee_height_m
-    step = _remove_specks(step, p.speck_cells)
+    high = h - h_low > p.max_step_height_m
+    low_only = None if p.dense_counts_high else _remove_specks(step, p.speck_cells)
+    step = _remove_specks(step | high, p.speck_cells)
+    dense_src = step if low_only is None else low_only
     # Dense step obstacles become body obstacles.
-    if step.any():
+    if dense_src.any():
         disk = _disk(p.dense_radius_m / res)
-        body |= _disk_count(step, disk) / np.count_nonzero(disk) > p.dense_fraction
+        body |= _disk_count(dense_src, disk) / np.count_nonzero(disk) > p.dense_fraction
     if body.any():
         step |= disk_filter(body, _disk(p.near_body_m / res), np.maximum, False)
     # Steppable patches narrower than min_support_m (a small box top, a sliver between obstacles) become no-step.

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -10,9 +12,11 @@ from hypothesis.extra.numpy import arrays
 from scipy import ndimage
 
 from planning.terrain.maps import (
+    MapParams,
     _cumulative_layers,
     _disk,
     _disk_count,
+    build_maps,
     maps_from_grids,
     maps_from_scene,
     signed_distance,
@@ -169,3 +173,20 @@ def test_cumulative_layers_count_obstacle_layers_up_to_each_layer(
     expected = np.where(k < 0, 0, np.take_along_axis(want, np.clip(k, 0, nz - 1)[..., None], 2)[..., 0])
     np.testing.assert_array_equal(cum.at(k), expected)
     np.testing.assert_array_equal(cum.total.reshape(nx, ny), want[..., -1])
+
+
+def test_a_stone_too_high_above_its_pit_is_no_body_obstacle_when_dense_counts_high_is_off() -> None:
+    """A wide block standing just over max_step_height_m above the pit around it is a step obstacle cell by cell (too
+    high to step onto from the pit); counted by the dense rule it becomes a body obstacle, which the regions pipeline
+    does not want (the body passes over a stone); dense_counts_high=False leaves it a step obstacle only."""
+    n, res = 60, 0.03
+    p = MapParams()
+    ground = np.full((n, n), -0.30)
+    ground[18:42, 18:42] = (
+        -0.30 + p.max_step_height_m + 0.005
+    )  # 0.72 m wide, every cell within low_radius_m of the pit
+    columns = Columns((0.0, 0.0), res, ground, np.zeros((n, n, 4), dtype=bool), -0.3, 0.05, (0, -1))
+    shipped = build_maps(columns, p)
+    counted_low = build_maps(columns, dataclasses.replace(p, dense_counts_high=False))
+    assert shipped.body_obstacle[30, 30] and shipped.step_obstacle[30, 30]
+    assert counted_low.step_obstacle[18:42, 18:42].all() and not counted_low.body_obstacle.any()
