@@ -616,14 +616,19 @@ class StepQP:
         """Gives {leg: slot index or fixed xy} for the legs in stance at time t (slots up to k only); slots_of[leg]:
         that leg's slots."""
         out: dict[int, int | NDArray[np.float64]] = {}
+        t_landed = t + 1e-9
         for leg, slots in enumerate(slots_of):
-            if any(t_lo[j] <= t < t_td[j] for j in slots):
-                continue  # swinging
-            landed = [j for j in slots if t_td[j] <= t + 1e-9]
-            if not landed:
-                out[leg] = self._fixed_feet[leg]
-            elif max(landed) <= k:
-                out[leg] = max(landed)
+            last = -1  # the latest slot landed by t (-1: none)
+            for j in slots:
+                if t_lo[j] <= t < t_td[j]:
+                    break  # swinging
+                if t_td[j] <= t_landed and j > last:
+                    last = j
+            else:
+                if last < 0:
+                    out[leg] = self._fixed_feet[leg]
+                elif last <= k:
+                    out[leg] = last
         return out
 
     def _fill_support(self, k: int, req: StepRequest, stance: dict[int, int | NDArray[np.float64]]) -> None:
