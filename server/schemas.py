@@ -98,7 +98,7 @@ PushSpec = Annotated[
 class WalkIn(_In):
     """A steering-mode run: velocity commands (or a goal) instead of a maneuver."""
 
-    vx: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
+    vx: _num(-2.5, 2.5) = 0.0  # type: ignore[valid-type]
     vy: _num(-1.0, 1.0) = 0.0  # type: ignore[valid-type]
     yaw_rate: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
     gait: SteerGait = "trot"  # type: ignore[valid-type]
@@ -232,7 +232,7 @@ class SessionCreated(BaseModel):
 class SteerIn(_In):
     """A velocity command in the body's heading frame: m/s, m/s, rad/s."""
 
-    vx: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
+    vx: _num(-2.5, 2.5) = 0.0  # type: ignore[valid-type]
     vy: _num(-1.0, 1.0) = 0.0  # type: ignore[valid-type]
     yaw_rate: _num(-2.0, 2.0) = 0.0  # type: ignore[valid-type]
     gait: SteerGait = "trot"  # type: ignore[valid-type]

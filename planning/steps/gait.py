@@ -63,7 +63,10 @@ class Gait:
 # gallop: a transverse gallop, the hind pair then the front pair landing one after the other (left leads, the right
 # 0.1 cycle later), two or three feet down (duty 0.5, always two, fell at 0.6 m/s); no flight phase. The bound and
 # the gallop swing with the fast trot's swing limits (planning.walk.WalkParams.fast_swing_gaits): held 1.4 m/s
-# (0.8 with the slow ones).
+# (0.8 with the slow ones). Their 0.32 s cycle: at 0.40 s the bound commanded 2.5 m/s fell (46 % of its stance
+# legs' ticks at a torque limit: long, heavily loaded stances) and the gallop at 2.5 fell from late feet; at 0.32 s
+# both hold it (0.28 s: more late feet). Their caps (2.5, 2.2 m/s) are what they tracked within 10 % from a stand,
+# with the balance gains of WalkParams.pair_gait_* and the bound's footholds of ReferenceParams.thrust_lead_s.
 #       name      cycle   duty    touchdown phase offset        swing height   max speed
 #                 s       -       FL     FR     RL     RR       m              m/s
 _GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], float, float], ...] = (
@@ -75,8 +78,8 @@ _GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], f
     ("trot",      0.50,   0.60,   (0.00,  0.50,  0.50,  0.00),  0.10,          1.6),
     ("trot_fast", 0.40,   0.50,   (0.00,  0.50,  0.50,  0.00),  0.10,          2.0),
     ("pace",      0.36,   0.60,   (0.00,  0.50,  0.00,  0.50),  0.10,          1.0),
-    ("bound",     0.40,   0.60,   (0.00,  0.00,  0.50,  0.50),  0.12,          1.6),
-    ("gallop",    0.40,   0.60,   (0.50,  0.60,  0.00,  0.10),  0.12,          1.4),
+    ("bound",     0.32,   0.60,   (0.00,  0.00,  0.50,  0.50),  0.12,          2.5),
+    ("gallop",    0.32,   0.60,   (0.50,  0.60,  0.00,  0.10),  0.12,          2.2),
 )  # fmt: skip
 
 # own sideways / turning limits (m/s, rad/s): the trots held 1.0 m/s sideways (ramped up to it) and 2.25 rad/s in

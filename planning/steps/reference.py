@@ -35,6 +35,13 @@ class ReferenceParams:
     # centripetal acceleration; ω² = g/h the pendulum's), so the body leans into the turn; without it a trot on a
     # 1 m radius at 1.5 m/s slid out of the circle and fell
     centripetal_gain: float = 1.0
+    # the bound's footholds behind their neutral points by this times the commanded velocity (s): its pairs push
+    # one at a time, so the pitch moment of the forward push (body height × force) has to be balanced by the
+    # weight carried behind the center of mass; at the neutral points the balance QP held the pitch and gave up the
+    # push, and the speed bench's bound stopped at 1.6 m/s (1.8 tracked 12 % slow); 0.08 s: 2.4 m/s (0.05: 2.2,
+    # 0.11: 2.0). The gallop, whose three-foot phases balance the push, tracked no better with it (fell at 2.2 m/s
+    # with 0.05 s).
+    thrust_lead_s: tuple[tuple[str, float], ...] = (("bound", 0.08),)
 
     def __post_init__(self) -> None:
         if self.n_cycles < 1:
@@ -113,6 +120,9 @@ def reference_step_path(
     v_err = state.v_world_com[:2] - body.velocity_world(t_now)
     gain = p.capture_gain * p.capture_decay ** touchdown_rank(leg)
     xy = xy + gain[:, None] * (v_err / omega)[None, :]
+    lead = dict(p.thrust_lead_s).get(clock.gait.name, 0.0)
+    if lead != 0.0:
+        xy = xy - lead * body.velocity_world(t_now)[None, :]
     if cmd.yaw_rate != 0.0 and p.centripetal_gain != 0.0 and leg.shape[0]:
         v_td = body.velocity_world(sched.t_touchdown + 0.5 * t_stance)  # (K, 2)
         a_in = cmd.yaw_rate * np.column_stack([-v_td[:, 1], v_td[:, 0]])  # ω × v, toward the turn's center

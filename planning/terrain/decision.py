@@ -190,15 +190,15 @@ class HeightGrid:
 
     def __call__(self, x: Any, y: Any) -> Any:
         """Gives the height (m) at world (x, y), the nearest cell's (border cells beyond the grid)."""
-        nx, ny = self.height.shape
-        ix = np.clip(
-            np.rint((np.asarray(x, dtype=np.float64) - self.origin_xy[0]) / self.resolution_m), 0, nx - 1
-        )
-        iy = np.clip(
-            np.rint((np.asarray(y, dtype=np.float64) - self.origin_xy[1]) / self.resolution_m), 0, ny - 1
-        )
-        v = self.height[ix.astype(np.intp), iy.astype(np.intp)]
-        return v.item() if np.ndim(v) == 0 else v
+        h = self.height
+        nx, ny = h.shape
+        # np.clip's values through minimum/maximum (without its dispatch cost), one flat gather
+        ix = np.rint((np.asarray(x, dtype=np.float64) - self.origin_xy[0]) / self.resolution_m)
+        iy = np.rint((np.asarray(y, dtype=np.float64) - self.origin_xy[1]) / self.resolution_m)
+        ix = np.minimum(np.maximum(ix, 0.0), nx - 1).astype(np.intp)
+        iy = np.minimum(np.maximum(iy, 0.0), ny - 1).astype(np.intp)
+        v = h.ravel().take(ix * ny + iy) if h.flags.c_contiguous else h[ix, iy]
+        return v.item() if v.ndim == 0 else v
 
 
 @dataclass(frozen=True, eq=False)
