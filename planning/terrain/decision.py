@@ -850,7 +850,13 @@ def choose_footholds(
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
     return FootholdDecision(
-        p_new, tuple(polys), plan, shift, FootholdMemory(mem_t, mem_p, z_stance), back, path.t_liftoff_now.copy()
+        p_new,
+        tuple(polys),
+        plan,
+        shift,
+        FootholdMemory(mem_t, mem_p, z_stance),
+        back,
+        path.t_liftoff_now.copy(),
     )
 
 
