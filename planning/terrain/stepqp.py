@@ -337,13 +337,26 @@ class StepQP:
             warm_starting=True, adaptive_rho=True, check_termination=5, rho=p.rho,
         )  # fmt: skip
         self.last_bare_ms = 0.0
+        # rows' coefficients gathered while _fill_static runs: (entry index arrays, their values in order)
+        self._batch: tuple[list[NDArray[np.intp]], list[float]] | None = None
+        self._td_l: list[float] = []
 
     # -- value filling ------------------------------------------------------------------------------------------
 
     def _set_row(self, block: _Block, k: int, i: int, coeffs: list[float], lo: float, hi: float) -> None:
-        self._vals[block.ents[k][i]] = coeffs
+        if self._batch is None:
+            self._vals[block.ents[k][i]] = coeffs
+        else:  # gathered, set in one indexing by _flush (_fill_static sets each row at most once)
+            self._batch[0].append(block.ents[k][i])
+            self._batch[1].extend(coeffs)
         r = block.rows[k][i]
         self.l[r], self.u[r] = lo, hi
+
+    def _flush(self) -> None:
+        """Sets the gathered rows' coefficients (see _set_row) and stops gathering."""
+        batch, self._batch = self._batch, None
+        if batch is not None and batch[0]:
+            self._vals[np.concatenate(batch[0])] = batch[1]
 
     def _set_keep_row(self, k: int, i: int, g: NDArray[np.float64], b: float) -> None:
         """Step keep-out plane i of slot k: g·p >= b + keep_clearance (hard), >= b + margin (soft)."""
@@ -382,7 +395,11 @@ class StepQP:
         self.l[self._margin_rows[ks, js]] = b_all + p.margin_m
 
     def _clear_row(self, block: _Block, k: int, i: int) -> None:
-        self._vals[block.ents[k][i]] = 0.0
+        if self._batch is None:
+            self._vals[block.ents[k][i]] = 0.0
+        else:
+            self._batch[0].append(block.ents[k][i])
+            self._batch[1].extend([0.0] * len(block.ents[k][i]))
         r = block.rows[k][i]
         self.l[r], self.u[r] = -np.inf, np.inf
 
@@ -524,7 +541,15 @@ class StepQP:
                 )
 
     def _fill_static(self, req: StepRequest, legs: NDArray[np.intp]) -> None:
-        """Rows whose values do not depend on the iterate: reach, self-collision, CoP, balance."""
+        """Rows whose values do not depend on the iterate: reach, self-collision, CoP, balance (their coefficients
+        gathered and set in one indexing at the end)."""
+        self._batch = ([], [])
+        try:
+            self._fill_static_rows(req, legs)
+        finally:
+            self._flush()
+
+    def _fill_static_rows(self, req: StepRequest, legs: NDArray[np.intp]) -> None:
         p = self.params
         K = self.K
         # reach_oct: n·(p - hip - dc) <= r cos(pi/8) ... the inscribed octagon of the reach circle (its
@@ -546,6 +571,7 @@ class StepQP:
         # the slots of each leg, and the times as Python floats, for the stance lookups below
         slots_of = [[int(j) for j in np.flatnonzero(legs == leg)] for leg in range(4)]
         lo_l, td_l = np.asarray(t_lo, dtype=np.float64).tolist(), np.asarray(t_td, dtype=np.float64).tolist()
+        self._td_l = td_l
         for k in range(K):
             leg = int(legs[k])
             yaw = float(req.yaw_body[k])
@@ -638,8 +664,11 @@ class StepQP:
         nominal = {leg: (req.p_nominal[ref] if isinstance(ref, int) else ref) for leg, ref in stance.items()}
         # (its cop and balance rows were cleared by _fill_static, all slots at once)
         n_st = len(stance)
-        t_td = req.t_touchdown
-        if n_st < 2 or np.any(np.abs(t_td[k + 1 :] - t_td[k]) < 1e-6):
+        if n_st < 2:
+            return
+        td = self._td_l  # the touchdown times as Python floats (set by _fill_static_rows)
+        t_k = td[k]
+        if any(abs(t - t_k) < 1e-6 for t in td[k + 1 :]):
             return  # a later slot lands at the same time: its phase carries the rows
 
         def term(vc: dict[int, float], leg: int, w: NDArray[np.float64]) -> float:
