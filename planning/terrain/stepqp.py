@@ -181,11 +181,13 @@ _OCT_N = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi
 
 class _Block(NamedTuple):
     """One constraint family's rows: vars_of[k]: the variables of slot k's rows (the slack last); ents[k][i]: the
-    constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row index."""
+    constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row index; pos[k]: each of
+    vars_of[k]'s variables but the slack -> its place in the row."""
 
     vars_of: list[list[int]]
     ents: list[list[NDArray[np.intp]]]
     rows: list[list[int]]
+    pos: list[dict[int, int]]
 
 
 class StepQP:
@@ -242,7 +244,8 @@ class StepQP:
                     r, ent = add_row(vars_of[k])
                     rows[k].append(r)
                     ents[k].append(np.asarray(ent, dtype=np.intp))
-            return _Block(vars_of, ents, rows)
+            pos = [{v: i for i, v in enumerate(vars_k[:-1])} for vars_k in vars_of]
+            return _Block(vars_of, ents, rows, pos)
 
         # reach_rect: p_k, p_{k-4}, slack
         self.b_rect = block(
@@ -319,9 +322,6 @@ class StepQP:
         for k in range(K):
             for fam in FAMILIES:
                 self.q[self._is(k, fam)] = p.weights[_F[fam]]
-        self._var_pos: dict[
-            tuple[int, int], dict[int, int]
-        ] = {}  # (block, slot): variable -> place in its rows
         self._keep_planes: list[list[tuple[NDArray[np.float64], float]]] = [[] for _ in range(K)]
         self._x_prev: NDArray[np.float64] | None = None
         self._prev_maps: TerrainMaps | None = None
@@ -406,11 +406,7 @@ class StepQP:
     def _coeff_on(self, block: _Block, k: int, var_coeffs: dict[int, float], slack: float) -> list[float]:
         """Gives the row's coefficient list in the block's variable order (the slack is the last variable; a
         variable the block's rows do not hold is left out)."""
-        key = (id(block), k)
-        pos = self._var_pos.get(key)
-        if pos is None:
-            vars_k = block.vars_of[k]
-            pos = self._var_pos[key] = {v: i for i, v in enumerate(vars_k[:-1])}
+        pos = block.pos[k]
         out = [0.0] * (len(pos) + 1)
         for v, c in var_coeffs.items():
             i = pos.get(v)
