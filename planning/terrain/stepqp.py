@@ -181,11 +181,13 @@ _OCT_N = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi
 
 class _Block(NamedTuple):
     """One constraint family's rows: vars_of[k]: the variables of slot k's rows (the slack last); ents[k][i]: the
-    constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row index."""
+    constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row index; pos[k]: each of
+    vars_of[k]'s variables but the slack -> its place in the row."""
 
     vars_of: list[list[int]]
     ents: list[list[NDArray[np.intp]]]
     rows: list[list[int]]
+    pos: list[dict[int, int]]
 
 
 class StepQP:
@@ -242,7 +244,8 @@ class StepQP:
                     r, ent = add_row(vars_of[k])
                     rows[k].append(r)
                     ents[k].append(np.asarray(ent, dtype=np.intp))
-            return _Block(vars_of, ents, rows)
+            pos = [{v: i for i, v in enumerate(vars_k[:-1])} for vars_k in vars_of]
+            return _Block(vars_of, ents, rows, pos)
 
         # reach_rect: p_k, p_{k-4}, slack
         self.b_rect = block(
@@ -319,9 +322,6 @@ class StepQP:
         for k in range(K):
             for fam in FAMILIES:
                 self.q[self._is(k, fam)] = p.weights[_F[fam]]
-        self._var_pos: dict[
-            tuple[int, int], dict[int, int]
-        ] = {}  # (block, slot): variable -> place in its rows
         self._keep_planes: list[list[tuple[NDArray[np.float64], float]]] = [[] for _ in range(K)]
         self._x_prev: NDArray[np.float64] | None = None
         self._prev_maps: TerrainMaps | None = None
@@ -337,13 +337,26 @@ class StepQP:
             warm_starting=True, adaptive_rho=True, check_termination=5, rho=p.rho,
         )  # fmt: skip
         self.last_bare_ms = 0.0
+        # rows' coefficients gathered while _fill_static runs: (entry index arrays, their values in order)
+        self._batch: tuple[list[NDArray[np.intp]], list[float]] | None = None
+        self._td_l: list[float] = []
 
     # -- value filling ------------------------------------------------------------------------------------------
 
     def _set_row(self, block: _Block, k: int, i: int, coeffs: list[float], lo: float, hi: float) -> None:
-        self._vals[block.ents[k][i]] = coeffs
+        if self._batch is None:
+            self._vals[block.ents[k][i]] = coeffs
+        else:  # gathered, set in one indexing by _flush (_fill_static sets each row at most once)
+            self._batch[0].append(block.ents[k][i])
+            self._batch[1].extend(coeffs)
         r = block.rows[k][i]
         self.l[r], self.u[r] = lo, hi
+
+    def _flush(self) -> None:
+        """Sets the gathered rows' coefficients (see _set_row) and stops gathering."""
+        batch, self._batch = self._batch, None
+        if batch is not None and batch[0]:
+            self._vals[np.concatenate(batch[0])] = batch[1]
 
     def _set_keep_row(self, k: int, i: int, g: NDArray[np.float64], b: float) -> None:
         """Step keep-out plane i of slot k: g·p >= b + keep_clearance (hard), >= b + margin (soft)."""
@@ -382,18 +395,18 @@ class StepQP:
         self.l[self._margin_rows[ks, js]] = b_all + p.margin_m
 
     def _clear_row(self, block: _Block, k: int, i: int) -> None:
-        self._vals[block.ents[k][i]] = 0.0
+        if self._batch is None:
+            self._vals[block.ents[k][i]] = 0.0
+        else:
+            self._batch[0].append(block.ents[k][i])
+            self._batch[1].extend([0.0] * len(block.ents[k][i]))
         r = block.rows[k][i]
         self.l[r], self.u[r] = -np.inf, np.inf
 
     def _coeff_on(self, block: _Block, k: int, var_coeffs: dict[int, float], slack: float) -> list[float]:
         """Gives the row's coefficient list in the block's variable order (the slack is the last variable; a
         variable the block's rows do not hold is left out)."""
-        key = (id(block), k)
-        pos = self._var_pos.get(key)
-        if pos is None:
-            vars_k = block.vars_of[k]
-            pos = self._var_pos[key] = {v: i for i, v in enumerate(vars_k[:-1])}
+        pos = block.pos[k]
         out = [0.0] * (len(pos) + 1)
         for v, c in var_coeffs.items():
             i = pos.get(v)
@@ -524,7 +537,15 @@ class StepQP:
                 )
 
     def _fill_static(self, req: StepRequest, legs: NDArray[np.intp]) -> None:
-        """Rows whose values do not depend on the iterate: reach, self-collision, CoP, balance."""
+        """Rows whose values do not depend on the iterate: reach, self-collision, CoP, balance (their coefficients
+        gathered and set in one indexing at the end)."""
+        self._batch = ([], [])
+        try:
+            self._fill_static_rows(req, legs)
+        finally:
+            self._flush()
+
+    def _fill_static_rows(self, req: StepRequest, legs: NDArray[np.intp]) -> None:
         p = self.params
         K = self.K
         # reach_oct: n·(p - hip - dc) <= r cos(pi/8) ... the inscribed octagon of the reach circle (its
@@ -546,6 +567,7 @@ class StepQP:
         # the slots of each leg, and the times as Python floats, for the stance lookups below
         slots_of = [[int(j) for j in np.flatnonzero(legs == leg)] for leg in range(4)]
         lo_l, td_l = np.asarray(t_lo, dtype=np.float64).tolist(), np.asarray(t_td, dtype=np.float64).tolist()
+        self._td_l = td_l
         for k in range(K):
             leg = int(legs[k])
             yaw = float(req.yaw_body[k])
@@ -638,8 +660,11 @@ class StepQP:
         nominal = {leg: (req.p_nominal[ref] if isinstance(ref, int) else ref) for leg, ref in stance.items()}
         # (its cop and balance rows were cleared by _fill_static, all slots at once)
         n_st = len(stance)
-        t_td = req.t_touchdown
-        if n_st < 2 or np.any(np.abs(t_td[k + 1 :] - t_td[k]) < 1e-6):
+        if n_st < 2:
+            return
+        td = self._td_l  # the touchdown times as Python floats (set by _fill_static_rows)
+        t_k = td[k]
+        if any(abs(t - t_k) < 1e-6 for t in td[k + 1 :]):
             return  # a later slot lands at the same time: its phase carries the rows
 
         def term(vc: dict[int, float], leg: int, w: NDArray[np.float64]) -> float:
