@@ -89,7 +89,13 @@ class DecisionParams:
     half-plane added to its polygon); reach_frac: a foothold lies no farther from its hip at touchdown (in the
     ground plane) than the leg at this share of its full length (thigh + shank) reaches with the hip at the
     standing height: regions beyond are not chosen, and a polygon reaching beyond is bounded along the heading
-    the same way."""
+    the same way; trail_reach_frac: the body goes no faster than lets every stance foot lift off (at its planned
+    liftoff) before its hip, moving on, leaves it farther than this share of the leg's full length (along the
+    heading and up, the hip at the body's height and pitch targets): a foot held down long (a gait switch, a
+    late swing elsewhere) or a tread below is not left trailing on a straight leg (the speed may fall to 0 until
+    it lifts); height_reach_frac: the body height is at most the one at which every stance foot lies within this
+    share of the leg's full length of its hip (along the heading and up, the hips placed by the pitch target): a
+    hind foot a tread below keeps the body down instead of hanging from a straight leg."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -119,7 +125,7 @@ class DecisionParams:
     max_yaw_rate_rps: float = 0.5
     goal_gain: float = 0.8
     goal_tolerance_m: float = 0.06
-    max_pitch_rad: float = 0.45
+    max_pitch_rad: float = 0.6
     max_pitch_rate_rps: float = 0.6
     pitch_gain: float = 1.0
     max_height_offset_m: float = 0.15
@@ -135,6 +141,8 @@ class DecisionParams:
     shin_behind_m: float = 0.40
     shin_edge_m: float = 0.03
     reach_frac: float = 0.9
+    trail_reach_frac: float = 0.95
+    height_reach_frac: float = 0.9
 
 
 # ---- typed inputs and outputs ----------------------------------------------------------------------------------
@@ -182,15 +190,15 @@ class HeightGrid:
 
     def __call__(self, x: Any, y: Any) -> Any:
         """Gives the height (m) at world (x, y), the nearest cell's (border cells beyond the grid)."""
-        nx, ny = self.height.shape
-        ix = np.clip(
-            np.rint((np.asarray(x, dtype=np.float64) - self.origin_xy[0]) / self.resolution_m), 0, nx - 1
-        )
-        iy = np.clip(
-            np.rint((np.asarray(y, dtype=np.float64) - self.origin_xy[1]) / self.resolution_m), 0, ny - 1
-        )
-        v = self.height[ix.astype(np.intp), iy.astype(np.intp)]
-        return v.item() if np.ndim(v) == 0 else v
+        h = self.height
+        nx, ny = h.shape
+        # np.clip's values through minimum/maximum (without its dispatch cost), one flat gather
+        ix = np.rint((np.asarray(x, dtype=np.float64) - self.origin_xy[0]) / self.resolution_m)
+        iy = np.rint((np.asarray(y, dtype=np.float64) - self.origin_xy[1]) / self.resolution_m)
+        ix = np.minimum(np.maximum(ix, 0.0), nx - 1).astype(np.intp)
+        iy = np.minimum(np.maximum(iy, 0.0), ny - 1).astype(np.intp)
+        v = h.ravel().take(ix * ny + iy) if h.flags.c_contiguous else h[ix, iy]
+        return v.item() if v.ndim == 0 else v
 
 
 @dataclass(frozen=True, eq=False)
@@ -224,7 +232,7 @@ class FootholdDecision:
     of each QP slot (None: free); plan: the step QP's answer (None: not solved); max_shift_m: the largest move of a
     next touchdown off its nominal; memory: what the next decision keeps; back_m: how far the next touchdowns
     were moved back against the heading off their nominal places, on average over the legs (moves forward count
-    0)."""
+    0); t_liftoff (4,): each stance leg's planned liftoff (s; nan: in the air or none planned)."""
 
     p_world_touchdown: NDArray[np.float64]
     regions: tuple[ConvexRegion | None, ...]
@@ -232,6 +240,7 @@ class FootholdDecision:
     max_shift_m: float
     memory: FootholdMemory
     back_m: float = 0.0
+    t_liftoff: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -265,7 +274,7 @@ def decide(
     share = lo + (1.0 - lo) * frac
     cap = p.max_speed_mps * share
     gait = cadence(view, world, last, p)
-    cap = min(cap, p.max_stride_m / get_gait(gait).cycle_s)
+    cap = min(cap, p.max_stride_m / get_gait(gait).cycle_s, trail_speed(view, last, p))
     command = (
         follow_path(view, world.path, cap, p) if view.goal is not None else capped(view.operator, cap, p)
     )
@@ -274,8 +283,29 @@ def decide(
     step = p.max_pitch_rate_rps * view.dt_s
     pitch = view.pitch_rad + float(np.clip(pitch_target - view.pitch_rad, -step, step))
     height = view.standing_height_m + float(np.clip(offset, -p.max_height_offset_m, p.max_height_offset_m))
-    height = min(height, crouch_height(view, world.maps, p))
+    height = min(height, crouch_height(view, world.maps, p), reach_height(view, pitch, p))
     return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap)
+
+
+def trail_speed(view: TerrainView, last: FootholdDecision | None, p: DecisionParams) -> float:
+    """Gives the highest body speed (m/s) at which every stance foot still lies within trail_reach_frac of the
+    leg's full length of its hip at the foot's planned liftoff, the hip moving on along the heading at the body's
+    height and pitch targets (inf: no leg lengths or no liftoff planned)."""
+    if last is None or last.t_liftoff is None or view.l_upper_m <= 0.0:
+        return np.inf
+    length = p.trail_reach_frac * (view.l_upper_m + view.l_lower_m)
+    u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    x_hip = view.p_body_hip[:, 0]
+    s_hip = float(view.p_world_body[:2] @ u) + x_hip * math.cos(view.pitch_rad)
+    z_hip = view.z_contact + view.height_m - math.sin(view.pitch_rad) * x_hip
+    trail = s_hip - view.p_world_foot[:, :2] @ u
+    dz = z_hip - view.p_world_foot[:, 2]
+    room = np.sqrt(np.maximum(length**2 - dz**2, 0.0)) - trail
+    remain = last.t_liftoff - view.t_s
+    use = view.stance & np.isfinite(remain)
+    if not use.any():
+        return np.inf
+    return float(np.min(np.maximum(room[use], 0.0) / np.maximum(remain[use], view.dt_s)))
 
 
 def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, p: DecisionParams) -> str:
@@ -396,6 +426,24 @@ def footholds_plane(view: TerrainView, last: FootholdDecision | None) -> tuple[f
     z_plane = a * float(xy[0]) + b * float(xy[1]) + c
     slope = a * math.cos(view.yaw) + b * math.sin(view.yaw)
     return z_plane - view.z_contact, slope
+
+
+def reach_height(view: TerrainView, pitch: float, p: DecisionParams) -> float:
+    """Gives the highest body height (m, above the mean contact height) at which every stance foot lies within
+    height_reach_frac of the leg's full length of its hip along the heading and up, the hips placed by the pitch
+    (positive nose down) (inf: no leg lengths, or no foot bounds it)."""
+    length = p.height_reach_frac * (view.l_upper_m + view.l_lower_m)
+    if view.l_upper_m <= 0.0:
+        return np.inf
+    u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    x_hip = view.p_body_hip[:, 0]
+    s_hip = float(view.p_world_body[:2] @ u) + x_hip * math.cos(pitch)
+    dx = view.p_world_foot[:, :2] @ u - s_hip
+    use = view.stance & (np.abs(dx) < length)
+    if not use.any():
+        return np.inf
+    dz = np.sqrt(np.maximum(length**2 - dx[use] ** 2, 0.0))
+    return float(np.min(view.p_world_foot[use, 2] + dz - view.z_contact + math.sin(pitch) * x_hip[use]))
 
 
 def crouch_height(view: TerrainView, maps: TerrainMaps, p: DecisionParams) -> float:
@@ -677,6 +725,19 @@ def step_request(
     )
 
 
+def pitched_nominals(view: TerrainView, path: StepPath) -> StepPath:
+    """Gives the path with each nominal foothold moved along the heading to under its hip as the body's pitch
+    target places it (the step selection puts the hips at their level offsets: pitched 30° with the stairs, a hind
+    hip stands 4 cm further forward and a front one 4 cm further back than that)."""
+    if path.n_touchdowns == 0 or view.pitch_rad == 0.0:
+        return path
+    u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    dx = view.p_body_hip[path.leg.astype(np.intp), 0] * (math.cos(view.pitch_rad) - 1.0)
+    p = path.p_world_touchdown.copy()
+    p[:, :2] += dx[:, None] * u[None, :]
+    return path.with_touchdowns(p, path.kind)
+
+
 def choose_footholds(
     view: TerrainView,
     path: StepPath,
@@ -692,6 +753,7 @@ def choose_footholds(
     p = params
     maps, regions = world.maps, world.regions
     K = qp.K
+    path = pitched_nominals(view, path)
     p_new = path.p_world_touchdown.copy()
     z_stance = memory.z_stance.copy()
     feet_z = view.p_world_foot[:, 2] - view.foot_radius_m
@@ -787,7 +849,15 @@ def choose_footholds(
             back += max(0.0, -float(move @ u)) / 4.0
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
-    return FootholdDecision(p_new, tuple(polys), plan, shift, FootholdMemory(mem_t, mem_p, z_stance), back)
+    return FootholdDecision(
+        p_new,
+        tuple(polys),
+        plan,
+        shift,
+        FootholdMemory(mem_t, mem_p, z_stance),
+        back,
+        path.t_liftoff_now.copy(),
+    )
 
 
 # ---- the stack the controller calls ------------------------------------------------------------------------------

@@ -181,11 +181,13 @@ _OCT_N = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi
 
 class _Block(NamedTuple):
     """One constraint family's rows: vars_of[k]: the variables of slot k's rows (the slack last); ents[k][i]: the
-    constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row index."""
+    constraint matrix entries of row i of slot k, one per variable; rows[k][i]: its row index; pos[k]: each of
+    vars_of[k]'s variables but the slack -> its place in the row."""
 
     vars_of: list[list[int]]
     ents: list[list[NDArray[np.intp]]]
     rows: list[list[int]]
+    pos: list[dict[int, int]]
 
 
 class StepQP:
@@ -242,7 +244,8 @@ class StepQP:
                     r, ent = add_row(vars_of[k])
                     rows[k].append(r)
                     ents[k].append(np.asarray(ent, dtype=np.intp))
-            return _Block(vars_of, ents, rows)
+            pos = [{v: i for i, v in enumerate(vars_k[:-1])} for vars_k in vars_of]
+            return _Block(vars_of, ents, rows, pos)
 
         # reach_rect: p_k, p_{k-4}, slack
         self.b_rect = block(
@@ -301,6 +304,12 @@ class StepQP:
             ],
             dtype=np.intp,
         )
+        # The keep-out and margin rows' entries (K, keep_planes, 3: p_k's x, y, the slack) and rows (K, keep_planes),
+        # for setting many planes in one indexing.
+        self._keep_ents = np.asarray(self.b_keep.ents, dtype=np.intp)
+        self._margin_ents = np.asarray(self.b_margin.ents, dtype=np.intp)
+        self._keep_rows = np.asarray(self.b_keep.rows, dtype=np.intp)
+        self._margin_rows = np.asarray(self.b_margin.rows, dtype=np.intp)
         support = (self.b_cop, self.b_bal)
         self._support_ents = np.concatenate([e for b in support for ek in b.ents for e in ek])
         self._support_rows = np.asarray([r for b in support for rk in b.rows for r in rk], dtype=np.intp)
@@ -313,9 +322,6 @@ class StepQP:
         for k in range(K):
             for fam in FAMILIES:
                 self.q[self._is(k, fam)] = p.weights[_F[fam]]
-        self._var_pos: dict[
-            tuple[int, int], dict[int, int]
-        ] = {}  # (block, slot): variable -> place in its rows
         self._keep_planes: list[list[tuple[NDArray[np.float64], float]]] = [[] for _ in range(K)]
         self._x_prev: NDArray[np.float64] | None = None
         self._prev_maps: TerrainMaps | None = None
@@ -331,37 +337,76 @@ class StepQP:
             warm_starting=True, adaptive_rho=True, check_termination=5, rho=p.rho,
         )  # fmt: skip
         self.last_bare_ms = 0.0
+        # rows' coefficients gathered while _fill_static runs: (entry index arrays, their values in order)
+        self._batch: tuple[list[NDArray[np.intp]], list[float]] | None = None
+        self._td_l: list[float] = []
 
     # -- value filling ------------------------------------------------------------------------------------------
 
     def _set_row(self, block: _Block, k: int, i: int, coeffs: list[float], lo: float, hi: float) -> None:
-        self._vals[block.ents[k][i]] = coeffs
+        if self._batch is None:
+            self._vals[block.ents[k][i]] = coeffs
+        else:  # gathered, set in one indexing by _flush (_fill_static sets each row at most once)
+            self._batch[0].append(block.ents[k][i])
+            self._batch[1].extend(coeffs)
         r = block.rows[k][i]
         self.l[r], self.u[r] = lo, hi
+
+    def _flush(self) -> None:
+        """Sets the gathered rows' coefficients (see _set_row) and stops gathering."""
+        batch, self._batch = self._batch, None
+        if batch is not None and batch[0]:
+            self._vals[np.concatenate(batch[0])] = batch[1]
 
     def _set_keep_row(self, k: int, i: int, g: NDArray[np.float64], b: float) -> None:
         """Step keep-out plane i of slot k: g·p >= b + keep_clearance (hard), >= b + margin (soft)."""
         p = self.params
-        ip = self._ip(k)
-        vc = {ip: g[0], ip + 1: g[1]}
-        self._set_row(
-            self.b_keep, k, i, self._coeff_on(self.b_keep, k, vc, 1.0), b + p.keep_clearance_m, np.inf
-        )
-        self._set_row(self.b_margin, k, i, self._coeff_on(self.b_margin, k, vc, 1.0), b + p.margin_m, np.inf)
+        coeffs = [g[0], g[1], 1.0]  # the rows' variables: p_k (x, y), the slack
+        self._set_row(self.b_keep, k, i, coeffs, b + p.keep_clearance_m, np.inf)
+        self._set_row(self.b_margin, k, i, coeffs, b + p.margin_m, np.inf)
+
+    def _set_region_rows(self, regions: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None]) -> None:
+        """Every slot's region as its keep-out and margin rows (see _set_keep_row), all slots in one indexing
+        (the keep and margin rows cleared before)."""
+        p = self.params
+        if len(regions) != self.K:
+            raise ValueError(
+                f"StepQP.solve: regions: need {self.K} entries (one per slot), got {len(regions)}"
+            )
+        slots, planes, gs, bs = [], [], [], []
+        for k, r in enumerate(regions):
+            if r is None:
+                self._keep_planes[k] = []
+                continue
+            g, b = _region_arrays(r, p.keep_clearance_m, p.keep_planes)
+            self._keep_planes[k] = [(g[i], bi) for i, bi in enumerate(b.tolist())]
+            slots.append(np.full(len(b), k, dtype=np.intp))
+            planes.append(np.arange(len(b), dtype=np.intp))
+            gs.append(g)
+            bs.append(b)
+        if not slots:
+            return
+        ks, js = np.concatenate(slots), np.concatenate(planes)
+        g_all, b_all = np.concatenate(gs), np.concatenate(bs)
+        coeffs = np.column_stack([g_all, np.ones(len(b_all))])
+        self._vals[self._keep_ents[ks, js]] = coeffs
+        self._vals[self._margin_ents[ks, js]] = coeffs
+        self.l[self._keep_rows[ks, js]] = b_all + p.keep_clearance_m
+        self.l[self._margin_rows[ks, js]] = b_all + p.margin_m
 
     def _clear_row(self, block: _Block, k: int, i: int) -> None:
-        self._vals[block.ents[k][i]] = 0.0
+        if self._batch is None:
+            self._vals[block.ents[k][i]] = 0.0
+        else:
+            self._batch[0].append(block.ents[k][i])
+            self._batch[1].extend([0.0] * len(block.ents[k][i]))
         r = block.rows[k][i]
         self.l[r], self.u[r] = -np.inf, np.inf
 
     def _coeff_on(self, block: _Block, k: int, var_coeffs: dict[int, float], slack: float) -> list[float]:
         """Gives the row's coefficient list in the block's variable order (the slack is the last variable; a
         variable the block's rows do not hold is left out)."""
-        key = (id(block), k)
-        pos = self._var_pos.get(key)
-        if pos is None:
-            vars_k = block.vars_of[k]
-            pos = self._var_pos[key] = {v: i for i, v in enumerate(vars_k[:-1])}
+        pos = block.pos[k]
         out = [0.0] * (len(pos) + 1)
         for v, c in var_coeffs.items():
             i = pos.get(v)
@@ -397,7 +442,7 @@ class StepQP:
         # Keep-out planes found in the last replan on the same maps carry over to the slot with the same leg and
         # nearly the same nominal foothold (the active set's warm start); the others start empty.
         reuse = maps is not None and maps is self._prev_maps
-        prev = self._prev_slots if reuse else []
+        prev = self._prev_slots if reuse and regions is None else []
         carried: list[list[tuple[NDArray[np.float64], float]]] = []
         for k in range(K):
             match: list[tuple[NDArray[np.float64], float]] = []
@@ -408,22 +453,17 @@ class StepQP:
             carried.append(match)
         self._retargets = [0] * K
         self._tried: list[list[NDArray[np.float64]]] = [[] for _ in range(K)]
-        if regions is not None:
-            if len(regions) != K:
-                raise ValueError(
-                    f"StepQP.solve: regions: need {K} entries (one per slot), got {len(regions)}"
-                )
-            carried = [
-                [] if r is None else _region_planes(r, p.keep_clearance_m, p.keep_planes) for r in regions
-            ]
         # Every keep-out, margin and body row cleared at once, then the planes that stand set again.
         self._vals[self._clear_ents] = 0.0
         self.l[self._clear_rows] = -np.inf
         self.u[self._clear_rows] = np.inf
-        for k in range(K):
-            self._keep_planes[k] = carried[k]
-            for i in range(min(len(self._keep_planes[k]), p.keep_planes)):
-                self._set_keep_row(k, i, *self._keep_planes[k][i])
+        if regions is not None:
+            self._set_region_rows(regions)
+        else:
+            for k in range(K):
+                self._keep_planes[k] = carried[k]
+                for i in range(min(len(self._keep_planes[k]), p.keep_planes)):
+                    self._set_keep_row(k, i, *self._keep_planes[k][i])
         bare = 0.0
         rounds = 0
         x = None
@@ -497,7 +537,15 @@ class StepQP:
                 )
 
     def _fill_static(self, req: StepRequest, legs: NDArray[np.intp]) -> None:
-        """Rows whose values do not depend on the iterate: reach, self-collision, CoP, balance."""
+        """Rows whose values do not depend on the iterate: reach, self-collision, CoP, balance (their coefficients
+        gathered and set in one indexing at the end)."""
+        self._batch = ([], [])
+        try:
+            self._fill_static_rows(req, legs)
+        finally:
+            self._flush()
+
+    def _fill_static_rows(self, req: StepRequest, legs: NDArray[np.intp]) -> None:
         p = self.params
         K = self.K
         # reach_oct: n·(p - hip - dc) <= r cos(pi/8) ... the inscribed octagon of the reach circle (its
@@ -519,6 +567,7 @@ class StepQP:
         # the slots of each leg, and the times as Python floats, for the stance lookups below
         slots_of = [[int(j) for j in np.flatnonzero(legs == leg)] for leg in range(4)]
         lo_l, td_l = np.asarray(t_lo, dtype=np.float64).tolist(), np.asarray(t_td, dtype=np.float64).tolist()
+        self._td_l = td_l
         for k in range(K):
             leg = int(legs[k])
             yaw = float(req.yaw_body[k])
@@ -589,14 +638,19 @@ class StepQP:
         """Gives {leg: slot index or fixed xy} for the legs in stance at time t (slots up to k only); slots_of[leg]:
         that leg's slots."""
         out: dict[int, int | NDArray[np.float64]] = {}
+        t_landed = t + 1e-9
         for leg, slots in enumerate(slots_of):
-            if any(t_lo[j] <= t < t_td[j] for j in slots):
-                continue  # swinging
-            landed = [j for j in slots if t_td[j] <= t + 1e-9]
-            if not landed:
-                out[leg] = self._fixed_feet[leg]
-            elif max(landed) <= k:
-                out[leg] = max(landed)
+            last = -1  # the latest slot landed by t (-1: none)
+            for j in slots:
+                if t_lo[j] <= t < t_td[j]:
+                    break  # swinging
+                if t_td[j] <= t_landed and j > last:
+                    last = j
+            else:
+                if last < 0:
+                    out[leg] = self._fixed_feet[leg]
+                elif last <= k:
+                    out[leg] = last
         return out
 
     def _fill_support(self, k: int, req: StepRequest, stance: dict[int, int | NDArray[np.float64]]) -> None:
@@ -606,8 +660,11 @@ class StepQP:
         nominal = {leg: (req.p_nominal[ref] if isinstance(ref, int) else ref) for leg, ref in stance.items()}
         # (its cop and balance rows were cleared by _fill_static, all slots at once)
         n_st = len(stance)
-        t_td = req.t_touchdown
-        if n_st < 2 or np.any(np.abs(t_td[k + 1 :] - t_td[k]) < 1e-6):
+        if n_st < 2:
+            return
+        td = self._td_l  # the touchdown times as Python floats (set by _fill_static_rows)
+        t_k = td[k]
+        if any(abs(t - t_k) < 1e-6 for t in td[k + 1 :]):
             return  # a later slot lands at the same time: its phase carries the rows
 
         def term(vc: dict[int, float], leg: int, w: NDArray[np.float64]) -> float:
@@ -901,10 +958,11 @@ def snap_footholds(
     return p_out, moved
 
 
-def _region_planes(
+def _region_arrays(
     region: tuple[NDArray[np.float64], NDArray[np.float64]], clearance_m: float, max_planes: int
-) -> list[tuple[NDArray[np.float64], float]]:
-    """Gives a convex region A p <= b as keep rows (g, b'): g·p >= b' + clearance_m is -A_i·p >= -b_i."""
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gives a convex region A p <= b as keep rows g (m, 2), b' (m,): g_i·p >= b'_i + clearance_m is
+    -A_i·p >= -b_i."""
     A, b = np.asarray(region[0], dtype=np.float64), np.asarray(region[1], dtype=np.float64)
     if A.ndim != 2 or A.shape[1] != 2 or b.shape != (A.shape[0],):
         raise ValueError(f"StepQP.solve: a region needs A (m, 2) and b (m,), got {A.shape} and {b.shape}")
@@ -912,7 +970,7 @@ def _region_planes(
         raise ValueError(
             f"StepQP.solve: a region has {A.shape[0]} half-planes, more than keep_planes ({max_planes})"
         )
-    return [(-A[i].copy(), float(-b[i] - clearance_m)) for i in range(A.shape[0])]
+    return -A, -b - clearance_m
 
 
 def _unit(g: NDArray[np.float64], fallback: NDArray[np.float64]) -> NDArray[np.float64]:

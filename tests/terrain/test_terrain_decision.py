@@ -22,8 +22,11 @@ from planning.terrain.decision import (
     decide,
     leg_bounds,
     leg_clearance,
+    pitched_nominals,
+    reach_height,
     swing_ground,
     swing_hump,
+    trail_speed,
 )
 from planning.terrain.maps import maps_from_grids
 from planning.terrain.regions import RegionParams, convex_around, segment_regions
@@ -273,3 +276,60 @@ def test_a_swing_rises_over_a_nosing_going_up_but_not_stepping_down_past_it() ->
     # up the same step: the nosing is above both, a slower gait with longer swings
     line, above, gait = going(0.45, 1.2, 0.6, 0.9)
     assert above > 0.05 and above == pytest.approx(line) and gait in P.climb_gaits
+
+
+def test_a_trailing_stance_foot_paces_the_body_and_holds_its_height_within_the_legs_reach() -> None:
+    # a 0.32 m thigh and a 0.34 m shank; the body 0.52 m above flat ground, the feet under their hips
+    legs = {"l_upper_m": 0.32, "l_lower_m": 0.34}
+    view = dataclass_replace(
+        _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3])), z_contact=0.0, foot_radius_m=0.0, **legs
+    )
+    view = dataclass_replace(view, p_world_foot=view.p_world_foot * np.array([1.0, 1.0, 0.0]))
+    mem = FootholdMemory.empty()
+    lift = np.array([1.2, 1.2, 1.4, 1.4])  # each stance foot's planned liftoff (now: 1.0 s)
+    last = FootholdDecision(np.zeros((0, 3)), (), None, 0.0, mem, 0.0, lift)
+    # under their hips, the feet leave room: the speed and the height stand
+    assert trail_speed(view, last, P) > P.max_speed_mps
+    assert reach_height(view, 0.0, P) > view.standing_height_m
+    # a hind foot 0.2 m back and 5 cm below: the body lower, and slower as the foot's liftoff is 0.4 s away
+    feet = view.p_world_foot.copy()
+    feet[2] = [-0.5, 0.15, -0.05]
+    low = dataclass_replace(view, p_world_foot=feet)
+    length = P.height_reach_frac * 0.66
+    h = reach_height(low, 0.0, P)
+    assert h == pytest.approx(-0.05 + math.sqrt(length**2 - 0.2**2), abs=1e-9)
+    assert h < view.standing_height_m
+    room = math.sqrt((P.trail_reach_frac * 0.66) ** 2 - (0.52 + 0.05) ** 2) - 0.2
+    v = trail_speed(low, last, P)
+    assert v == pytest.approx(room / 0.4, abs=1e-9)
+    assert 0.0 < v < P.max_speed_mps
+    # that foot in the air, or without a planned liftoff: no bound from it
+    air = dataclass_replace(low, stance=np.array([True, True, False, True]))
+    assert trail_speed(air, last, P) > P.max_speed_mps
+    assert reach_height(air, 0.0, P) > view.standing_height_m
+    # the decision applies both: the body height and the speed come down
+    world = _world(*_stones())
+    d = decide(low, world, last, P)
+    assert d.body_height_m == pytest.approx(h, abs=0.005)  # (the pitch target moved a little meanwhile)
+    assert d.speed_cap_mps <= max(v, 0.0) + 1e-9
+
+
+def test_pitched_nominal_footholds_are_moved_under_the_pitched_hips() -> None:
+    from planning.steps.state import BodyMotion, StepPath
+
+    view = dataclass_replace(_view(np.zeros(4), np.zeros(4)), pitch_rad=-0.5)
+    legs = np.array([0, 3], dtype=np.int64)
+    p = np.array([[0.3, 0.1, 0.0], [-0.3, -0.1, 0.0]])
+    path = StepPath(
+        leg=legs,
+        t_touchdown=np.array([1.2, 1.3]),
+        t_liftoff=np.array([1.6, 1.7]),
+        p_world_touchdown=p,
+        t_liftoff_now=np.full(4, np.nan),
+        body=BodyMotion(np.zeros(2), 0.0, np.zeros(2), 0.0, 1.0),
+    )
+    out = pitched_nominals(view, path).p_world_touchdown
+    shift = 0.3 * (1.0 - math.cos(0.5))
+    np.testing.assert_allclose(out[:, 0], [0.3 - shift, -0.3 + shift])
+    np.testing.assert_allclose(out[:, 1:], p[:, 1:])
+    assert pitched_nominals(dataclass_replace(view, pitch_rad=0.0), path) is path
