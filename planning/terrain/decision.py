@@ -39,6 +39,7 @@ from planning.steps.state import StepPath, rotate_yaw
 from planning.swing.params import SwingParams
 from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
 from planning.terrain.maps import TerrainMaps, maps_from_scene
+from planning.terrain.memory import OverhangMemory
 from planning.terrain.overlays import map_overlays, plan_overlays
 from planning.terrain.perception import Perception, PerceptionParams
 from planning.terrain.regions import (
@@ -210,6 +211,9 @@ class TerrainWorld:
     regions: SteppableRegions
     swing_ground: HeightGrid
     path: BodyPath | None
+    # the lowest overhang underside (world z, m) ever seen over each cell (inf: none): the sensor loses sight of a
+    # table's top once the body is under it (memory.OverhangMemory); None: the maps' own clearance only
+    overhangs: HeightGrid | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -283,7 +287,7 @@ def decide(
     step = p.max_pitch_rate_rps * view.dt_s
     pitch = view.pitch_rad + float(np.clip(pitch_target - view.pitch_rad, -step, step))
     height = view.standing_height_m + float(np.clip(offset, -p.max_height_offset_m, p.max_height_offset_m))
-    height = min(height, crouch_height(view, world.maps, p), reach_height(view, pitch, p))
+    height = min(height, crouch_height(view, world.maps, p, world.overhangs), reach_height(view, pitch, p))
     return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap)
 
 
@@ -446,9 +450,11 @@ def reach_height(view: TerrainView, pitch: float, p: DecisionParams) -> float:
     return float(np.min(view.p_world_foot[use, 2] + dz - view.z_contact + math.sin(pitch) * x_hip[use]))
 
 
-def crouch_height(view: TerrainView, maps: TerrainMaps, p: DecisionParams) -> float:
+def crouch_height(
+    view: TerrainView, maps: TerrainMaps, p: DecisionParams, overhangs: HeightGrid | None = None
+) -> float:
     """Gives the highest body height (m) that keeps the body's top under the overhangs around and ahead of the
-    body (the clearance map; +inf-free: the standing height)."""
+    body (the clearance map, and the remembered overhang undersides if given; none: the standing height)."""
     d = np.linspace(-p.crouch_ahead_m, p.crouch_ahead_m, 15)
     lat = np.array([-0.12, 0.0, 0.12])
     xy = view.p_world_body[:2] + rotate_yaw(
@@ -459,7 +465,10 @@ def crouch_height(view: TerrainView, maps: TerrainMaps, p: DecisionParams) -> fl
     wall = np.asarray(maps.no_body(xy[:, 0], xy[:, 1]), dtype=bool)
     h_cell = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
     z_feet = view.z_contact
-    rel = np.where(wall, np.inf, h_cell + c) - np.maximum(h_cell, z_feet)
+    z_ceiling = h_cell + c
+    if overhangs is not None:
+        z_ceiling = np.minimum(z_ceiling, np.asarray(overhangs(xy[:, 0], xy[:, 1]), dtype=np.float64))
+    rel = np.where(wall, np.inf, z_ceiling) - np.maximum(h_cell, z_feet)
     clear = float(np.min(np.where(rel >= p.ceiling_above_m, rel, np.inf)))
     if not np.isfinite(clear):
         return view.standing_height_m
@@ -1022,6 +1031,7 @@ class TerrainPipeline:
         perception = dataclasses.replace(p.perception, maps=dataclasses.replace(p.perception.maps, **p.maps))
         self.perception = Perception(model, body, perception) if p.use_sensor else None
         self.qp = StepQP(p.step_qp)
+        self.overhangs = OverhangMemory()
         self.world: TerrainWorld | None = None
         self.path: BodyPath | None = None
         self.memory = FootholdMemory.empty()
@@ -1061,7 +1071,10 @@ class TerrainPipeline:
         ground = swing_ground(
             maps, self.decision_params.regions.foot_radius_m + self.decision_params.swing_margin_m
         )
-        self.world = TerrainWorld(maps, regions, ground, self.path)
+        underside = np.where(maps.body_obstacle, np.inf, maps.ground_height + maps.clearance_m)
+        remembered = self.overhangs.apply(maps.origin_xy, maps.resolution_m, underside)
+        overhangs = HeightGrid(maps.origin_xy, maps.resolution_m, remembered)
+        self.world = TerrainWorld(maps, regions, ground, self.path, overhangs)
         self._polygons = {}
         self._scan_xy = np.array(p_world_body[:2], dtype=np.float64)
         self.stats.scans += 1

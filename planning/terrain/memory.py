@@ -57,3 +57,36 @@ def _shifted(a: NDArray[np.float64], dx: int, dy: int) -> NDArray[np.float64]:
     if sx0 < sx1 and sy0 < sy1:
         out[sx0 - dx : sx1 - dx, sy0 - dy : sy1 - dy] = a[sx0:sx1, sy0:sy1]
     return out
+
+
+class OverhangMemory:
+    """The lowest overhang (m, world z of its underside) seen above each map cell, kept while the sensor no longer
+    sees it.
+
+    The cameras see an overhang only from a distance (their rays leave the body at most a little above the
+    horizon), and the voxel map forgets what it no longer sees: under a table the top above the body drops out of
+    the maps. Overhangs do not move, so the lowest underside seen over each cell of the maps' lattice is kept (a
+    dense grid rolling with the maps' window, like GroundMemory) and given back with every scan's maps.
+    """
+
+    def __init__(self) -> None:
+        self._z: NDArray[np.float64] | None = None
+        self._i0 = (0, 0)
+        self._res = 0.0
+
+    def apply(
+        self, origin_xy: tuple[float, float], resolution_m: float, z_underside: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Stores a scan's overhang undersides ((nx, ny) on the lattice at origin_xy, resolution_m; inf where none)
+        and gives the lowest remembered underside per cell (inf where none was ever seen)."""
+        res = float(resolution_m)
+        i0 = (int(round(origin_xy[0] / res)), int(round(origin_xy[1] / res)))
+        z = np.asarray(z_underside, dtype=np.float64)
+        if self._z is None or self._z.shape != z.shape or abs(self._res - res) > 1e-12:
+            self._z = np.full(z.shape, np.nan)
+        elif i0 != self._i0:
+            self._z = _shifted(self._z, i0[0] - self._i0[0], i0[1] - self._i0[1])
+        self._i0, self._res = i0, res
+        seen = np.isfinite(z)
+        self._z[seen] = np.fmin(self._z[seen], z[seen])
+        return np.where(np.isfinite(self._z), self._z, np.inf)

@@ -15,10 +15,12 @@ from planning.terrain.decision import (
     DecisionParams,
     FootholdDecision,
     FootholdMemory,
+    HeightGrid,
     TerrainView,
     TerrainWorld,
     cadence,
     choose_region,
+    crouch_height,
     decide,
     leg_bounds,
     leg_clearance,
@@ -29,6 +31,7 @@ from planning.terrain.decision import (
     trail_speed,
 )
 from planning.terrain.maps import maps_from_grids
+from planning.terrain.memory import OverhangMemory
 from planning.terrain.regions import RegionParams, convex_around, segment_regions
 from planning.terrain.stepqp import StepQP, StepQPParams
 
@@ -333,3 +336,30 @@ def test_pitched_nominal_footholds_are_moved_under_the_pitched_hips() -> None:
     np.testing.assert_allclose(out[:, 0], [0.3 - shift, -0.3 + shift])
     np.testing.assert_allclose(out[:, 1:], p[:, 1:])
     assert pitched_nominals(dataclass_replace(view, pitch_rad=0.0), path) is path
+
+
+def test_a_table_top_out_of_the_sensors_sight_is_remembered_and_keeps_the_body_crouched() -> None:
+    # a table's underside 0.6 m up over x 0.2-1.0 m, seen in the first scan; the next scans (the window moved on
+    # by 3 cells) no longer see it, as the cameras do not once the body is under it
+    xs = -0.6 + np.arange(60) * RES
+    ys = -0.45 + np.arange(30) * RES
+    seen = np.full((60, 30), np.inf)
+    seen[(xs > 0.2) & (xs < 1.0), :] = 0.6
+    memory = OverhangMemory()
+    memory.apply((xs[0], ys[0]), RES, seen)
+    origin = (xs[0] + 3 * RES, ys[0])
+    remembered = memory.apply(origin, RES, np.full((60, 30), np.inf))
+    grid = HeightGrid(origin, RES, remembered)
+    assert grid(0.5, 0.0) == pytest.approx(0.6) and grid(1.3, 0.0) == np.inf
+    # a lower underside seen later wins; a higher one does not replace it
+    lower = np.full((60, 30), np.inf)
+    lower[:, :] = np.where(((origin[0] + np.arange(60) * RES) > 0.4)[:, None], 0.58, np.inf)
+    remembered = memory.apply(origin, RES, lower)
+    assert HeightGrid(origin, RES, remembered)(0.5, 0.0) == pytest.approx(0.58)
+    assert HeightGrid(origin, RES, remembered)(0.3, 0.0) == pytest.approx(0.6)
+
+    maps = maps_from_grids(origin, RES, np.zeros((60, 30)), np.zeros((60, 30), bool))
+    view = _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3]))
+    assert crouch_height(view, maps, P) == pytest.approx(view.standing_height_m)
+    crouched = crouch_height(view, maps, P, HeightGrid(origin, RES, remembered))
+    assert P.min_height_m <= crouched <= 0.58 - P.body_top_m - P.head_margin_m + 1e-9
