@@ -17,13 +17,31 @@ from numpy.typing import NDArray
 from planning.terrain.voxels import Columns
 
 
-class GroundMemory:
-    """Last observed ground height (m, world) per cell of the columns' lattice; NaN where never observed."""
+class _RollingGrid:
+    """A dense grid of remembered values (NaN: none) on a world-aligned lattice, rolled to follow a moving window:
+    cells leaving the window are dropped, cells entering it start empty."""
 
     def __init__(self) -> None:
         self._z: NDArray[np.float64] | None = None
         self._i0 = (0, 0)  # lattice index of cell (0, 0)
         self._res = 0.0
+
+    def _rolled(
+        self, origin_xy: tuple[float, float], res: float, shape: tuple[int, ...]
+    ) -> NDArray[np.float64]:
+        """Gives the grid re-indexed to the window at origin_xy (m) with this resolution (m) and shape (a new, empty
+        grid when the resolution or the shape changed)."""
+        i0 = (int(round(origin_xy[0] / res)), int(round(origin_xy[1] / res)))
+        if self._z is None or self._z.shape != shape or abs(self._res - res) > 1e-12:
+            self._z = np.full(shape, np.nan)
+        elif i0 != self._i0:
+            self._z = _shifted(self._z, i0[0] - self._i0[0], i0[1] - self._i0[1])
+        self._i0, self._res = i0, res
+        return self._z
+
+
+class GroundMemory(_RollingGrid):
+    """Last observed ground height (m, world) per cell of the columns' lattice; NaN where never observed."""
 
     @property
     def n_cells(self) -> int:
@@ -32,20 +50,14 @@ class GroundMemory:
 
     def apply(self, columns: Columns) -> Columns:
         """Stores the columns' observed ground heights and gives the columns with unknown cells filled from memory."""
-        res = columns.resolution_m
-        i0 = (int(round(columns.origin_xy[0] / res)), int(round(columns.origin_xy[1] / res)))
         g = columns.ground_z
-        if self._z is None or self._z.shape != g.shape or abs(self._res - res) > 1e-12:
-            self._z = np.full(g.shape, np.nan)
-        elif i0 != self._i0:
-            self._z = _shifted(self._z, i0[0] - self._i0[0], i0[1] - self._i0[1])
-        self._i0, self._res = i0, res
+        mem = self._rolled(columns.origin_xy, columns.resolution_m, g.shape)
         seen = np.isfinite(g)
-        self._z[seen] = g[seen]
-        fill = ~seen & np.isfinite(self._z)
+        mem[seen] = g[seen]
+        fill = ~seen & np.isfinite(mem)
         if not fill.any():
             return columns
-        return dataclasses.replace(columns, ground_z=np.where(fill, self._z, g))
+        return dataclasses.replace(columns, ground_z=np.where(fill, mem, g))
 
 
 def _shifted(a: NDArray[np.float64], dx: int, dy: int) -> NDArray[np.float64]:
@@ -59,7 +71,7 @@ def _shifted(a: NDArray[np.float64], dx: int, dy: int) -> NDArray[np.float64]:
     return out
 
 
-class OverhangMemory:
+class OverhangMemory(_RollingGrid):
     """The lowest overhang (m, world z of its underside) seen above each map cell, kept while the sensor no longer
     sees it.
 
@@ -69,24 +81,13 @@ class OverhangMemory:
     dense grid rolling with the maps' window, like GroundMemory) and given back with every scan's maps.
     """
 
-    def __init__(self) -> None:
-        self._z: NDArray[np.float64] | None = None
-        self._i0 = (0, 0)
-        self._res = 0.0
-
     def apply(
         self, origin_xy: tuple[float, float], resolution_m: float, z_underside: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         """Stores a scan's overhang undersides ((nx, ny) on the lattice at origin_xy, resolution_m; inf where none)
         and gives the lowest remembered underside per cell (inf where none was ever seen)."""
-        res = float(resolution_m)
-        i0 = (int(round(origin_xy[0] / res)), int(round(origin_xy[1] / res)))
         z = np.asarray(z_underside, dtype=np.float64)
-        if self._z is None or self._z.shape != z.shape or abs(self._res - res) > 1e-12:
-            self._z = np.full(z.shape, np.nan)
-        elif i0 != self._i0:
-            self._z = _shifted(self._z, i0[0] - self._i0[0], i0[1] - self._i0[1])
-        self._i0, self._res = i0, res
+        mem = self._rolled(origin_xy, float(resolution_m), z.shape)
         seen = np.isfinite(z)
-        self._z[seen] = np.fmin(self._z[seen], z[seen])
-        return np.where(np.isfinite(self._z), self._z, np.inf)
+        mem[seen] = np.fmin(mem[seen], z[seen])
+        return np.where(np.isfinite(mem), mem, np.inf)
