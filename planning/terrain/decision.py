@@ -547,7 +547,9 @@ def choose_region(
     return choice
 
 
-def lost_region(regions: SteppableRegions, maps: TerrainMaps, p_prev: NDArray[np.float64], p: DecisionParams) -> bool:
+def lost_region(
+    regions: SteppableRegions, maps: TerrainMaps, p_prev: NDArray[np.float64], p: DecisionParams
+) -> bool:
     """Tells whether a previous foothold p_prev (3,) lies on no region in this map while the ground there is
     still within lost_hold_m of its height (the segmentation lost the cell, the ground did not move)."""
     if regions.label_at(float(p_prev[0]), float(p_prev[1])) != 0:
