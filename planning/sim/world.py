@@ -206,7 +206,9 @@ class World:
         self._jacs = np.zeros((4, 3, m.nv))  # each foot site's Jacobian, refreshed by read_state
         # flat indices into _jacs of each leg's joint columns: the four (3,3) leg Jacobians in one take
         self._jac_take = (
-            np.arange(4)[:, None, None] * (3 * m.nv) + np.arange(3)[None, :, None] * m.nv + self.dof_idx[:, None, :]
+            np.arange(4)[:, None, None] * (3 * m.nv)
+            + np.arange(3)[None, :, None] * m.nv
+            + self.dof_idx[:, None, :]
         )
         self._vel6 = np.zeros(6)
         self.body_collisions = 0
