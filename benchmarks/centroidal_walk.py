@@ -9,7 +9,9 @@ at >= 3x a convex-MPC peer's real-time factor): the walk unprofiled (its real-ti
 time), then with every loop stage timed (``benchmarks.loop_profile``: each stage's CPU ms per simulated second, the
 centroidal stage beside its bare OSQP time), then the peer as a child process (its CPU time; when its last output
 line has ``sim_per_cpu X``, its own loop's figure), then the walk again. docs/agility-notes.md ("Peer comparison")
-says which peer and how it is run.
+says which peer and how it is run. ``--rate STAGE=HZ`` (repeatable) runs a loop stage at another rate, e.g.
+``--rate step_plan=50 --rate swing=166.7``: an experiment on what the rates cost (the defaults are what the closed-loop
+tests establish).
 """
 
 from __future__ import annotations
@@ -28,14 +30,32 @@ from benchmarks.peer_mpc import peer_side
 from planning.sim.run import RunOptions, WalkCommand, WalkSession
 
 
-def _session(vx: float, vy: float, yaw_rate: float, duration_s: float) -> WalkSession:
+def _session(
+    vx: float, vy: float, yaw_rate: float, duration_s: float, rates: dict[str, float] | None = None
+) -> WalkSession:
+    """The walk's session; ``rates`` (stage name → Hz) runs those loop stages at other rates (an experiment: the
+    defaults are what the closed-loop tests establish)."""
     cmd = WalkCommand(vx, vy, yaw_rate, "trot", centroidal=True, terrain_aware=False)
-    return WalkSession(cmd, RunOptions(duration_s=duration_s))
+    session = WalkSession(cmd, RunOptions(duration_s=duration_s))
+    stages = {st.name: st for st in session.loop.stages}
+    for name, hz in (rates or {}).items():
+        if name not in stages:
+            raise ValueError(f"--rate: no loop stage {name!r} (stages: {', '.join(stages)})")
+        if not hz > 0.0:
+            raise ValueError(f"--rate {name}: needs a rate above 0 Hz, got {hz}")
+        stages[name].rate_hz = hz
+    return session
 
 
-def run(vx: float = 0.5, vy: float = 0.0, yaw_rate: float = 0.0, duration_s: float = 10.0) -> dict[str, Any]:
+def run(
+    vx: float = 0.5,
+    vy: float = 0.0,
+    yaw_rate: float = 0.0,
+    duration_s: float = 10.0,
+    rates: dict[str, float] | None = None,
+) -> dict[str, Any]:
     """Runs the walk headless and returns the solver's per-tick figures."""
-    session = _session(vx, vy, yaw_rate, duration_s)
+    session = _session(vx, vy, yaw_rate, duration_s, rates)
     t0, c0 = time.perf_counter(), time.thread_time()
     report = session.run(None)
     wall, cpu_s = time.perf_counter() - t0, time.thread_time() - c0
@@ -70,17 +90,23 @@ _PEER_LOOP = re.compile(r"sim_per_cpu\s+([0-9.]+)")
 
 
 def beside_peer(
-    peer_cmd: str, peer_seconds: float, vx: float = 0.5, duration_s: float = 10.0
+    peer_cmd: str,
+    peer_seconds: float,
+    vx: float = 0.5,
+    duration_s: float = 10.0,
+    rates: dict[str, float] | None = None,
 ) -> dict[str, Any]:
     """The centroidal walk and a peer in one run: each one's real-time factor in CPU time (simulated seconds per
     CPU second), their ratio, and where the walk's CPU goes (each stage beside the bare solver's time)."""
-    ours = run(vx, duration_s=duration_s)
-    prof = profile_session(_session(vx, 0.0, 0.0, duration_s))
+    ours = run(vx, duration_s=duration_s, rates=rates)
+    prof = profile_session(_session(vx, 0.0, 0.0, duration_s, rates))
     prof.pop("report")
     peer = peer_side(peer_cmd, peer_seconds)
     m = _PEER_LOOP.search(peer["last_line"])
     peer_rtf = float(m.group(1)) if m else peer["real_time_factor_cpu"]
-    ours2 = run(vx, duration_s=duration_s)  # again after the peer: the load may have changed meanwhile
+    ours2 = run(
+        vx, duration_s=duration_s, rates=rates
+    )  # again after the peer: the load may have changed meanwhile
     rtf = min(ours["real_time_factor_cpu"], ours2["real_time_factor_cpu"])
     parts = prof["cpu_ms_per_simulated_s"]
     return {
@@ -99,9 +125,12 @@ def beside_peer(
         "ratio_cpu": round(rtf / peer_rtf, 2) if peer["returncode"] == 0 else None,
         "goal_ratio": 3.0,
         "stage_cpu_ms_per_simulated_s": parts,
-        "centroidal_stage_over_bare_osqp": round(
-            parts["centroidal"] / max(parts["centroidal.osqp"], 1e-9), 2
-        ),
+        # each stage that calls OSQP beside its bare solver time (the product's rule: overhead visible)
+        "stage_over_bare_osqp": {
+            k.removesuffix(".osqp"): round(parts[k.removesuffix(".osqp")] / v, 2)
+            for k, v in parts.items()
+            if k.endswith(".osqp") and v > 0.0
+        },
         "load_average": [round(x, 1) for x in os.getloadavg()],
     }
 
@@ -114,11 +143,25 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=10.0)
     ap.add_argument("--peer", default=None, help="a command that simulates --peer-seconds of the peer's trot")
     ap.add_argument("--peer-seconds", type=float, default=5.0)
+    ap.add_argument(
+        "--rate",
+        action="append",
+        default=[],
+        metavar="STAGE=HZ",
+        help="run a loop stage at another rate (step_plan, swing, balance, centroidal); an experiment",
+    )
     a = ap.parse_args()
+    rates: dict[str, float] = {}
+    for item in a.rate:
+        name, _, hz = item.partition("=")
+        try:
+            rates[name] = float(hz)
+        except ValueError:
+            ap.error(f"--rate {item!r}: needs STAGE=HZ, e.g. step_plan=50")
     if a.peer is not None:
-        print(json.dumps(beside_peer(a.peer, a.peer_seconds, a.vx, a.duration), indent=1))
+        print(json.dumps(beside_peer(a.peer, a.peer_seconds, a.vx, a.duration, rates), indent=1))
     else:
-        print(json.dumps(run(a.vx, a.vy, a.yaw_rate, a.duration), indent=1))
+        print(json.dumps(run(a.vx, a.vy, a.yaw_rate, a.duration, rates), indent=1))
 
 
 if __name__ == "__main__":

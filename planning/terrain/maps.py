@@ -296,18 +296,19 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
 @dataclass(frozen=True, eq=False)
 class _Layers:
     """Inclusive counts of obstacle layers up to each layer, kept only over the band of layers that may hold an
-    obstacle: below it the count is 0, above it the band's last count. cum: (layers of the band, nx * ny) int32;
+    obstacle: below it the count is 0, above it the band's last count. cum: (layers of the band, nx * ny), int16
+    (counts never exceed the layers; half the bytes of int32 to add and gather) or int32 past 32767 layers;
     first: the band's first layer; nz: all layers."""
 
-    cum: NDArray[np.int32]
+    cum: NDArray[np.signedinteger[Any]]
     first: int
     nz: int
 
-    def at(self, k: NDArray[np.intp]) -> NDArray[np.int32]:
+    def at(self, k: NDArray[np.intp]) -> NDArray[np.signedinteger[Any]]:
         """Gives per column the count up to layer k (nx, ny) (0 for k < 0)."""
         nb, cells = self.cum.shape
         if nb == 0:
-            return np.zeros(k.shape, np.int32)
+            return np.zeros(k.shape, self.cum.dtype)
         kk = k.reshape(-1) - self.first
         # Flat indices into cum: layer kk (clipped into the band) of each column; 0 below the band.
         flat = np.minimum(np.maximum(kk, 0), nb - 1) * cells
@@ -317,9 +318,9 @@ class _Layers:
         return v.reshape(k.shape)
 
     @property
-    def total(self) -> NDArray[np.int32]:
+    def total(self) -> NDArray[np.signedinteger[Any]]:
         """Gives the number of obstacle layers of each column, (nx * ny,)."""
-        return self.cum[-1] if self.cum.shape[0] else np.zeros(self.cum.shape[1], np.int32)
+        return self.cum[-1] if self.cum.shape[0] else np.zeros(self.cum.shape[1], self.cum.dtype)
 
 
 _COLUMNS: dict[int, NDArray[np.intp]] = {}
@@ -348,7 +349,7 @@ def _cumulative_layers(columns: Columns) -> _Layers:
         lo, hi = (int(any_k[0]), int(any_k[-1])) if any_k.size else (0, -1)
     lo, hi = max(lo, 0), min(hi, nz - 1)
     cells = obs.shape[1] * obs.shape[2]
-    cum = np.empty((max(hi + 1 - lo, 0), cells), np.int32)
+    cum = np.empty((max(hi + 1 - lo, 0), cells), np.int16 if nz < 2**15 else np.int32)
     if cum.shape[0]:
         np.copyto(cum[0], obs[lo].reshape(cells))
         for k in range(1, cum.shape[0]):
@@ -358,7 +359,7 @@ def _cumulative_layers(columns: Columns) -> _Layers:
 
 def _count_between(
     cum: _Layers, z0: float, dz: float, z_lo: NDArray[np.float64], z_hi: NDArray[np.float64]
-) -> NDArray[np.int32]:
+) -> NDArray[np.signedinteger[Any]]:
     """Gives per column the number of obstacle layers whose centers lie in [z_lo, z_hi] (cum: _cumulative_layers)."""
     nz = cum.nz
     k_lo = np.clip(np.ceil((z_lo - z0) / dz - 1e-9).astype(np.intp), 0, nz)
