@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, square_filter
+from planning.terrain.gridops import disk_filter, distance_transform, square_filter
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.voxels import Columns
 
@@ -222,7 +222,7 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
         return np.full(mask.shape, far)
     if mask.all():
         return np.full(mask.shape, -far)
-    d_out = np.asarray(ndimage.distance_transform_edt(~mask))
+    d_out = distance_transform(~mask)
     # Inside: only on the obstacles' bounding box grown by a cell (clipped to the map), whose ring is free: a free
     # cell beyond it is never nearer than the ring cell it projects to, so the distances are the same.
     rows = np.flatnonzero(mask.any(axis=1))
@@ -230,7 +230,7 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
     i0, i1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, mask.shape[0])
     j0, j1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, mask.shape[1])
     sub = mask[i0:i1, j0:j1]
-    d_out[i0:i1, j0:j1][sub] = -np.asarray(ndimage.distance_transform_edt(sub))[sub]
+    d_out[i0:i1, j0:j1][sub] = -distance_transform(sub)[sub]
     # Now d_out holds +d outside and -d inside (center to center); the zero level is half a cell from either.
     d_out -= np.where(mask, -0.5, 0.5)
     d_out *= resolution_m
@@ -288,7 +288,7 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
         h = m
         known = np.isfinite(h)
     if not known.all():
-        _, (ix, iy) = ndimage.distance_transform_edt(~known, return_indices=True)
+        ix, iy = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
         h = h[ix, iy]
     return h
 

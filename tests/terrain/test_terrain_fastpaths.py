@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, square_filter, window_1d
+from planning.terrain.gridops import disk_filter, distance_transform, square_filter, window_1d
 from planning.terrain.maps import _disk, _fill_ground, signed_distance
 from planning.terrain.sensor import PointCloud
 from planning.terrain.voxels import VoxelMap, VoxelParams, _first_true
@@ -55,6 +55,16 @@ def test_boolean_disk_filters_equal_binary_morphology(seed: int, radius: float) 
     np.testing.assert_array_equal(
         disk_filter(dil, fp, np.minimum, False), ndimage.binary_closing(m, structure=fp)
     )
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31))
+def test_distance_transform_equals_ndimage(seed: int) -> None:
+    """The distances from the feature transform, summed in integers, equal ndimage's exactly (masks of any density,
+    one row or column, one cell)."""
+    m = _grid(seed, bool_=True)
+    np.testing.assert_array_equal(distance_transform(m), ndimage.distance_transform_edt(m))
+    np.testing.assert_array_equal(distance_transform(~m), ndimage.distance_transform_edt(~m))
 
 
 def test_disk_filter_refuses_a_footprint_it_cannot_split_into_rows() -> None:
