@@ -261,7 +261,8 @@ class World:
             qd = self.data.qvel[self.dof_idx]
             t = self._tau_buf
             np.multiply(self._loss_damping, qd, out=t)
-            t += self._loss_friction * np.clip(qd / FRICTION_RAMP_RAD_S, -1.0, 1.0)
+            ramp = qd / FRICTION_RAMP_RAD_S
+            t += self._loss_friction * np.minimum(np.maximum(ramp, -1.0, out=ramp), 1.0, out=ramp)  # np.clip
             t += tau
             tau = t
         if self._unit_gear:
