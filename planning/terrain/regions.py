@@ -20,6 +20,7 @@ outside cells that border one region. Arrays are [ix, iy] like the maps'. A poly
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass
@@ -28,9 +29,11 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from planning.terrain.gridops import disk_filter, distance_transform
 from planning.terrain.maps import TerrainMaps
 
 _CROSS = ndimage.generate_binary_structure(2, 1)
+_SQUARE3 = np.ones((3, 3), dtype=bool)
 
 
 @dataclass(frozen=True)
@@ -102,16 +105,40 @@ class ConvexRegion:
         return float(np.min(np.hypot(*(v + t[:, None] * e - p).T)))
 
     def project(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Gives the point of the polygon nearest to xy (2,)."""
+        """Gives the point of the polygon nearest to xy (2,).
+
+        On Python floats (the footholds ask for one point at a time): the same arithmetic as the edge-by-edge
+        projection over arrays, several times faster for a dozen edges."""
         p = np.asarray(xy, dtype=np.float64).reshape(2)
-        if bool(self.contains(p)):
+        px, py = float(p[0]), float(p[1])
+        inside = True
+        for (ax, ay), bi in self._planes:
+            if ax * px + ay * py > bi + 1e-9:
+                inside = False
+                break
+        if inside:
             return p.copy()
-        v = self.vertices
-        w = np.roll(v, -1, axis=0)
-        e = w - v
-        t = np.clip(np.sum((p - v) * e, axis=1) / np.maximum(np.sum(e * e, axis=1), 1e-18), 0.0, 1.0)
-        q = v + t[:, None] * e
-        return np.asarray(q[int(np.argmin(np.sum((q - p) ** 2, axis=1)))], dtype=np.float64)
+        best = math.inf
+        qx = qy = 0.0
+        verts = self._verts
+        for k, (vx, vy) in enumerate(verts):
+            wx, wy = verts[k + 1] if k + 1 < len(verts) else verts[0]
+            ex, ey = wx - vx, wy - vy
+            t = ((px - vx) * ex + (py - vy) * ey) / max(ex * ex + ey * ey, 1e-18)
+            t = min(max(t, 0.0), 1.0)
+            cx, cy = vx + t * ex, vy + t * ey
+            d2 = (cx - px) ** 2 + (cy - py) ** 2
+            if d2 < best:
+                best, qx, qy = d2, cx, cy
+        return np.array([qx, qy])
+
+    @functools.cached_property
+    def _planes(self) -> list[tuple[tuple[float, float], float]]:
+        return list(zip(map(tuple, self.A.tolist()), self.b.tolist(), strict=True))
+
+    @functools.cached_property
+    def _verts(self) -> list[tuple[float, float]]:
+        return [(float(x), float(y)) for x, y in self.vertices.tolist()]
 
     def height_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
         """Gives the plane's height (m) at points (.., 2)."""
@@ -223,7 +250,7 @@ def segment_regions(
     labels, n = ndimage.label(ok, structure=_CROSS)
     # Distance from a cell's centre to the nearest non-steppable cell's centre, less half a cell: to the edge.
     # (the map's border counts as an edge: nothing is known beyond it)
-    edt = ndimage.distance_transform_edt(np.pad(ok, 1))[1:-1, 1:-1] if n else np.zeros(h.shape)
+    edt = distance_transform(np.pad(ok, 1))[1:-1, 1:-1] if n else np.zeros(h.shape)
     depth = np.where(ok, edt * res - 0.5 * res, 0.0)
     inset = ok & (depth >= p.inset_m - 1e-9)
     # Regions with too little room for a foot are dropped; the others are numbered 1..n in label order.
@@ -400,7 +427,7 @@ def _border_points(
     mine: NDArray[np.bool_], xs: NDArray[np.float64], ys: NDArray[np.float64], depth: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Gives the centres (m, 2) of the cells outside `mine` that touch it (8-neighbours) and their depth (m)."""
-    grown = ndimage.binary_dilation(mine, structure=np.ones((3, 3), bool))
+    grown = disk_filter(mine, _SQUARE3, np.maximum, False)  # binary_dilation by the 3 × 3 square
     bi, bj = np.nonzero(grown & ~mine)
     return np.column_stack([xs[bi], ys[bj]]), depth[bi, bj]
 

@@ -309,3 +309,30 @@ def test_steppable_cells_match_the_padded_differences_rule(seed: int) -> None:
     # Cells whose slope sits within rounding of the bound may go either way (squared comparison).
     tie = np.abs(slope - tan) < 1e-9
     assert np.array_equal(got[~tie], ref[~tie])
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_projection_onto_a_polygon_matches_the_edge_by_edge_array_form(seed: int) -> None:
+    """ConvexRegion.project (scalar loop) gives the point the array form gives: the point itself inside, else the
+    nearest point of the nearest edge; and that point lies in the polygon."""
+    rng = np.random.default_rng(seed)
+    h = np.zeros((40, 40))
+    step = np.zeros((40, 40), bool)
+    step[rng.integers(0, 40, 12), rng.integers(0, 40, 12)] = True
+    maps = _maps(h, step)
+    regions = segment_regions(maps, PARAMS)
+    assert regions.polygons
+    for poly in regions.polygons[:4]:
+        v = poly.vertices
+        e = np.roll(v, -1, axis=0) - v
+        for p in rng.uniform(-0.3, 1.5, (25, 2)):
+            if bool(poly.contains(p)):
+                ref = p
+            else:
+                t = np.clip(np.sum((p - v) * e, axis=1) / np.maximum(np.sum(e * e, axis=1), 1e-18), 0.0, 1.0)
+                q = v + t[:, None] * e
+                ref = q[int(np.argmin(np.sum((q - p) ** 2, axis=1)))]
+            got = poly.project(p)
+            np.testing.assert_allclose(got, ref, atol=1e-12)
+            assert bool(poly.contains(got, 1e-7))
