@@ -256,6 +256,7 @@ class RobotModel:
             )
             for i in range(4)
         ]
+        self._y_knee_f = [float(v) for v in self._y_knee]
         self._standing_pose(det, desc)
         try:
             self.q_nominal = np.array(
@@ -378,13 +379,14 @@ class RobotModel:
 
     def knee_body(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Returns the knee position (3,) in the body frame."""
-        s0, s1 = self._sign[leg, 0], self._sign[leg, 1]
-        q0, p1 = s0 * q[0], s1 * q[1] + self._alpha[leg]
-        x = -self._lu[leg] * np.sin(p1)
-        z = -self._lu[leg] * np.cos(p1) + self._z_flex[leg]
-        y = float(self._y_knee[leg])
-        c, s = np.cos(q0), np.sin(q0)
-        return self.p_body_hip[leg] + np.array([x, c * y - s * z, s * y + c * z])
+        s0, s1, _, lu, _, alpha, _, z_flex, _, hx, hy, hz = self._leg_floats[leg][:12]
+        qa, qb = float(q[0]), float(q[1])
+        q0, p1 = s0 * qa, s1 * qb + alpha
+        x = -lu * math.sin(p1)
+        z = -lu * math.cos(p1) + z_flex
+        y = self._y_knee_f[leg]
+        c, s = math.cos(q0), math.sin(q0)
+        return np.array([hx + x, hy + (c * y - s * z), hz + (s * y + c * z)])
 
     def jacobian_leg(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Returns d p_body_foot / d q (3,3) for leg joint angles q (3,)."""
