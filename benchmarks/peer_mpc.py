@@ -28,8 +28,8 @@ def _timing(simulated_s: float, wall: float, cpu: float) -> dict[str, float]:
         "simulated_s": simulated_s,
         "wall_s": round(wall, 2),
         "cpu_s": round(cpu, 2),
-        "real_time_factor_wall": round(simulated_s / wall, 3),
-        "real_time_factor_cpu": round(simulated_s / cpu, 3),
+        "real_time_factor_wall": round(simulated_s / max(wall, 1e-9), 3),
+        "real_time_factor_cpu": round(simulated_s / max(cpu, 1e-9), 3),
     }
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -62,6 +62,8 @@ class RampResult:
     levels: list[tuple[float, float]]  # (command, mean measured) per level held
     centroidal: bool
     sim_s: float
+    # per level held: the fraction of its measured time with no foot on the ground (the gait's flight phases)
+    flight: list[float] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -71,6 +73,7 @@ class RampResult:
             "at": self.at,
             "mean_at_stop": self.mean_at_stop,
             "levels": [[c, round(m, 4)] for c, m in self.levels],
+            "flight_fraction": [round(f, 4) for f in self.flight],
             "solver": "centroidal" if self.centroidal else "balance",
             "sim_s": round(self.sim_s, 2),
         }
@@ -100,13 +103,17 @@ def ramp(
         setup(sess)
     rec = sess.recorder
     held: list[tuple[float, float]] = []
+    flight: list[float] = []
     top: float | None = None
     stopped_by, at, mean_at = "end of ramp", None, None
     for level in levels if levels is not None else direction.levels():
         cmd = [0.0, 0.0, 0.0]
         cmd[direction.axis] = level
         sess.controller.steer(*cmd)
-        sess.loop.run(hold_s)
+        sess.loop.run(hold_s - measure_s)
+        t_measure = sess.world.t
+        if not sess.loop.fell:
+            sess.loop.run(measure_s)
         if sess.loop.fell:
             stopped_by, at = "fall", level
             break
@@ -120,9 +127,20 @@ def ramp(
             stopped_by, at, mean_at = "tracking", level, mean
             break
         held.append((level, mean))
+        flight.append(rec.flight_fraction(t_measure) or 0.0)
         top = level
     return RampResult(
-        gait, direction.name, direction.unit, top, stopped_by, at, mean_at, held, centroidal, sess.world.t
+        gait,
+        direction.name,
+        direction.unit,
+        top,
+        stopped_by,
+        at,
+        mean_at,
+        held,
+        centroidal,
+        sess.world.t,
+        flight,
     )
 
 
@@ -148,13 +166,17 @@ def bench_speed(
 
 
 def format_speed_table(result: dict[str, Any]) -> str:
-    """The top speeds as a Markdown table, Spot's published figures beside them."""
+    """The top speeds as a Markdown table, Spot's published figures beside them; when the forward ramps measured
+    it, a last column gives the fraction of time with no foot on the ground at each gait's top forward speed."""
     by_gait = result["by_gait"]
     dirs = [d.name for d in DIRECTIONS if any(d.name in v for v in by_gait.values())]
     units = {d.name: d.unit for d in DIRECTIONS}
+    with_flight = any(row.get("forward", {}).get("flight_fraction") is not None for row in by_gait.values())
     lines = [
-        "| gait | " + " | ".join(f"{d} ({units[d]})" for d in dirs) + " |",
-        "| --- |" + " --- |" * len(dirs),
+        "| gait | "
+        + " | ".join(f"{d} ({units[d]})" for d in dirs)
+        + (" | flight at top forward (% of time) |" if with_flight else " |"),
+        "| --- |" + " --- |" * (len(dirs) + with_flight),
     ]
     for g, row in by_gait.items():
         cells = []
@@ -168,10 +190,15 @@ def format_speed_table(result: dict[str, Any]) -> str:
                 r["stopped_by"]
             ]
             cells.append(top if r["at"] is None else f"{top} ({r['at']:g} {why})")
+        if with_flight:
+            fl = row.get("forward", {}).get("flight_fraction") or []
+            cells.append(f"{100 * fl[-1]:.1f}" if fl else "–")
         lines.append(f"| {g} | " + " | ".join(cells) + " |")
     spot = result.get("spot_published", {})
     lines.append(
-        "| Spot (published) | " + " | ".join(f"{spot[d]:g}" if d in spot else "–" for d in dirs) + " |"
+        "| Spot (published) | "
+        + " | ".join(f"{spot[d]:g}" if d in spot else "–" for d in dirs)
+        + (" | – |" if with_flight else " |")
     )
     return "\n".join(lines)
 

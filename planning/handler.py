@@ -9,6 +9,7 @@ trajectories (joint PD plus feed-forward through the leg Jacobian).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any, Protocol
@@ -303,15 +304,18 @@ class Handler:
         """Returns the other leg whose lower leg the swing foot is touching (the robot's own geoms do not collide
         in the simulator, so this is measured geometrically), or None."""
         p = s.p_world_foot[leg]
+        feet = s.p_world_foot.tolist()  # the skip test on Python floats (the same arithmetic, less overhead)
+        px, py = feet[leg][0], feet[leg][1]
         for j in range(4):
             # a shin reaches at most ~0.3 m from its foot horizontally: skip legs whose foot is farther than that
-            if j == leg or abs(p[0] - s.p_world_foot[j, 0]) + abs(p[1] - s.p_world_foot[j, 1]) > 0.45:
+            if j == leg or abs(px - feet[j][0]) + abs(py - feet[j][1]) > 0.45:
                 continue
             knee = s.p_world_body + s.R_world_body @ self.robot.knee_body(j, s.q[j])
             foot = s.p_world_foot[j]
             d = foot - knee
-            u = float(np.clip(np.dot(p - knee, d) / max(float(np.dot(d, d)), 1e-9), 0.0, 1.0))
-            if np.linalg.norm(p - (knee + u * d)) < self.params.self_collision_m:
+            u = float(min(max(np.dot(p - knee, d) / max(float(np.dot(d, d)), 1e-9), 0.0), 1.0))  # np.clip
+            e = p - (knee + u * d)
+            if math.sqrt(e.dot(e)) < self.params.self_collision_m:  # np.linalg.norm's own arithmetic
                 return j
         return None
 

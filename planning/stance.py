@@ -196,7 +196,7 @@ class StanceHandler:
         if not np.isfinite(J).all():
             J = np.nan_to_num(J, nan=0.0, posinf=0.0, neginf=0.0)  # that leg's torque becomes its bias alone
             sanitized.append("J_world_leg")
-        if np.isnan(T).any() or (T < 0.0).any():
+        if not (T >= 0.0).all():  # a NaN or a negative limit (one NumPy pass instead of two)
             T = np.where(np.isnan(T), 0.0, np.abs(T))
             sanitized.append("tau_max_leg")
         if not (math.isfinite(mu) and mu >= 0.0):
@@ -307,15 +307,13 @@ class StanceHandler:
         f = self._f
         np.copyto(f, f_des)
         f[~stance] = 0.0
-        fz = f[:, 2]
-        lim = mu_face * fz
-        if not (
-            (fz >= p.fz_min_n)[stance].all()
-            and (fz <= p.fz_max_n)[stance].all()
-            and (np.abs(f[:, 0]) <= lim).all()
-            and (np.abs(f[:, 1]) <= lim).all()
-        ):
-            return False
+        # four legs: the bounds and the pyramid tested on Python floats (the same comparisons, a fifth of the time
+        # of a dozen NumPy calls on (4,) arrays; this runs at every physics step)
+        fz_min, fz_max = p.fz_min_n, p.fz_max_n
+        for (fx, fy, fz), down in zip(f.tolist(), stance.tolist(), strict=True):
+            lim = mu_face * fz
+            if (down and not (fz >= fz_min and fz <= fz_max)) or not (abs(fx) <= lim and abs(fy) <= lim):
+                return False
         tau = self._tau
         np.einsum("lji,lj->li", J, f, out=tau)
         np.subtract(b, tau, out=tau)

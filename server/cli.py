@@ -124,6 +124,8 @@ def _summary(report: dict[str, Any]) -> str:
             f"; mean velocity vx {mv['vx']:.3f} m/s, vy {mv['vy']:.3f} m/s, yaw rate {mv['yaw_rate']:.3f} rad/s"
             f" (RMS error {rms['vx']}, {rms['vy']}, {rms['yaw_rate']})"
         )
+        if report.get("flight_fraction") is not None:  # time with no foot on the ground, after settle_s
+            line += f"; in flight {100 * report['flight_fraction']:.1f} % of the time"
     if "crossed" in report:
         line += (
             f"; crossed {report['crossed']} (t={report['time_to_cross_s']} s), no-step touchdowns "

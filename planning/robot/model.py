@@ -9,6 +9,7 @@ Joint angles everywhere are MuJoCo's.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -237,6 +238,25 @@ class RobotModel:
         self._d_min = np.sqrt(lu**2 + ll**2 + 2 * lu * ll * np.cos(a_hi))
         self.max_leg_length_m = float(np.min(self._d_max))
         self.min_leg_length_m = float(np.max(self._d_min))
+        # per leg, the constants of the analytic kinematics as Python floats (jacobian_leg, ik_leg): signs (3),
+        # upper and lower lengths, alpha, beta, z_flex, lateral foot offset, hip (3), reach min and max, knee branch
+        self._leg_floats = [
+            (
+                *(float(v) for v in self._sign[i]),
+                float(self._lu[i]),
+                float(self._ll[i]),
+                float(self._alpha[i]),
+                float(self._beta[i]),
+                float(self._z_flex[i]),
+                float(self.abd_offset[i]),
+                *(float(v) for v in self.p_body_hip[i]),
+                float(self._d_min[i]),
+                float(self._d_max[i]),
+                float(self._knee_branch[i]),
+            )
+            for i in range(4)
+        ]
+        self._y_knee_f = [float(v) for v in self._y_knee]
         self._standing_pose(det, desc)
         try:
             self.q_nominal = np.array(
@@ -359,33 +379,36 @@ class RobotModel:
 
     def knee_body(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Returns the knee position (3,) in the body frame."""
-        s0, s1 = self._sign[leg, 0], self._sign[leg, 1]
-        q0, p1 = s0 * q[0], s1 * q[1] + self._alpha[leg]
-        x = -self._lu[leg] * np.sin(p1)
-        z = -self._lu[leg] * np.cos(p1) + self._z_flex[leg]
-        y = float(self._y_knee[leg])
-        c, s = np.cos(q0), np.sin(q0)
-        return self.p_body_hip[leg] + np.array([x, c * y - s * z, s * y + c * z])
+        s0, s1, _, lu, _, alpha, _, z_flex, _, hx, hy, hz = self._leg_floats[leg][:12]
+        qa, qb = float(q[0]), float(q[1])
+        q0, p1 = s0 * qa, s1 * qb + alpha
+        x = -lu * math.sin(p1)
+        z = -lu * math.cos(p1) + z_flex
+        y = self._y_knee_f[leg]
+        c, s = math.cos(q0), math.sin(q0)
+        return np.array([hx + x, hy + (c * y - s * z), hz + (s * y + c * z)])
 
     def jacobian_leg(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Returns d p_body_foot / d q (3,3) for leg joint angles q (3,)."""
-        s0, s1, s2 = self._sign[leg]
-        q0, q1, q2 = s0 * q[0], s1 * q[1], s2 * q[2]
-        lu, ll = self._lu[leg], self._ll[leg]
-        p1 = q1 + self._alpha[leg]
-        p12 = q1 + q2 + self._beta[leg]
-        s1_, c1_, s12, c12 = np.sin(p1), np.cos(p1), np.sin(p12), np.cos(p12)
-        z = -lu * c1_ - ll * c12 + self._z_flex[leg]
+        # Python floats (the leg's constants resolved once, _leg_floats): the same IEEE arithmetic as on NumPy
+        # scalars, without their per-operation overhead (this runs for every swing leg at every physics step)
+        s0, s1, s2, lu, ll, alpha, beta, z_flex, y = self._leg_floats[leg][:9]
+        qa, qb, qc = q.tolist() if isinstance(q, np.ndarray) else (float(q[0]), float(q[1]), float(q[2]))
+        q0, q1, q2 = s0 * qa, s1 * qb, s2 * qc
+        p1 = q1 + alpha
+        p12 = q1 + q2 + beta
+        s1_, c1_, s12, c12 = math.sin(p1), math.cos(p1), math.sin(p12), math.cos(p12)
+        z = -lu * c1_ - ll * c12 + z_flex
         dx1, dz1 = -lu * c1_ - ll * c12, lu * s1_ + ll * s12
         dx2, dz2 = -ll * c12, ll * s12
-        y = self._side(leg)
-        c, s = np.cos(q0), np.sin(q0)
-        J = np.empty((3, 3))
-        J[0] = (0.0, dx1, dx2)
-        J[1] = (-s * y - c * z, -s * dz1, -s * dz2)
-        J[2] = (c * y - s * z, c * dz1, c * dz2)
-        J *= self._sign[leg]
-        return J
+        c, s = math.cos(q0), math.sin(q0)
+        return np.array(
+            [
+                [0.0 * s0, dx1 * s1, dx2 * s2],
+                [(-s * y - c * z) * s0, -s * dz1 * s1, -s * dz2 * s2],
+                [(c * y - s * z) * s0, c * dz1 * s1, c * dz2 * s2],
+            ]
+        )
 
     def _wrap_into_range(self, leg: int, q: np.ndarray) -> np.ndarray:
         """Moves an angle by 2π where that brings it into its joint's range (only then: the arithmetic of in-range
@@ -400,42 +423,45 @@ class RobotModel:
 
     def ik_leg(self, leg: int, p_body_foot: np.ndarray) -> np.ndarray:
         """Returns joint angles (3,) that put the foot center at p_body_foot (3,); raises ReachError."""
-        p = np.asarray(p_body_foot, dtype=float) - self.p_body_hip[leg]
-        px, py, pz = p
-        y = self._side(leg)
+        # Python floats (see jacobian_leg); NumPy's arctan2 and arccos kept (their results differ from math's in
+        # the last bit), the square root is exact in both
+        s0, s1, s2, lu, ll, a, b, z_flex, y, hx, hy, hz, d_min, d_max, branch = self._leg_floats[leg]
+        fx, fy, fz = np.asarray(p_body_foot, dtype=float).tolist()
+        px, py, pz = fx - hx, fy - hy, fz - hz
         r2 = py * py + pz * pz - y * y
         name = LEGS[leg]
         if r2 <= 0.0:
             raise ReachError(f"{name}: foot at {np.round(p_body_foot, 3).tolist()} is inside the hip offset")
-        zp = -np.sqrt(r2)
-        q0 = np.arctan2(pz, py) - np.arctan2(zp, y)
-        q0 = (q0 + np.pi) % (2 * np.pi) - np.pi
-        zs = zp - self._z_flex[leg]
-        D = np.hypot(px, zs)
-        if D > self._d_max[leg] + 1e-9 or D < self._d_min[leg] - 1e-9:
+        zp = -math.sqrt(r2)
+        q0 = float(np.arctan2(pz, py)) - float(np.arctan2(zp, y))
+        q0 = (q0 + math.pi) % (2 * math.pi) - math.pi
+        zs = zp - z_flex
+        D = float(np.hypot(px, zs))
+        if D > d_max + 1e-9 or D < d_min - 1e-9:
             raise ReachError(
                 f"{name}: foot at {np.round(p_body_foot, 3).tolist()} (body frame) is {D:.3f} m from the hip; "
-                f"the leg reaches {self._d_min[leg]:.3f}–{self._d_max[leg]:.3f} m"
+                f"the leg reaches {d_min:.3f}–{d_max:.3f} m"
             )
-        lu, ll = self._lu[leg], self._ll[leg]
-        c2 = np.clip((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0, 1.0)
-        psi2 = self._knee_branch[leg] * np.arccos(c2)
-        phi = np.arctan2(-px, -zs)
-        psi1 = phi - np.arctan2(ll * np.sin(psi2), lu + ll * np.cos(psi2))
-        sg = self._sign[leg]
-        a, b = self._alpha[leg], self._beta[leg]
-        q = np.array([sg[0] * q0, sg[1] * (psi1 - a), sg[2] * (psi2 - b + a)])
-        q = self._wrap_into_range(leg, q)
-        lo, hi = self.q_min[leg] - 1e-9, self.q_max[leg] + 1e-9
-        bad = (q < lo) | (q > hi)
-        if bad.any():
-            j = int(np.argmax(bad))
-            jn = ("hip abduction", "hip flexion", "knee")[j]
-            raise ReachError(
-                f"{name}: foot at {np.round(p_body_foot, 3).tolist()} needs {jn} {q[j]:.2f} rad, "
-                f"outside its range [{self.q_min[leg, j]:.2f}, {self.q_max[leg, j]:.2f}]"
-            )
-        return q
+        c2 = min(max((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0), 1.0)  # np.clip
+        psi2 = branch * float(np.arccos(c2))
+        phi = float(np.arctan2(-px, -zs))
+        psi1 = phi - float(np.arctan2(ll * math.sin(psi2), lu + ll * math.cos(psi2)))
+        q = [s0 * q0, s1 * (psi1 - a), s2 * (psi2 - b + a)]
+        lo, hi = self.q_min[leg].tolist(), self.q_max[leg].tolist()
+        two_pi = 2 * math.pi
+        for k in (1, 2):  # _wrap_into_range on floats
+            if q[k] < lo[k] - 1e-9 and lo[k] - 1e-9 <= q[k] + two_pi <= hi[k] + 1e-9:
+                q[k] += two_pi
+            elif q[k] > hi[k] + 1e-9 and lo[k] - 1e-9 <= q[k] - two_pi <= hi[k] + 1e-9:
+                q[k] -= two_pi
+        for j in range(3):
+            if q[j] < lo[j] - 1e-9 or q[j] > hi[j] + 1e-9:
+                jn = ("hip abduction", "hip flexion", "knee")[j]
+                raise ReachError(
+                    f"{name}: foot at {np.round(p_body_foot, 3).tolist()} needs {jn} {q[j]:.2f} rad, "
+                    f"outside its range [{self.q_min[leg, j]:.2f}, {self.q_max[leg, j]:.2f}]"
+                )
+        return np.array(q)
 
     def ik_leg_many(self, leg: int, p_body_foot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Vectorized ik_leg: joint angles (K,3) for foot centers p_body_foot (K,3) in the body frame, and which rows

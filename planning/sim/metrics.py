@@ -53,6 +53,7 @@ class Recorder:
     rpy_body: list[np.ndarray] = field(default_factory=list)
     v_body: list[np.ndarray] = field(default_factory=list)
     yaw_rate: list[float] = field(default_factory=list)
+    airborne: list[float] = field(default_factory=list)  # airborne_s so far, at each sample
     max_foot_slip_m: float = 0.0  # largest horizontal slide of a foot in contact from where it touched down
     airborne_s: float = 0.0  # total time with no foot on the ground (flight)
     max_body_height_m: float = 0.0
@@ -119,6 +120,15 @@ class Recorder:
             v = s.v_world_body
             self.v_body.append(np.array([c * v[0] + sn * v[1], -sn * v[0] + c * v[1]]))
             self.yaw_rate.append(float(s.omega_world[2]))
+            self.airborne.append(self.airborne_s)
+
+    def flight_fraction(self, t_from: float) -> float | None:
+        """The fraction of the time since the first sample at or after t_from (s) with no foot on the ground (a flight
+        phase), up to the last sample; None when there is no time to measure."""
+        k = next((i for i, t in enumerate(self.t) if t >= t_from), None)
+        if k is None or self.t[-1] <= self.t[k]:
+            return None
+        return (self.airborne[-1] - self.airborne[k]) / (self.t[-1] - self.t[k])
 
 
 def match_touchdowns(

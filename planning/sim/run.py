@@ -589,6 +589,8 @@ class WalkSession(_Session):
             "touchdowns": [],
             "foot_placement_error_m": {"median": None, "max": None},
             "velocity_tracking_rms": rms,
+            # the fraction of the time after settle_s with no foot on the ground (the gait's flight phases)
+            "flight_fraction": None if (ff := rec.flight_fraction(c.settle_s)) is None else round(ff, 4),
             "mean_velocity": {
                 "vx": round(float(mean_v[0]), 4),
                 "vy": round(float(mean_v[1]), 4),

@@ -96,7 +96,11 @@ class DecisionParams:
     late swing elsewhere) or a tread below is not left trailing on a straight leg (the speed may fall to 0 until
     it lifts); height_reach_frac: the body height is at most the one at which every stance foot lies within this
     share of the leg's full length of its hip (along the heading and up, the hips placed by the pitch target): a
-    hind foot a tread below keeps the body down instead of hanging from a straight leg."""
+    hind foot a tread below keeps the body down instead of hanging from a straight leg; lost_hold_m: a next
+    touchdown whose previous foothold lies on no region in this map (the segmentation lost the cell for a
+    moment: a re-segmentation, a cell seen anew) while the ground there is within this of the foothold's
+    height keeps that foothold: the ground did not move, and a foot committed to a tread is not sent to the floor
+    beside it."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -144,6 +148,7 @@ class DecisionParams:
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
+    lost_hold_m: float = 0.03
 
 
 # ---- typed inputs and outputs ----------------------------------------------------------------------------------
@@ -542,6 +547,17 @@ def choose_region(
     return choice
 
 
+def lost_region(
+    regions: SteppableRegions, maps: TerrainMaps, p_prev: NDArray[np.float64], p: DecisionParams
+) -> bool:
+    """Tells whether a previous foothold p_prev (3,) lies on no region in this map while the ground there is
+    still within lost_hold_m of its height (the segmentation lost the cell, the ground did not move)."""
+    if regions.label_at(float(p_prev[0]), float(p_prev[1])) != 0:
+        return False
+    z = float(maps.height_at(float(p_prev[0]), float(p_prev[1])))
+    return abs(z - float(p_prev[2])) <= p.lost_hold_m
+
+
 def knee_points(
     hip: NDArray[np.float64], feet: NDArray[np.float64], l_upper: float, l_lower: float
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
@@ -786,6 +802,7 @@ def choose_footholds(
     yaws = np.asarray(path.body.yaw(t_abs), dtype=np.float64).reshape(-1)
     hips = bodies + rotate_yaw(yaws, view.p_body_hip[legs])
     reach = reach_xy(view, p)
+    lost = np.zeros(K, dtype=bool)
     for j, k in enumerate(order):
         leg = int(legs[j])
         nom = path.p_world_touchdown[k, :2]
@@ -796,6 +813,11 @@ def choose_footholds(
             else None
         )
         flying = first and not bool(view.stance[leg])
+        if keep is not None and lost_region(regions, maps, memory.p_chosen[leg], p):
+            lost[j] = True
+            polys.append(None)
+            z_ref[leg] = float(memory.p_chosen[leg, 2])
+            continue
         label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying, hips[j], reach)
         poly = None
         if label:
@@ -845,7 +867,7 @@ def choose_footholds(
     for j, k in enumerate(order):
         leg = int(legs[j])
         held = j < 4 and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
-        if t_rel[j] < p.freeze_s and held:
+        if (t_rel[j] < p.freeze_s and held) or lost[j]:
             p_new[k] = memory.p_chosen[leg]
         elif plan is not None:
             xy = plan.footholds[j, :2]

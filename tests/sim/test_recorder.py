@@ -53,3 +53,15 @@ def test_a_foot_chattering_along_the_ground_is_no_landing() -> None:
     assert all(td.rise_m < LANDING_RISE_M for td in rec.touchdowns)
     # the rise is measured from where the foot last left the ground, not from the run's start
     assert abs(max(td.rise_m for td in rec.touchdowns) - 0.002) < 1e-9
+
+
+def test_flight_fraction_counts_the_time_with_no_foot_down_after_a_given_time() -> None:
+    # 0.4 s of 2 ms ticks: all four feet down until 0.2 s, then a cycle of 30 ms down and 10 ms with all off
+    rec = Recorder(foot_radius_m=R, sample_period_s=0.01)
+    for k in range(200):
+        t = 0.002 * k
+        down = t < 0.2 or (t - 0.2) % 0.04 < 0.03 - 1e-9
+        rec(_state(t, [0.0 if down else 0.02] * 4, [down] * 4))
+    assert rec.flight_fraction(0.0) is not None and rec.flight_fraction(0.0) < rec.flight_fraction(0.2)
+    assert abs(rec.flight_fraction(0.2) - 0.25) < 0.03
+    assert rec.flight_fraction(0.5) is None  # nothing recorded after it

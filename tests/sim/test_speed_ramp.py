@@ -23,6 +23,8 @@ def test_ramp_holds_a_trot_and_stops_where_it_cannot_follow() -> None:
     assert r.stopped_by in ("fall", "tracking") and r.at == 3.0
     ((cmd, mean),) = r.levels
     assert abs(mean - cmd) <= 0.1 * cmd
+    # a trot (duty 0.6 at 0.6 m/s) always has a foot down
+    assert r.flight == [0.0] and r.as_dict()["flight_fraction"] == [0.0]
 
 
 def test_table_puts_spot_beside_the_top_speeds() -> None:
@@ -33,3 +35,15 @@ def test_table_puts_spot_beside_the_top_speeds() -> None:
     )
     assert "| trot | 1.2 (1.4 falls) | 0.5 (0.6 tracks > 10 % off) |" in table
     assert "| Spot (published) | 1.6 | – |" in table
+    # the fraction of time in flight at each gait's top forward speed, when the ramp measured it
+    table = format_speed_table(
+        {
+            "by_gait": {
+                "bound": {"forward": {**row, "flight_fraction": [0.0, 0.031]}},
+                "trot": {"forward": row},
+            },
+            "spot_published": {"forward": 1.6},
+        }
+    )
+    assert "| gait | forward (m/s) | flight at top forward (% of time) |" in table
+    assert "| bound | 1.2 (1.4 falls) | 3.1 |" in table and "| trot | 1.2 (1.4 falls) | – |" in table

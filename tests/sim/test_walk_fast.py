@@ -122,3 +122,6 @@ def test_bounds_at_2_5_mps_from_a_stand() -> None:
     rep = run_walk(WalkCommand(2.5, gait="bound", settle_s=3.5), RunOptions(duration_s=5.5))
     assert rep["success"] and not rep["fell"], rep["failure_reason"]
     assert abs(rep["mean_velocity"]["vx"] - 2.5) <= 0.1 * 2.5
+    # at this speed all four feet leave the ground for part of the cycle, though the schedule's duty is 0.6
+    # (measured: 9.4 % of the time at 2.5 m/s; 1.8-8.9 % at 2.4-2.6 m/s and with 0.1 m/s sideways; 0 at 2.0)
+    assert rep["flight_fraction"] > 0.01

@@ -24,6 +24,7 @@ from planning.terrain.decision import (
     decide,
     leg_bounds,
     leg_clearance,
+    lost_region,
     pitched_nominals,
     reach_height,
     swing_ground,
@@ -84,6 +85,22 @@ def test_the_previous_region_is_kept_unless_clearly_worse_and_always_in_flight()
     xy = np.array([0.6, 0.0])
     assert choose_region(regions, maps, xy, 0.0, np.array([1.0, 0.0]), P) == near
     assert choose_region(regions, maps, xy, 0.0, np.array([1.0, 0.0]), P, in_flight=True) == stone
+
+
+def test_a_foothold_whose_region_the_segmentation_lost_is_held_while_the_ground_is_unchanged() -> None:
+    world = _world(*_stones())
+    regions, maps = world.regions, world.maps
+    on_stone = np.array([1.0, 0.0, 0.0])
+    assert regions.label_at(1.0, 0.0) and not lost_region(regions, maps, on_stone, P)
+    # the stone's cells unlabelled (as a re-segmentation of a sensor's map may leave them for a moment)
+    labels = regions.labels.copy()
+    labels[labels == regions.label_at(1.0, 0.0)] = 0
+    gone = dataclass_replace(regions, labels=labels, inset=regions.inset & (labels > 0))
+    assert lost_region(gone, maps, on_stone, P)
+    # the ground moved there (a foothold remembered 5 cm higher than the map now says): not held
+    assert not lost_region(gone, maps, on_stone + [0.0, 0.0, P.lost_hold_m + 0.02], P)
+    # a foothold in the pit (no region, the ground 0.3 m below the remembered height): not held
+    assert not lost_region(gone, maps, np.array([0.75, 0.0, 0.0]), P)
 
 
 def test_the_step_qp_keeps_every_foothold_inside_its_region() -> None:

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, square_filter, window_1d
+from planning.terrain.gridops import disk_filter, distance_transform, square_filter, window_1d
 from planning.terrain.maps import _disk, _fill_ground, signed_distance
 from planning.terrain.sensor import PointCloud
 from planning.terrain.voxels import VoxelMap, VoxelParams, _first_true
@@ -55,6 +55,16 @@ def test_boolean_disk_filters_equal_binary_morphology(seed: int, radius: float) 
     np.testing.assert_array_equal(
         disk_filter(dil, fp, np.minimum, False), ndimage.binary_closing(m, structure=fp)
     )
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31))
+def test_distance_transform_equals_ndimage(seed: int) -> None:
+    """The distances from the feature transform, summed in integers, equal ndimage's exactly (masks of any density,
+    one row or column, one cell)."""
+    m = _grid(seed, bool_=True)
+    np.testing.assert_array_equal(distance_transform(m), ndimage.distance_transform_edt(m))
+    np.testing.assert_array_equal(distance_transform(~m), ndimage.distance_transform_edt(~m))
 
 
 def test_disk_filter_refuses_a_footprint_it_cannot_split_into_rows() -> None:
@@ -263,3 +273,26 @@ def test_one_point_lookups_equal_the_array_lookups(seed: int) -> None:
         for f in (maps.no_step, maps.no_body, maps.clearance_at, maps.height_at, maps.sdf_step):
             one, arr = f(x, y), f(np.array([x]), np.array([y]))[0]
             assert one == arr and type(one) is type(arr.item()), (f.__name__, x, y, one, arr)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31))
+def test_layer_counts_between_heights_equal_a_direct_count(seed: int) -> None:
+    """The obstacle layers whose centres lie in [z_lo, z_hi], from the saturating cumulative counts, equal a direct
+    count per column: spans below, across, above the occupied band and the grid, empty and inverted spans, layer
+    centres exactly on a bound."""
+    from planning.terrain.maps import _count_between, _cumulative_layers
+    from planning.terrain.voxels import Columns
+
+    rng = np.random.default_rng(seed)
+    nx, ny, nz = (int(v) for v in rng.integers(1, 9, 3))
+    obstacle = rng.random((nx, ny, nz)) < rng.uniform(0.0, 0.6)
+    z0, dz = float(rng.uniform(-1, 1)), 0.05
+    columns = Columns((0.0, 0.0), 0.05, np.zeros((nx, ny)), obstacle, z0, dz)
+    cum = _cumulative_layers(columns)
+    zc = z0 + dz * np.arange(nz)
+    z_lo = z0 + dz * rng.integers(-3, nz + 3, (nx, ny)) + rng.choice([0.0, 0.02, -0.02], (nx, ny))
+    z_hi = z_lo + dz * rng.integers(-2, nz + 2, (nx, ny)) + rng.choice([0.0, 0.03], (nx, ny))
+    got = _count_between(cum, z0, dz, z_lo, z_hi)
+    inside = (zc >= z_lo[..., None] - 1e-9 * dz) & (zc <= z_hi[..., None] + 1e-9 * dz)
+    np.testing.assert_array_equal(got, np.count_nonzero(obstacle & inside, axis=2))

@@ -226,3 +226,113 @@ def test_scene_maps_give_regions_where_feet_go(name: str) -> None:
     # the start (flat floor before the terrain) is steppable
     assert regions.label_at(0.5, 0.0) != 0
     _assert_polygons_inside(regions, maps)
+
+
+def _fit_planes_reference(labels: np.ndarray, n: int, X: np.ndarray, Y: np.ndarray, h: np.ndarray) -> tuple:
+    """Each label's plane fitted cell by cell, centred on the label's own means (the straightforward way)."""
+    normals, z0, xy0, rough = np.zeros((n + 1, 3)), np.zeros(n + 1), np.zeros((n + 1, 2)), np.zeros(n + 1)
+    for lab in range(1, n + 1):
+        sel = labels == lab
+        x, y, z = X[sel], Y[sel], h[sel]
+        dx, dy, dz = x - x.mean(), y - y.mean(), z - z.mean()
+        a = b = 0.0  # one row or one column (or one cell): no slope (the fit's convention)
+        if dx @ dx > 1e-9 and dy @ dy > 1e-9:
+            a, b = np.linalg.solve(np.array([[dx @ dx, dx @ dy], [dx @ dy, dy @ dy]]), [dx @ dz, dy @ dz])
+        nrm = np.array([-a, -b, 1.0])
+        normals[lab] = nrm / np.linalg.norm(nrm)
+        z0[lab], xy0[lab] = z.mean(), (x.mean(), y.mean())
+        rough[lab] = math.sqrt(np.mean((dz - a * dx - b * dy) ** 2))
+    return normals, z0, xy0, rough
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_plane_fit_from_moments_matches_a_cell_by_cell_fit(seed: int) -> None:
+    """The plane fit's moments (per row / column sums) give each region's plane, centre and roughness as a fit over
+    its own cells does: tilted noisy patches, one-row and one-column strips, single cells, far from the origin."""
+    from planning.terrain.regions import _fit_planes
+
+    rng = np.random.default_rng(seed)
+    nx, ny = int(rng.integers(8, 40)), int(rng.integers(8, 40))
+    X, Y = _grid(nx, ny, origin=(float(rng.uniform(-50, 50)), float(rng.uniform(-50, 50))))
+    labels = np.zeros((nx, ny), np.int32)
+    h = rng.normal(0.0, 0.3, (nx, ny))
+    n = 0
+    for _ in range(int(rng.integers(1, 6))):
+        i0, j0 = int(rng.integers(0, nx - 1)), int(rng.integers(0, ny - 1))
+        kind = rng.integers(0, 4)
+        di = 1 if kind == 1 else int(rng.integers(1, 9))
+        dj = 1 if kind == 2 else int(rng.integers(1, 9))
+        if kind == 3:
+            di = dj = 1
+        n += 1
+        labels[i0 : i0 + di, j0 : j0 + dj] = n
+        a, b, c = rng.uniform(-0.6, 0.6, 3)
+        sl = (slice(i0, i0 + di), slice(j0, j0 + dj))
+        h[sl] = (
+            c + a * X[sl] + b * Y[sl] - a * X[sl].mean() - b * Y[sl].mean() + rng.normal(0, 0.01, X[sl].shape)
+        )
+    present = np.unique(labels[labels > 0])
+    relabel = np.zeros(n + 1, np.int32)
+    relabel[present] = np.arange(1, present.size + 1)
+    labels, n = relabel[labels], int(present.size)
+    normals, z0, xy0, rough, area = _fit_planes(labels, n, X, Y, h, RES)
+    ref = _fit_planes_reference(labels, n, X, Y, h)
+    np.testing.assert_allclose(normals[1:], ref[0][1:], atol=1e-7)
+    np.testing.assert_allclose(z0[1:], ref[1][1:], atol=1e-9)
+    np.testing.assert_allclose(xy0[1:], ref[2][1:], atol=1e-9)
+    np.testing.assert_allclose(rough[1:], ref[3][1:], atol=1e-6)
+    np.testing.assert_allclose(area[1:], np.bincount(labels.ravel(), minlength=n + 1)[1:] * RES * RES)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_steppable_cells_match_the_padded_differences_rule(seed: int) -> None:
+    """steppable_cells (differences to the next cell, edges repeating) keeps the rule of the module docstring,
+    written with an edge-padded grid: free, slope of the gentler one-sided difference, no 4-neighbour jump."""
+    from planning.terrain.regions import steppable_cells
+
+    rng = np.random.default_rng(seed)
+    nx, ny = int(rng.integers(3, 30)), int(rng.integers(3, 30))
+    h = np.round(rng.normal(0.0, 0.03, (nx, ny)), 3) + rng.choice([0.0, 0.1], (nx, ny), p=[0.8, 0.2])
+    step = rng.random((nx, ny)) < 0.1
+    maps = _maps(h, step)
+    hp = np.pad(h, 1, mode="edge")
+    c = hp[1:-1, 1:-1]
+    xf, xb, yf, yb = hp[2:, 1:-1] - c, c - hp[:-2, 1:-1], hp[1:-1, 2:] - c, c - hp[1:-1, :-2]
+    gx = np.minimum(np.abs(xf), np.abs(xb)) / RES
+    gy = np.minimum(np.abs(yf), np.abs(yb)) / RES
+    slope = np.hypot(gx, gy)
+    tan = math.tan(math.radians(PARAMS.max_slope_deg))
+    ref = ~step & (slope <= tan) & (np.maximum(np.maximum(xf, -xb), np.maximum(yf, -yb)) <= PARAMS.max_jump_m)
+    got = steppable_cells(maps, PARAMS)
+    # Cells whose slope sits within rounding of the bound may go either way (squared comparison).
+    tie = np.abs(slope - tan) < 1e-9
+    assert np.array_equal(got[~tie], ref[~tie])
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_projection_onto_a_polygon_matches_the_edge_by_edge_array_form(seed: int) -> None:
+    """ConvexRegion.project (scalar loop) gives the point the array form gives: the point itself inside, else the
+    nearest point of the nearest edge; and that point lies in the polygon."""
+    rng = np.random.default_rng(seed)
+    h = np.zeros((40, 40))
+    step = np.zeros((40, 40), bool)
+    step[rng.integers(0, 40, 12), rng.integers(0, 40, 12)] = True
+    maps = _maps(h, step)
+    regions = segment_regions(maps, PARAMS)
+    assert regions.polygons
+    for poly in regions.polygons[:4]:
+        v = poly.vertices
+        e = np.roll(v, -1, axis=0) - v
+        for p in rng.uniform(-0.3, 1.5, (25, 2)):
+            if bool(poly.contains(p)):
+                ref = p
+            else:
+                t = np.clip(np.sum((p - v) * e, axis=1) / np.maximum(np.sum(e * e, axis=1), 1e-18), 0.0, 1.0)
+                q = v + t[:, None] * e
+                ref = q[int(np.argmin(np.sum((q - p) ** 2, axis=1)))]
+            got = poly.project(p)
+            np.testing.assert_allclose(got, ref, atol=1e-12)
+            assert bool(poly.contains(got, 1e-7))
