@@ -38,7 +38,9 @@ class MapParams:
     """Map building (heights above the cell's ground, m; radii, m).
 
     body_band_m: obstacles within this height band make a body obstacle (robot body bottom crouched .. body top
-    standing; a table underside above the top is passable crouched); body_ref_radius_m: radius for the highest
+    crouched as low as the walk goes, with its head margin: the decision's min_height_m + body_top_m +
+    head_margin_m; a table underside above the top is passable crouched, so the body path goes under it, not
+    around); body_ref_radius_m: radius for the highest
     ground nearby that the band is also measured from; body_above_ground_m: the band measured from a cell's own
     ground starts at least this far above that highest ground nearby (None: not; with it a stone's top edge seen
     from the pit beside it is ground-level, not a body obstacle); body_step_m: ground higher than the lowest ground
@@ -58,7 +60,7 @@ class MapParams:
     reads as the pit it most likely is, not as more stone).
     """
 
-    body_band_m: tuple[float, float] = (0.30, 0.56)
+    body_band_m: tuple[float, float] = (0.30, 0.52)
     body_ref_radius_m: float = 0.3
     body_above_ground_m: float | None = None
     body_step_m: float = 0.4

@@ -22,8 +22,8 @@ STAND_IN = (
 SPOT = Path(__file__).resolve().parents[2] / "planning" / "robot" / "assets" / "spot.xml"
 
 
-def scanned(name: str, xs: list[float], seed: int = 0):
-    scene = build_terrain(name, seed=seed)
+def scanned(name: str, xs: list[float], seed: int = 0, **params: float):
+    scene = build_terrain(name, seed=seed, **params)
     model = mujoco.MjModel.from_xml_string(scene.mjcf(STAND_IN))
     data = mujoco.MjData(model)
     perception = Perception(model, "robot")
@@ -60,6 +60,32 @@ def test_table_top_is_not_ground_and_legs_are_seen() -> None:
     assert maps.body_obstacle[near_leg].any() and maps.step_obstacle[near_leg].any()
     labels = perception.voxels.labels()
     assert (labels == GROUND).sum() > 1000 and (labels == OBSTACLE).sum() > 20
+
+
+@pytest.mark.parametrize("clearance_m", [0.55, 0.554, 0.557, 0.56])
+def test_a_table_the_body_can_crouch_under_is_no_body_obstacle(clearance_m: float) -> None:
+    # The family's lowest tables: their undersides lie above the crouched body's top (the band's top), wherever
+    # the 3 cm voxel layers cut them, so the body path goes under the table, not around it into its edge.
+    scene, _, maps = scanned("under-table", [1.0, 1.4], clearance_m=clearance_m)
+    p = scene.params
+    xs, ys = maps.cell_centers()
+    under = (np.abs(xs[:, None] - p.x_center_m) < p.length_m / 2 - 0.1) & (np.abs(ys[None, :]) < 0.3)
+    assert (under & maps.observed).sum() > 50
+    assert not maps.body_obstacle[under].any()
+    seen_top = maps.clearance_m[under & np.isfinite(maps.clearance_m)]
+    assert seen_top.size >= 10 and float(np.median(seen_top)) == pytest.approx(clearance_m, abs=0.03)
+
+
+def test_the_body_band_tops_out_at_the_crouched_body() -> None:
+    # The maps' body band and the decision's crouch agree: whatever the body can crouch under is not a body
+    # obstacle (both pipelines).
+    from planning.terrain.decision import DecisionParams
+    from planning.terrain.maps import MapParams
+    from planning.terrain.navigate import NavigatorParams
+
+    top = MapParams().body_band_m[1]
+    for q in (DecisionParams(), NavigatorParams()):
+        assert top <= q.min_height_m + q.body_top_m + q.head_margin_m + 1e-9
 
 
 def test_stairs_rails_are_body_obstacles_in_perceived_maps() -> None:
