@@ -153,6 +153,10 @@ def distance_transform(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
     the nearest False cell, 0 on False cells): the same feature transform, then the squared distances summed in
     int32 (exact) and one square root, where ndimage goes through float64 copies of the offsets: the same values,
     ~20 % less time on the maps' 133 × 133 grids."""
+    if mask.all():
+        # No False cell to measure to: the feature transform's indices are undefined (ours would give NaN); ndimage's
+        # own answer for this case, so the maps match it whatever the grid holds.
+        return np.asarray(ndimage.distance_transform_edt(mask), dtype=np.float64)
     shape = (int(mask.shape[0]), int(mask.shape[1]))
     ft = np.empty((2, *shape), np.int32)
     ndimage.distance_transform_edt(mask, return_distances=False, return_indices=True, indices=ft)

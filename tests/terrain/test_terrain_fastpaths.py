@@ -5,6 +5,7 @@ column-by-column version, the SDF, the ground fill and the first-true search aga
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
@@ -63,6 +64,14 @@ def test_distance_transform_equals_ndimage(seed: int) -> None:
     """The distances from the feature transform, summed in integers, equal ndimage's exactly (masks of any density,
     one row or column, one cell)."""
     m = _grid(seed, bool_=True)
+    np.testing.assert_array_equal(distance_transform(m), ndimage.distance_transform_edt(m))
+    np.testing.assert_array_equal(distance_transform(~m), ndimage.distance_transform_edt(~m))
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (2, 1), (1, 3), (5, 4)])
+def test_distance_transform_of_a_mask_with_no_false_cell_equals_ndimage(shape: tuple[int, int]) -> None:
+    # The case a random mask hits now and then (found by the property test above on a clean clone): all True.
+    m = np.ones(shape, bool)
     np.testing.assert_array_equal(distance_transform(m), ndimage.distance_transform_edt(m))
     np.testing.assert_array_equal(distance_transform(~m), ndimage.distance_transform_edt(~m))
 
