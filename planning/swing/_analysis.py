@@ -13,13 +13,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planning.robot import ReachError, RobotModel
+from planning.robot import RobotModel
 from planning.swing._poly import Poly1D
 from planning.swing.params import SwingParams
 from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_family
 from planning.swing.types import BodyMotion, GroundHeightFn, Tier
 
-_FEW_KNEES = 3  # up to this many knee samples, one float IK each beats the vectorized one
+_FEW_KNEES = 8  # up to this many knee samples, one float IK each beats the vectorized one
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
 
 
@@ -84,6 +84,8 @@ class LegProblem:
     zs_gentlest: np.ndarray | None = None  # (K,) its samples
     z_gentlest_ok: bool = False  # it arrives on time
     poses: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # body pose at ts[k], by k
+    # the same poses as 12 floats (position, then the rotation row by row), by k
+    pose_floats: dict[int, tuple[float, ...]] = field(default_factory=dict)
     # the same poses stacked, by the bytes of the sample indices they are for
     pose_stacks: dict[bytes, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     hold: Hold | None = None  # rise first: the foot waits in x and y until it clears the terrain ahead
@@ -189,6 +191,9 @@ class Analyzer:
         self.family = vertical_family(params)
         self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
         self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
+        self._ring_offsets_dr = np.ascontiguousarray(
+            (_DIRS[:, None, :] * self._ring_radii[None, :, None]).reshape(-1, 2)
+        )  # (8·R, 2), direction-major
         # the rings closer than the cliff margin: terrain hit on one of them fails the vertical check
         self._n_cliff_rings = int(np.count_nonzero(self._ring_radii < params.cliff_margin_m))
         self._knee_idx_cache: dict[int, np.ndarray] = {}
@@ -240,17 +245,21 @@ class Analyzer:
         self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """_terrain and _ring_ground (mapped ground) in one ground lookup: the ground (K,) under the samples, the
-        reference surface (K,) and the highest obstacle ground (K,R) on each probe ring."""
-        K, R = len(xw), len(self._ring_radii)
-        n = R * 8
-        px = np.empty((K, 1 + n))
-        py = np.empty((K, 1 + n))
-        px[:, 0] = xw
-        py[:, 0] = yw
-        np.add(xw[:, None], self._ring_offsets[None, :, 0], out=px[:, 1:])
-        np.add(yw[:, None], self._ring_offsets[None, :, 1], out=py[:, 1:])
-        gall = np.asarray(prob.ground(px.ravel(), py.ravel()), dtype=float).reshape(K, 1 + n)
-        g = gall[:, 0].copy()
+        reference surface (K,) and the highest obstacle ground (K,R) on each probe ring.
+
+        The probes lie direction by direction, ring by ring, then sample by sample, so that the highest of the 8
+        directions is a reduction over the outer axis (over the inner axis of 8 it costs several times more)."""
+        K = len(xw)
+        off = self._ring_offsets_dr  # (8·R, 2), direction-major
+        m = len(off)
+        px = np.empty(K * (1 + m))
+        py = np.empty(K * (1 + m))
+        px[:K] = xw
+        py[:K] = yw
+        np.add(xw[None, :], off[:, 0:1], out=px[K:].reshape(m, K))
+        np.add(yw[None, :], off[:, 1:2], out=py[K:].reshape(m, K))
+        gall = np.asarray(prob.ground(px, py), dtype=float)
+        g = gall[:K]
         p0, p1 = prob.p_start, prob.p_target
         d = p1[:2] - p0[:2]
         dd = float(d @ d)
@@ -260,9 +269,9 @@ class Analyzer:
         else:
             prog = np.linspace(0.0, 1.0, K)
         h_ref = p0[2] + prog * (p1[2] - p0[2])
-        gr = gall[:, 1:].reshape(K, R, 8)
-        gr = np.where(gr > (h_ref + self.params.obstacle_step_m)[:, None, None], gr, -np.inf)
-        return g, h_ref, gr.max(axis=2)
+        # the highest ground on each ring, where it is an obstacle (the max of the obstacle ground, as before)
+        gr = gall[K:].reshape(8, m // 8, K).max(axis=0).T  # (K,R)
+        return g, h_ref, np.where(gr > (h_ref + self.params.obstacle_step_m)[:, None], gr, -np.inf)
 
     # ---- the tiers ----------------------------------------------------------------------------------------
     def analyze(self, prob: LegProblem, hp: HPath, u_total: float) -> Verdict:
@@ -493,32 +502,30 @@ class Analyzer:
     def _knees_few(
         self, prob: LegProblem, v: Verdict, zs: np.ndarray
     ) -> tuple[np.ndarray | None, np.ndarray]:
-        """World knees (m, n×3) at a few of v's knee samples, one leg IK each in Python floats (a vectorized IK
-        costs as much for one row as for twenty); and the samples they are at (out of reach ones left out)."""
+        """World knees (m, n×3) at a few of v's knee samples, one leg IK each in Python floats (~3 µs a row; the
+        vectorized IK costs ~35 µs, for one row as for twenty); and the samples they are at (out of reach ones
+        left out)."""
         robot, leg, rf = self.robot, prob.leg, self.r_foot
         rows: list[list[float]] = []
         kept: list[int] = []
+        poses = prob.pose_floats
+        xw, yw = v.xw, v.yw
         for k in v.knee_idx.tolist():
-            pose = prob.poses.get(k)
+            pose = poses.get(k)
             if pose is None:
-                pose = prob.poses[k] = prob.body.pose_at(float(prob.ts[k]))
-            (px, py, pz), ((r00, r01, r02), (r10, r11, r12), (r20, r21, r22)) = (
-                pose[0].tolist(),
-                pose[1].tolist(),
+                p_w, R = prob.body.pose_at(float(prob.ts[k]))
+                pose = poses[k] = (*p_w.tolist(), *R.ravel().tolist())
+            px, py, pz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = pose
+            dx, dy, dz = float(xw[k]) - px, float(yw[k]) - py, float(zs[k]) + rf - pz
+            knee_b = robot.knee_of_foot(
+                leg,
+                r00 * dx + r10 * dy + r20 * dz,
+                r01 * dx + r11 * dy + r21 * dz,
+                r02 * dx + r12 * dy + r22 * dz,
             )
-            dx, dy, dz = float(v.xw[k]) - px, float(v.yw[k]) - py, float(zs[k]) + rf - pz
-            foot_b = np.array(
-                [
-                    r00 * dx + r10 * dy + r20 * dz,
-                    r01 * dx + r11 * dy + r21 * dz,
-                    r02 * dx + r12 * dy + r22 * dz,
-                ]
-            )
-            try:
-                q = robot.ik_leg(leg, foot_b)
-            except ReachError:
-                continue
-            bx, by, bz = robot.knee_body(leg, q).tolist()
+            if knee_b is None:
+                continue  # out of reach
+            bx, by, bz = knee_b
             rows.append(
                 [
                     px + r00 * bx + r01 * by + r02 * bz,
