@@ -516,34 +516,39 @@ def choose_region(
     ox, oy = regions.origin_xy
     w = int(math.ceil(p.search_m / res))
     nx, ny = regions.labels.shape
-    cx = int(round((float(xy[0]) - ox) / res))
-    cy = int(round((float(xy[1]) - oy) / res))
+    x, y = float(xy[0]), float(xy[1])
+    cx = int(round((x - ox) / res))
+    cy = int(round((y - oy) / res))
     i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
     if i0 >= i1 or j0 >= j1:
         return 0
-    lab = np.where(regions.inset[i0:i1, j0:j1], regions.labels[i0:i1, j0:j1], 0)
-    ci, cj = np.nonzero(lab)
+    # The window's inset cells (the inset's labels cached per regions object); x depends on a cell's row only and
+    # y on its column only.
+    lab = regions.inset_labels[i0:i1, j0:j1]
+    ci, cj = lab.nonzero()
     if ci.size == 0:
         return 0
     labs = lab[ci, cj]
-    dx = ox + (i0 + ci) * res - float(xy[0])
-    dy = oy + (j0 + cj) * res - float(xy[1])
+    dx = (ox + np.arange(i0, i1) * res - x)[ci]
+    dy = (oy + np.arange(j0, j1) * res - y)[cj]
     dist = np.hypot(dx, dy)
-    hc = maps.ground_height[i0 + ci, j0 + cj]
-    dz = np.abs(hc - z_ref)
+    dz = np.abs(maps.ground_height[i0:i1, j0:j1][ci, cj] - z_ref)
     ok = (dist <= p.search_m) & (dz <= p.max_rise_m)
     if hip is not None and np.isfinite(reach_m):
-        ok &= np.hypot(dx + float(xy[0]) - float(hip[0]), dy + float(xy[1]) - float(hip[1])) <= reach_m
+        ok &= np.hypot(dx + x - float(hip[0]), dy + y - float(hip[1])) <= reach_m
     cost = np.where(ok, dist + p.w_height * dz, np.inf)
-    best = np.full(int(labs.max()) + 1, np.inf)
-    np.minimum.at(best, labs, cost)
-    choice = int(np.argmin(best))
-    if not np.isfinite(best[choice]):
+    # The region of least cost (a region's cost: its least over its cells; a tie: the lowest label).
+    least = float(cost.min())
+    if not math.isfinite(least):
         return 0
+    choice = int(labs[cost == least].min())
     if keep_xy is not None:
         prev = regions.label_at(float(keep_xy[0]), float(keep_xy[1]))
-        if 0 < prev < best.size and best[prev] <= best[choice] + (np.inf if in_flight else p.keep_m):
-            return prev
+        if 0 < prev <= int(labs.max()):
+            mine = labs == prev
+            prev_cost = float(cost[mine].min()) if mine.any() else np.inf
+            if prev_cost <= least + (np.inf if in_flight else p.keep_m):
+                return prev
     return choice
 
 
@@ -581,8 +586,9 @@ def _ground_nearest(maps: TerrainMaps, x: NDArray[np.float64], y: NDArray[np.flo
     """Gives the ground height (m) of the cells nearest to world (x, y) (border cells beyond the map)."""
     nx, ny = maps.ground_height.shape
     res = maps.resolution_m
-    ix = np.clip(np.rint((x - maps.origin_xy[0]) / res), 0, nx - 1).astype(np.intp)
-    iy = np.clip(np.rint((y - maps.origin_xy[1]) / res), 0, ny - 1).astype(np.intp)
+    # (np.clip's values through minimum / maximum, without its dispatch cost)
+    ix = np.minimum(np.maximum(np.rint((x - maps.origin_xy[0]) / res), 0), nx - 1).astype(np.intp)
+    iy = np.minimum(np.maximum(np.rint((y - maps.origin_xy[1]) / res), 0), ny - 1).astype(np.intp)
     return np.asarray(maps.ground_height[ix, iy], dtype=np.float64)
 
 
@@ -618,21 +624,25 @@ def leg_clearance(
     u = np.array([c, sn])
     res = maps.resolution_m
     s_feet = feet_xy @ u
-    z_feet = _ground_nearest(maps, feet_xy[:, 0], feet_xy[:, 1])
-    feet2 = np.stack([s_feet, z_feet + view.foot_radius_m], axis=1)
     z_hip = hip_height(view, leg)
     hip2 = np.array([float(hip_xy @ u), z_hip])
     within = np.hypot(*(feet_xy - hip_xy[None, :]).T) <= reach_xy(view, p)
     ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
     pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
-    g = _ground_nearest(maps, pts[..., 0], pts[..., 1])
     # the ground's own slope at the foot along the heading: the gentler of the one-sided differences over two
     # cells (a nosing just behind the foot leaves the side ahead; on a slope both are the slope's)
     step = 2.0 * res
     ahead = feet_xy + step * u[None, :]
     behind = feet_xy - step * u[None, :]
-    fwd = (_ground_nearest(maps, ahead[:, 0], ahead[:, 1]) - z_feet) / step
-    bwd = (z_feet - _ground_nearest(maps, behind[:, 0], behind[:, 1])) / step
+    # the ground under the feet, the points behind them, and two cells ahead and behind: one lookup
+    C, M = len(feet_xy), len(ds)
+    every = np.concatenate([feet_xy, pts.reshape(-1, 2), ahead, behind])
+    z_all = _ground_nearest(maps, every[:, 0], every[:, 1])
+    z_feet = z_all[:C]
+    g = z_all[C : C + C * M].reshape(C, M)
+    fwd = (z_all[C + C * M : 2 * C + C * M] - z_feet) / step
+    bwd = (z_feet - z_all[2 * C + C * M :]) / step
+    feet2 = np.stack([s_feet, z_feet + view.foot_radius_m], axis=1)
     slope = np.where(np.abs(fwd) <= np.abs(bwd), fwd, bwd)
     base = z_feet[:, None] + slope[:, None] * ds[None, :]
     edge = g > base + p.shin_edge_m

@@ -190,6 +190,12 @@ class SteppableRegions:
     def polygons_of(self, label: int) -> tuple[ConvexRegion, ...]:
         return tuple(p for p in self.polygons if p.label == label)
 
+    @functools.cached_property
+    def inset_labels(self) -> NDArray[np.int32]:
+        """The labels of the inset cells (0 elsewhere), computed once per regions object (the footholds' region
+        choice reads it eight times a step-plan tick)."""
+        return np.where(self.inset, self.labels, 0).astype(np.int32, copy=False)
+
     def _cell(self, x: float, y: float) -> tuple[int, int]:
         return (
             int(round((x - self.origin_xy[0]) / self.resolution_m)),
