@@ -23,6 +23,7 @@ controller calls.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -30,7 +31,6 @@ from typing import Any
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from planning.steps import SteeringCommand
 from planning.steps.gait import get_gait
@@ -38,6 +38,7 @@ from planning.steps.select import Selection
 from planning.steps.state import StepPath, rotate_yaw
 from planning.swing.params import SwingParams
 from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
+from planning.terrain.gridops import disk_filter
 from planning.terrain.maps import TerrainMaps, maps_from_scene
 from planning.terrain.memory import OverhangMemory
 from planning.terrain.overlays import map_overlays, plan_overlays
@@ -455,19 +456,33 @@ def reach_height(view: TerrainView, pitch: float, p: DecisionParams) -> float:
     return float(np.min(view.p_world_foot[use, 2] + dz - view.z_contact + math.sin(pitch) * x_hip[use]))
 
 
+@functools.lru_cache(maxsize=8)
+def _crouch_offsets(ahead_m: float) -> NDArray[np.float64]:
+    """The points crouch_height looks at, in the body's frame (15 along the heading by 3 across, (15, 3, 2))."""
+    d = np.linspace(-ahead_m, ahead_m, 15)
+    lat = np.array([-0.12, 0.0, 0.12])
+    out = np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1)
+    out.flags.writeable = False
+    return out
+
+
 def crouch_height(
     view: TerrainView, maps: TerrainMaps, p: DecisionParams, overhangs: HeightGrid | None = None
 ) -> float:
     """Gives the highest body height (m) that keeps the body's top under the overhangs around and ahead of the
     body (the clearance map, and the remembered overhang undersides if given; none: the standing height)."""
-    d = np.linspace(-p.crouch_ahead_m, p.crouch_ahead_m, 15)
-    lat = np.array([-0.12, 0.0, 0.12])
-    xy = view.p_world_body[:2] + rotate_yaw(
-        view.yaw, np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1)
-    )
+    xy = view.p_world_body[:2] + rotate_yaw(view.yaw, _crouch_offsets(p.crouch_ahead_m))
     xy = xy.reshape(-1, 2)
-    c = np.asarray(maps.clearance_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
-    wall = np.asarray(maps.no_body(xy[:, 0], xy[:, 1]), dtype=bool)
+    # the clearance and the body obstacles of the nearest cells (as maps.clearance_at and maps.no_body: inf and
+    # False off the map), the cells found once for both
+    nx, ny = maps.shape
+    ix = np.rint((xy[:, 0] - maps.origin_xy[0]) / maps.resolution_m).astype(np.intp)
+    iy = np.rint((xy[:, 1] - maps.origin_xy[1]) / maps.resolution_m).astype(np.intp)
+    on = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+    ix = np.minimum(np.maximum(ix, 0), nx - 1)
+    iy = np.minimum(np.maximum(iy, 0), ny - 1)
+    c = np.where(on, maps.clearance_m[ix, iy], np.inf)
+    wall = on & maps.body_obstacle[ix, iy]
     h_cell = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
     z_feet = view.z_contact
     z_ceiling = h_cell + c
@@ -487,11 +502,11 @@ def swing_ground(maps: TerrainMaps, radius_m: float) -> HeightGrid:
     r = max(int(math.ceil(radius_m / res - 1e-9)), 0)
     i = np.arange(-r, r + 1)
     disk = (i[:, None] ** 2 + i[None, :] ** 2) * res * res <= radius_m**2 + 1e-12
-    h = (
-        ndimage.maximum_filter(maps.ground_height, footprint=disk, mode="nearest")
-        if r
-        else maps.ground_height
-    )
+    # The disk's empty outer rings left out (a radius under a cell: the cell alone), then gridops' row-run filter:
+    # ndimage.maximum_filter's values with mode "nearest", in a fraction of its time.
+    while disk.shape[0] > 1 and not disk[0].any():
+        disk = disk[1:-1, 1:-1]
+    h = disk_filter(maps.ground_height, disk, np.maximum) if disk.shape[0] > 1 else maps.ground_height
     return HeightGrid(maps.origin_xy, res, np.asarray(h, dtype=np.float64))
 
 
