@@ -74,6 +74,9 @@ class DecisionParams:
     the body off the line between them and roll it over); hump_above_start: the swing time the gait must give
     (cadence) counts only ground that rises above the foot's own height as well as above its straight path (a
     foot stepping down past an edge at its own height needs no rise, and keeps the walk's short swings);
+    count_step_rise: the swing time counts as well how far a next foothold lies above its foot where the two are on
+    different regions (step_rise: a riser climbed, a box stepped onto; a slope is one region), so a swing up a
+    riser has the time to rise over it (the 0.3 s swings of `climb` are too short for a 0.12 m riser);
     slow_gait, slow_gap_m, gap_behind_m, gap_ahead_m: the
     gait where a gap wider than slow_gap_m lies on the feet's lines from gap_behind_m behind the body to
     gap_ahead_m ahead (far enough ahead that the switch is made before the front feet reach it); lookahead_m, yaw_gain,
@@ -154,6 +157,7 @@ class DecisionParams:
     height_reach_frac: float = 0.9
     lost_hold_m: float = 0.03
     gap_dip_m: float | None = None
+    count_step_rise: bool = True
 
 
 # ---- typed inputs and outputs ----------------------------------------------------------------------------------
@@ -332,11 +336,35 @@ def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | Non
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
         return p.slow_gait
     rise = swing_hump(view, world, last, p.hump_above_start)
+    if p.count_step_rise:
+        rise += step_rise(view, world, last)
     need = p.base_swing_s + rise / p.rise_speed_mps
     for name in (view.fast_gait, *p.climb_gaits):
         if get_gait(name).swing_s >= need - 1e-9:
             return name
     return p.climb_gaits[-1] if p.climb_gaits else view.fast_gait
+
+
+def step_rise(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None) -> float:
+    """Gives the most (m) a chosen next foothold lies above its foot where the two stand on different regions (a
+    riser's tread above, a box's or a stone's top): the height a swing climbs besides its hump; 0 on one region
+    (a slope is one plane) or stepping down."""
+    if last is None:
+        return 0.0
+    chosen = last.memory.p_chosen
+    regions = world.regions
+    most = 0.0
+    for leg in range(4):
+        b = chosen[leg]
+        if not np.all(np.isfinite(b)):
+            continue
+        a = view.p_world_foot[leg]
+        up = float(b[2]) - (float(a[2]) - view.foot_radius_m)
+        if up > most and regions.label_at(float(a[0]), float(a[1])) != regions.label_at(
+            float(b[0]), float(b[1])
+        ):
+            most = up
+    return most
 
 
 def swing_hump(
