@@ -5,7 +5,7 @@
 what they gave). ``replay FILE``: feeds the same inputs, in the same order, to this tree's functions (a fresh step
 QP, which then sees the same warm starts; the polygon cache emptied with each new map, as the pipeline does) and
 prints each function's CPU time per call in this thread (p50, mean, total) and the largest difference from the
-recorded answers (footholds in m, the commands). Replaying one recording through two checkouts, alternating, gives
+recorded answers (footholds and their largest shift and mean setback in m, the step QP's footholds, the commands). Replaying one recording through two checkouts, alternating, gives
 their costs side by side on the same inputs (``PYTHONPATH=OTHER_TREE python -m benchmarks.footholds_replay replay
 FILE``), and whether the new code decides the same.
 
@@ -56,7 +56,8 @@ def record(path: str, duration_s: float) -> int:
             qp_params.append(qp.params)
         d = choose0(view, path_, world, memory, qp, params, cache)
         plan = None if d.plan is None else d.plan.footholds.copy()
-        calls.append(("footholds", (view, path_, world, memory, params), (d.p_world_touchdown.copy(), plan)))
+        out = (d.p_world_touchdown.copy(), plan, np.array([d.max_shift_m, d.back_m]))
+        calls.append(("footholds", (view, path_, world, memory, params), out))
         return d
 
     decision.decide, decision.choose_footholds = decide_rec, choose_rec  # type: ignore[assignment]
@@ -110,7 +111,7 @@ def replay(path: str, repeat: int = 1) -> dict[str, Any]:
                 cpu[kind].append(time.thread_time() - c0)
                 plan = None if fd.plan is None else fd.plan.footholds
                 worst["plan"] = max(worst["plan"], _diff(plan, out[1]))
-                dv = _diff(fd.p_world_touchdown, out[0])
+                dv = max(_diff(fd.p_world_touchdown, out[0]), _diff([fd.max_shift_m, fd.back_m], out[2]))
             if rep == 0:
                 worst[kind] = max(worst[kind], dv)
                 mismatched[kind] += dv > 0.0

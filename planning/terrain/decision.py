@@ -742,22 +742,29 @@ def step_request(
     when they are not every leg once per 4 slots."""
     legs = path.leg[order].astype(np.intp)
     K = legs.size
-    if any(legs[k] != legs[k - 4] for k in range(4, K)) or sorted(legs[:4].tolist()) != [0, 1, 2, 3]:
+    legs_l = legs.tolist()
+    if any(legs_l[k] != legs_l[k - 4] for k in range(4, K)) or sorted(legs_l[:4]) != [0, 1, 2, 3]:
         return None
     t_now = view.t_s
     t_td = path.t_touchdown[order] - t_now
+    # (on Python floats: the same arithmetic, one slot at a time)
+    td_l = t_td.tolist()
+    lift_l = path.t_liftoff.tolist()
+    lift_now_l = path.t_liftoff_now.tolist()
     t_lo = np.empty(K)
-    for j, k in enumerate(order):
-        leg = int(path.leg[k])
-        prev = [i for i in order[:j] if path.leg[i] == leg]
-        if prev:
-            t_lo[j] = path.t_liftoff[prev[-1]] - t_now
+    last: dict[int, int] = {}  # each leg's latest slot so far (an index into the path)
+    for j, k in enumerate(order.tolist()):
+        leg = legs_l[j]
+        if leg in last:
+            t_lo[j] = lift_l[last[leg]] - t_now
         else:
-            lo = path.t_liftoff_now[leg]
-            t_lo[j] = -1.0 if np.isnan(lo) else min(float(lo) - t_now, float(t_td[j]) - 1e-3)
+            lo = lift_now_l[leg]
+            t_lo[j] = -1.0 if math.isnan(lo) else min(lo - t_now, td_l[j] - 1e-3)
+        last[leg] = k
     body = path.body
     t_abs = path.t_touchdown[order]
-    later = np.array([t_abs[t_abs > t + 1e-6].min() if np.any(t_abs > t + 1e-6) else t + 0.2 for t in t_abs])
+    abs_l = t_abs.tolist()
+    later = np.array([min([u for u in abs_l if u > t + 1e-6], default=t + 0.2) for t in abs_l])
     t_mid = 0.5 * (t_abs + later)
     p_hip = body.position(t_abs) + rotate_yaw(body.yaw(t_abs), view.p_body_hip[legs])
     return StepRequest(
@@ -828,16 +835,16 @@ def choose_footholds(
     hips = bodies + rotate_yaw(yaws, view.p_body_hip[legs])
     reach = reach_xy(view, p)
     lost = np.zeros(K, dtype=bool)
+    # per leg, as Python bools: the remembered choice is of this touchdown (same) and complete (finite)
+    held_l = (same & np.all(np.isfinite(memory.p_chosen), axis=1)).tolist()
+    stance_l = view.stance.tolist()
+    legs_l = legs.tolist()
     for j, k in enumerate(order):
-        leg = int(legs[j])
+        leg = legs_l[j]
         nom = path.p_world_touchdown[k, :2]
         first = j < 4
-        keep = (
-            memory.p_chosen[leg, :2]
-            if first and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
-            else None
-        )
-        flying = first and not bool(view.stance[leg])
+        keep = memory.p_chosen[leg, :2] if first and held_l[leg] else None
+        flying = first and not stance_l[leg]
         if keep is not None and lost_region(regions, maps, memory.p_chosen[leg], p):
             lost[j] = True
             polys.append(None)
@@ -885,24 +892,27 @@ def choose_footholds(
         plan = qp.solve(req, maps, rows)
         if not np.all(np.isfinite(plan.footholds)):
             plan = None
-    t_rel = path.t_touchdown[order] - view.t_s
+    t_rel = (path.t_touchdown[order] - view.t_s).tolist()
     shift = 0.0
     back = 0.0
-    u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    ux, uy = math.cos(view.yaw), math.sin(view.yaw)
     for j, k in enumerate(order):
-        leg = int(legs[j])
-        held = j < 4 and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
+        leg = legs_l[j]
+        held = j < 4 and held_l[leg]
         if (t_rel[j] < p.freeze_s and held) or lost[j]:
             p_new[k] = memory.p_chosen[leg]
         elif plan is not None:
-            xy = plan.footholds[j, :2]
-            p_new[k, :2] = xy
-            p_new[k, 2] = float(maps.height_at(float(xy[0]), float(xy[1])))
+            x, y = plan.footholds[j, :2].tolist()
+            p_new[k, 0], p_new[k, 1] = x, y
+            p_new[k, 2] = float(maps.height_at(x, y))
         if j < 4:
-            move = p_new[k, :2] - path.p_world_touchdown[k, :2]
-            ahead = max(0.0, float(move @ u)) if not p.shift_counts_ahead else 0.0
-            shift = max(shift, float(np.linalg.norm(move - ahead * u)))
-            back += max(0.0, -float(move @ u)) / 4.0
+            # on Python floats: the move off the nominal, along the heading (a dot of two) and across it
+            mx, my = (p_new[k, :2] - path.p_world_touchdown[k, :2]).tolist()
+            along = mx * ux + my * uy
+            ahead = max(0.0, along) if not p.shift_counts_ahead else 0.0
+            rx, ry = mx - ahead * ux, my - ahead * uy
+            shift = max(shift, math.sqrt(rx * rx + ry * ry))
+            back += max(0.0, -along) / 4.0
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
     return FootholdDecision(
