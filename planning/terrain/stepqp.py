@@ -380,7 +380,7 @@ class StepQP:
                 self._keep_planes[k] = []
                 continue
             g, b = _region_arrays(r, p.keep_clearance_m, p.keep_planes)
-            self._keep_planes[k] = [(g[i], bi) for i, bi in enumerate(b.tolist())]
+            self._keep_planes[k] = list(zip(g, b.tolist(), strict=True))
             slots.append(np.full(len(b), k, dtype=np.intp))
             planes.append(np.arange(len(b), dtype=np.intp))
             gs.append(g)
@@ -526,7 +526,7 @@ class StepQP:
             a = np.asarray(getattr(req, name))
             if a.shape != shape:
                 raise ValueError(f"StepRequest.{name}: expected shape {shape}, got {a.shape}")
-            if not np.all(np.isfinite(a)):
+            if not np.isfinite(a).all():
                 raise ValueError(f"StepRequest.{name}: contains NaN or inf")
         legs = np.asarray(req.legs)
         if np.any((legs < 0) | (legs > 3)):
