@@ -567,6 +567,87 @@ def choose_region(
     return choice
 
 
+def _choose_regions(
+    regions: SteppableRegions,
+    maps: TerrainMaps,
+    xys: NDArray[np.float64],
+    z_refs: list[float],
+    keeps: list[NDArray[np.float64] | None],
+    p: DecisionParams,
+    flying: list[bool],
+    hips: NDArray[np.float64],
+    reach_m: float,
+) -> list[int]:
+    """choose_region for several footholds at once (xys (S, 2), a height reference, kept place, flight flag and
+    hip (S, 2) each): the window cells of all of them in one set of arrays, each one's least cost, lowest label of
+    it and kept region's least cost by segment (min / max are exact in any order: the same answers)."""
+    S = len(z_refs)
+    if S == 1:
+        return [choose_region(regions, maps, xys[0], z_refs[0], keeps[0], p, flying[0], hips[0], reach_m)]
+    res = regions.resolution_m
+    ox, oy = regions.origin_xy
+    w = int(math.ceil(p.search_m / res))
+    nx, ny = regions.labels.shape
+    parts: list[tuple[NDArray[Any], ...]] = []
+    seg: list[int] = []  # the slots with window cells, in order
+    for s, (x, y) in enumerate(xys.tolist()):
+        cx = int(round((x - ox) / res))
+        cy = int(round((y - oy) / res))
+        i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
+        if i0 >= i1 or j0 >= j1:
+            continue
+        lab = regions.inset_labels[i0:i1, j0:j1]
+        ci, cj = lab.nonzero()
+        if ci.size == 0:
+            continue
+        parts.append(
+            (
+                lab[ci, cj],
+                (ox + np.arange(i0, i1) * res - x)[ci],
+                (oy + np.arange(j0, j1) * res - y)[cj],
+                maps.ground_height[i0:i1, j0:j1][ci, cj],
+            )
+        )
+        seg.append(s)
+    out = [0] * S
+    if not seg:
+        return out
+    sizes = np.array([len(part[0]) for part in parts])
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    labs, dx, dy, hc = (np.concatenate([part[i] for part in parts]) for i in range(4))
+    rep = np.repeat(np.arange(len(seg)), sizes)
+    seg_a = np.array(seg)
+    z_cell = np.array(z_refs)[seg_a][rep]
+    dist = np.hypot(dx, dy)
+    dz = np.abs(hc - z_cell)
+    ok = (dist <= p.search_m) & (dz <= p.max_rise_m)
+    if np.isfinite(reach_m):
+        x_cell = xys[seg_a, 0][rep]
+        y_cell = xys[seg_a, 1][rep]
+        ok &= np.hypot(dx + x_cell - hips[seg_a, 0][rep], dy + y_cell - hips[seg_a, 1][rep]) <= reach_m
+    cost = np.where(ok, dist + p.w_height * dz, np.inf)
+    least = np.minimum.reduceat(cost, starts)
+    big = np.iinfo(labs.dtype).max
+    lowest = np.minimum.reduceat(np.where(cost == least[rep], labs, big), starts)
+    top = np.maximum.reduceat(labs, starts)
+    prev = np.zeros(len(seg), dtype=labs.dtype)
+    for g, s in enumerate(seg):
+        keep = keeps[s]
+        if keep is not None:
+            prev[g] = regions.label_at(float(keep[0]), float(keep[1]))
+    prev_cost = np.minimum.reduceat(np.where(labs == prev[rep], cost, np.inf), starts)
+    for g, s in enumerate(seg):
+        if not math.isfinite(float(least[g])):
+            continue
+        choice = int(lowest[g])
+        pv = int(prev[g])
+        if keeps[s] is not None and 0 < pv <= int(top[g]):
+            if float(prev_cost[g]) <= float(least[g]) + (np.inf if flying[s] else p.keep_m):
+                choice = pv
+        out[s] = choice
+    return out
+
+
 def lost_region(
     regions: SteppableRegions, maps: TerrainMaps, p_prev: NDArray[np.float64], p: DecisionParams
 ) -> bool:
@@ -842,7 +923,6 @@ def choose_footholds(
     order = np.lexsort((path.leg, path.t_touchdown))[:K]
     legs = path.leg[order].astype(np.intp)
     same = np.abs(memory.t_touchdown - t_td_next) < 0.15
-    polys: list[ConvexRegion | None] = []
     z_ref = z_stance.copy()
     cache = {} if polygon_cache is None else polygon_cache
     res = regions.resolution_m
@@ -856,27 +936,51 @@ def choose_footholds(
     held_l = (same & np.all(np.isfinite(memory.p_chosen), axis=1)).tolist()
     stance_l = view.stance.tolist()
     legs_l = legs.tolist()
-    for j, k in enumerate(order):
-        leg = legs_l[j]
-        nom = path.p_world_touchdown[k, :2]
-        first = j < 4
-        keep = memory.p_chosen[leg, :2] if first and held_l[leg] else None
-        flying = first and not stance_l[leg]
-        if keep is not None and lost_region(regions, maps, memory.p_chosen[leg], p):
-            lost[j] = True
-            polys.append(None)
-            z_ref[leg] = float(memory.p_chosen[leg, 2])
-            continue
-        label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying, hips[j], reach)
-        poly = None
-        if label:
-            key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
-            if key not in cache:
-                cache[key] = convex_around(regions, label, nom, p.window_m)
-            poly = cache[key]
-        polys.append(poly)
-        if poly is not None:
-            z_ref[leg] = float(poly.height_at(poly.project(nom)))
+    # In strides of four slots (one per leg: a stride's choices do not depend on each other), the regions of a
+    # stride's slots chosen at once (_choose_regions: choose_region's answers), then their polygons in slot order.
+    order_l = order.tolist()
+    polys: list[ConvexRegion | None] = [None] * K
+    for g0 in range(0, K, 4):
+        group = list(range(g0, min(g0 + 4, K)))
+        if len({legs_l[j] for j in group}) < len(group):
+            group_sets = [[j] for j in group]  # a leg twice in a stride: one slot at a time
+        else:
+            group_sets = [group]
+        for gs in group_sets:
+            asked: list[tuple[int, NDArray[np.float64] | None, bool]] = []
+            for j in gs:
+                leg = legs_l[j]
+                first = j < 4
+                keep = memory.p_chosen[leg, :2] if first and held_l[leg] else None
+                if keep is not None and lost_region(regions, maps, memory.p_chosen[leg], p):
+                    lost[j] = True
+                    z_ref[leg] = float(memory.p_chosen[leg, 2])
+                    continue
+                asked.append((j, keep, first and not stance_l[leg]))
+            if not asked:
+                continue
+            labels = _choose_regions(
+                regions,
+                maps,
+                path.p_world_touchdown[[order_l[j] for j, _, _ in asked], :2],
+                [float(z_ref[legs_l[j]]) for j, _, _ in asked],
+                [keep for _, keep, _ in asked],
+                p,
+                [flying for _, _, flying in asked],
+                hips[[j for j, _, _ in asked]],
+                reach,
+            )
+            for (j, _, _), label in zip(asked, labels, strict=True):
+                nom = path.p_world_touchdown[order_l[j], :2]
+                poly = None
+                if label:
+                    key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
+                    if key not in cache:
+                        cache[key] = convex_around(regions, label, nom, p.window_m)
+                    poly = cache[key]
+                polys[j] = poly
+                if poly is not None:
+                    z_ref[legs_l[j]] = float(poly.height_at(poly.project(nom)))
     # Each polygon of the next touchdowns with its bounds along the heading (the shin clear of edges behind the
     # foot, the hip in reach).
     # (leg_bounds' first test, the shin and the reach at each polygon's place nearest the nominal foothold, for the
