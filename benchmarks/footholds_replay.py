@@ -9,7 +9,8 @@ recorded answers (footholds and their largest shift and mean setback in m, the s
 their costs side by side on the same inputs (``PYTHONPATH=OTHER_TREE python -m benchmarks.footholds_replay replay
 FILE``), and whether the new code decides the same.
 
-Run: ``python -m benchmarks.footholds_replay record /tmp/fh.pkl --duration 10``, then ``... replay /tmp/fh.pkl``.
+Run: ``python -m benchmarks.footholds_replay record /tmp/fh.pkl --duration 10`` (``--terrain clutter``: the same walk
+there), then ``... replay /tmp/fh.pkl``.
 """
 
 from __future__ import annotations
@@ -38,8 +39,9 @@ def _decide_out(d: Any) -> tuple[Any, ...]:
     )
 
 
-def record(path: str, duration_s: float) -> int:
-    """Runs the regions climb, storing every decide / choose_footholds call with its answer; gives the count."""
+def record(path: str, duration_s: float, terrain: str = "stairs") -> int:
+    """Runs the regions climb (or the same walk on another terrain, its goal 6 m ahead), storing every decide /
+    choose_footholds call with its answer; gives the count."""
     calls: list[tuple[Any, ...]] = []
     decide0, choose0 = decision.decide, decision.choose_footholds
     qp_params: list[Any] = []
@@ -62,7 +64,7 @@ def record(path: str, duration_s: float) -> int:
 
     decision.decide, decision.choose_footholds = decide_rec, choose_rec  # type: ignore[assignment]
     try:
-        cmd, terrain, _ = _WALKS["stairs_regions"]
+        cmd, _, _ = _WALKS["stairs_regions"]
         report = WalkSession(cmd, RunOptions(terrain=terrain, duration_s=duration_s)).run(None)
     finally:
         decision.decide, decision.choose_footholds = decide0, choose0  # type: ignore[assignment]
@@ -136,9 +138,10 @@ def main() -> None:
     ap.add_argument("file")
     ap.add_argument("--duration", type=float, default=10.0)
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--terrain", default="stairs", help="record: the terrain walked (default stairs)")
     a = ap.parse_args()
     if a.mode == "record":
-        print(json.dumps({"calls": record(a.file, a.duration)}))
+        print(json.dumps({"calls": record(a.file, a.duration, a.terrain)}))
     else:
         print(json.dumps(replay(a.file, a.repeat), indent=1))
 

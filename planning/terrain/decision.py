@@ -585,7 +585,7 @@ def knee_points(
     (along the heading, up) in the leg's plane, with the knee behind the hip-foot line (a knee that points back;
     a foot beyond the leg's length: the leg straight toward it, as the body will come down to it), and whether
     each foot is far enough from the hip for the leg to fold to it."""
-    d = feet - hip[None, :]
+    d = feet - hip  # (hip (2,), or one per foot (C, 2))
     D = np.hypot(d[:, 0], d[:, 1])
     reach = D > abs(l_upper - l_lower) + 1e-3
     Ds = np.where(reach, np.minimum(D, l_upper + l_lower - 1e-3), 1.0)
@@ -594,7 +594,7 @@ def knee_points(
     e = d / Ds[:, None]
     perp = np.stack([-e[:, 1], e[:, 0]], axis=1)
     perp *= np.where(perp[:, 0] > 0.0, -1.0, 1.0)[:, None]  # toward the back
-    return hip[None, :] + a[:, None] * e + h[:, None] * perp, reach
+    return hip + a[:, None] * e + h[:, None] * perp, reach
 
 
 def _ground_nearest(maps: TerrainMaps, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -635,13 +635,30 @@ def leg_clearance(
     distance (m) from the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it
     stands more than shin_edge_m above the ground's own slope at the foot carried back (a slope is no edge) (inf:
     no such ground; -inf: out of reach), and whether the foot is within reach of the hip (reach_xy)."""
+    return _clearance(view, maps, hip_height(view, leg), hip_xy, feet_xy, p)
+
+
+def _clearance(
+    view: TerrainView,
+    maps: TerrainMaps,
+    z_hip: Any,
+    hip_xy: NDArray[np.float64],
+    feet_xy: NDArray[np.float64],
+    p: DecisionParams,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """leg_clearance with the hip's height z_hip (m) and place hip_xy (2,), or one of each per foot ((C,), (C, 2)):
+    several legs' footholds in one evaluation, the same arithmetic row by row. (As in leg_clearance, rows are -inf
+    where the leg cannot fold to the foot as soon as any row has an edge behind it: a row alone without one would
+    give inf. The footholds' batched test then sends that slot through leg_bounds, which decides as before.)"""
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     res = maps.resolution_m
     s_feet = feet_xy @ u
-    z_hip = hip_height(view, leg)
-    hip2 = np.array([float(hip_xy @ u), z_hip])
-    within = np.hypot(*(feet_xy - hip_xy[None, :]).T) <= reach_xy(view, p)
+    if hip_xy.ndim == 1:
+        hip2 = np.array([float(hip_xy @ u), z_hip])
+    else:
+        hip2 = np.column_stack([hip_xy @ u, np.asarray(z_hip, dtype=np.float64)])
+    within = np.hypot(*(feet_xy - hip_xy).T) <= reach_xy(view, p)
     ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
     pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
     # the ground's own slope at the foot along the heading: the gentler of the one-sided differences over two
@@ -862,6 +879,17 @@ def choose_footholds(
             z_ref[leg] = float(poly.height_at(poly.project(nom)))
     # Each polygon of the next touchdowns with its bounds along the heading (the shin clear of edges behind the
     # foot, the hip in reach).
+    # (leg_bounds' first test, the shin and the reach at each polygon's place nearest the nominal foothold, for the
+    # first four slots in one evaluation: most pass it, and leg_bounds then has nothing to add)
+    first4 = [(j, q) for j, q in enumerate(polys[:4]) if q is not None]
+    passed: set[int] = set()
+    if first4 and view.l_upper_m > 0.0 and view.l_lower_m > 0.0:
+        slots = [j for j, _ in first4]
+        bases = np.array([q.project(path.p_world_touchdown[order[j], :2]) for j, q in first4])
+        z_hips = np.array([hip_height(view, legs_l[j]) for j in slots])
+        clear0, within0 = _clearance(view, maps, z_hips, hips[slots], bases, p)
+        ok0 = ((clear0 >= p.shin_clear_m) & within0).tolist()
+        passed = {j for j, ok in zip(slots, ok0, strict=True) if ok}
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
         if q is None:
@@ -869,7 +897,7 @@ def choose_footholds(
             continue
         bounds = (
             leg_bounds(view, maps, int(legs[j]), hips[j], path.p_world_touchdown[k, :2], q, p)
-            if j < 4
+            if j < 4 and j not in passed
             else []
         )
         if not bounds:

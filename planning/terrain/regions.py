@@ -143,7 +143,12 @@ class ConvexRegion:
     def height_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
         """Gives the plane's height (m) at points (.., 2)."""
         n = self.normal
-        d = np.asarray(xy, dtype=np.float64) - self.xy0
+        p = np.asarray(xy, dtype=np.float64)
+        if p.shape == (2,):
+            # one point (the footholds ask for one at a time): the same arithmetic on Python floats
+            (px, py), (x0, y0), (n0, n1, n2) = p.tolist(), self.xy0.tolist(), n.tolist()
+            return np.asarray(self.z0 - ((px - x0) * n0 + (py - y0) * n1) / n2, dtype=np.float64)
+        d = p - self.xy0
         return np.asarray(self.z0 - (d @ n[:2]) / n[2], dtype=np.float64)
 
 

@@ -434,3 +434,25 @@ def test_choose_region_equals_its_cell_by_cell_rule(seed: int) -> None:
         got = choose_region(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
         want = _choose_region_reference(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
         assert got == want
+
+
+def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own() -> None:
+    """The footholds test the first four slots' shins in one evaluation (a hip per foot): the same clearances and
+    reaches as leg_clearance leg by leg, near the nosing and beyond reach."""
+    from planning.terrain.decision import _clearance, hip_height
+
+    world = _steps_down()
+    view = dataclass_replace(_leg_view(0.85, 0.6), pitch_rad=0.2)
+    rng = np.random.default_rng(3)
+    legs = np.array([0, 1, 2, 3, 0, 2])
+    hips = np.column_stack([0.85 + view.p_body_hip[legs, 0], view.p_body_hip[legs, 1]]) + rng.normal(
+        0, 0.02, (6, 2)
+    )
+    feet = np.column_stack([rng.uniform(0.9, 1.6, 6), rng.uniform(-0.2, 0.2, 6)])
+    feet[5] = hips[5] + 0.8  # out of reach
+    z_hips = np.array([hip_height(view, int(leg)) for leg in legs])
+    clear, within = _clearance(view, world.maps, z_hips, hips, feet, P)
+    for i, leg in enumerate(legs):
+        c1, w1 = leg_clearance(view, world.maps, int(leg), hips[i], feet[i : i + 1], P)
+        assert clear[i] == c1[0] and within[i] == w1[0]
+    assert not within[5] and np.any(np.isfinite(clear))
