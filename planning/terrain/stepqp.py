@@ -491,7 +491,8 @@ class StepQP:
         ]
         feet = x[: 2 * K].reshape(K, 2)
         slack_all = x[4 * K :].reshape(K, len(FAMILIES))
-        slack = {fam: float(max(0.0, slack_all[:, _F[fam]].max())) for fam in FAMILIES}
+        top = slack_all.max(axis=0).tolist()  # each family's largest slack over the slots
+        slack = {fam: float(max(0.0, top[_F[fam]])) for fam in FAMILIES}
         softened = tuple(f for f in FAMILIES if slack[f] > p.softened_tol_m)
         if maps is not None:
             z = np.asarray(maps.height_at(feet[:, 0], feet[:, 1]), dtype=np.float64)
