@@ -92,6 +92,12 @@ class SwingParams:
     # is as high as it reaches, when that clears the terrain by 5 mm (True), or does not wait (False)
     rise_first_within_reach: bool = False
     step_down_top_m: float = 0.10  # a step down (by more than rise_first_above_m) rises at most this much
+    # A plan that collides with the terrain or scrapes an edge is planned again with its apex free of the swing's
+    # first plan's (apex_tolerance_m: the foothold moved, or the map changed, since), and, still colliding, a swing
+    # that is not a step up rises first over a box on its route (terrain on the straight route higher than both the
+    # lift-off height and the line to the touchdown by more than rise_first_above_m); each kept when it ranks better.
+    # False: neither (boxes on the way are the tiers' business)
+    rise_over_boxes: bool = False
 
     # Other legs
     keepout_radius_m: float = 0.07  # lower legs closer than this collide (foot center to segment foot→knee)
