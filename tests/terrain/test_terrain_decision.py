@@ -380,3 +380,57 @@ def test_a_table_top_out_of_the_sensors_sight_is_remembered_and_keeps_the_body_c
     assert crouch_height(view, maps, P) == pytest.approx(view.standing_height_m)
     crouched = crouch_height(view, maps, P, HeightGrid(origin, RES, remembered))
     assert P.min_height_m <= crouched <= 0.58 - P.body_top_m - P.head_margin_m + 1e-9
+
+
+def _choose_region_reference(regions, maps, xy, z_ref, keep_xy, p, in_flight, hip, reach_m):  # type: ignore[no-untyped-def]
+    """choose_region's rule cell by cell: each region's least cost over its inset cells in the window."""
+    res, (ox, oy) = regions.resolution_m, regions.origin_xy
+    w = int(math.ceil(p.search_m / res))
+    cx, cy = int(round((xy[0] - ox) / res)), int(round((xy[1] - oy) / res))
+    best: dict[int, float] = {}
+    for i in range(max(cx - w, 0), min(cx + w + 1, regions.labels.shape[0])):
+        for j in range(max(cy - w, 0), min(cy + w + 1, regions.labels.shape[1])):
+            if not regions.inset[i, j]:
+                continue
+            lab = int(regions.labels[i, j])
+            dx, dy = ox + i * res - xy[0], oy + j * res - xy[1]
+            dist, dz = math.hypot(dx, dy), abs(float(maps.ground_height[i, j]) - z_ref)
+            ok = dist <= p.search_m and dz <= p.max_rise_m
+            if hip is not None and math.isfinite(reach_m):
+                ok = ok and math.hypot(dx + xy[0] - hip[0], dy + xy[1] - hip[1]) <= reach_m
+            best[lab] = min(best.get(lab, math.inf), dist + p.w_height * dz if ok else math.inf)
+    finite = {k: v for k, v in best.items() if math.isfinite(v)}
+    if not finite:
+        return 0
+    choice = min(finite, key=lambda k: (finite[k], k))
+    if keep_xy is not None:
+        prev = regions.label_at(keep_xy[0], keep_xy[1])
+        if 0 < prev <= max(best) and best.get(prev, math.inf) <= finite[choice] + (
+            math.inf if in_flight else p.keep_m
+        ):
+            return prev
+    return choice
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_choose_region_equals_its_cell_by_cell_rule(seed: int) -> None:
+    """The region choice on the window's arrays against the rule cell by cell: random terraces, kept regions in
+    flight or not, hips with a reach."""
+    rng = np.random.default_rng(seed)
+    nx, ny = 50, 40
+    h = np.round(rng.integers(0, 4, (5, 4)).astype(np.float64) * 0.05, 2)
+    h = np.kron(h, np.ones((10, 10)))
+    xs, ys = np.arange(nx) * RES, -0.6 + np.arange(ny) * RES
+    maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    regions = segment_regions(maps, P.regions, cover=False)
+    assert regions.n_regions > 2
+    for _ in range(40):
+        xy = np.array([rng.uniform(-0.2, 1.7), rng.uniform(-0.8, 0.8)])
+        z_ref = float(rng.choice([0.0, 0.05, 0.1, 0.15]))
+        keep = None if rng.random() < 0.3 else np.array([rng.uniform(0, 1.5), rng.uniform(-0.6, 0.6)])
+        flying = bool(rng.random() < 0.5)
+        hip = None if rng.random() < 0.5 else xy + rng.uniform(-0.2, 0.2, 2)
+        reach = float(rng.uniform(0.1, 0.4))
+        got = choose_region(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
+        want = _choose_region_reference(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
+        assert got == want
