@@ -543,6 +543,7 @@ class SwingPlanner:
             previous_policy=self._previous[leg],
             u_z_aggressive=undesirability_z(z_agg, agg.height_m, pr),
             z_ref=z_ref,
+            xy_liftoff=self._xy_liftoff[leg],
             z_ceiling=z_ceiling,
             hold=hold,
             hip_z_min=hip_z_min,
