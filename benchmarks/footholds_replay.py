@@ -5,11 +5,12 @@
 what they gave). ``replay FILE``: feeds the same inputs, in the same order, to this tree's functions (a fresh step
 QP, which then sees the same warm starts; the polygon cache emptied with each new map, as the pipeline does) and
 prints each function's CPU time per call in this thread (p50, mean, total) and the largest difference from the
-recorded answers (footholds in m, the commands). Replaying one recording through two checkouts, alternating, gives
+recorded answers (footholds and their largest shift and mean setback in m, the step QP's footholds, the commands). Replaying one recording through two checkouts, alternating, gives
 their costs side by side on the same inputs (``PYTHONPATH=OTHER_TREE python -m benchmarks.footholds_replay replay
 FILE``), and whether the new code decides the same.
 
-Run: ``python -m benchmarks.footholds_replay record /tmp/fh.pkl --duration 10``, then ``... replay /tmp/fh.pkl``.
+Run: ``python -m benchmarks.footholds_replay record /tmp/fh.pkl --duration 10`` (``--terrain clutter``: the same walk
+there), then ``... replay /tmp/fh.pkl``.
 """
 
 from __future__ import annotations
@@ -38,8 +39,9 @@ def _decide_out(d: Any) -> tuple[Any, ...]:
     )
 
 
-def record(path: str, duration_s: float) -> int:
-    """Runs the regions climb, storing every decide / choose_footholds call with its answer; gives the count."""
+def record(path: str, duration_s: float, terrain: str = "stairs") -> int:
+    """Runs the regions climb (or the same walk on another terrain, its goal 6 m ahead), storing every decide /
+    choose_footholds call with its answer; gives the count."""
     calls: list[tuple[Any, ...]] = []
     decide0, choose0 = decision.decide, decision.choose_footholds
     qp_params: list[Any] = []
@@ -56,12 +58,13 @@ def record(path: str, duration_s: float) -> int:
             qp_params.append(qp.params)
         d = choose0(view, path_, world, memory, qp, params, cache)
         plan = None if d.plan is None else d.plan.footholds.copy()
-        calls.append(("footholds", (view, path_, world, memory, params), (d.p_world_touchdown.copy(), plan)))
+        out = (d.p_world_touchdown.copy(), plan, np.array([d.max_shift_m, d.back_m]))
+        calls.append(("footholds", (view, path_, world, memory, params), out))
         return d
 
     decision.decide, decision.choose_footholds = decide_rec, choose_rec  # type: ignore[assignment]
     try:
-        cmd, terrain, _ = _WALKS["stairs_regions"]
+        cmd, _, _ = _WALKS["stairs_regions"]
         report = WalkSession(cmd, RunOptions(terrain=terrain, duration_s=duration_s)).run(None)
     finally:
         decision.decide, decision.choose_footholds = decide0, choose0  # type: ignore[assignment]
@@ -110,7 +113,7 @@ def replay(path: str, repeat: int = 1) -> dict[str, Any]:
                 cpu[kind].append(time.thread_time() - c0)
                 plan = None if fd.plan is None else fd.plan.footholds
                 worst["plan"] = max(worst["plan"], _diff(plan, out[1]))
-                dv = _diff(fd.p_world_touchdown, out[0])
+                dv = max(_diff(fd.p_world_touchdown, out[0]), _diff([fd.max_shift_m, fd.back_m], out[2]))
             if rep == 0:
                 worst[kind] = max(worst[kind], dv)
                 mismatched[kind] += dv > 0.0
@@ -135,9 +138,10 @@ def main() -> None:
     ap.add_argument("file")
     ap.add_argument("--duration", type=float, default=10.0)
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--terrain", default="stairs", help="record: the terrain walked (default stairs)")
     a = ap.parse_args()
     if a.mode == "record":
-        print(json.dumps({"calls": record(a.file, a.duration)}))
+        print(json.dumps({"calls": record(a.file, a.duration, a.terrain)}))
     else:
         print(json.dumps(replay(a.file, a.repeat), indent=1))
 

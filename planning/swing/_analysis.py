@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planning.robot import RobotModel
-from planning.swing._poly import Poly1D
+from planning.swing._poly import Poly1D, sample_pair
 from planning.swing.params import SwingParams
 from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_family
 from planning.swing.types import BodyMotion, GroundHeightFn, Tier
@@ -71,7 +71,7 @@ class LegProblem:
     z_ok: bool  # the most aggressive vertical policy arrives on time
     zs_aggressive: np.ndarray  # (K,)
     others: list[OtherLeg]
-    hips: np.ndarray  # (K,3) world hip positions at ts
+    hips: np.ndarray  # (3,3) world hip positions at the first, middle and last of ts
     ground: GroundHeightFn
     flat_height: float | None  # set when the ground is FlatGround
     body: BodyMotion
@@ -205,8 +205,7 @@ class Analyzer:
 
     # ---- geometry of one candidate ------------------------------------------------------------------------
     def world_xy(self, prob: LegProblem, hp: HPath) -> tuple[np.ndarray, np.ndarray]:
-        hx = hp.x.sample_many(prob.ts)
-        hy = hp.y.sample_many(prob.ts)
+        hx, hy = sample_pair(hp.x, hp.y, prob.ts)
         c, s = prob.cos_yaw, prob.sin_yaw
         if s == 0.0 and c == 1.0:
             return hx, hy
@@ -316,15 +315,21 @@ class Analyzer:
         zs = prob.zs_aggressive
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         v.near_others = self._near_others(prob, xw, yw)
-        foot_sev, blame, near = self._foot_self(v.near_others, xw, yw, zs)
-        if foot_sev > 0.0:
-            # Higher is not always safer near another leg (its shin slants up and back): a vertical policy
-            # exists that avoids the leg when the gentlest one does.
-            sev_low, blame_low, near_low = self._foot_self(v.near_others, xw, yw, self.gentlest(prob)[1])
+        if v.near_others:
+            # the aggressive and the gentlest policies' feet against the other legs in one pass (the gentlest's
+            # is what its vertical check needs, and the next lines when the aggressive one intrudes)
+            (foot_sev, blame, near), (sev_low, blame_low, near_low) = self._foot_self_pair(
+                v.near_others, xw, yw, zs, self.gentlest(prob)[1]
+            )
             v.gentlest_foot_sev = sev_low  # vertical_ok of the gentlest policy reuses it
-            near |= near_low
-            if sev_low < foot_sev:
-                foot_sev, blame = sev_low, blame_low
+            if foot_sev > 0.0:
+                # Higher is not always safer near another leg (its shin slants up and back): a vertical policy
+                # exists that avoids the leg when the gentlest one does.
+                near |= near_low
+                if sev_low < foot_sev:
+                    foot_sev, blame = sev_low, blame_low
+        else:
+            foot_sev, blame, near = 0.0, None, np.zeros(len(xw), dtype=bool)
         v.foot_self_sev = foot_sev
         v.knee_idx, v.knee_terrain = self._knee_samples(prob, g, near)
         knee_terrain, knee_self, knee_blame = self._knees(prob, v.near_others, v, zs)
@@ -422,6 +427,38 @@ class Analyzer:
             near |= d < self.params.knee_check_radius_m
         return worst, blame, near
 
+    def _foot_self_pair(
+        self, others: list[OtherLeg], xw: np.ndarray, yw: np.ndarray, zs_a: np.ndarray, zs_b: np.ndarray
+    ) -> tuple[tuple[float, int | None, np.ndarray], tuple[float, int | None, np.ndarray]]:
+        """_foot_self for two vertical trajectories zs_a, zs_b along one path, in one pass over the other legs
+        (the same arithmetic as _point_segment, on (2,K) samples)."""
+        K = len(xw)
+        p = np.empty((2, K, 3))
+        p[:, :, 0] = xw
+        p[:, :, 1] = yw
+        np.add(zs_a, self.r_foot, out=p[0, :, 2])
+        np.add(zs_b, self.r_foot, out=p[1, :, 2])
+        worst: list[float] = [0.0, 0.0]
+        blame: list[int | None] = [None, None]
+        near = np.zeros((2, K), dtype=bool)
+        r_keep, r_knee = self.params.keepout_radius_m, self.params.knee_check_radius_m
+        for o in others:
+            a, sv = o.foot_center, o.shank
+            ss = float(sv @ sv)
+            if ss > 1e-12:
+                u = np.minimum(np.maximum(((p - a) @ sv) / ss, 0.0), 1.0)
+            else:
+                u = np.zeros((2, K))
+            e = p - (a + u[..., None] * sv)
+            d = np.sqrt(np.add.reduce(e * e, axis=2))  # (2,K)
+            sev_a, sev_b = (r_keep - d.min(axis=1)).tolist()
+            if sev_a > worst[0]:
+                worst[0], blame[0] = sev_a, o.leg
+            if sev_b > worst[1]:
+                worst[1], blame[1] = sev_b, o.leg
+            near |= d < r_knee
+        return (worst[0], blame[0], near[0]), (worst[1], blame[1], near[1])
+
     def _knee_samples(self, prob: LegProblem, g: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, bool]:
         """Sample indices at which to compute knees, and whether knees can reach the terrain at all.
 
@@ -445,13 +482,12 @@ class Analyzer:
         return idx, terrain
 
     def knee_grid(self, leg: int, hips: np.ndarray, c: float, sn: float) -> tuple[np.ndarray, np.ndarray]:
-        """World x and y of the ground probed for the knees: a grid fore and aft of the hips (K,3) at the swing's
+        """World x and y of the ground probed for the knees: a grid fore and aft of the hips (3,3) at the swing's
         start, middle and end, in line with the hip and with the foot (abduction offset); heading cos c, sin sn."""
         fore, side = self._knee_grid[leg]
         ox = (fore[:, None] * c - side[None, :] * sn).ravel()
         oy = (fore[:, None] * sn + side[None, :] * c).ravel()
-        h = hips[[0, len(hips) // 2, -1]]
-        return (h[:, 0:1] + ox).ravel(), (h[:, 1:2] + oy).ravel()
+        return (hips[:, 0:1] + ox).ravel(), (hips[:, 1:2] + oy).ravel()
 
     def _no_obstacle(self, K: int) -> np.ndarray:
         """K samples none of which is over an obstacle (cached per K; read-only)."""

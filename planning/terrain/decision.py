@@ -568,6 +568,87 @@ def choose_region(
     return choice
 
 
+def _choose_regions(
+    regions: SteppableRegions,
+    maps: TerrainMaps,
+    xys: NDArray[np.float64],
+    z_refs: list[float],
+    keeps: list[NDArray[np.float64] | None],
+    p: DecisionParams,
+    flying: list[bool],
+    hips: NDArray[np.float64],
+    reach_m: float,
+) -> list[int]:
+    """choose_region for several footholds at once (xys (S, 2), a height reference, kept place, flight flag and
+    hip (S, 2) each): the window cells of all of them in one set of arrays, each one's least cost, lowest label of
+    it and kept region's least cost by segment (min / max are exact in any order: the same answers)."""
+    S = len(z_refs)
+    if S == 1:
+        return [choose_region(regions, maps, xys[0], z_refs[0], keeps[0], p, flying[0], hips[0], reach_m)]
+    res = regions.resolution_m
+    ox, oy = regions.origin_xy
+    w = int(math.ceil(p.search_m / res))
+    nx, ny = regions.labels.shape
+    parts: list[tuple[NDArray[Any], ...]] = []
+    seg: list[int] = []  # the slots with window cells, in order
+    for s, (x, y) in enumerate(xys.tolist()):
+        cx = int(round((x - ox) / res))
+        cy = int(round((y - oy) / res))
+        i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
+        if i0 >= i1 or j0 >= j1:
+            continue
+        lab = regions.inset_labels[i0:i1, j0:j1]
+        ci, cj = lab.nonzero()
+        if ci.size == 0:
+            continue
+        parts.append(
+            (
+                lab[ci, cj],
+                (ox + np.arange(i0, i1) * res - x)[ci],
+                (oy + np.arange(j0, j1) * res - y)[cj],
+                maps.ground_height[i0:i1, j0:j1][ci, cj],
+            )
+        )
+        seg.append(s)
+    out = [0] * S
+    if not seg:
+        return out
+    sizes = np.array([len(part[0]) for part in parts])
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    labs, dx, dy, hc = (np.concatenate([part[i] for part in parts]) for i in range(4))
+    rep = np.repeat(np.arange(len(seg)), sizes)
+    seg_a = np.array(seg)
+    z_cell = np.array(z_refs)[seg_a][rep]
+    dist = np.hypot(dx, dy)
+    dz = np.abs(hc - z_cell)
+    ok = (dist <= p.search_m) & (dz <= p.max_rise_m)
+    if np.isfinite(reach_m):
+        x_cell = xys[seg_a, 0][rep]
+        y_cell = xys[seg_a, 1][rep]
+        ok &= np.hypot(dx + x_cell - hips[seg_a, 0][rep], dy + y_cell - hips[seg_a, 1][rep]) <= reach_m
+    cost = np.where(ok, dist + p.w_height * dz, np.inf)
+    least = np.minimum.reduceat(cost, starts)
+    big = np.iinfo(labs.dtype).max
+    lowest = np.minimum.reduceat(np.where(cost == least[rep], labs, big), starts)
+    top = np.maximum.reduceat(labs, starts)
+    prev = np.zeros(len(seg), dtype=labs.dtype)
+    for g, s in enumerate(seg):
+        keep = keeps[s]
+        if keep is not None:
+            prev[g] = regions.label_at(float(keep[0]), float(keep[1]))
+    prev_cost = np.minimum.reduceat(np.where(labs == prev[rep], cost, np.inf), starts)
+    for g, s in enumerate(seg):
+        if not math.isfinite(float(least[g])):
+            continue
+        choice = int(lowest[g])
+        pv = int(prev[g])
+        if keeps[s] is not None and 0 < pv <= int(top[g]):
+            if float(prev_cost[g]) <= float(least[g]) + (np.inf if flying[s] else p.keep_m):
+                choice = pv
+        out[s] = choice
+    return out
+
+
 def lost_region(
     regions: SteppableRegions, maps: TerrainMaps, p_prev: NDArray[np.float64], p: DecisionParams
 ) -> bool:
@@ -586,7 +667,7 @@ def knee_points(
     (along the heading, up) in the leg's plane, with the knee behind the hip-foot line (a knee that points back;
     a foot beyond the leg's length: the leg straight toward it, as the body will come down to it), and whether
     each foot is far enough from the hip for the leg to fold to it."""
-    d = feet - hip[None, :]
+    d = feet - hip  # (hip (2,), or one per foot (C, 2))
     D = np.hypot(d[:, 0], d[:, 1])
     reach = D > abs(l_upper - l_lower) + 1e-3
     Ds = np.where(reach, np.minimum(D, l_upper + l_lower - 1e-3), 1.0)
@@ -595,7 +676,7 @@ def knee_points(
     e = d / Ds[:, None]
     perp = np.stack([-e[:, 1], e[:, 0]], axis=1)
     perp *= np.where(perp[:, 0] > 0.0, -1.0, 1.0)[:, None]  # toward the back
-    return hip[None, :] + a[:, None] * e + h[:, None] * perp, reach
+    return hip + a[:, None] * e + h[:, None] * perp, reach
 
 
 def _ground_nearest(maps: TerrainMaps, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -636,13 +717,30 @@ def leg_clearance(
     distance (m) from the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it
     stands more than shin_edge_m above the ground's own slope at the foot carried back (a slope is no edge) (inf:
     no such ground; -inf: out of reach), and whether the foot is within reach of the hip (reach_xy)."""
+    return _clearance(view, maps, hip_height(view, leg), hip_xy, feet_xy, p)
+
+
+def _clearance(
+    view: TerrainView,
+    maps: TerrainMaps,
+    z_hip: Any,
+    hip_xy: NDArray[np.float64],
+    feet_xy: NDArray[np.float64],
+    p: DecisionParams,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """leg_clearance with the hip's height z_hip (m) and place hip_xy (2,), or one of each per foot ((C,), (C, 2)):
+    several legs' footholds in one evaluation, the same arithmetic row by row. (As in leg_clearance, rows are -inf
+    where the leg cannot fold to the foot as soon as any row has an edge behind it: a row alone without one would
+    give inf. The footholds' batched test then sends that slot through leg_bounds, which decides as before.)"""
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     res = maps.resolution_m
     s_feet = feet_xy @ u
-    z_hip = hip_height(view, leg)
-    hip2 = np.array([float(hip_xy @ u), z_hip])
-    within = np.hypot(*(feet_xy - hip_xy[None, :]).T) <= reach_xy(view, p)
+    if hip_xy.ndim == 1:
+        hip2 = np.array([float(hip_xy @ u), z_hip])
+    else:
+        hip2 = np.column_stack([hip_xy @ u, np.asarray(z_hip, dtype=np.float64)])
+    within = np.hypot(*(feet_xy - hip_xy).T) <= reach_xy(view, p)
     ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
     pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
     # the ground's own slope at the foot along the heading: the gentler of the one-sided differences over two
@@ -743,22 +841,29 @@ def step_request(
     when they are not every leg once per 4 slots."""
     legs = path.leg[order].astype(np.intp)
     K = legs.size
-    if any(legs[k] != legs[k - 4] for k in range(4, K)) or sorted(legs[:4].tolist()) != [0, 1, 2, 3]:
+    legs_l = legs.tolist()
+    if any(legs_l[k] != legs_l[k - 4] for k in range(4, K)) or sorted(legs_l[:4]) != [0, 1, 2, 3]:
         return None
     t_now = view.t_s
     t_td = path.t_touchdown[order] - t_now
+    # (on Python floats: the same arithmetic, one slot at a time)
+    td_l = t_td.tolist()
+    lift_l = path.t_liftoff.tolist()
+    lift_now_l = path.t_liftoff_now.tolist()
     t_lo = np.empty(K)
-    for j, k in enumerate(order):
-        leg = int(path.leg[k])
-        prev = [i for i in order[:j] if path.leg[i] == leg]
-        if prev:
-            t_lo[j] = path.t_liftoff[prev[-1]] - t_now
+    last: dict[int, int] = {}  # each leg's latest slot so far (an index into the path)
+    for j, k in enumerate(order.tolist()):
+        leg = legs_l[j]
+        if leg in last:
+            t_lo[j] = lift_l[last[leg]] - t_now
         else:
-            lo = path.t_liftoff_now[leg]
-            t_lo[j] = -1.0 if np.isnan(lo) else min(float(lo) - t_now, float(t_td[j]) - 1e-3)
+            lo = lift_now_l[leg]
+            t_lo[j] = -1.0 if math.isnan(lo) else min(lo - t_now, td_l[j] - 1e-3)
+        last[leg] = k
     body = path.body
     t_abs = path.t_touchdown[order]
-    later = np.array([t_abs[t_abs > t + 1e-6].min() if np.any(t_abs > t + 1e-6) else t + 0.2 for t in t_abs])
+    abs_l = t_abs.tolist()
+    later = np.array([min([u for u in abs_l if u > t + 1e-6], default=t + 0.2) for t in abs_l])
     t_mid = 0.5 * (t_abs + later)
     p_hip = body.position(t_abs) + rotate_yaw(body.yaw(t_abs), view.p_body_hip[legs])
     return StepRequest(
@@ -819,7 +924,6 @@ def choose_footholds(
     order = np.lexsort((path.leg, path.t_touchdown))[:K]
     legs = path.leg[order].astype(np.intp)
     same = np.abs(memory.t_touchdown - t_td_next) < 0.15
-    polys: list[ConvexRegion | None] = []
     z_ref = z_stance.copy()
     cache = {} if polygon_cache is None else polygon_cache
     res = regions.resolution_m
@@ -829,33 +933,68 @@ def choose_footholds(
     hips = bodies + rotate_yaw(yaws, view.p_body_hip[legs])
     reach = reach_xy(view, p)
     lost = np.zeros(K, dtype=bool)
-    for j, k in enumerate(order):
-        leg = int(legs[j])
-        nom = path.p_world_touchdown[k, :2]
-        first = j < 4
-        keep = (
-            memory.p_chosen[leg, :2]
-            if first and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
-            else None
-        )
-        flying = first and not bool(view.stance[leg])
-        if keep is not None and lost_region(regions, maps, memory.p_chosen[leg], p):
-            lost[j] = True
-            polys.append(None)
-            z_ref[leg] = float(memory.p_chosen[leg, 2])
-            continue
-        label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying, hips[j], reach)
-        poly = None
-        if label:
-            key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
-            if key not in cache:
-                cache[key] = convex_around(regions, label, nom, p.window_m)
-            poly = cache[key]
-        polys.append(poly)
-        if poly is not None:
-            z_ref[leg] = float(poly.height_at(poly.project(nom)))
+    # per leg, as Python bools: the remembered choice is of this touchdown (same) and complete (finite)
+    held_l = (same & np.all(np.isfinite(memory.p_chosen), axis=1)).tolist()
+    stance_l = view.stance.tolist()
+    legs_l = legs.tolist()
+    # In strides of four slots (one per leg: a stride's choices do not depend on each other), the regions of a
+    # stride's slots chosen at once (_choose_regions: choose_region's answers), then their polygons in slot order.
+    order_l = order.tolist()
+    polys: list[ConvexRegion | None] = [None] * K
+    for g0 in range(0, K, 4):
+        group = list(range(g0, min(g0 + 4, K)))
+        if len({legs_l[j] for j in group}) < len(group):
+            group_sets = [[j] for j in group]  # a leg twice in a stride: one slot at a time
+        else:
+            group_sets = [group]
+        for gs in group_sets:
+            asked: list[tuple[int, NDArray[np.float64] | None, bool]] = []
+            for j in gs:
+                leg = legs_l[j]
+                first = j < 4
+                keep = memory.p_chosen[leg, :2] if first and held_l[leg] else None
+                if keep is not None and lost_region(regions, maps, memory.p_chosen[leg], p):
+                    lost[j] = True
+                    z_ref[leg] = float(memory.p_chosen[leg, 2])
+                    continue
+                asked.append((j, keep, first and not stance_l[leg]))
+            if not asked:
+                continue
+            labels = _choose_regions(
+                regions,
+                maps,
+                path.p_world_touchdown[[order_l[j] for j, _, _ in asked], :2],
+                [float(z_ref[legs_l[j]]) for j, _, _ in asked],
+                [keep for _, keep, _ in asked],
+                p,
+                [flying for _, _, flying in asked],
+                hips[[j for j, _, _ in asked]],
+                reach,
+            )
+            for (j, _, _), label in zip(asked, labels, strict=True):
+                nom = path.p_world_touchdown[order_l[j], :2]
+                poly = None
+                if label:
+                    key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
+                    if key not in cache:
+                        cache[key] = convex_around(regions, label, nom, p.window_m)
+                    poly = cache[key]
+                polys[j] = poly
+                if poly is not None:
+                    z_ref[legs_l[j]] = float(poly.height_at(poly.project(nom)))
     # Each polygon of the next touchdowns with its bounds along the heading (the shin clear of edges behind the
     # foot, the hip in reach).
+    # (leg_bounds' first test, the shin and the reach at each polygon's place nearest the nominal foothold, for the
+    # first four slots in one evaluation: most pass it, and leg_bounds then has nothing to add)
+    first4 = [(j, q) for j, q in enumerate(polys[:4]) if q is not None]
+    passed: set[int] = set()
+    if first4 and view.l_upper_m > 0.0 and view.l_lower_m > 0.0:
+        slots = [j for j, _ in first4]
+        bases = np.array([q.project(path.p_world_touchdown[order[j], :2]) for j, q in first4])
+        z_hips = np.array([hip_height(view, legs_l[j]) for j in slots])
+        clear0, within0 = _clearance(view, maps, z_hips, hips[slots], bases, p)
+        ok0 = ((clear0 >= p.shin_clear_m) & within0).tolist()
+        passed = {j for j, ok in zip(slots, ok0, strict=True) if ok}
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
         if q is None:
@@ -863,7 +1002,7 @@ def choose_footholds(
             continue
         bounds = (
             leg_bounds(view, maps, int(legs[j]), hips[j], path.p_world_touchdown[k, :2], q, p)
-            if j < 4
+            if j < 4 and j not in passed
             else []
         )
         if not bounds:
@@ -886,24 +1025,27 @@ def choose_footholds(
         plan = qp.solve(req, maps, rows)
         if not np.all(np.isfinite(plan.footholds)):
             plan = None
-    t_rel = path.t_touchdown[order] - view.t_s
+    t_rel = (path.t_touchdown[order] - view.t_s).tolist()
     shift = 0.0
     back = 0.0
-    u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    ux, uy = math.cos(view.yaw), math.sin(view.yaw)
     for j, k in enumerate(order):
-        leg = int(legs[j])
-        held = j < 4 and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
+        leg = legs_l[j]
+        held = j < 4 and held_l[leg]
         if (t_rel[j] < p.freeze_s and held) or lost[j]:
             p_new[k] = memory.p_chosen[leg]
         elif plan is not None:
-            xy = plan.footholds[j, :2]
-            p_new[k, :2] = xy
-            p_new[k, 2] = float(maps.height_at(float(xy[0]), float(xy[1])))
+            x, y = plan.footholds[j, :2].tolist()
+            p_new[k, 0], p_new[k, 1] = x, y
+            p_new[k, 2] = float(maps.height_at(x, y))
         if j < 4:
-            move = p_new[k, :2] - path.p_world_touchdown[k, :2]
-            ahead = max(0.0, float(move @ u)) if not p.shift_counts_ahead else 0.0
-            shift = max(shift, float(np.linalg.norm(move - ahead * u)))
-            back += max(0.0, -float(move @ u)) / 4.0
+            # on Python floats: the move off the nominal, along the heading (a dot of two) and across it
+            mx, my = (p_new[k, :2] - path.p_world_touchdown[k, :2]).tolist()
+            along = mx * ux + my * uy
+            ahead = max(0.0, along) if not p.shift_counts_ahead else 0.0
+            rx, ry = mx - ahead * ux, my - ahead * uy
+            shift = max(shift, math.sqrt(rx * rx + ry * ry))
+            back += max(0.0, -along) / 4.0
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
     return FootholdDecision(

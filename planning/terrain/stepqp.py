@@ -380,7 +380,7 @@ class StepQP:
                 self._keep_planes[k] = []
                 continue
             g, b = _region_arrays(r, p.keep_clearance_m, p.keep_planes)
-            self._keep_planes[k] = [(g[i], bi) for i, bi in enumerate(b.tolist())]
+            self._keep_planes[k] = list(zip(g, b.tolist(), strict=True))
             slots.append(np.full(len(b), k, dtype=np.intp))
             planes.append(np.arange(len(b), dtype=np.intp))
             gs.append(g)
@@ -491,7 +491,8 @@ class StepQP:
         ]
         feet = x[: 2 * K].reshape(K, 2)
         slack_all = x[4 * K :].reshape(K, len(FAMILIES))
-        slack = {fam: float(max(0.0, slack_all[:, _F[fam]].max())) for fam in FAMILIES}
+        top = slack_all.max(axis=0).tolist()  # each family's largest slack over the slots
+        slack = {fam: float(max(0.0, top[_F[fam]])) for fam in FAMILIES}
         softened = tuple(f for f in FAMILIES if slack[f] > p.softened_tol_m)
         if maps is not None:
             z = np.asarray(maps.height_at(feet[:, 0], feet[:, 1]), dtype=np.float64)
@@ -526,7 +527,7 @@ class StepQP:
             a = np.asarray(getattr(req, name))
             if a.shape != shape:
                 raise ValueError(f"StepRequest.{name}: expected shape {shape}, got {a.shape}")
-            if not np.all(np.isfinite(a)):
+            if not np.isfinite(a).all():
                 raise ValueError(f"StepRequest.{name}: contains NaN or inf")
         legs = np.asarray(req.legs)
         if np.any((legs < 0) | (legs > 3)):

@@ -13,6 +13,7 @@ from scipy import ndimage
 
 from planning.terrain.maps import (
     MapParams,
+    TerrainMaps,
     _cumulative_layers,
     _disk,
     _disk_count,
@@ -190,3 +191,27 @@ def test_a_stone_too_high_above_its_pit_is_no_body_obstacle_when_dense_counts_hi
     counted_low = build_maps(columns, dataclasses.replace(p, dense_counts_high=False))
     assert shipped.body_obstacle[30, 30] and shipped.step_obstacle[30, 30]
     assert counted_low.step_obstacle[18:42, 18:42].all() and not counted_low.body_obstacle.any()
+
+
+def test_the_step_sdf_computed_on_first_read_equals_the_one_computed_at_once() -> None:
+    """build_maps leaves the step SDF and its gradient to their first read: the same values; replace, pickling
+    and a missing attribute behave as for plain maps."""
+    import pickle
+
+    from planning.terrain.maps import _gradient, columns_from_scene
+
+    maps = build_maps(columns_from_scene(build_terrain("stairs"), (1.0, 0.0), 1.5))
+    assert isinstance(maps, TerrainMaps)
+    assert "sdf_step_m" not in vars(maps)
+    again = pickle.loads(pickle.dumps(maps))  # pickled before the first read: still computed on use
+    sdf = signed_distance(maps.step_obstacle, maps.resolution_m)
+    np.testing.assert_array_equal(maps.sdf_step_m, sdf)
+    np.testing.assert_array_equal(maps.grad_sdf_step, _gradient(sdf, maps.resolution_m))
+    assert maps.sdf_step_m is maps.sdf_step_m  # computed once
+    np.testing.assert_array_equal(again.grad_sdf_step, maps.grad_sdf_step)
+    assert maps.sdf_step(1.0, 0.2) == again.sdf_step(1.0, 0.2)
+    plain = dataclasses.replace(maps, t_s=1.0)
+    assert "sdf_step_m" in vars(plain)  # every field passed on
+    np.testing.assert_array_equal(plain.sdf_step_m, sdf)
+    with pytest.raises(AttributeError):
+        _ = maps.no_such_map  # type: ignore[attr-defined]
