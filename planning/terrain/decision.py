@@ -74,6 +74,9 @@ class DecisionParams:
     the body off the line between them and roll it over); hump_above_start: the swing time the gait must give
     (cadence) counts only ground that rises above the foot's own height as well as above its straight path (a
     foot stepping down past an edge at its own height needs no rise, and keeps the walk's short swings);
+    count_step_rise: the swing time counts as well how far a next foothold lies above its foot where the two are on
+    different regions (step_rise: a riser climbed, a box stepped onto; a slope is one region), so a swing up a
+    riser has the time to rise over it (the 0.3 s swings of `climb` are too short for a 0.12 m riser);
     slow_gait, slow_gap_m, gap_behind_m, gap_ahead_m: the
     gait where a gap wider than slow_gap_m lies on the feet's lines from gap_behind_m behind the body to
     gap_ahead_m ahead (far enough ahead that the switch is made before the front feet reach it); lookahead_m, yaw_gain,
@@ -101,7 +104,10 @@ class DecisionParams:
     touchdown whose previous foothold lies on no region in this map (the segmentation lost the cell for a
     moment: a re-segmentation, a cell seen anew) while the ground there is within this of the foothold's
     height keeps that foothold: the ground did not move, and a foot committed to a tread is not sent to the floor
-    beside it."""
+    beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) only where its ground dips more than
+    this below the ground at both of its ends (ground that drops below the feet and comes back: a pit, the space
+    between stones), not a riser's or a box's edge band, whose ground goes from one side's height to the other's
+    (None: every run counts)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -150,6 +156,8 @@ class DecisionParams:
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
     lost_hold_m: float = 0.03
+    gap_dip_m: float | None = None
+    count_step_rise: bool = True
 
 
 # ---- typed inputs and outputs ----------------------------------------------------------------------------------
@@ -328,11 +336,35 @@ def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | Non
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
         return p.slow_gait
     rise = swing_hump(view, world, last, p.hump_above_start)
+    if p.count_step_rise:
+        rise += step_rise(view, world, last)
     need = p.base_swing_s + rise / p.rise_speed_mps
     for name in (view.fast_gait, *p.climb_gaits):
         if get_gait(name).swing_s >= need - 1e-9:
             return name
     return p.climb_gaits[-1] if p.climb_gaits else view.fast_gait
+
+
+def step_rise(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None) -> float:
+    """Gives the most (m) a chosen next foothold lies above its foot where the two stand on different regions (a
+    riser's tread above, a box's or a stone's top): the height a swing climbs besides its hump; 0 on one region
+    (a slope is one plane) or stepping down."""
+    if last is None:
+        return 0.0
+    chosen = last.memory.p_chosen
+    regions = world.regions
+    most = 0.0
+    for leg in range(4):
+        b = chosen[leg]
+        if not np.all(np.isfinite(b)):
+            continue
+        a = view.p_world_foot[leg]
+        up = float(b[2]) - (float(a[2]) - view.foot_radius_m)
+        if up > most and regions.label_at(float(a[0]), float(a[1])) != regions.label_at(
+            float(b[0]), float(b[1])
+        ):
+            most = up
+    return most
 
 
 def swing_hump(
@@ -375,14 +407,30 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
     ix = np.rint((x - regions.origin_xy[0]) / res).astype(np.intp)
     iy = np.rint((y - regions.origin_xy[1]) / res).astype(np.intp)
     on = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-    ok = np.where(on, regions.inset[np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)], True)
+    cx, cy = np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)
+    ok = np.where(on, regions.inset[cx, cy], True)
+    ground = world.maps.ground_height[cx, cy] if p.gap_dip_m is not None else None
     longest = 0
-    for row in ok:
+    for k, row in enumerate(ok):
         # runs of False: from the positions where the row changes
         edges = np.flatnonzero(np.diff(np.concatenate([[1], row.astype(np.int8), [1]])))
-        if edges.size:
-            longest = max(longest, int(np.max(edges[1::2] - edges[::2])))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            if ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
+                continue
+            longest = max(longest, int(b - a))
     return longest * res
+
+
+def _dips(ground: NDArray[np.float64], a: int, b: int, dip_m: float | None) -> bool:
+    """Whether the ground of the run [a, b) of a line dips more than dip_m below the ground at both of its ends (the
+    cells just outside it; a run at the line's end: the one end it has): a pit or a gap between stones does, a
+    riser's edge band (the ground going from one tread's height to the next) does not."""
+    if dip_m is None:
+        return True
+    ends = [ground[i] for i in (a - 1, b) if 0 <= i < ground.size]
+    if not ends:
+        return True
+    return bool(np.min(ground[a:b]) < min(ends) - dip_m)
 
 
 def capped(cmd: SteeringCommand, cap: float, p: DecisionParams) -> SteeringCommand:
@@ -1125,8 +1173,15 @@ def _regions_maps() -> dict[str, Any]:
     cells that are step obstacles only for standing higher than max_step_height_m above the lowest ground nearby
     (dense_counts_high False). With the sensor a stone 0.318 m above its pit is such a cell by cell against the 0.32 m
     limit, the whole stone turned into a body obstacle, and the body path swerved around it (stones seed 1: 114
-    body-obstacle cells at 2.5 s, 5 with this); the body passes over a stone, and the step map keeps it no-step."""
-    return {"dense_counts_high": False}
+    body-obstacle cells at 2.5 s, 5 with this); the body passes over a stone. Nor are such cells step obstacles
+    (high_is_step False): the region choice bounds each step's rise from the leg's own last foothold (max_rise_m),
+    and the rule took a band low_radius_m wide off the regions along a flight's open side (more than
+    max_step_height_m above the floor beside it), where the feet of a body walking off the flight's centre line
+    stand. Nor does the step map close no-step gaps as wide as min_support_m (min_support_m 0: one cell): the
+    regions are inset by the foot radius and an edge margin, which leaves out a patch too small for a foot, while
+    the closing (a disk of 7 cells, 0.21 m at 3 cm cells, for 0.16 m) took a steep flight's whole tread off the map
+    wherever its clear part, between the bands at its riser and its nosing, came out 7 cells wide."""
+    return {"dense_counts_high": False, "high_is_step": False, "min_support_m": 0.0}
 
 
 def _regions_qp() -> StepQPParams:
