@@ -949,8 +949,12 @@ def _regions_maps() -> dict[str, Any]:
     cells that are step obstacles only for standing higher than max_step_height_m above the lowest ground nearby
     (dense_counts_high False). With the sensor a stone 0.318 m above its pit is such a cell by cell against the 0.32 m
     limit, the whole stone turned into a body obstacle, and the body path swerved around it (stones seed 1: 114
-    body-obstacle cells at 2.5 s, 5 with this); the body passes over a stone, and the step map keeps it no-step."""
-    return {"dense_counts_high": False}
+    body-obstacle cells at 2.5 s, 5 with this); the body passes over a stone, and the step map keeps it no-step.
+    The body band starts above the ground the robot stands on as well as above each cell's own (band_from_support):
+    the pit in the 4-10 cm slot between a left and a right stone holds the stones' top edges 0.3 m above its floor,
+    inside the band measured from the pit, and those few cells swung the body path 0.3-0.6 m aside onto the outer
+    stones' edges (stones draw 3: body path to y -0.4…-0.6, a foot in the pit at 9.1 s; straight with this)."""
+    return {"dense_counts_high": False, "band_from_support": True}
 
 
 def _regions_qp() -> StepQPParams:
