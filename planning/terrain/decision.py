@@ -224,11 +224,13 @@ class TerrainWorld:
 @dataclass(frozen=True, eq=False)
 class FootholdMemory:
     """Per leg: the touchdown time (s, nan: none) of its next touchdown as last decided, the foothold chosen for it
-    (3,), and the height (m) of its last stance foothold."""
+    (3,), the height (m) of its last stance foothold, and whether that foothold was chosen on a region (None: all
+    were)."""
 
     t_touchdown: NDArray[np.float64]
     p_chosen: NDArray[np.float64]
     z_stance: NDArray[np.float64]
+    on_region: NDArray[np.bool_] | None = None
 
     @staticmethod
     def empty() -> FootholdMemory:
@@ -710,6 +712,26 @@ def leg_bounds(
     return out
 
 
+HOLD_HALF_M = 0.005  # a held touchdown's square in the step QP (half side, m): it stays where it is held
+
+
+def held_foothold(view: TerrainView, leg: int) -> NDArray[np.float64] | None:
+    """Gives where a next touchdown of leg `leg` with no region goes (3,): where the foot stands if it is in stance
+    (ground it is standing on: a step in place); None for a foot in the air (it keeps its nominal)."""
+    if bool(view.stance[leg]):
+        q = np.asarray(view.p_world_foot[leg], dtype=np.float64).copy()
+        q[2] -= view.foot_radius_m
+        return q
+    return None
+
+
+def _square_rows(xy: NDArray[np.float64], half_m: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gives the half-planes (A, b) of the square of half side half_m around xy (2,)."""
+    A = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+    x, y = float(xy[0]), float(xy[1])
+    return A, np.array([x + half_m, half_m - x, y + half_m, half_m - y])
+
+
 def step_request(
     view: TerrainView, path: StepPath, order: NDArray[np.intp], hip_height_m: float
 ) -> StepRequest | None:
@@ -787,7 +809,8 @@ def choose_footholds(
     t_td_next, _ = path.next_touchdowns()
     mem_t = np.full(4, np.nan)
     mem_p = np.full((4, 3), np.nan)
-    empty = FootholdDecision(p_new, (), None, 0.0, FootholdMemory(mem_t, mem_p, z_stance))
+    mem_on = np.ones(4, dtype=bool)
+    empty = FootholdDecision(p_new, (), None, 0.0, FootholdMemory(mem_t, mem_p, z_stance, mem_on))
     if path.n_touchdowns < K:
         return empty
     order = np.lexsort((path.leg, path.t_touchdown))[:K]
@@ -803,6 +826,7 @@ def choose_footholds(
     hips = bodies + rotate_yaw(yaws, view.p_body_hip[legs])
     reach = reach_xy(view, p)
     lost = np.zeros(K, dtype=bool)
+    held_at: dict[int, NDArray[np.float64]] = {}
     for j, k in enumerate(order):
         leg = int(legs[j])
         nom = path.p_world_touchdown[k, :2]
@@ -813,18 +837,28 @@ def choose_footholds(
             else None
         )
         flying = first and not bool(view.stance[leg])
-        if keep is not None and lost_region(regions, maps, memory.p_chosen[leg], p):
+        was_on = memory.on_region is None or bool(memory.on_region[leg])
+        if keep is not None and was_on and lost_region(regions, maps, memory.p_chosen[leg], p):
             lost[j] = True
             polys.append(None)
             z_ref[leg] = float(memory.p_chosen[leg, 2])
             continue
         label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying, hips[j], reach)
+        if not label and np.isfinite(reach):
+            # no region within the leg's reach: the nearest one beyond it (a long step onto a stone), not none
+            label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying)
         poly = None
         if label:
             key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
             if key not in cache:
                 cache[key] = convex_around(regions, label, nom, p.window_m)
             poly = cache[key]
+        if poly is None and first:
+            # no region at all: a foot in stance steps in place, not to its nominal place over a gap or a pit
+            hold = held_foothold(view, leg)
+            if hold is not None:
+                held_at[j] = hold
+                z_ref[leg] = float(hold[2])
         polys.append(poly)
         if poly is not None:
             z_ref[leg] = float(poly.height_at(poly.project(nom)))
@@ -832,6 +866,9 @@ def choose_footholds(
     # foot, the hip in reach).
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
+        if j in held_at:
+            rows.append(_square_rows(held_at[j][:2], HOLD_HALF_M))
+            continue
         if q is None:
             rows.append(None)
             continue
@@ -869,6 +906,8 @@ def choose_footholds(
         held = j < 4 and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
         if (t_rel[j] < p.freeze_s and held) or lost[j]:
             p_new[k] = memory.p_chosen[leg]
+        elif j in held_at:
+            p_new[k] = held_at[j]
         elif plan is not None:
             xy = plan.footholds[j, :2]
             p_new[k, :2] = xy
@@ -880,12 +919,13 @@ def choose_footholds(
             back += max(0.0, -float(move @ u)) / 4.0
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
+            mem_on[leg] = polys[j] is not None or bool(lost[j]) or j in held_at
     return FootholdDecision(
         p_new,
         tuple(polys),
         plan,
         shift,
-        FootholdMemory(mem_t, mem_p, z_stance),
+        FootholdMemory(mem_t, mem_p, z_stance, mem_on),
         back,
         path.t_liftoff_now.copy(),
     )
