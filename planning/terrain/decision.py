@@ -715,13 +715,18 @@ def leg_bounds(
 HOLD_HALF_M = 0.005  # a held touchdown's square in the step QP (half side, m): it stays where it is held
 
 
-def held_foothold(view: TerrainView, leg: int) -> NDArray[np.float64] | None:
+def held_foothold(
+    view: TerrainView, leg: int, kept: NDArray[np.float64] | None = None
+) -> NDArray[np.float64] | None:
     """Gives where a next touchdown of leg `leg` with no region goes (3,): where the foot stands if it is in stance
-    (ground it is standing on: a step in place); None for a foot in the air (it keeps its nominal)."""
+    (ground it is standing on: a step in place); in the air, its kept choice for this touchdown (kept (3,), chosen
+    on a region; None: none, and the foot keeps its nominal)."""
     if bool(view.stance[leg]):
         q = np.asarray(view.p_world_foot[leg], dtype=np.float64).copy()
         q[2] -= view.foot_radius_m
         return q
+    if kept is not None and bool(np.all(np.isfinite(kept))):
+        return np.asarray(kept, dtype=np.float64).copy()
     return None
 
 
@@ -854,8 +859,9 @@ def choose_footholds(
                 cache[key] = convex_around(regions, label, nom, p.window_m)
             poly = cache[key]
         if poly is None and first:
-            # no region at all: a foot in stance steps in place, not to its nominal place over a gap or a pit
-            hold = held_foothold(view, leg)
+            # no region at all: a foot in stance steps in place, one in the air keeps its choice made on a region,
+            # not its nominal place over a gap or a pit
+            hold = held_foothold(view, leg, memory.p_chosen[leg] if keep is not None and was_on else None)
             if hold is not None:
                 held_at[j] = hold
                 z_ref[leg] = float(hold[2])

@@ -398,8 +398,9 @@ def _trot_path(x_feet: np.ndarray, nominal_x: np.ndarray, t_now: float = 1.0) ->
 
 def test_a_touchdown_with_no_region_steps_in_place_and_a_foothold_off_every_region_is_not_held() -> None:
     """A pit 1 m wide (x 0.6-1.6): a stance foot whose next nominal lies mid-pit, farther than search_m from any
-    region, keeps standing where it is (held in the step QP), not sent to its nominal over the pit; and a foothold
-    remembered in the pit (chosen off every region) is not held by the lost-region rule."""
+    region, keeps standing where it is (held in the step QP), not sent to its nominal over the pit; a foot in the
+    air keeps its choice made on a region; and a foothold remembered in the pit (chosen off every region) is not
+    held by the lost-region rule."""
     xs = -0.6 + np.arange(110) * RES
     ys = -0.9 + np.arange(60) * RES
     X = np.broadcast_to(xs[:, None], (110, 60))
@@ -426,3 +427,13 @@ def test_a_touchdown_with_no_region_steps_in_place_and_a_foothold_off_every_regi
     off = FootholdMemory(t_mem, chosen, np.zeros(4), np.array([True, False, True, True]))
     d2 = choose_footholds(view, path, world, off, qp, P)
     np.testing.assert_allclose(d2.p_world_touchdown[k_fr, :2], view.p_world_foot[1, :2], atol=0.011)
+    # FL in the air, its nominal moved mid-pit after it lifted off toward a foothold on the platform: kept there
+    path_fl = _trot_path(feet_x, np.array([1.1, 0.5, -0.1, -0.1]))
+    k_fl = int(np.flatnonzero(path_fl.leg == 0)[0])
+    chosen = np.full((4, 3), np.nan)
+    chosen[0] = [0.5, 0.15, 0.0]
+    t_mem = np.full(4, np.nan)
+    t_mem[0] = float(path_fl.t_touchdown[k_fl])
+    kept = FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool))
+    d3 = choose_footholds(view, path_fl, world, kept, qp, P)
+    np.testing.assert_allclose(d3.p_world_touchdown[k_fl, :2], [0.5, 0.15], atol=0.011)
