@@ -55,10 +55,15 @@ class ContactSchedule:
 
 
 @functools.lru_cache(maxsize=64)
+@functools.lru_cache(maxsize=64)
 def _octagon(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """The half-planes of the octagon inscribing a circle of radius (m), computed once per radius (read-only)."""
     ang = np.arange(8) * (np.pi / 4.0) + np.pi / 8.0
     a = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    return a, np.full(8, radius * math.cos(np.pi / 8.0))
+    b = np.full(8, radius * math.cos(np.pi / 8.0))
+    a.setflags(write=False)
+    b.setflags(write=False)
+    return a, b
 
 
 def build_schedule(

@@ -33,6 +33,10 @@ class ProblemError(ValueError):
     """A centroidal problem that cannot be solved as given; the message names the field and the reason."""
 
 
+_Z_UP = np.array([0.0, 0.0, 1.0])  # the default contact normal, shared by every phase (read-only)
+_Z_UP.setflags(write=False)
+
+
 def _arr(x: object, shape: tuple[int, ...], name: str) -> np.ndarray:
     a = np.array(x, dtype=float)
     if a.shape != shape:
@@ -158,17 +162,18 @@ class ContactPhase:
     liftoff_window_s: tuple[float, float] = (0.0, 0.0)
     adjust_radius_m: float = 0.0
     region_xy: np.ndarray | None = None
-    normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    normal: np.ndarray = field(default_factory=lambda: _Z_UP)
     key: str = ""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "p_world_foot", _arr(self.p_world_foot, (3,), "phase.p_world_foot"))
-        n = np.array(self.normal, dtype=float).reshape(-1)
-        if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) < 1e-9:
-            raise ProblemError(f"phase {LEG_NAMES[self.leg % 4]}: normal must be a nonzero 3-vector")
-        n = n / np.linalg.norm(n)
-        n.setflags(write=False)
-        object.__setattr__(self, "normal", n)
+        if self.normal is not _Z_UP:  # the default (shared, read-only) is a unit vector already
+            n = np.array(self.normal, dtype=float).reshape(-1)
+            if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) < 1e-9:
+                raise ProblemError(f"phase {LEG_NAMES[self.leg % 4]}: normal must be a nonzero 3-vector")
+            n = n / np.linalg.norm(n)
+            n.setflags(write=False)
+            object.__setattr__(self, "normal", n)
         if self.region_xy is not None:
             reg = np.array(self.region_xy, dtype=float)
             if reg.ndim != 2 or reg.shape[1] != 2:

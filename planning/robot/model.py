@@ -257,6 +257,9 @@ class RobotModel:
             for i in range(4)
         ]
         self._y_knee_f = [float(v) for v in self._y_knee]
+        # joint ranges widened by ik_leg's 1e-9 tolerance, as floats (knee_of_foot)
+        self._q_lo_f = [[float(v) - 1e-9 for v in self.q_min[i]] for i in range(4)]
+        self._q_hi_f = [[float(v) + 1e-9 for v in self.q_max[i]] for i in range(4)]
         self._standing_pose(det, desc)
         try:
             self.q_nominal = np.array(
@@ -462,6 +465,44 @@ class RobotModel:
                     f"outside its range [{self.q_min[leg, j]:.2f}, {self.q_max[leg, j]:.2f}]"
                 )
         return np.array(q)
+
+    def knee_of_foot(self, leg: int, fx: float, fy: float, fz: float) -> tuple[float, float, float] | None:
+        """knee_body(leg, ik_leg(leg, foot)) for a foot center (fx, fy, fz) in the body frame, all in Python floats
+        (the math module's atan2/acos/hypot: equal to ik_leg's NumPy calls to the last bit or two); None where
+        ik_leg raises ReachError. For the swing planner's knee checks, a few samples at a time."""
+        s0, s1, s2, lu, ll, a, b, z_flex, y, hx, hy, hz, d_min, d_max, branch = self._leg_floats[leg]
+        px, py, pz = fx - hx, fy - hy, fz - hz
+        r2 = py * py + pz * pz - y * y
+        if r2 <= 0.0:
+            return None
+        zp = -math.sqrt(r2)
+        q0 = math.atan2(pz, py) - math.atan2(zp, y)
+        q0 = (q0 + math.pi) % (2 * math.pi) - math.pi
+        zs = zp - z_flex
+        D = math.hypot(px, zs)
+        if D > d_max + 1e-9 or D < d_min - 1e-9:
+            return None
+        c2 = min(max((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0), 1.0)
+        psi2 = branch * math.acos(c2)
+        psi1 = math.atan2(-px, -zs) - math.atan2(ll * math.sin(psi2), lu + ll * math.cos(psi2))
+        q = [s0 * q0, s1 * (psi1 - a), s2 * (psi2 - b + a)]
+        lo, hi = self._q_lo_f[leg], self._q_hi_f[leg]
+        two_pi = 2 * math.pi
+        for k in (1, 2):  # as ik_leg
+            if q[k] < lo[k] and lo[k] <= q[k] + two_pi <= hi[k]:
+                q[k] += two_pi
+            elif q[k] > hi[k] and lo[k] <= q[k] - two_pi <= hi[k]:
+                q[k] -= two_pi
+        for j in range(3):
+            if q[j] < lo[j] or q[j] > hi[j]:
+                return None
+        # knee_body
+        qa, p1 = s0 * q[0], s1 * q[1] + a
+        kx = -lu * math.sin(p1)
+        kz = -lu * math.cos(p1) + z_flex
+        yk = self._y_knee_f[leg]
+        c, sn = math.cos(qa), math.sin(qa)
+        return hx + kx, hy + (c * yk - sn * kz), hz + (sn * yk + c * kz)
 
     def ik_leg_many(self, leg: int, p_body_foot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Vectorized ik_leg: joint angles (K,3) for foot centers p_body_foot (K,3) in the body frame, and which rows

@@ -18,7 +18,6 @@ from planning.centroidal.problem import (
     CostWeights,
 )
 from planning.centroidal.timegrid import make_time_grid
-from planning.geometry import yaw_R
 from planning.robot import RobotModel
 from planning.steps.state import StepPath
 
@@ -100,12 +99,19 @@ class StepPathProblems:
             if stance.any()
             else float(np.min(p_world_contact[:, 2]))
         )
-        com = self.model.p_body_com
+        cx, cy, cz = self.model.p_body_com.tolist()
+        # yaw_R per knot, stacked: [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+        c, sn = np.cos(yaw), np.sin(yaw)
+        R = np.zeros((K, 3, 3))
+        R[:, 0, 0] = c
+        R[:, 0, 1] = -sn
+        R[:, 1, 0] = sn
+        R[:, 1, 1] = c
+        R[:, 2, 2] = 1.0
         p = np.empty((K, 3))
-        R = np.empty((K, 3, 3))
-        for j in range(K):
-            R[j] = yaw_R(float(yaw[j]))
-            p[j] = (xy[j, 0], xy[j, 1], ground + height_m) + R[j] @ com
+        p[:, 0] = xy[:, 0] + (c * cx - sn * cy)
+        p[:, 1] = xy[:, 1] + (sn * cx + c * cy)
+        p[:, 2] = ground + height_m + cz
         v = np.zeros((K, 3))
         v[:, :2] = vxy
         om = np.zeros((K, 3))

@@ -199,6 +199,9 @@ class _SupportColumns:
         self.tri_ok = st[..., t0] & st[..., t1] & st[..., t2] & (np.abs(area) > 1e-12)
         self.no_stance: np.ndarray = ~np.asarray(st.any(axis=-1))
         self.rows = np.arange(fx.shape[1])
+        # per column: whether any polygon has an area (a trot's two feet make segments: no inside to test)
+        self.any_tri: list[bool] = [bool(x) for x in np.asarray(self.tri_ok.any(axis=(1, 2)))]
+        self.any_bare: list[bool] = [bool(x) for x in np.asarray(self.no_stance.any(axis=1))]
 
     def project(self, q: F64, j: int) -> F64:
         """Returns the points (N,2) of column j's polygons nearest to q (N,2)."""
@@ -214,6 +217,10 @@ class _SupportColumns:
         edge = np.empty_like(q)
         edge[:, 0] = cx[self.rows, k]
         edge[:, 1] = cy[self.rows, k]
+        if not self.any_tri[j]:  # no polygon with an area in this column: q is inside none
+            if not self.any_bare[j]:
+                return edge
+            return np.where(self.no_stance[j][:, None], q, edge)
         # which side of each triangle edge q is on (3,N,4); inside: on the same side of all three
         c = self.tex[:, j] * (qy - self.tpy[:, j]) - self.tey[:, j] * (qx - self.tpx[:, j])
         inside = self.tri_ok[j] & ((c >= 0).all(axis=0) | (c <= 0).all(axis=0))

@@ -19,6 +19,7 @@ from planning.swing.params import SwingParams
 from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_family
 from planning.swing.types import BodyMotion, GroundHeightFn, Tier
 
+_FEW_KNEES = 8  # up to this many knee samples, one float IK each beats the vectorized one
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
 
 
@@ -33,7 +34,10 @@ class OtherLeg:
         float, ...
     ] = ()  # x/y extent of the lower leg (x_min, x_max, y_min, y_max), m; computed if not given
 
+    shank_f: tuple[float, float, float] = field(init=False)  # shank as floats
+
     def __post_init__(self) -> None:
+        self.shank_f = (float(self.shank[0]), float(self.shank[1]), float(self.shank[2]))
         if self.xy_box:
             return
         fc = self.foot_center
@@ -80,6 +84,8 @@ class LegProblem:
     zs_gentlest: np.ndarray | None = None  # (K,) its samples
     z_gentlest_ok: bool = False  # it arrives on time
     poses: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)  # body pose at ts[k], by k
+    # the same poses as 12 floats (position, then the rotation row by row), by k
+    pose_floats: dict[int, tuple[float, ...]] = field(default_factory=dict)
     # the same poses stacked, by the bytes of the sample indices they are for
     pose_stacks: dict[bytes, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     hold: Hold | None = None  # rise first: the foot waits in x and y until it clears the terrain ahead
@@ -114,6 +120,7 @@ class Verdict:
         default_factory=lambda: np.zeros(0, dtype=int)
     )  # samples where knees are checked
     knee_terrain: bool = False  # knees may reach the terrain here
+    gentlest_foot_sev: float | None = None  # _foot_self's severity along this path with the gentlest policy
     knee_sev: tuple[float, float] = (
         0.0,
         0.0,
@@ -162,6 +169,16 @@ def _point_segment(p: np.ndarray, a: np.ndarray, s: np.ndarray) -> tuple[np.ndar
     return np.sqrt(np.add.reduce(d * d, axis=1)), u
 
 
+def _point_segment_f(p: list[float], a: list[float], s: tuple[float, float, float]) -> float:
+    """_point_segment for one point p (3) and one segment a→a+s, in Python floats."""
+    sx, sy, sz = s
+    dx, dy, dz = p[0] - a[0], p[1] - a[1], p[2] - a[2]
+    ss = sx * sx + sy * sy + sz * sz
+    u = min(max((dx * sx + dy * sy + dz * sz) / ss, 0.0), 1.0) if ss > 1e-12 else 0.0
+    ex, ey, ez = dx - u * sx, dy - u * sy, dz - u * sz
+    return math.sqrt(ex * ex + ey * ey + ez * ez)
+
+
 class Analyzer:
     """Puts candidates of one leg in tiers; holds the robot and parameters, no per-tick state."""
 
@@ -174,6 +191,11 @@ class Analyzer:
         self.family = vertical_family(params)
         self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
         self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
+        self._ring_offsets_dr = np.ascontiguousarray(
+            (_DIRS[:, None, :] * self._ring_radii[None, :, None]).reshape(-1, 2)
+        )  # (8·R, 2), direction-major
+        # the rings closer than the cliff margin: terrain hit on one of them fails the vertical check
+        self._n_cliff_rings = int(np.count_nonzero(self._ring_radii < params.cliff_margin_m))
         self._knee_idx_cache: dict[int, np.ndarray] = {}
         self._no_obstacle_cache: dict[int, np.ndarray] = {}
         # per leg: the knee probe grid's fore-aft offsets (every ~4 cm) and its two lateral offsets (hip, foot)
@@ -219,6 +241,38 @@ class Analyzer:
         gr = np.where(gr > (h_ref + self.params.obstacle_step_m)[:, None, None], gr, -np.inf)
         return gr.max(axis=2)
 
+    def _terrain_and_rings(
+        self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """_terrain and _ring_ground (mapped ground) in one ground lookup: the ground (K,) under the samples, the
+        reference surface (K,) and the highest obstacle ground (K,R) on each probe ring.
+
+        The probes lie direction by direction, ring by ring, then sample by sample, so that the highest of the 8
+        directions is a reduction over the outer axis (over the inner axis of 8 it costs several times more)."""
+        K = len(xw)
+        off = self._ring_offsets_dr  # (8·R, 2), direction-major
+        m = len(off)
+        px = np.empty(K * (1 + m))
+        py = np.empty(K * (1 + m))
+        px[:K] = xw
+        py[:K] = yw
+        np.add(xw[None, :], off[:, 0:1], out=px[K:].reshape(m, K))
+        np.add(yw[None, :], off[:, 1:2], out=py[K:].reshape(m, K))
+        gall = np.asarray(prob.ground(px, py), dtype=float)
+        g = gall[:K]
+        p0, p1 = prob.p_start, prob.p_target
+        d = p1[:2] - p0[:2]
+        dd = float(d @ d)
+        if dd > 1e-12:
+            u = ((xw - p0[0]) * d[0] + (yw - p0[1]) * d[1]) / dd
+            prog = np.minimum(np.maximum(u, 0.0), 1.0)  # np.clip, without its dispatch cost
+        else:
+            prog = np.linspace(0.0, 1.0, K)
+        h_ref = p0[2] + prog * (p1[2] - p0[2])
+        # the highest ground on each ring, where it is an obstacle (the max of the obstacle ground, as before)
+        gr = gall[K:].reshape(8, m // 8, K).max(axis=0).T  # (K,R)
+        return g, h_ref, np.where(gr > (h_ref + self.params.obstacle_step_m)[:, None], gr, -np.inf)
+
     # ---- the tiers ----------------------------------------------------------------------------------------
     def analyze(self, prob: LegProblem, hp: HPath, u_total: float) -> Verdict:
         """Returns the tier of hp flown with the most aggressive vertical policy."""
@@ -228,25 +282,32 @@ class Analyzer:
         if not limits_ok(hp, c):
             return Verdict(Tier.VIOLATES_CONSTRAINTS, (0.0,), u_total, miss)
         xw, yw = self.world_xy(prob, hp)
-        g, h_ref = self._terrain(prob, xw, yw)
         if prob.flat_height is None:
+            g, h_ref, ring_g = self._terrain_and_rings(prob, xw, yw)
             obstacle = g > h_ref + pr.obstacle_step_m
-            ring_g = self._ring_ground(prob, xw, yw, h_ref)
             any_obstacle = bool(obstacle.any())
         else:  # flat ground is never an obstacle
+            g, _ = self._terrain(prob, xw, yw)
             obstacle, ring_g, any_obstacle = self._no_obstacle(len(xw)), None, False
         v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g, any_obstacle)
         zs = prob.zs_aggressive
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         v.near_others = self._near_others(prob, xw, yw)
-        foot_sev, blame, near = self._foot_self(v.near_others, xw, yw, zs)
-        if foot_sev > 0.0:
-            # Higher is not always safer near another leg (its shin slants up and back): a vertical policy
-            # exists that avoids the leg when the gentlest one does.
-            sev_low, blame_low, near_low = self._foot_self(v.near_others, xw, yw, self.gentlest(prob)[1])
-            near |= near_low
-            if sev_low < foot_sev:
-                foot_sev, blame = sev_low, blame_low
+        if v.near_others:
+            # the aggressive and the gentlest policies' feet against the other legs in one pass (the gentlest's
+            # is what its vertical check needs, and the next lines when the aggressive one intrudes)
+            (foot_sev, blame, near), (sev_low, blame_low, near_low) = self._foot_self_pair(
+                v.near_others, xw, yw, zs, self.gentlest(prob)[1]
+            )
+            v.gentlest_foot_sev = sev_low  # vertical_ok of the gentlest policy reuses it
+            if foot_sev > 0.0:
+                # Higher is not always safer near another leg (its shin slants up and back): a vertical policy
+                # exists that avoids the leg when the gentlest one does.
+                near |= near_low
+                if sev_low < foot_sev:
+                    foot_sev, blame = sev_low, blame_low
+        else:
+            foot_sev, blame, near = 0.0, None, np.zeros(len(xw), dtype=bool)
         v.foot_self_sev = foot_sev
         v.knee_idx, v.knee_terrain = self._knee_samples(prob, g, near)
         knee_terrain, knee_self, knee_blame = self._knees(prob, v.near_others, v, zs)
@@ -291,6 +352,17 @@ class Analyzer:
             h_margin = 0.0
         return pen, scrape, h_margin
 
+    def clearance_need(self, v: Verdict) -> float:
+        """The height (m) the foot must exceed somewhere along v's path for any vertical policy to pass
+        terrain_scores: a policy whose peak stays below it scrapes an obstacle or its cliff margin is short
+        (-inf when nothing on the way asks for height)."""
+        need = -math.inf
+        if v.any_obstacle:
+            need = float(v.g[v.obstacle].max())
+        if v.ring_g is not None and self._n_cliff_rings:
+            need = max(need, float(v.ring_g[:, : self._n_cliff_rings].max()))
+        return need + self.params.clearance_margin_m
+
     def gentlest(self, prob: LegProblem) -> tuple[Poly1D, np.ndarray]:
         """The gentlest vertical policy's trajectory for this leg and its samples (computed once per leg)."""
         if prob.z_gentlest is None or prob.zs_gentlest is None:
@@ -333,6 +405,38 @@ class Analyzer:
             near |= d < self.params.knee_check_radius_m
         return worst, blame, near
 
+    def _foot_self_pair(
+        self, others: list[OtherLeg], xw: np.ndarray, yw: np.ndarray, zs_a: np.ndarray, zs_b: np.ndarray
+    ) -> tuple[tuple[float, int | None, np.ndarray], tuple[float, int | None, np.ndarray]]:
+        """_foot_self for two vertical trajectories zs_a, zs_b along one path, in one pass over the other legs
+        (the same arithmetic as _point_segment, on (2,K) samples)."""
+        K = len(xw)
+        p = np.empty((2, K, 3))
+        p[:, :, 0] = xw
+        p[:, :, 1] = yw
+        np.add(zs_a, self.r_foot, out=p[0, :, 2])
+        np.add(zs_b, self.r_foot, out=p[1, :, 2])
+        worst: list[float] = [0.0, 0.0]
+        blame: list[int | None] = [None, None]
+        near = np.zeros((2, K), dtype=bool)
+        r_keep, r_knee = self.params.keepout_radius_m, self.params.knee_check_radius_m
+        for o in others:
+            a, sv = o.foot_center, o.shank
+            ss = float(sv @ sv)
+            if ss > 1e-12:
+                u = np.minimum(np.maximum(((p - a) @ sv) / ss, 0.0), 1.0)
+            else:
+                u = np.zeros((2, K))
+            e = p - (a + u[..., None] * sv)
+            d = np.sqrt(np.add.reduce(e * e, axis=2))  # (2,K)
+            sev_a, sev_b = (r_keep - d.min(axis=1)).tolist()
+            if sev_a > worst[0]:
+                worst[0], blame[0] = sev_a, o.leg
+            if sev_b > worst[1]:
+                worst[1], blame[1] = sev_b, o.leg
+            near |= d < r_knee
+        return (worst[0], blame[0], near[0]), (worst[1], blame[1], near[1])
+
     def _knee_samples(self, prob: LegProblem, g: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, bool]:
         """Sample indices at which to compute knees, and whether knees can reach the terrain at all.
 
@@ -345,14 +449,7 @@ class Analyzer:
             if prob.flat_height is not None:
                 prob.g_knee_max = prob.flat_height
             else:
-                # A grid fore and aft of each hip, in line with the hip and with the foot (abduction offset).
-                c, sn = prob.cos_yaw, prob.sin_yaw
-                fore, side = self._knee_grid[prob.leg]
-                ox = (fore[:, None] * c - side[None, :] * sn).ravel()
-                oy = (fore[:, None] * sn + side[None, :] * c).ravel()
-                hips = prob.hips[[0, len(prob.hips) // 2, -1]]
-                px = (hips[:, 0:1] + ox).ravel()
-                py = (hips[:, 1:2] + oy).ravel()
+                px, py = self.knee_grid(prob.leg, prob.hips, prob.cos_yaw, prob.sin_yaw)
                 prob.g_knee_max = float(np.max(prob.ground(px, py)))
         # on flat ground g is all flat_height (= g_knee_max)
         g_max = prob.g_knee_max if prob.flat_height is not None else max(prob.g_knee_max, float(g.max()))
@@ -361,6 +458,15 @@ class Analyzer:
         if not terrain:
             idx = idx[near[idx]]
         return idx, terrain
+
+    def knee_grid(self, leg: int, hips: np.ndarray, c: float, sn: float) -> tuple[np.ndarray, np.ndarray]:
+        """World x and y of the ground probed for the knees: a grid fore and aft of the hips (K,3) at the swing's
+        start, middle and end, in line with the hip and with the foot (abduction offset); heading cos c, sin sn."""
+        fore, side = self._knee_grid[leg]
+        ox = (fore[:, None] * c - side[None, :] * sn).ravel()
+        oy = (fore[:, None] * sn + side[None, :] * c).ravel()
+        h = hips[[0, len(hips) // 2, -1]]
+        return (h[:, 0:1] + ox).ravel(), (h[:, 1:2] + oy).ravel()
 
     def _no_obstacle(self, K: int) -> np.ndarray:
         """K samples none of which is over an obstacle (cached per K; read-only)."""
@@ -392,6 +498,91 @@ class Analyzer:
             return 0.0, 0.0, None
         idx = v.knee_idx
         n = len(idx)
+        if n <= _FEW_KNEES:
+            kn_few, kept = self._knees_few(prob, v, zs)
+            if kn_few is None:
+                return 0.0, 0.0, None
+            kn = kn_few
+        else:
+            kn, kept_many = self._knees_many(prob, v, zs)
+            if kept_many is None:
+                return 0.0, 0.0, None
+            kept = kept_many
+        kt = 0.0
+        if v.knee_terrain:
+            gk = (
+                np.full(len(kn), prob.flat_height)
+                if prob.flat_height is not None
+                else np.asarray(prob.ground(kn[:, 0], kn[:, 1]), dtype=float)
+            )
+            kt = max(0.0, float(pr.knee_radius_m - (kn[:, 2] - gk).min()))
+        ks, blame = 0.0, None
+        if n <= _FEW_KNEES:
+            rows, kept_l = kn.tolist(), kept.tolist()
+            for o in others:
+                fcs = o.foot_center.tolist()
+                d_min = min(
+                    _point_segment_f(r, fcs[0] if len(fcs) == 1 else fcs[k], o.shank_f)
+                    for r, k in zip(rows, kept_l, strict=True)
+                )
+                sev = pr.knee_keepout_m - d_min
+                if sev > ks:
+                    ks, blame = sev, o.leg
+            return kt, ks, blame
+        for o in others:
+            fc = o.foot_center if len(o.foot_center) == 1 else o.foot_center[kept]
+            d, _ = _point_segment(kn, fc, o.shank)
+            sev = float(pr.knee_keepout_m - d.min())
+            if sev > ks:
+                ks, blame = sev, o.leg
+        return kt, ks, blame
+
+    def _knees_few(
+        self, prob: LegProblem, v: Verdict, zs: np.ndarray
+    ) -> tuple[np.ndarray | None, np.ndarray]:
+        """World knees (m, n×3) at a few of v's knee samples, one leg IK each in Python floats (~3 µs a row; the
+        vectorized IK costs ~35 µs, for one row as for twenty); and the samples they are at (out of reach ones
+        left out)."""
+        robot, leg, rf = self.robot, prob.leg, self.r_foot
+        rows: list[list[float]] = []
+        kept: list[int] = []
+        poses = prob.pose_floats
+        xw, yw = v.xw, v.yw
+        for k in v.knee_idx.tolist():
+            pose = poses.get(k)
+            if pose is None:
+                p_w, R = prob.body.pose_at(float(prob.ts[k]))
+                pose = poses[k] = (*p_w.tolist(), *R.ravel().tolist())
+            px, py, pz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = pose
+            dx, dy, dz = float(xw[k]) - px, float(yw[k]) - py, float(zs[k]) + rf - pz
+            knee_b = robot.knee_of_foot(
+                leg,
+                r00 * dx + r10 * dy + r20 * dz,
+                r01 * dx + r11 * dy + r21 * dz,
+                r02 * dx + r12 * dy + r22 * dz,
+            )
+            if knee_b is None:
+                continue  # out of reach
+            bx, by, bz = knee_b
+            rows.append(
+                [
+                    px + r00 * bx + r01 * by + r02 * bz,
+                    py + r10 * bx + r11 * by + r12 * bz,
+                    pz + r20 * bx + r21 * by + r22 * bz,
+                ]
+            )
+            kept.append(k)
+        if not rows:
+            return None, v.knee_idx
+        return np.array(rows), np.array(kept, dtype=int)
+
+    def _knees_many(
+        self, prob: LegProblem, v: Verdict, zs: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """World knees (m, n×3) at v's knee samples through one vectorized leg IK, and the samples they are at
+        (None: none in reach)."""
+        idx = v.knee_idx
+        n = len(idx)
         foot_c = np.empty((n, 3))  # foot centers at the knee samples, world
         foot_c[:, 0] = v.xw[idx]
         foot_c[:, 1] = v.yw[idx]
@@ -402,30 +593,11 @@ class Analyzer:
         # one vectorized IK over the samples (rows out of reach are skipped, as ik_leg's ReachError was)
         q, ok = self.robot.ik_leg_many(prob.leg, p_body_foot)
         if not ok.any():
-            return 0.0, 0.0, None
+            return p_ws, None
         knee_b = self.robot.knee_body_many(prob.leg, q)
         if ok.all():
-            kept = idx
-            kn = p_ws + np.einsum("nij,nj->ni", Rs, knee_b)
-        else:
-            kept = idx[ok]
-            kn = p_ws[ok] + np.einsum("nij,nj->ni", Rs[ok], knee_b[ok])
-        kt = 0.0
-        if v.knee_terrain:
-            gk = (
-                np.full(len(kn), prob.flat_height)
-                if prob.flat_height is not None
-                else np.asarray(prob.ground(kn[:, 0], kn[:, 1]), dtype=float)
-            )
-            kt = max(0.0, float(pr.knee_radius_m - (kn[:, 2] - gk).min()))
-        ks, blame = 0.0, None
-        for o in others:
-            fc = o.foot_center if len(o.foot_center) == 1 else o.foot_center[kept]
-            d, _ = _point_segment(kn, fc, o.shank)
-            sev = float(pr.knee_keepout_m - d.min())
-            if sev > ks:
-                ks, blame = sev, o.leg
-        return kt, ks, blame
+            return p_ws + np.einsum("nij,nj->ni", Rs, knee_b), idx
+        return p_ws[ok] + np.einsum("nij,nj->ni", Rs[ok], knee_b[ok]), idx[ok]
 
     def _poses(self, prob: LegProblem, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The body's predicted positions (n,3) and orientations (n,3,3) at samples idx, stacked (cached per
@@ -455,7 +627,10 @@ class Analyzer:
         if pen > self.params.penetration_tol_m or scrape or h_margin < self.params.cliff_margin_m:
             return False
         if v.near_others:
-            sev, _, _ = self._foot_self(v.near_others, v.xw, v.yw, zs)
+            if zs is prob.zs_gentlest and v.gentlest_foot_sev is not None:
+                sev = v.gentlest_foot_sev
+            else:
+                sev, _, _ = self._foot_self(v.near_others, v.xw, v.yw, zs)
             if sev > v.foot_self_sev + 1e-9:
                 return False
         if len(v.knee_idx):

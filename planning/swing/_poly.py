@@ -413,3 +413,26 @@ def rise_hold_fall(
     b.accel(t_end - t_fall - b.t, 0.0)
     to_rest(b, z_end, v_down, a_max)
     return True
+
+
+def rise_hold_fall_outlook(
+    z0: float, v0: float, z_top: float, z_end: float, horizon: float, v_up: float, v_down: float, a_max: float
+) -> tuple[float, bool]:
+    """What rise_hold_fall would append from (z0, v0) over horizon (s), without building it: an upper bound (m) on
+    its height (inf where there is no cheap one) and whether it arrives on time (exactly rise_hold_fall's answer).
+    A few float operations, its own branch tests repeated.
+
+    Without the coast branch the foot rests on a top no higher than max(z_top, z_lo) (the time-optimal motion to
+    rest there never overshoots it: the top is at least where braking now would stop the foot), after starting at
+    z0; so the peak is the higher of the two, and it arrives on time. The coast branch arrives on time when
+    coast_time finds a coast (w ≥ 0): when the time-optimal motion to rest on z_end fits the horizon.
+    """
+    z_lo = max(z0 + v0 * abs(v0) / (2.0 * a_max), z_end)
+    top = max(z_top, z_lo)
+    if (
+        rest_time(z0, v0, top, v_up, a_max) + rest_time(top, 0.0, z_end, v_down, a_max) > horizon
+        and rest_time(z0, v0, z_lo, v_up, a_max) + rest_time(z_lo, 0.0, z_end, v_down, a_max) > horizon + 1e-9
+    ):
+        v_lim = v_down if z_end < z0 else v_up
+        return math.inf, rest_time(z0, v0, z_end, v_lim, a_max) <= horizon + 1e-7
+    return max(z0, top), True

@@ -58,6 +58,7 @@ from planning.swing.policies import (
     stop_forward,
     vertical,
     vertical_family,
+    vertical_outlook,
 )
 from planning.swing.types import (
     BodyMotion,
@@ -418,7 +419,12 @@ class SwingPlanner:
         )
         hip_z_min = float(hips[:, 2].min())
         z_ceiling = hip_z_min - self.robot.min_leg_length_m - pr.hip_clearance_m
-        g_way, g_obstacle = self._ground_on_way(req, ground)
+        g_knee_max = None
+        if isinstance(ground, FlatGround):
+            g_way, g_obstacle = -math.inf, -math.inf
+        else:  # the ground on the way and around the hips (for the knees) in one lookup
+            kx, ky = self.analyzer.knee_grid(leg, hips, c, s)
+            (g_way, g_obstacle), g_knee_max = self._ground_on_way(req, ground, (kx, ky))
         if pr.terrain_apex_m is not None and np.isfinite(g_way):
             # On mapped terrain the swing rises no higher than needed over the highest ground on its way: a foot
             # high in the air lands late.
@@ -493,6 +499,7 @@ class SwingPlanner:
             hold=hold,
             hip_z_min=hip_z_min,
             z_v_z1=(z0, vz0, z1),
+            g_knee_max=g_knee_max,
         )
 
     def _rise_first_height(
@@ -536,22 +543,38 @@ class SwingPlanner:
         approach = length * float(u[max(int(above[0]) - 1, 0)]) - pr.rise_first_gap_m
         return z_clear, approach
 
-    def _ground_on_way(self, req: SwingRequest, ground: GroundHeightFn) -> tuple[float, float]:
+    def _ground_on_way(
+        self,
+        req: SwingRequest,
+        ground: GroundHeightFn,
+        extra: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[tuple[float, float], float | None]:
         """The highest ground (m) on the straight way from the foot to its target, and the highest that stands above
         the line between them by more than obstacle_step_m (-inf when none, or when apex_free_over_obstacles is off);
-        both -inf on flat ground."""
+        both -inf on flat ground. And the highest ground at the extra points (x, y), looked up in the same call
+        (None without them)."""
         if isinstance(ground, FlatGround):
-            return -math.inf, -math.inf
+            return (-math.inf, -math.inf), None
         u = _WAY_SAMPLES
+        n = len(u)
         p0, p1 = req.p_world_foot, req.p_touchdown
-        xy = p0[None, :2] + u[:, None] * (p1[:2] - p0[:2])[None, :]
-        g = np.asarray(ground(xy[:, 0], xy[:, 1]), dtype=float)
+        m = n if extra is None else n + len(extra[0])
+        px, py = np.empty(m), np.empty(m)
+        px[:n] = p0[0] + u * (p1[0] - p0[0])
+        py[:n] = p0[1] + u * (p1[1] - p0[1])
+        g_extra = None
+        if extra is not None:
+            px[n:], py[n:] = extra
+        gall = np.asarray(ground(px, py), dtype=float)
+        g = gall[:n]
+        if extra is not None:
+            g_extra = float(gall[n:].max())
         line = float(p0[2]) + u * float(p1[2] - p0[2])
         above = g > line + self.params.obstacle_step_m
         g_obstacle = (
             float(g[above].max()) if above.any() and self.params.apex_free_over_obstacles else -math.inf
         )
-        return float(g.max()), g_obstacle
+        return (float(g.max()), g_obstacle), g_extra
 
     def _checked_stance(self, feet: Mapping[int, np.ndarray]) -> dict[int, np.ndarray]:
         """The stance feet as (3,) float arrays by leg index; a clear error naming the first bad entry."""
@@ -723,10 +746,19 @@ class SwingPlanner:
         z_poly, z_name = prob.z_aggressive, self.family[-1].name
         if choice.verdict.tier == Tier.SUCCESS and not force_aggressive:
             z0, vz0, z1 = prob.z_v_z1
+            # a policy that arrives late, or whose peak stays below what the terrain on the way needs, fails:
+            # rejected without building its trajectory (the same selection, a few float operations instead)
+            need = self.analyzer.clearance_need(choice.verdict) - 1e-9
             for i, spec in enumerate(self.family):
                 evaluations += 1
                 if i == len(self.family) - 1:
                     break
+                if i > 0 or (prob.z_gentlest is None and need > -math.inf):
+                    peak, on_time = vertical_outlook(
+                        spec, c.t0, z0, vz0, z1, c.t_end, prob.z_ceiling, prob.z_ref
+                    )
+                    if not on_time or peak < need:
+                        continue
                 if i == 0:
                     zp, zs = self.analyzer.gentlest(prob)
                     ok = prob.z_gentlest_ok
@@ -819,7 +851,7 @@ class SwingPlanner:
             z_trip = self._trip_z.get(leg)
             if z_trip is None or z_trip[0] != trip.t_s:
                 z_trip = self._trip_z[leg] = (trip.t_s, z0)
-            g_way, _ = self._ground_on_way(req, ground)
+            (g_way, _), _ = self._ground_on_way(req, ground)
             z_clear = g_way + float(self.robot.foot_radius_m) + pr.clearance_margin_m
             z_top = min(max(z_trip[1] + pr.trip_lift_m, z_clear), max(z_ceiling, z0))
             z = elevate(c.t0, z0, vz0, z_top, pr.v_max_up_mps, pr.a_max_z_mps2)

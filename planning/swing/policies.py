@@ -17,7 +17,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from planning.swing._poly import Builder, Poly1D, coast_time, rise_hold_fall, to_rest
+from planning.swing._poly import Builder, Poly1D, coast_time, rise_hold_fall, rise_hold_fall_outlook, to_rest
 from planning.swing.params import SwingParams, VerticalLevel
 
 AABB = tuple[float, float, float, float]  # x_min, x_max, y_min, y_max in the heading frame, m
@@ -560,6 +560,23 @@ def vertical(
     top = min(max(z_ref, z1) + spec.height_m, max(z_ceiling, z1))
     ok = rise_hold_fall(b, top, z1, t_end, spec.v_up, spec.v_down, spec.a_max)
     return b.finish(), ok
+
+
+def vertical_outlook(
+    spec: VerticalSpec,
+    t0: float,
+    z0: float,
+    vz0: float,
+    z1: float,
+    t_end: float,
+    z_ceiling: float,
+    z_ref: float,
+) -> tuple[float, bool]:
+    """vertical(spec, ...) without building the trajectory: an upper bound (m) on its height from t0 on (inf when
+    there is no cheap one) and whether it arrives on time (vertical's own answer). A policy that arrives late or
+    cannot clear the terrain is rejected for a few float operations."""
+    top = min(max(z_ref, z1) + spec.height_m, max(z_ceiling, z1))
+    return rise_hold_fall_outlook(z0, vz0, top, z1, t_end - t0, spec.v_up, spec.v_down, spec.a_max)
 
 
 def late_touchdown(t0: float, z0: float, vz0: float, descent_mps: float, a_max: float) -> Poly1D:

@@ -201,8 +201,11 @@ class BoxGround:
         y = np.asarray(y, dtype=float)
         h = np.full(x.shape, self.base_m)
         for x0, x1, y0, y1, top in self._rows:
-            inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
-            h = np.where(inside, np.maximum(h, top), h)
+            inside = x >= x0
+            inside &= x <= x1
+            inside &= y >= y0
+            inside &= y <= y1
+            np.maximum(h, top, out=h, where=inside)
         return h
 
 

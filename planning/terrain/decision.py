@@ -23,6 +23,7 @@ controller calls.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -30,7 +31,6 @@ from typing import Any
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from planning.steps import SteeringCommand
 from planning.steps.gait import get_gait
@@ -38,6 +38,7 @@ from planning.steps.select import Selection
 from planning.steps.state import StepPath, rotate_yaw
 from planning.swing.params import SwingParams
 from planning.terrain.bodypath import BodyPath, BodyPathParams, plan_body_path, sweep_clearance
+from planning.terrain.gridops import disk_filter
 from planning.terrain.maps import TerrainMaps, maps_from_scene
 from planning.terrain.memory import OverhangMemory
 from planning.terrain.overlays import map_overlays, plan_overlays
@@ -457,19 +458,33 @@ def reach_height(view: TerrainView, pitch: float, p: DecisionParams) -> float:
     return float(np.min(view.p_world_foot[use, 2] + dz - view.z_contact + math.sin(pitch) * x_hip[use]))
 
 
+@functools.lru_cache(maxsize=8)
+def _crouch_offsets(ahead_m: float) -> NDArray[np.float64]:
+    """The points crouch_height looks at, in the body's frame (15 along the heading by 3 across, (15, 3, 2))."""
+    d = np.linspace(-ahead_m, ahead_m, 15)
+    lat = np.array([-0.12, 0.0, 0.12])
+    out = np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1)
+    out.flags.writeable = False
+    return out
+
+
 def crouch_height(
     view: TerrainView, maps: TerrainMaps, p: DecisionParams, overhangs: HeightGrid | None = None
 ) -> float:
     """Gives the highest body height (m) that keeps the body's top under the overhangs around and ahead of the
     body (the clearance map, and the remembered overhang undersides if given; none: the standing height)."""
-    d = np.linspace(-p.crouch_ahead_m, p.crouch_ahead_m, 15)
-    lat = np.array([-0.12, 0.0, 0.12])
-    xy = view.p_world_body[:2] + rotate_yaw(
-        view.yaw, np.stack(np.broadcast_arrays(d[:, None], lat[None, :]), -1)
-    )
+    xy = view.p_world_body[:2] + rotate_yaw(view.yaw, _crouch_offsets(p.crouch_ahead_m))
     xy = xy.reshape(-1, 2)
-    c = np.asarray(maps.clearance_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
-    wall = np.asarray(maps.no_body(xy[:, 0], xy[:, 1]), dtype=bool)
+    # the clearance and the body obstacles of the nearest cells (as maps.clearance_at and maps.no_body: inf and
+    # False off the map), the cells found once for both
+    nx, ny = maps.shape
+    ix = np.rint((xy[:, 0] - maps.origin_xy[0]) / maps.resolution_m).astype(np.intp)
+    iy = np.rint((xy[:, 1] - maps.origin_xy[1]) / maps.resolution_m).astype(np.intp)
+    on = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+    ix = np.minimum(np.maximum(ix, 0), nx - 1)
+    iy = np.minimum(np.maximum(iy, 0), ny - 1)
+    c = np.where(on, maps.clearance_m[ix, iy], np.inf)
+    wall = on & maps.body_obstacle[ix, iy]
     h_cell = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
     z_feet = view.z_contact
     z_ceiling = h_cell + c
@@ -489,11 +504,11 @@ def swing_ground(maps: TerrainMaps, radius_m: float) -> HeightGrid:
     r = max(int(math.ceil(radius_m / res - 1e-9)), 0)
     i = np.arange(-r, r + 1)
     disk = (i[:, None] ** 2 + i[None, :] ** 2) * res * res <= radius_m**2 + 1e-12
-    h = (
-        ndimage.maximum_filter(maps.ground_height, footprint=disk, mode="nearest")
-        if r
-        else maps.ground_height
-    )
+    # The disk's empty outer rings left out (a radius under a cell: the cell alone), then gridops' row-run filter:
+    # ndimage.maximum_filter's values with mode "nearest", in a fraction of its time.
+    while disk.shape[0] > 1 and not disk[0].any():
+        disk = disk[1:-1, 1:-1]
+    h = disk_filter(maps.ground_height, disk, np.maximum) if disk.shape[0] > 1 else maps.ground_height
     return HeightGrid(maps.origin_xy, res, np.asarray(h, dtype=np.float64))
 
 
@@ -518,34 +533,39 @@ def choose_region(
     ox, oy = regions.origin_xy
     w = int(math.ceil(p.search_m / res))
     nx, ny = regions.labels.shape
-    cx = int(round((float(xy[0]) - ox) / res))
-    cy = int(round((float(xy[1]) - oy) / res))
+    x, y = float(xy[0]), float(xy[1])
+    cx = int(round((x - ox) / res))
+    cy = int(round((y - oy) / res))
     i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
     if i0 >= i1 or j0 >= j1:
         return 0
-    lab = np.where(regions.inset[i0:i1, j0:j1], regions.labels[i0:i1, j0:j1], 0)
-    ci, cj = np.nonzero(lab)
+    # The window's inset cells (the inset's labels cached per regions object); x depends on a cell's row only and
+    # y on its column only.
+    lab = regions.inset_labels[i0:i1, j0:j1]
+    ci, cj = lab.nonzero()
     if ci.size == 0:
         return 0
     labs = lab[ci, cj]
-    dx = ox + (i0 + ci) * res - float(xy[0])
-    dy = oy + (j0 + cj) * res - float(xy[1])
+    dx = (ox + np.arange(i0, i1) * res - x)[ci]
+    dy = (oy + np.arange(j0, j1) * res - y)[cj]
     dist = np.hypot(dx, dy)
-    hc = maps.ground_height[i0 + ci, j0 + cj]
-    dz = np.abs(hc - z_ref)
+    dz = np.abs(maps.ground_height[i0:i1, j0:j1][ci, cj] - z_ref)
     ok = (dist <= p.search_m) & (dz <= p.max_rise_m)
     if hip is not None and np.isfinite(reach_m):
-        ok &= np.hypot(dx + float(xy[0]) - float(hip[0]), dy + float(xy[1]) - float(hip[1])) <= reach_m
+        ok &= np.hypot(dx + x - float(hip[0]), dy + y - float(hip[1])) <= reach_m
     cost = np.where(ok, dist + p.w_height * dz, np.inf)
-    best = np.full(int(labs.max()) + 1, np.inf)
-    np.minimum.at(best, labs, cost)
-    choice = int(np.argmin(best))
-    if not np.isfinite(best[choice]):
+    # The region of least cost (a region's cost: its least over its cells; a tie: the lowest label).
+    least = float(cost.min())
+    if not math.isfinite(least):
         return 0
+    choice = int(labs[cost == least].min())
     if keep_xy is not None:
         prev = regions.label_at(float(keep_xy[0]), float(keep_xy[1]))
-        if 0 < prev < best.size and best[prev] <= best[choice] + (np.inf if in_flight else p.keep_m):
-            return prev
+        if 0 < prev <= int(labs.max()):
+            mine = labs == prev
+            prev_cost = float(cost[mine].min()) if mine.any() else np.inf
+            if prev_cost <= least + (np.inf if in_flight else p.keep_m):
+                return prev
     return choice
 
 
@@ -567,7 +587,7 @@ def knee_points(
     (along the heading, up) in the leg's plane, with the knee behind the hip-foot line (a knee that points back;
     a foot beyond the leg's length: the leg straight toward it, as the body will come down to it), and whether
     each foot is far enough from the hip for the leg to fold to it."""
-    d = feet - hip[None, :]
+    d = feet - hip  # (hip (2,), or one per foot (C, 2))
     D = np.hypot(d[:, 0], d[:, 1])
     reach = D > abs(l_upper - l_lower) + 1e-3
     Ds = np.where(reach, np.minimum(D, l_upper + l_lower - 1e-3), 1.0)
@@ -576,15 +596,16 @@ def knee_points(
     e = d / Ds[:, None]
     perp = np.stack([-e[:, 1], e[:, 0]], axis=1)
     perp *= np.where(perp[:, 0] > 0.0, -1.0, 1.0)[:, None]  # toward the back
-    return hip[None, :] + a[:, None] * e + h[:, None] * perp, reach
+    return hip + a[:, None] * e + h[:, None] * perp, reach
 
 
 def _ground_nearest(maps: TerrainMaps, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
     """Gives the ground height (m) of the cells nearest to world (x, y) (border cells beyond the map)."""
     nx, ny = maps.ground_height.shape
     res = maps.resolution_m
-    ix = np.clip(np.rint((x - maps.origin_xy[0]) / res), 0, nx - 1).astype(np.intp)
-    iy = np.clip(np.rint((y - maps.origin_xy[1]) / res), 0, ny - 1).astype(np.intp)
+    # (np.clip's values through minimum / maximum, without its dispatch cost)
+    ix = np.minimum(np.maximum(np.rint((x - maps.origin_xy[0]) / res), 0), nx - 1).astype(np.intp)
+    iy = np.minimum(np.maximum(np.rint((y - maps.origin_xy[1]) / res), 0), ny - 1).astype(np.intp)
     return np.asarray(maps.ground_height[ix, iy], dtype=np.float64)
 
 
@@ -616,25 +637,46 @@ def leg_clearance(
     distance (m) from the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it
     stands more than shin_edge_m above the ground's own slope at the foot carried back (a slope is no edge) (inf:
     no such ground; -inf: out of reach), and whether the foot is within reach of the hip (reach_xy)."""
+    return _clearance(view, maps, hip_height(view, leg), hip_xy, feet_xy, p)
+
+
+def _clearance(
+    view: TerrainView,
+    maps: TerrainMaps,
+    z_hip: Any,
+    hip_xy: NDArray[np.float64],
+    feet_xy: NDArray[np.float64],
+    p: DecisionParams,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """leg_clearance with the hip's height z_hip (m) and place hip_xy (2,), or one of each per foot ((C,), (C, 2)):
+    several legs' footholds in one evaluation, the same arithmetic row by row. (As in leg_clearance, rows are -inf
+    where the leg cannot fold to the foot as soon as any row has an edge behind it: a row alone without one would
+    give inf. The footholds' batched test then sends that slot through leg_bounds, which decides as before.)"""
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     res = maps.resolution_m
     s_feet = feet_xy @ u
-    z_feet = _ground_nearest(maps, feet_xy[:, 0], feet_xy[:, 1])
-    feet2 = np.stack([s_feet, z_feet + view.foot_radius_m], axis=1)
-    z_hip = hip_height(view, leg)
-    hip2 = np.array([float(hip_xy @ u), z_hip])
-    within = np.hypot(*(feet_xy - hip_xy[None, :]).T) <= reach_xy(view, p)
+    if hip_xy.ndim == 1:
+        hip2 = np.array([float(hip_xy @ u), z_hip])
+    else:
+        hip2 = np.column_stack([hip_xy @ u, np.asarray(z_hip, dtype=np.float64)])
+    within = np.hypot(*(feet_xy - hip_xy).T) <= reach_xy(view, p)
     ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
     pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
-    g = _ground_nearest(maps, pts[..., 0], pts[..., 1])
     # the ground's own slope at the foot along the heading: the gentler of the one-sided differences over two
     # cells (a nosing just behind the foot leaves the side ahead; on a slope both are the slope's)
     step = 2.0 * res
     ahead = feet_xy + step * u[None, :]
     behind = feet_xy - step * u[None, :]
-    fwd = (_ground_nearest(maps, ahead[:, 0], ahead[:, 1]) - z_feet) / step
-    bwd = (z_feet - _ground_nearest(maps, behind[:, 0], behind[:, 1])) / step
+    # the ground under the feet, the points behind them, and two cells ahead and behind: one lookup
+    C, M = len(feet_xy), len(ds)
+    every = np.concatenate([feet_xy, pts.reshape(-1, 2), ahead, behind])
+    z_all = _ground_nearest(maps, every[:, 0], every[:, 1])
+    z_feet = z_all[:C]
+    g = z_all[C : C + C * M].reshape(C, M)
+    fwd = (z_all[C + C * M : 2 * C + C * M] - z_feet) / step
+    bwd = (z_feet - z_all[2 * C + C * M :]) / step
+    feet2 = np.stack([s_feet, z_feet + view.foot_radius_m], axis=1)
     slope = np.where(np.abs(fwd) <= np.abs(bwd), fwd, bwd)
     base = z_feet[:, None] + slope[:, None] * ds[None, :]
     edge = g > base + p.shin_edge_m
@@ -744,22 +786,29 @@ def step_request(
     when they are not every leg once per 4 slots."""
     legs = path.leg[order].astype(np.intp)
     K = legs.size
-    if any(legs[k] != legs[k - 4] for k in range(4, K)) or sorted(legs[:4].tolist()) != [0, 1, 2, 3]:
+    legs_l = legs.tolist()
+    if any(legs_l[k] != legs_l[k - 4] for k in range(4, K)) or sorted(legs_l[:4]) != [0, 1, 2, 3]:
         return None
     t_now = view.t_s
     t_td = path.t_touchdown[order] - t_now
+    # (on Python floats: the same arithmetic, one slot at a time)
+    td_l = t_td.tolist()
+    lift_l = path.t_liftoff.tolist()
+    lift_now_l = path.t_liftoff_now.tolist()
     t_lo = np.empty(K)
-    for j, k in enumerate(order):
-        leg = int(path.leg[k])
-        prev = [i for i in order[:j] if path.leg[i] == leg]
-        if prev:
-            t_lo[j] = path.t_liftoff[prev[-1]] - t_now
+    last: dict[int, int] = {}  # each leg's latest slot so far (an index into the path)
+    for j, k in enumerate(order.tolist()):
+        leg = legs_l[j]
+        if leg in last:
+            t_lo[j] = lift_l[last[leg]] - t_now
         else:
-            lo = path.t_liftoff_now[leg]
-            t_lo[j] = -1.0 if np.isnan(lo) else min(float(lo) - t_now, float(t_td[j]) - 1e-3)
+            lo = lift_now_l[leg]
+            t_lo[j] = -1.0 if math.isnan(lo) else min(lo - t_now, td_l[j] - 1e-3)
+        last[leg] = k
     body = path.body
     t_abs = path.t_touchdown[order]
-    later = np.array([t_abs[t_abs > t + 1e-6].min() if np.any(t_abs > t + 1e-6) else t + 0.2 for t in t_abs])
+    abs_l = t_abs.tolist()
+    later = np.array([min([u for u in abs_l if u > t + 1e-6], default=t + 0.2) for t in abs_l])
     t_mid = 0.5 * (t_abs + later)
     p_hip = body.position(t_abs) + rotate_yaw(body.yaw(t_abs), view.p_body_hip[legs])
     return StepRequest(
@@ -832,16 +881,16 @@ def choose_footholds(
     reach = reach_xy(view, p)
     lost = np.zeros(K, dtype=bool)
     held_at: dict[int, NDArray[np.float64]] = {}
+    # per leg, as Python bools: the remembered choice is of this touchdown (same) and complete (finite)
+    held_l = (same & np.all(np.isfinite(memory.p_chosen), axis=1)).tolist()
+    stance_l = view.stance.tolist()
+    legs_l = legs.tolist()
     for j, k in enumerate(order):
-        leg = int(legs[j])
+        leg = legs_l[j]
         nom = path.p_world_touchdown[k, :2]
         first = j < 4
-        keep = (
-            memory.p_chosen[leg, :2]
-            if first and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
-            else None
-        )
-        flying = first and not bool(view.stance[leg])
+        keep = memory.p_chosen[leg, :2] if first and held_l[leg] else None
+        flying = first and not stance_l[leg]
         was_on = memory.on_region is None or bool(memory.on_region[leg])
         if keep is not None and was_on and lost_region(regions, maps, memory.p_chosen[leg], p):
             lost[j] = True
@@ -870,6 +919,17 @@ def choose_footholds(
             z_ref[leg] = float(poly.height_at(poly.project(nom)))
     # Each polygon of the next touchdowns with its bounds along the heading (the shin clear of edges behind the
     # foot, the hip in reach).
+    # (leg_bounds' first test, the shin and the reach at each polygon's place nearest the nominal foothold, for the
+    # first four slots in one evaluation: most pass it, and leg_bounds then has nothing to add)
+    first4 = [(j, q) for j, q in enumerate(polys[:4]) if q is not None]
+    passed: set[int] = set()
+    if first4 and view.l_upper_m > 0.0 and view.l_lower_m > 0.0:
+        slots = [j for j, _ in first4]
+        bases = np.array([q.project(path.p_world_touchdown[order[j], :2]) for j, q in first4])
+        z_hips = np.array([hip_height(view, legs_l[j]) for j in slots])
+        clear0, within0 = _clearance(view, maps, z_hips, hips[slots], bases, p)
+        ok0 = ((clear0 >= p.shin_clear_m) & within0).tolist()
+        passed = {j for j, ok in zip(slots, ok0, strict=True) if ok}
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
         if j in held_at:
@@ -880,7 +940,7 @@ def choose_footholds(
             continue
         bounds = (
             leg_bounds(view, maps, int(legs[j]), hips[j], path.p_world_touchdown[k, :2], q, p)
-            if j < 4
+            if j < 4 and j not in passed
             else []
         )
         if not bounds:
@@ -903,26 +963,29 @@ def choose_footholds(
         plan = qp.solve(req, maps, rows)
         if not np.all(np.isfinite(plan.footholds)):
             plan = None
-    t_rel = path.t_touchdown[order] - view.t_s
+    t_rel = (path.t_touchdown[order] - view.t_s).tolist()
     shift = 0.0
     back = 0.0
-    u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    ux, uy = math.cos(view.yaw), math.sin(view.yaw)
     for j, k in enumerate(order):
-        leg = int(legs[j])
-        held = j < 4 and same[leg] and np.all(np.isfinite(memory.p_chosen[leg]))
+        leg = legs_l[j]
+        held = j < 4 and held_l[leg]
         if (t_rel[j] < p.freeze_s and held) or lost[j]:
             p_new[k] = memory.p_chosen[leg]
         elif j in held_at:
             p_new[k] = held_at[j]
         elif plan is not None:
-            xy = plan.footholds[j, :2]
-            p_new[k, :2] = xy
-            p_new[k, 2] = float(maps.height_at(float(xy[0]), float(xy[1])))
+            x, y = plan.footholds[j, :2].tolist()
+            p_new[k, 0], p_new[k, 1] = x, y
+            p_new[k, 2] = float(maps.height_at(x, y))
         if j < 4:
-            move = p_new[k, :2] - path.p_world_touchdown[k, :2]
-            ahead = max(0.0, float(move @ u)) if not p.shift_counts_ahead else 0.0
-            shift = max(shift, float(np.linalg.norm(move - ahead * u)))
-            back += max(0.0, -float(move @ u)) / 4.0
+            # on Python floats: the move off the nominal, along the heading (a dot of two) and across it
+            mx, my = (p_new[k, :2] - path.p_world_touchdown[k, :2]).tolist()
+            along = mx * ux + my * uy
+            ahead = max(0.0, along) if not p.shift_counts_ahead else 0.0
+            rx, ry = mx - ahead * ux, my - ahead * uy
+            shift = max(shift, math.sqrt(rx * rx + ry * ry))
+            back += max(0.0, -along) / 4.0
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
             mem_on[leg] = polys[j] is not None or bool(lost[j]) or j in held_at

@@ -117,14 +117,46 @@ def _row_halves(footprint: NDArray[np.bool_]) -> tuple[int, ...]:
     return halves
 
 
+def _row_windows(a: NDArray[Any], halves: set[int], op: Op, cval: Any = None) -> dict[int, NDArray[Any]]:
+    """Gives window_1d(a, 2h + 1, 1, op, cval) for every half width h in halves, from one padded grid and one
+    doubling chain (a window's extremum is exact, whatever the order it is taken in: the same values)."""
+    widths = sorted(halves)
+    r = widths[-1]
+    out: dict[int, NDArray[Any]] = {}
+    if r == 0:
+        return {0: a.copy()}
+    n = a.shape[1]
+    m = _pad(a, r, 1, cval, spare_row=True)
+    n0 = m.shape[0] - 1
+    w1 = m.shape[1]
+    f = m.reshape(-1)
+    span = 1
+    chain = {1: f}  # span -> the extremum of the flat padded cells k .. k + span - 1
+    while 2 * span <= 2 * r + 1:
+        f = op(f[:-span], f[span:])
+        span *= 2
+        chain[span] = f
+    for h in widths:
+        if h == 0:
+            out[0] = a.copy()
+            continue
+        width = 2 * h + 1
+        s = 1 << (width.bit_length() - 1)  # the largest span within the window
+        g = chain[s]
+        off = r - h  # the window of cell j starts at padded cell j + off
+        lo = off + width - s
+        total = n0 * w1
+        w = op(g[off : off + total], g[lo : lo + total])
+        out[h] = w.reshape(n0, w1)[:, :n]
+    return out
+
+
 def disk_filter(a: NDArray[Any], footprint: NDArray[np.bool_], op: Op, cval: Any = None) -> NDArray[Any]:
     """Gives the extremum over a centred footprint whose rows are centred runs (a disk, a cross, a square); edges
     as in window_1d. Raises ValueError for any other footprint."""
     half = _row_halves(footprint)
     r = len(half) // 2
-    by_width: dict[int, NDArray[Any]] = {}
-    for h in set(half):
-        by_width[h] = _pad(window_1d(a, 2 * h + 1, 1, op, cval), r, 0, cval)
+    by_width = {h: _pad(w, r, 0, cval) for h, w in _row_windows(a, set(half), op, cval).items()}
     n = a.shape[0]
     out: NDArray[Any] | None = None
     for i, h in enumerate(half):

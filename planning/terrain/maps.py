@@ -19,6 +19,7 @@ Arrays are [ix, iy] with cell (ix, iy) centered at origin_xy + (ix, iy) * resolu
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -474,8 +475,8 @@ def build_maps(
         clearance.reshape(-1)[cols] = z_c - h.reshape(-1)[cols]
 
     sdf_body = signed_distance(body, res)
-    sdf_step = signed_distance(step, res)
-    return TerrainMaps(
+    # (the step SDF on first use: see _StepSDFOnUse)
+    return _StepSDFOnUse.made(
         origin_xy=columns.origin_xy,
         resolution_m=res,
         ground_height=h,
@@ -483,12 +484,42 @@ def build_maps(
         body_obstacle=body,
         step_obstacle=step,
         sdf_body_m=sdf_body,
-        sdf_step_m=sdf_step,
         grad_sdf_body=_gradient(sdf_body, res),
-        grad_sdf_step=_gradient(sdf_step, res),
         clearance_m=clearance,
         t_s=t_s,
     )
+
+
+class _StepSDFOnUse(TerrainMaps):
+    """The maps build_maps gives: the step SDF and its gradient are computed when first read (the unified terrain
+    pipeline never reads them: its footholds keep to the steppable regions), the same values as computed at once.
+    Every other field is set when built; dataclasses.replace passes every field on (the lazy ones read)."""
+
+    _LAZY = ("sdf_step_m", "grad_sdf_step")
+
+    def __getattr__(self, name: str) -> Any:
+        # (only for attributes not set: the two lazy fields before their first read)
+        if name in _StepSDFOnUse._LAZY:
+            sdf = signed_distance(self.step_obstacle, self.resolution_m)
+            object.__setattr__(self, "sdf_step_m", sdf)
+            object.__setattr__(self, "grad_sdf_step", _gradient(sdf, self.resolution_m))
+            return object.__getattribute__(self, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    @staticmethod
+    def made(**fields: Any) -> TerrainMaps:
+        """Gives maps with these fields (all of TerrainMaps' but the two lazy ones)."""
+        if fields.keys() != _EAGER_FIELDS:
+            raise TypeError(
+                f"_StepSDFOnUse.made: needs the fields {sorted(_EAGER_FIELDS)}, got {sorted(fields)}"
+            )
+        maps = object.__new__(_StepSDFOnUse)
+        for name, value in fields.items():
+            object.__setattr__(maps, name, value)
+        return maps
+
+
+_EAGER_FIELDS = {f.name for f in dataclasses.fields(TerrainMaps)} - set(_StepSDFOnUse._LAZY)
 
 
 def _gradient(sdf: NDArray[np.float64], res: float) -> NDArray[np.float64]:

@@ -143,7 +143,12 @@ class ConvexRegion:
     def height_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
         """Gives the plane's height (m) at points (.., 2)."""
         n = self.normal
-        d = np.asarray(xy, dtype=np.float64) - self.xy0
+        p = np.asarray(xy, dtype=np.float64)
+        if p.shape == (2,):
+            # one point (the footholds ask for one at a time): the same arithmetic on Python floats
+            (px, py), (x0, y0), (n0, n1, n2) = p.tolist(), self.xy0.tolist(), n.tolist()
+            return np.asarray(self.z0 - ((px - x0) * n0 + (py - y0) * n1) / n2, dtype=np.float64)
+        d = p - self.xy0
         return np.asarray(self.z0 - (d @ n[:2]) / n[2], dtype=np.float64)
 
 
@@ -189,6 +194,12 @@ class SteppableRegions:
 
     def polygons_of(self, label: int) -> tuple[ConvexRegion, ...]:
         return tuple(p for p in self.polygons if p.label == label)
+
+    @functools.cached_property
+    def inset_labels(self) -> NDArray[np.int32]:
+        """The labels of the inset cells (0 elsewhere), computed once per regions object (the footholds' region
+        choice reads it eight times a step-plan tick)."""
+        return np.where(self.inset, self.labels, 0).astype(np.int32, copy=False)
 
     def _cell(self, x: float, y: float) -> tuple[int, int]:
         return (
@@ -459,13 +470,14 @@ def _grow(
     pts, depth = outside
     rel = pts - seed
     d2 = np.einsum("ij,ij->i", rel, rel)
-    alive = np.ones(len(rel), dtype=bool)
     A: list[NDArray[np.float64]] = []
     b: list[float] = []
+    # The points still inside, in their order (the dropped ones taken out each round, so the nearest is the first
+    # of least distance, as among all points with the dropped ones at infinity).
     for _ in range(max_planes):
-        if not alive.any():
+        if not rel.shape[0]:
             break
-        i = int(np.argmin(np.where(alive, d2, np.inf)))
+        i = int(np.argmin(d2))
         dist = math.sqrt(float(d2[i]))
         if dist < 1e-9:
             return None
@@ -475,16 +487,17 @@ def _grow(
             return None
         A.append(nrm)
         b.append(off)
-        alive &= rel @ nrm < off - 1e-12
+        keep = rel @ nrm < off - 1e-12
+        rel, d2, depth = rel[keep], d2[keep], depth[keep]
     # The box (relative to the seed).
     x0, x1, y0, y1 = box
     A += [np.array([1.0, 0.0]), np.array([-1.0, 0.0]), np.array([0.0, 1.0]), np.array([0.0, -1.0])]
     b += [x1 - seed[0], seed[0] - x0, y1 - seed[1], seed[1] - y0]
     Am = np.asarray(A)
     bm = np.asarray(b)
-    if alive.any():
+    if rel.shape[0]:
         # Gauge of each point still inside: the polygon scaled by it about the seed passes through the point.
-        g = np.max((rel[alive] @ Am.T) / np.maximum(bm, 1e-12), axis=1)
+        g = np.max((rel @ Am.T) / np.maximum(bm, 1e-12), axis=1)
         scale = 0.999 * float(np.min(g))
         if scale <= 1e-6:
             return None
@@ -573,7 +586,10 @@ def convex_around(
     outside = _border_points(mine, xs, ys, regions.depth_m[i0:i1, j0:j1])
     # Cells of the region beyond the window are not known to be free of edges: the window bounds the polygon (half
     # a cell past the inset cells' centres, as in the cover: the inset's own bound lies between cells).
-    box = _box_of(cells, 0.5 * res)
+    # (xs and ys grow with the index, and nonzero gives the rows in order: the cells' extremes without a reduction
+    # over them; the same values as _box_of(cells, 0.5 * res))
+    g = 0.5 * res
+    box = (float(xs[ci[0]]) - g, float(xs[ci[-1]]) + g, float(ys[cj.min()]) - g, float(ys[cj.max()]) + g)
     return _grow(
         seed,
         outside,

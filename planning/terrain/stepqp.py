@@ -29,6 +29,7 @@ Legs are FL, FR, RL, RR = 0..3. Times are seconds from now.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -379,7 +380,7 @@ class StepQP:
                 self._keep_planes[k] = []
                 continue
             g, b = _region_arrays(r, p.keep_clearance_m, p.keep_planes)
-            self._keep_planes[k] = [(g[i], bi) for i, bi in enumerate(b.tolist())]
+            self._keep_planes[k] = list(zip(g, b.tolist(), strict=True))
             slots.append(np.full(len(b), k, dtype=np.intp))
             planes.append(np.arange(len(b), dtype=np.intp))
             gs.append(g)
@@ -525,7 +526,7 @@ class StepQP:
             a = np.asarray(getattr(req, name))
             if a.shape != shape:
                 raise ValueError(f"StepRequest.{name}: expected shape {shape}, got {a.shape}")
-            if not np.all(np.isfinite(a)):
+            if not np.isfinite(a).all():
                 raise ValueError(f"StepRequest.{name}: contains NaN or inf")
         legs = np.asarray(req.legs)
         if np.any((legs < 0) | (legs > 3)):
@@ -557,80 +558,79 @@ class StepQP:
         self._vals[self._support_ents] = 0.0
         self.l[self._support_rows] = -np.inf
         self.u[self._support_rows] = np.inf
-        # One 2-vector dot per row, as the rows were filled one by one (a matrix product may round differently).
+        # n·hip as two products and a sum per row, all rows at once (not a matrix product, which may round
+        # differently).
         p_hip = np.asarray(req.p_hip, dtype=np.float64)
-        self.u[self._oct_rows] = [
-            [rk + float(n @ hk) for n in _OCT_N] for rk, hk in zip(r.tolist(), p_hip, strict=True)
-        ]
+        self.u[self._oct_rows] = r[:, None] + (p_hip[:, 0:1] * _OCT_N[:, 0] + p_hip[:, 1:2] * _OCT_N[:, 1])
         t_td = req.t_touchdown
         t_lo = req.t_liftoff
         # the slots of each leg, and the times as Python floats, for the stance lookups below
         slots_of = [[int(j) for j in np.flatnonzero(legs == leg)] for leg in range(4)]
         lo_l, td_l = np.asarray(t_lo, dtype=np.float64).tolist(), np.asarray(t_td, dtype=np.float64).tolist()
         self._td_l = td_l
+        # the body's heading per slot (its cosine and sine as Python floats), the feet now and their velocities
+        cos_l = np.cos(np.asarray(req.yaw_body, dtype=np.float64)).tolist()
+        sin_l = np.sin(np.asarray(req.yaw_body, dtype=np.float64)).tolist()
+        feet_l = np.asarray(req.p_feet, dtype=np.float64).tolist()
+        vfeet_l = np.asarray(req.v_feet, dtype=np.float64).tolist()
         for k in range(K):
             leg = int(legs[k])
-            yaw = float(req.yaw_body[k])
-            ex = np.array([np.cos(yaw), np.sin(yaw)])
-            ey = np.array([-np.sin(yaw), np.cos(yaw)])
+            cy, sy = cos_l[k], sin_l[k]
             ip = self._ip(k)
-            # reach_rect
+            # reach_rect (on Python floats: e·center as two products and a sum)
             if k < 4:
-                T = max(float(t_td[k]) - max(float(t_lo[k]), 0.0), 0.0)
-                if t_lo[k] <= 0.0:  # swinging now: dynamics of the swing foot
-                    T = max(float(t_td[k]), 0.0)
-                    center = req.p_feet[leg] + req.v_feet[leg] * T
+                fx, fy = feet_l[leg]
+                if lo_l[k] <= 0.0:  # swinging now: dynamics of the swing foot
+                    T = max(td_l[k], 0.0)
+                    vx, vy = vfeet_l[leg]
+                    fx, fy = fx + vx * T, fy + vy * T
                     half = 0.5 * p.max_foot_accel * T * T
-                    halves = (half, half)
-                    axes = (np.array([1.0, 0.0]), np.array([0.0, 1.0]))
+                    rect = ((1.0, 0.0, half), (0.0, 1.0, half))
                 else:
-                    center = req.p_feet[leg]
-                    halves = p.stride_box_m
-                    axes = (ex, ey)
+                    rect = ((cy, sy, p.stride_box_m[0]), (-sy, cy, p.stride_box_m[1]))
                 # Rows on (p_k, slack): e·p_k - s <= c + h and e·p_k + s >= c - h.
-                for a, (e, h) in enumerate(zip(axes, halves, strict=True)):
-                    c = float(e @ center)
-                    e0, e1 = float(e[0]), float(e[1])
+                for a, (e0, e1, h) in enumerate(rect):
+                    c = e0 * fx + e1 * fy
                     self._set_row(self.b_rect, k, 2 * a, [e0, e1, -1.0], -np.inf, c + h)
                     self._set_row(self.b_rect, k, 2 * a + 1, [e0, e1, 1.0], c - h, np.inf)
             else:
                 # Rows on (p_k, p_{k-4}, slack): the stride box around the leg's previous foothold.
-                for a, (e, h) in enumerate(zip((ex, ey), p.stride_box_m, strict=True)):
-                    e0, e1 = float(e[0]), float(e[1])
+                for a, (e0, e1, h) in enumerate(((cy, sy, p.stride_box_m[0]), (-sy, cy, p.stride_box_m[1]))):
                     self._set_row(self.b_rect, k, 2 * a, [e0, e1, -e0, -e1, -1.0], -np.inf, h)
                     self._set_row(self.b_rect, k, 2 * a + 1, [e0, e1, -e0, -e1, 1.0], -h, np.inf)
             # Where every leg stands at touchdown k and in the middle of phase k.
-            t_mid = self._phase_mid(k, t_td)
-            stance_td = self._stance(k, float(t_td[k]), slots_of, lo_l, td_l)
+            t_mid = self._phase_mid(k, td_l)
+            stance_td = self._stance(k, td_l[k], slots_of, lo_l, td_l)
             stance_mid = self._stance(k, t_mid, slots_of, lo_l, td_l)
-            # self_coll: lateral and longitudinal neighbors at touchdown, in the body frame at touchdown.
+            # self_coll: lateral and longitudinal neighbors at touchdown, in the body frame at touchdown (on Python
+            # floats: e·ref as two products and a sum).
             side = 1.0 if LEG_IS_LEFT[leg] else -1.0
             front = 1.0 if LEG_IS_FRONT[leg] else -1.0
-            for i, (nb, e, d_min) in enumerate(
-                ((LATERAL_NEIGHBOR[leg], ey * side, p.self_lateral_m),
-                 (LONGITUDINAL_NEIGHBOR[leg], ex * front, p.self_longitudinal_m))
+            for i, (nb, e0, e1, d_min) in enumerate(
+                ((LATERAL_NEIGHBOR[leg], -sy * side, cy * side, p.self_lateral_m),
+                 (LONGITUDINAL_NEIGHBOR[leg], cy * front, sy * front, p.self_longitudinal_m))
             ):  # fmt: skip
                 ref = stance_td.get(int(nb))
                 if ref is None:
                     self._clear_row(self.b_self, k, i)
                     continue
-                vc = {ip: e[0], ip + 1: e[1]}
+                vc = {ip: e0, ip + 1: e1}
                 lo = d_min
                 if isinstance(ref, int):
                     jp = self._ip(ref)
-                    vc[jp] = vc.get(jp, 0.0) - e[0]
-                    vc[jp + 1] = vc.get(jp + 1, 0.0) - e[1]
+                    vc[jp] = vc.get(jp, 0.0) - e0
+                    vc[jp + 1] = vc.get(jp + 1, 0.0) - e1
                 else:
-                    lo += float(e @ ref)
+                    lo += e0 * float(ref[0]) + e1 * float(ref[1])
                 self._set_row(self.b_self, k, i, self._coeff_on(self.b_self, k, vc, 1.0), lo, np.inf)
             # cop and balance around the body point of phase k.
             self._fill_support(k, req, stance_mid)
 
     @staticmethod
-    def _phase_mid(k: int, t_td: NDArray[np.float64]) -> float:
-        later = t_td[t_td > t_td[k] + 1e-6]
-        t_next = float(later.min()) if later.size else float(t_td[k]) + 0.2
-        return 0.5 * (float(t_td[k]) + t_next)
+    def _phase_mid(k: int, t_td: list[float]) -> float:
+        later = [t for t in t_td if t > t_td[k] + 1e-6]
+        t_next = min(later) if later else t_td[k] + 0.2
+        return 0.5 * (t_td[k] + t_next)
 
     def _stance(
         self, k: int, t: float, slots_of: list[list[int]], t_lo: list[float], t_td: list[float]
@@ -654,10 +654,13 @@ class StepQP:
         return out
 
     def _fill_support(self, k: int, req: StepRequest, stance: dict[int, int | NDArray[np.float64]]) -> None:
+        """The cop and balance rows of phase k (on Python floats: each 2-vector dot as two products and a sum)."""
         p = self.params
-        c = req.c_body[k]
+        cx, cy = (float(v) for v in req.c_body[k])
         idc = self._idc(k)
-        nominal = {leg: (req.p_nominal[ref] if isinstance(ref, int) else ref) for leg, ref in stance.items()}
+        nominal = {
+            leg: (req.p_nominal[ref] if isinstance(ref, int) else ref).tolist() for leg, ref in stance.items()
+        }
         # (its cop and balance rows were cleared by _fill_static, all slots at once)
         n_st = len(stance)
         if n_st < 2:
@@ -667,42 +670,41 @@ class StepQP:
         if any(abs(t - t_k) < 1e-6 for t in td[k + 1 :]):
             return  # a later slot lands at the same time: its phase carries the rows
 
-        def term(vc: dict[int, float], leg: int, w: NDArray[np.float64]) -> float:
+        def term(vc: dict[int, float], leg: int, w0: float, w1: float) -> float:
             """Adds w·p_leg to vc (a variable) or gives its constant value (a fixed foot)."""
             ref = stance[leg]
             if isinstance(ref, int):
                 jp = self._ip(ref)
-                vc[jp] = vc.get(jp, 0.0) + w[0]
-                vc[jp + 1] = vc.get(jp + 1, 0.0) + w[1]
+                vc[jp] = vc.get(jp, 0.0) + w0
+                vc[jp + 1] = vc.get(jp + 1, 0.0) + w1
                 return 0.0
-            return float(w @ ref)
+            return w0 * float(ref[0]) + w1 * float(ref[1])
 
         if n_st == 2:
             a, b = sorted(stance)
-            d = nominal[b] - nominal[a]
-            L = float(np.linalg.norm(d))
+            d0, d1 = nominal[b][0] - nominal[a][0], nominal[b][1] - nominal[a][1]
+            L = math.sqrt(d0 * d0 + d1 * d1)
             if L < 1e-6:
                 return
-            d = d / L
-            n = np.array([-d[1], d[0]])
+            d0, d1 = d0 / L, d1 / L
+            n0, n1 = -d1, d0
             lam = p.cop_fraction * L
+            dc = d0 * cx + d1 * cy
             # d·(c + dc - p_a) >= lam
-            vc: dict[int, float] = {idc: d[0], idc + 1: d[1]}
-            const = term(vc, a, -d)
-            self._set_row(
-                self.b_cop, k, 0, self._coeff_on(self.b_cop, k, vc, 1.0), lam - float(d @ c) - const, np.inf
-            )
+            vc: dict[int, float] = {idc: d0, idc + 1: d1}
+            const = term(vc, a, -d0, -d1)
+            self._set_row(self.b_cop, k, 0, self._coeff_on(self.b_cop, k, vc, 1.0), lam - dc - const, np.inf)
             # d·(p_b - c - dc) >= lam
-            vc = {idc: -d[0], idc + 1: -d[1]}
-            const = term(vc, b, d)
-            self._set_row(
-                self.b_cop, k, 1, self._coeff_on(self.b_cop, k, vc, 1.0), lam + float(d @ c) - const, np.inf
-            )
+            vc = {idc: -d0, idc + 1: -d1}
+            const = term(vc, b, d0, d1)
+            self._set_row(self.b_cop, k, 1, self._coeff_on(self.b_cop, k, vc, 1.0), lam + dc - const, np.inf)
             # |n·(c + dc - (p_a + p_b)/2)| <= balance_lateral
+            nc = n0 * cx + n1 * cy
             for i, sgn in ((0, 1.0), (1, -1.0)):
-                vc = {idc: sgn * n[0], idc + 1: sgn * n[1]}
-                const = term(vc, a, -0.5 * sgn * n) + term(vc, b, -0.5 * sgn * n)
-                lo = -p.balance_lateral_m - sgn * float(n @ c) - const
+                vc = {idc: sgn * n0, idc + 1: sgn * n1}
+                h = -0.5 * sgn
+                const = term(vc, a, h * n0, h * n1) + term(vc, b, h * n0, h * n1)
+                lo = -p.balance_lateral_m - sgn * nc - const
                 self._set_row(self.b_bal, k, i, self._coeff_on(self.b_bal, k, vc, 1.0), lo, np.inf)
             return
         # Three or four feet: the support polygon of the nominal positions, counterclockwise.
@@ -713,15 +715,16 @@ class StepQP:
         ccw = [order[i] for i in np.argsort(ang)]
         for i in range(len(ccw)):
             la, lb = ccw[i], ccw[(i + 1) % len(ccw)]
-            e = nominal[lb] - nominal[la]
-            L = float(np.linalg.norm(e))
+            e0, e1 = nominal[lb][0] - nominal[la][0], nominal[lb][1] - nominal[la][1]
+            L = math.sqrt(e0 * e0 + e1 * e1)
             if L < 1e-6:
                 continue
-            n = np.array([-e[1], e[0]]) / L  # inward for a counterclockwise polygon
+            n0, n1 = -e1 / L, e0 / L  # inward for a counterclockwise polygon
+            nc = n0 * cx + n1 * cy
             for blk, m in ((self.b_cop, p.cop_margin_m), (self.b_bal, p.balance_margin_m)):
-                vc = {idc: n[0], idc + 1: n[1]}
-                const = term(vc, la, -n)
-                self._set_row(blk, k, i, self._coeff_on(blk, k, vc, 1.0), m - float(n @ c) - const, np.inf)
+                vc = {idc: n0, idc + 1: n1}
+                const = term(vc, la, -n0, -n1)
+                self._set_row(blk, k, i, self._coeff_on(blk, k, vc, 1.0), m - nc - const, np.inf)
 
     def _snap(self, req: StepRequest, legs: NDArray[np.intp], maps: TerrainMaps) -> StepRequest:
         """Gives the request with its nominal footholds moved off no-step regions along the heading (see

@@ -132,3 +132,24 @@ def test_vectorized_ik_and_knees_are_bit_identical_to_the_scalar_ones(robot) -> 
                 assert np.array_equal(knees[k], robot.knee_body(leg, q_one))
                 reachable += 1
     assert reachable > 50 and unreachable > 5
+
+
+@pytest.mark.parametrize("robot", [SPOT, GO1], ids=["spot", "go1"])
+def test_knee_of_foot_is_the_knee_of_the_ik(robot) -> None:
+    """knee_of_foot (floats, the math module): the knee of ik_leg's angles to a micrometer, and None exactly where
+    ik_leg raises."""
+    rng = np.random.default_rng(5)
+    reachable = unreachable = 0
+    for leg in range(4):
+        for p in robot.nominal_foot_body[leg] + rng.normal(0.0, 0.15, (150, 3)):
+            got = robot.knee_of_foot(leg, *p.tolist())
+            try:
+                want = robot.knee_body(leg, robot.ik_leg(leg, p))
+            except ReachError:
+                assert got is None
+                unreachable += 1
+                continue
+            assert got is not None
+            assert np.abs(np.array(got) - want).max() < 1e-6
+            reachable += 1
+    assert reachable > 200 and unreachable > 20

@@ -25,3 +25,37 @@ def test_box_ground_takes_the_highest_box_and_the_base_elsewhere() -> None:
     x = np.array([0.25, 0.75, 1.5, 3.0])
     y = np.array([0.25, 0.75, 1.5, 3.0])
     assert ground(x, y).tolist() == [0.2, 0.3, 0.3, -0.1]
+
+
+def test_the_float_knees_are_the_vectorized_ones() -> None:
+    """The knee check's per-sample float IK (Analyzer._knees_few) finds the knees the vectorized IK finds, at the
+    same samples, on a crossing where the foot passes another leg (bodies yawed and moving)."""
+    from planning.robot import load_robot
+    from planning.swing.bench import _case
+    from planning.swing.planner import SwingPlanner
+    from planning.swing.policies import cubic
+    from planning.swing.types import BodyMotion, SwingRequest
+
+    robot = load_robot("spot")
+    planner = SwingPlanner(robot)
+    req, ground, stance, _ = _case("crossing")
+    compared = 0
+    for yaw in (0.0, 0.4, -0.7):
+        c, s = np.cos(yaw), np.sin(yaw)
+        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        body = BodyMotion(0.1, np.array([0.05, 0.0, 0.52]), R, np.array([0.3, 0.1, 0.0]), 0.5)
+        r = SwingRequest(0, req.p_world_foot, np.array([0.8, 0.0, 0.6]), req.p_touchdown, req.t_touchdown)
+        st_ = planner._checked_stance(stance)
+        fixed = planner._stance_obstacles(st_, body, 0.1, c, s)
+        prob = planner._problem(0.1, r, ground, fixed, body, {}, c, s)
+        an = planner.analyzer
+        v = an.analyze(prob, cubic(prob.ctx), 1.0)
+        v.knee_idx = np.arange(1, len(prob.ts) - 1)  # every interior sample
+        for zs in (prob.zs_aggressive, an.gentlest(prob)[1]):
+            kf, kept_f = an._knees_few(prob, v, zs)
+            km, kept_m = an._knees_many(prob, v, zs)
+            assert kf is not None and kept_m is not None
+            assert np.array_equal(kept_f, kept_m)
+            assert np.abs(kf - km).max() < 1e-6
+            compared += len(kept_f)
+    assert compared > 60

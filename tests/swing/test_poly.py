@@ -4,7 +4,14 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planning.swing._poly import Builder, coast_time, rest_time, rise_hold_fall, to_rest
+from planning.swing._poly import (
+    Builder,
+    coast_time,
+    rest_time,
+    rise_hold_fall,
+    rise_hold_fall_outlook,
+    to_rest,
+)
 
 V, A = 3.0, 40.0
 pos = st.floats(-0.5, 0.5)
@@ -72,3 +79,25 @@ def test_rise_hold_fall(z0, vz0, z1, T, h):
     else:
         # Too late even for the lowest top: it still comes to rest on z1, after T.
         assert rest_time(z0, vz0, z1, 2.0, 40.0) > T - 1e-9 or T < 0.3
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.floats(-0.1, 0.3),
+    st.floats(-1.5, 2.0),
+    st.floats(-0.1, 0.3),
+    st.floats(0.01, 0.6),
+    st.floats(-0.1, 0.4),
+    st.floats(0.3, 1.0),
+)
+def test_rise_hold_fall_outlook_bounds_the_height_and_says_when_it_arrives(z0, vz0, z1, T, top, frac):
+    """The vertical selection rejects policies on this outlook without building them: its on-time answer must be
+    rise_hold_fall's, and its height a true upper bound of every sample (or inf)."""
+    v_up, v_down, a = 2.0 * frac, 1.5 * frac, 60.0 * frac
+    b = Builder(0.0, z0, vz0)
+    ok = rise_hold_fall(b, top, z1, T, v_up, v_down, a)
+    poly = b.finish()
+    peak, on_time = rise_hold_fall_outlook(z0, vz0, top, z1, T, v_up, v_down, a)
+    assert on_time == ok
+    _, Z, _, _ = _dense(poly, 0.0, T)
+    assert Z.max() <= peak + 1e-9

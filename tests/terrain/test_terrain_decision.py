@@ -437,3 +437,79 @@ def test_a_touchdown_with_no_region_steps_in_place_and_a_foothold_off_every_regi
     kept = FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool))
     d3 = choose_footholds(view, path_fl, world, kept, qp, P)
     np.testing.assert_allclose(d3.p_world_touchdown[k_fl, :2], [0.5, 0.15], atol=0.011)
+
+
+def _choose_region_reference(regions, maps, xy, z_ref, keep_xy, p, in_flight, hip, reach_m):  # type: ignore[no-untyped-def]
+    """choose_region's rule cell by cell: each region's least cost over its inset cells in the window."""
+    res, (ox, oy) = regions.resolution_m, regions.origin_xy
+    w = int(math.ceil(p.search_m / res))
+    cx, cy = int(round((xy[0] - ox) / res)), int(round((xy[1] - oy) / res))
+    best: dict[int, float] = {}
+    for i in range(max(cx - w, 0), min(cx + w + 1, regions.labels.shape[0])):
+        for j in range(max(cy - w, 0), min(cy + w + 1, regions.labels.shape[1])):
+            if not regions.inset[i, j]:
+                continue
+            lab = int(regions.labels[i, j])
+            dx, dy = ox + i * res - xy[0], oy + j * res - xy[1]
+            dist, dz = math.hypot(dx, dy), abs(float(maps.ground_height[i, j]) - z_ref)
+            ok = dist <= p.search_m and dz <= p.max_rise_m
+            if hip is not None and math.isfinite(reach_m):
+                ok = ok and math.hypot(dx + xy[0] - hip[0], dy + xy[1] - hip[1]) <= reach_m
+            best[lab] = min(best.get(lab, math.inf), dist + p.w_height * dz if ok else math.inf)
+    finite = {k: v for k, v in best.items() if math.isfinite(v)}
+    if not finite:
+        return 0
+    choice = min(finite, key=lambda k: (finite[k], k))
+    if keep_xy is not None:
+        prev = regions.label_at(keep_xy[0], keep_xy[1])
+        if 0 < prev <= max(best) and best.get(prev, math.inf) <= finite[choice] + (
+            math.inf if in_flight else p.keep_m
+        ):
+            return prev
+    return choice
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_choose_region_equals_its_cell_by_cell_rule(seed: int) -> None:
+    """The region choice on the window's arrays against the rule cell by cell: random terraces, kept regions in
+    flight or not, hips with a reach."""
+    rng = np.random.default_rng(seed)
+    nx, ny = 50, 40
+    h = np.round(rng.integers(0, 4, (5, 4)).astype(np.float64) * 0.05, 2)
+    h = np.kron(h, np.ones((10, 10)))
+    xs, ys = np.arange(nx) * RES, -0.6 + np.arange(ny) * RES
+    maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    regions = segment_regions(maps, P.regions, cover=False)
+    assert regions.n_regions > 2
+    for _ in range(40):
+        xy = np.array([rng.uniform(-0.2, 1.7), rng.uniform(-0.8, 0.8)])
+        z_ref = float(rng.choice([0.0, 0.05, 0.1, 0.15]))
+        keep = None if rng.random() < 0.3 else np.array([rng.uniform(0, 1.5), rng.uniform(-0.6, 0.6)])
+        flying = bool(rng.random() < 0.5)
+        hip = None if rng.random() < 0.5 else xy + rng.uniform(-0.2, 0.2, 2)
+        reach = float(rng.uniform(0.1, 0.4))
+        got = choose_region(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
+        want = _choose_region_reference(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
+        assert got == want
+
+
+def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own() -> None:
+    """The footholds test the first four slots' shins in one evaluation (a hip per foot): the same clearances and
+    reaches as leg_clearance leg by leg, near the nosing and beyond reach."""
+    from planning.terrain.decision import _clearance, hip_height
+
+    world = _steps_down()
+    view = dataclass_replace(_leg_view(0.85, 0.6), pitch_rad=0.2)
+    rng = np.random.default_rng(3)
+    legs = np.array([0, 1, 2, 3, 0, 2])
+    hips = np.column_stack([0.85 + view.p_body_hip[legs, 0], view.p_body_hip[legs, 1]]) + rng.normal(
+        0, 0.02, (6, 2)
+    )
+    feet = np.column_stack([rng.uniform(0.9, 1.6, 6), rng.uniform(-0.2, 0.2, 6)])
+    feet[5] = hips[5] + 0.8  # out of reach
+    z_hips = np.array([hip_height(view, int(leg)) for leg in legs])
+    clear, within = _clearance(view, world.maps, z_hips, hips, feet, P)
+    for i, leg in enumerate(legs):
+        c1, w1 = leg_clearance(view, world.maps, int(leg), hips[i], feet[i : i + 1], P)
+        assert clear[i] == c1[0] and within[i] == w1[0]
+    assert not within[5] and np.any(np.isfinite(clear))

@@ -13,6 +13,7 @@ from scipy import ndimage
 
 from planning.terrain.maps import (
     MapParams,
+    TerrainMaps,
     _cumulative_layers,
     _disk,
     _disk_count,
@@ -219,3 +220,27 @@ def test_the_body_band_from_the_support_keeps_stone_edges_over_a_pit_slot_out_an
     box = Columns((0.0, 0.0), res, floor, occ_box, z0, dz)
     for params in (p, dataclasses.replace(p, band_from_support=True)):
         assert build_maps(box, params, default_ground_z=0.0).body_obstacle[18:22, 18:22].all()
+
+
+def test_the_step_sdf_computed_on_first_read_equals_the_one_computed_at_once() -> None:
+    """build_maps leaves the step SDF and its gradient to their first read: the same values; replace, pickling
+    and a missing attribute behave as for plain maps."""
+    import pickle
+
+    from planning.terrain.maps import _gradient, columns_from_scene
+
+    maps = build_maps(columns_from_scene(build_terrain("stairs"), (1.0, 0.0), 1.5))
+    assert isinstance(maps, TerrainMaps)
+    assert "sdf_step_m" not in vars(maps)
+    again = pickle.loads(pickle.dumps(maps))  # pickled before the first read: still computed on use
+    sdf = signed_distance(maps.step_obstacle, maps.resolution_m)
+    np.testing.assert_array_equal(maps.sdf_step_m, sdf)
+    np.testing.assert_array_equal(maps.grad_sdf_step, _gradient(sdf, maps.resolution_m))
+    assert maps.sdf_step_m is maps.sdf_step_m  # computed once
+    np.testing.assert_array_equal(again.grad_sdf_step, maps.grad_sdf_step)
+    assert maps.sdf_step(1.0, 0.2) == again.sdf_step(1.0, 0.2)
+    plain = dataclasses.replace(maps, t_s=1.0)
+    assert "sdf_step_m" in vars(plain)  # every field passed on
+    np.testing.assert_array_equal(plain.sdf_step_m, sdf)
+    with pytest.raises(AttributeError):
+        _ = maps.no_such_map  # type: ignore[attr-defined]

@@ -143,6 +143,7 @@ def test_unknown_sensor_body_is_named() -> None:
 def test_bench_perception_reports_points() -> None:
     out = bench_perception(n=3)
     assert out["points"] > 5000 and out["p50_ms"] > 0 and out["p99_ms"] >= out["p50_ms"]
+    assert out["step_sdf"]["cpu_p50_ms"] > 0  # the step SDF timed apart (computed on first read)
 
 
 @pytest.mark.parametrize(
