@@ -144,6 +144,48 @@ def ramp(
     )
 
 
+#: The steered family at a speed: straight, small yaw rates both ways, a larger one, and straight from a start turned
+#: by 0.3 rad (MuJoCo's pyramidal friction cone is not isotropic, so that walk differs physically): (yaw rate rad/s,
+#: start yaw rad).
+STEERED_FAMILY = ((0.0, 0.0), (0.2, 0.0), (-0.2, 0.0), (0.4, 0.0), (0.0, 0.3))
+
+
+def steered_family(
+    gait: str,
+    vx: float,
+    family: tuple[tuple[float, float], ...] = STEERED_FAMILY,
+    duration_s: float = 6.0,
+    settle_s: float = 3.5,
+) -> list[dict[str, Any]]:
+    """Walks the gait from a stand at vx with each (yaw rate, start yaw) of the family (the joystick's limits
+    lifted, as in the ramps); returns per walk whether it fell and its mean forward speed after settle_s."""
+    from planning.sim.run import RunOptions, WalkCommand, WalkSession
+
+    if not 0.0 <= settle_s < duration_s:
+        raise ValueError(
+            f"steered_family: settle_s must be in [0, duration_s), got {settle_s} ({duration_s})"
+        )
+    out = []
+    for yaw_rate, start_yaw in family:
+        sess = WalkSession(
+            WalkCommand(vx, 0.0, yaw_rate, gait=gait),
+            RunOptions(duration_s=duration_s, start_offset=(0.0, 0.0, start_yaw)),
+        )
+        steering = sess.controller.planner.steering
+        steering.params = replace(steering.params, **UNLIMITED)
+        sess.loop.run(settle_s)
+        n0 = len(sess.recorder.t)
+        if not sess.loop.fell:
+            sess.loop.run(duration_s - settle_s)
+        fell = sess.loop.fell
+        v = None if fell else float(np.mean([vb[0] for vb in sess.recorder.v_body[n0:]]))
+        w = None if fell else float(np.mean(sess.recorder.yaw_rate[n0:]))
+        out.append(
+            {"yaw_rate": yaw_rate, "start_yaw": start_yaw, "fell": fell, "mean_vx": v, "mean_yaw_rate": w}
+        )
+    return out
+
+
 def bench_speed(
     gaits: tuple[str, ...] = GAITS,
     directions: tuple[Direction, ...] = DIRECTIONS,
@@ -207,6 +249,10 @@ if __name__ == "__main__":
     import json
     import sys
 
+    if len(sys.argv) == 4 and sys.argv[1] == "--family":  # python -m benchmarks.speed --family GAIT VX
+        for row in steered_family(sys.argv[2], float(sys.argv[3])):
+            print(json.dumps(row))
+        sys.exit(0)
     res = bench_speed(progress=lambda m: print(m, file=sys.stderr))
     print(json.dumps(res, indent=2))
     print(format_speed_table(res))

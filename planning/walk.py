@@ -94,6 +94,11 @@ class WalkParams:
     # the swing feet's horizontal limits while trotting fast (trot_fast): the longer steps need them (m/s, m/s²)
     fast_swing_v_max_xy_mps: float = 6.0
     fast_swing_a_max_xy_mps2: float = 120.0
+    # ... per gait, in place of those two (name, m/s, m/s²). The gallop's: at 2.5 m/s its swing feet cover a stride
+    # of v·cycle in (1 − duty)·cycle, 6.25 m/s on average, and a swing that cruises at v_max needs v_max above
+    # v / (1 − duty) at any cycle time: at 6 m/s the feet landed short and late and the gallop ran 2.2-2.3 m/s; at
+    # 7.5 m/s (with its 0.30 s cycle) 2.33-2.37 (8 m/s: 1 to 5 falls in 5 walks)
+    gait_swing_limits: tuple[tuple[str, float, float], ...] = (("gallop", 7.5, 120.0),)
     # ... a late foot descends this fast (m/s; 0.6 otherwise: at 2 m/s a late foot still 6 cm up left the body on
     # one diagonal for 0.1 s and it rolled over)
     fast_swing_late_descent_mps: float = 1.2
@@ -165,6 +170,10 @@ class WalkController:
         self._t_last = 0.0
         self._swing_slow: SwingParams | None = None  # the swing parameters to restore after trot_fast
         self._handler_slow: HandlerParams | None = None  # ... and the handler's
+        self._gait_swing_limits = {g: (v, a) for g, v, a in p.gait_swing_limits}
+        self._swing_limits: tuple[float, float] | None = (
+            None  # the fast swing's horizontal limits applied now
+        )
         self._pair_gains = False  # the balance QP has the pair gaits' gains (WalkParams.pair_gait_*)
         self.problems = StepPathProblems(robot)
         self.driver = (
@@ -337,32 +346,39 @@ class WalkController:
 
     def _swing_for_speed(self) -> None:
         """Raises the swing feet's horizontal limits and speeds up their late touchdowns and trip responses while
-        the gait is trot_fast (WalkParams.fast_*); restores them after."""
-        fast = self.planner.clock.gait.name in self.params.fast_swing_gaits
-        if fast == (self._swing_slow is not None):
+        the gait is one of the fast ones (WalkParams.fast_*, a gait's own horizontal limits from
+        WalkParams.gait_swing_limits); restores them after."""
+        name = self.planner.clock.gait.name
+        fast = name in self.params.fast_swing_gaits
+        p = self.params
+        limits = self._gait_swing_limits.get(name, (p.fast_swing_v_max_xy_mps, p.fast_swing_a_max_xy_mps2))
+        if fast == (self._swing_slow is not None) and (not fast or limits == self._swing_limits):
             return
         sp = self.handler.swing_planner
         if fast:
-            self._swing_slow = sp.params
-            self._handler_slow = self.handler.params
-            p = self.params
+            if self._swing_slow is None:
+                self._swing_slow = sp.params
+                self._handler_slow = self.handler.params
+            self._swing_limits = limits
             sp.set_params(
                 replace(
-                    sp.params,
-                    v_max_xy_mps=p.fast_swing_v_max_xy_mps,
-                    a_max_xy_mps2=p.fast_swing_a_max_xy_mps2,
+                    self._swing_slow,
+                    v_max_xy_mps=limits[0],
+                    a_max_xy_mps2=limits[1],
                     late_descent_mps=p.fast_swing_late_descent_mps,
                     trip_response_s=p.fast_trip_response_s,
                 )
             )
+            assert self._handler_slow is not None
             self.handler.params = replace(
-                self.handler.params, replan_height_from_plan_m=p.fast_replan_height_from_plan_m
+                self._handler_slow, replan_height_from_plan_m=p.fast_replan_height_from_plan_m
             )
         else:
             assert self._swing_slow is not None and self._handler_slow is not None
             sp.set_params(self._swing_slow)
             self.handler.params = self._handler_slow
             self._swing_slow = self._handler_slow = None
+            self._swing_limits = None
 
     def _centroidal(self, s: RobotState) -> None:
         sel = self.plan.selection

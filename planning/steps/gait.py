@@ -65,8 +65,11 @@ class Gait:
 # the gallop swing with the fast trot's swing limits (planning.walk.WalkParams.fast_swing_gaits): held 1.4 m/s
 # (0.8 with the slow ones). Their 0.32 s cycle: at 0.40 s the bound commanded 2.5 m/s fell (46 % of its stance
 # legs' ticks at a torque limit: long, heavily loaded stances) and the gallop at 2.5 fell from late feet; at 0.32 s
-# both hold it (0.28 s: more late feet). Their caps (2.5, 2.2 m/s) are what they tracked within 10 % from a stand,
-# with the balance gains of WalkParams.pair_gait_* and the bound's footholds of ReferenceParams.thrust_lead_s.
+# both hold it (0.28 s: more late feet). The gallop's 0.30 s, with its swing feet's own 7.5 m/s limit
+# (WalkParams.gait_swing_limits): 2.33-2.37 m/s asked 2.5 (with 7 m/s, 0.29 s: 2.32-2.38, 0.31: 2.17-2.35, 0.32:
+# 2.15-2.34; five walks each: straight, ±0.2 and 0.4 rad/s, a turned start).
+# Their caps (2.5 each) are what they tracked within 10 % from a stand, with the balance gains of
+# WalkParams.pair_gait_* and the bound's footholds of ReferenceParams.thrust_lead_s.
 #       name      cycle   duty    touchdown phase offset        swing height   max speed
 #                 s       -       FL     FR     RL     RR       m              m/s
 _GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], float, float], ...] = (
@@ -79,7 +82,7 @@ _GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], f
     ("trot_fast", 0.40,   0.50,   (0.00,  0.50,  0.50,  0.00),  0.10,          2.0),
     ("pace",      0.36,   0.60,   (0.00,  0.50,  0.00,  0.50),  0.10,          1.0),
     ("bound",     0.32,   0.60,   (0.00,  0.00,  0.50,  0.50),  0.12,          2.5),
-    ("gallop",    0.32,   0.60,   (0.50,  0.60,  0.00,  0.10),  0.12,          2.2),
+    ("gallop",    0.30,   0.60,   (0.50,  0.60,  0.00,  0.10),  0.12,          2.5),
 )  # fmt: skip
 
 # own sideways / turning limits (m/s, rad/s): the trots held 1.0 m/s sideways (ramped up to it) and 2.25 rad/s in

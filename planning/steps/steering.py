@@ -22,7 +22,7 @@ class SteeringParams:
     has its sideways, backward and turning limits scaled down in proportion (m/s).
     """
 
-    max_vx_mps: float = 2.5  # the bound's cap (trot_fast 2.0, gallop 2.2: each gait's own)
+    max_vx_mps: float = 2.5  # the bound's and the gallop's cap (trot_fast 2.0: each gait's own)
     max_vx_back_mps: float = 0.8
     max_vy_mps: float = 0.6
     max_yaw_rate_rps: float = 1.2

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planning.robot import RobotModel
-from planning.swing._poly import Poly1D
+from planning.swing._poly import Poly1D, sample_pair
 from planning.swing.params import SwingParams
 from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_family
 from planning.swing.types import BodyMotion, GroundHeightFn, Tier
@@ -71,7 +71,7 @@ class LegProblem:
     z_ok: bool  # the most aggressive vertical policy arrives on time
     zs_aggressive: np.ndarray  # (K,)
     others: list[OtherLeg]
-    hips: np.ndarray  # (K,3) world hip positions at ts
+    hips: np.ndarray  # (3,3) world hip positions at the first, middle and last of ts
     ground: GroundHeightFn
     flat_height: float | None  # set when the ground is FlatGround
     body: BodyMotion
@@ -204,8 +204,7 @@ class Analyzer:
 
     # ---- geometry of one candidate ------------------------------------------------------------------------
     def world_xy(self, prob: LegProblem, hp: HPath) -> tuple[np.ndarray, np.ndarray]:
-        hx = hp.x.sample_many(prob.ts)
-        hy = hp.y.sample_many(prob.ts)
+        hx, hy = sample_pair(hp.x, hp.y, prob.ts)
         c, s = prob.cos_yaw, prob.sin_yaw
         if s == 0.0 and c == 1.0:
             return hx, hy
@@ -460,13 +459,12 @@ class Analyzer:
         return idx, terrain
 
     def knee_grid(self, leg: int, hips: np.ndarray, c: float, sn: float) -> tuple[np.ndarray, np.ndarray]:
-        """World x and y of the ground probed for the knees: a grid fore and aft of the hips (K,3) at the swing's
+        """World x and y of the ground probed for the knees: a grid fore and aft of the hips (3,3) at the swing's
         start, middle and end, in line with the hip and with the foot (abduction offset); heading cos c, sin sn."""
         fore, side = self._knee_grid[leg]
         ox = (fore[:, None] * c - side[None, :] * sn).ravel()
         oy = (fore[:, None] * sn + side[None, :] * c).ravel()
-        h = hips[[0, len(hips) // 2, -1]]
-        return (h[:, 0:1] + ox).ravel(), (h[:, 1:2] + oy).ravel()
+        return (hips[:, 0:1] + ox).ravel(), (hips[:, 1:2] + oy).ravel()
 
     def _no_obstacle(self, K: int) -> np.ndarray:
         """K samples none of which is over an obstacle (cached per K; read-only)."""

@@ -117,6 +117,25 @@ class Poly1D:
         return None
 
 
+def sample_pair(a: Poly1D, b: Poly1D, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of two trajectories with the same breaks (a path's x and y) at the times ts (K,): what
+    a.sample_many(ts) and b.sample_many(ts) return, with one piece lookup and one evaluation for both."""
+    br = a.breaks
+    if len(br) == 1 or br != b.breaks:
+        return a.sample_many(ts), b.sample_many(ts)
+    tb = np.array(br)
+    k = tb.searchsorted(ts, "right")
+    k -= 1
+    if ts[0] < br[0]:  # before the start: hold the start state
+        np.maximum(k, 0, out=k)
+        tau = np.maximum(ts - tb[k], 0.0)
+    else:
+        tau = ts - tb[k]
+    c0, c1, c2, c3 = np.array([a.coeffs, b.coeffs]).take(k, axis=1).transpose(2, 0, 1)  # each (2,K)
+    out = c0 + tau * (c1 + tau * (c2 + tau * c3))
+    return out[0], out[1]
+
+
 def _first_root(c0: float, c1: float, c2: float, c3: float, dur: float) -> float | None:
     """Returns the smallest τ in [0, dur] with c0 + c1 τ + c2 τ² + c3 τ³ = 0 (c3 = 0 for every piece we search)."""
     if abs(c0) < 1e-12:

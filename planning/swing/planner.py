@@ -192,6 +192,8 @@ class SwingPlanner:
         self._ramp = np.arange(self.params.samples, dtype=float)  # for the sample times
         self._up_rf = np.array([0.0, 0.0, robot.foot_radius_m])  # contact point → foot center, m
         self._hips_body = [robot.p_body_hip[i].copy() for i in range(4)]
+        self._hips_body_f = [tuple(float(v) for v in robot.p_body_hip[i]) for i in range(4)]
+        self._no_hips = np.zeros((0, 3))  # LegProblem.hips on flat ground (no knee grid to probe)
 
     def set_params(self, params: SwingParams) -> None:
         """Switches to other parameters (a terrain mode), keeping the per-leg memory of the swings under way."""
@@ -385,7 +387,11 @@ class SwingPlanner:
         pr = self.params
         leg = req.leg
         ts = _linspace(t_now, req.t_touchdown, self._ramp)
-        hips = body.hip_world_many(ts, self._hips_body[leg])
+        # the hip's height is linear in time (the body turns about z only): the lowest over the swing is at an end
+        (r20, r21, r22), hbx, hby, hbz = body.R_world_body[2].tolist(), *self._hips_body_f[leg]
+        pz, vz = float(body.p_world_body[2]), float(body.v_world_body[2])
+        rz = r20 * hbx + r21 * hby + r22 * hbz
+        hip_z_min = min(pz + (t_now - body.t0) * vz, pz + (req.t_touchdown - body.t0) * vz) + rz
         others: list[OtherLeg] = list(fixed[0])
         keepouts: list[AABB] = list(fixed[1])
         r = pr.keepout_radius_m
@@ -417,12 +423,14 @@ class SwingPlanner:
             time_split_frac=pr.time_split_frac,
             blocked=blocked_keepouts(p0, p1, keepouts),
         )
-        hip_z_min = float(hips[:, 2].min())
         z_ceiling = hip_z_min - self.robot.min_leg_length_m - pr.hip_clearance_m
         g_knee_max = None
+        hips = self._no_hips
         if isinstance(ground, FlatGround):
             g_way, g_obstacle = -math.inf, -math.inf
         else:  # the ground on the way and around the hips (for the knees) in one lookup
+            # the hips at the swing's start, middle and end: where the knee grid probes
+            hips = body.hip_world_many(ts[[0, len(ts) // 2, -1]], self._hips_body[leg])
             kx, ky = self.analyzer.knee_grid(leg, hips, c, s)
             (g_way, g_obstacle), g_knee_max = self._ground_on_way(req, ground, (kx, ky))
         if pr.terrain_apex_m is not None and np.isfinite(g_way):

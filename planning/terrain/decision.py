@@ -74,6 +74,9 @@ class DecisionParams:
     the body off the line between them and roll it over); hump_above_start: the swing time the gait must give
     (cadence) counts only ground that rises above the foot's own height as well as above its straight path (a
     foot stepping down past an edge at its own height needs no rise, and keeps the walk's short swings);
+    count_step_rise: the swing time counts as well how far a next foothold lies above its foot where the two are on
+    different regions (step_rise: a riser climbed, a box stepped onto; a slope is one region), so a swing up a
+    riser has the time to rise over it (the 0.3 s swings of `climb` are too short for a 0.12 m riser);
     slow_gait, slow_gap_m, gap_behind_m, gap_ahead_m: the
     gait where a gap wider than slow_gap_m lies on the feet's lines from gap_behind_m behind the body to
     gap_ahead_m ahead (far enough ahead that the switch is made before the front feet reach it); lookahead_m, yaw_gain,
@@ -101,7 +104,10 @@ class DecisionParams:
     touchdown whose previous foothold lies on no region in this map (the segmentation lost the cell for a
     moment: a re-segmentation, a cell seen anew) while the ground there is within this of the foothold's
     height keeps that foothold: the ground did not move, and a foot committed to a tread is not sent to the floor
-    beside it."""
+    beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) only where its ground dips more than
+    this below the ground at both of its ends (ground that drops below the feet and comes back: a pit, the space
+    between stones), not a riser's or a box's edge band, whose ground goes from one side's height to the other's
+    (None: every run counts)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -150,6 +156,8 @@ class DecisionParams:
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
     lost_hold_m: float = 0.03
+    gap_dip_m: float | None = None
+    count_step_rise: bool = True
 
 
 # ---- typed inputs and outputs ----------------------------------------------------------------------------------
@@ -330,11 +338,35 @@ def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | Non
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
         return p.slow_gait
     rise = swing_hump(view, world, last, p.hump_above_start)
+    if p.count_step_rise:
+        rise += step_rise(view, world, last)
     need = p.base_swing_s + rise / p.rise_speed_mps
     for name in (view.fast_gait, *p.climb_gaits):
         if get_gait(name).swing_s >= need - 1e-9:
             return name
     return p.climb_gaits[-1] if p.climb_gaits else view.fast_gait
+
+
+def step_rise(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None) -> float:
+    """Gives the most (m) a chosen next foothold lies above its foot where the two stand on different regions (a
+    riser's tread above, a box's or a stone's top): the height a swing climbs besides its hump; 0 on one region
+    (a slope is one plane) or stepping down."""
+    if last is None:
+        return 0.0
+    chosen = last.memory.p_chosen
+    regions = world.regions
+    most = 0.0
+    for leg in range(4):
+        b = chosen[leg]
+        if not np.all(np.isfinite(b)):
+            continue
+        a = view.p_world_foot[leg]
+        up = float(b[2]) - (float(a[2]) - view.foot_radius_m)
+        if up > most and regions.label_at(float(a[0]), float(a[1])) != regions.label_at(
+            float(b[0]), float(b[1])
+        ):
+            most = up
+    return most
 
 
 def swing_hump(
@@ -377,14 +409,30 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
     ix = np.rint((x - regions.origin_xy[0]) / res).astype(np.intp)
     iy = np.rint((y - regions.origin_xy[1]) / res).astype(np.intp)
     on = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-    ok = np.where(on, regions.inset[np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)], True)
+    cx, cy = np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)
+    ok = np.where(on, regions.inset[cx, cy], True)
+    ground = world.maps.ground_height[cx, cy] if p.gap_dip_m is not None else None
     longest = 0
-    for row in ok:
+    for k, row in enumerate(ok):
         # runs of False: from the positions where the row changes
         edges = np.flatnonzero(np.diff(np.concatenate([[1], row.astype(np.int8), [1]])))
-        if edges.size:
-            longest = max(longest, int(np.max(edges[1::2] - edges[::2])))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            if ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
+                continue
+            longest = max(longest, int(b - a))
     return longest * res
+
+
+def _dips(ground: NDArray[np.float64], a: int, b: int, dip_m: float | None) -> bool:
+    """Whether the ground of the run [a, b) of a line dips more than dip_m below the ground at both of its ends (the
+    cells just outside it; a run at the line's end: the one end it has): a pit or a gap between stones does, a
+    riser's edge band (the ground going from one tread's height to the next) does not."""
+    if dip_m is None:
+        return True
+    ends = [ground[i] for i in (a - 1, b) if 0 <= i < ground.size]
+    if not ends:
+        return True
+    return bool(np.min(ground[a:b]) < min(ends) - dip_m)
 
 
 def capped(cmd: SteeringCommand, cap: float, p: DecisionParams) -> SteeringCommand:
@@ -567,6 +615,87 @@ def choose_region(
             if prev_cost <= least + (np.inf if in_flight else p.keep_m):
                 return prev
     return choice
+
+
+def _choose_regions(
+    regions: SteppableRegions,
+    maps: TerrainMaps,
+    xys: NDArray[np.float64],
+    z_refs: list[float],
+    keeps: list[NDArray[np.float64] | None],
+    p: DecisionParams,
+    flying: list[bool],
+    hips: NDArray[np.float64],
+    reach_m: float,
+) -> list[int]:
+    """choose_region for several footholds at once (xys (S, 2), a height reference, kept place, flight flag and
+    hip (S, 2) each): the window cells of all of them in one set of arrays, each one's least cost, lowest label of
+    it and kept region's least cost by segment (min / max are exact in any order: the same answers)."""
+    S = len(z_refs)
+    if S == 1:
+        return [choose_region(regions, maps, xys[0], z_refs[0], keeps[0], p, flying[0], hips[0], reach_m)]
+    res = regions.resolution_m
+    ox, oy = regions.origin_xy
+    w = int(math.ceil(p.search_m / res))
+    nx, ny = regions.labels.shape
+    parts: list[tuple[NDArray[Any], ...]] = []
+    seg: list[int] = []  # the slots with window cells, in order
+    for s, (x, y) in enumerate(xys.tolist()):
+        cx = int(round((x - ox) / res))
+        cy = int(round((y - oy) / res))
+        i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
+        if i0 >= i1 or j0 >= j1:
+            continue
+        lab = regions.inset_labels[i0:i1, j0:j1]
+        ci, cj = lab.nonzero()
+        if ci.size == 0:
+            continue
+        parts.append(
+            (
+                lab[ci, cj],
+                (ox + np.arange(i0, i1) * res - x)[ci],
+                (oy + np.arange(j0, j1) * res - y)[cj],
+                maps.ground_height[i0:i1, j0:j1][ci, cj],
+            )
+        )
+        seg.append(s)
+    out = [0] * S
+    if not seg:
+        return out
+    sizes = np.array([len(part[0]) for part in parts])
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    labs, dx, dy, hc = (np.concatenate([part[i] for part in parts]) for i in range(4))
+    rep = np.repeat(np.arange(len(seg)), sizes)
+    seg_a = np.array(seg)
+    z_cell = np.array(z_refs)[seg_a][rep]
+    dist = np.hypot(dx, dy)
+    dz = np.abs(hc - z_cell)
+    ok = (dist <= p.search_m) & (dz <= p.max_rise_m)
+    if np.isfinite(reach_m):
+        x_cell = xys[seg_a, 0][rep]
+        y_cell = xys[seg_a, 1][rep]
+        ok &= np.hypot(dx + x_cell - hips[seg_a, 0][rep], dy + y_cell - hips[seg_a, 1][rep]) <= reach_m
+    cost = np.where(ok, dist + p.w_height * dz, np.inf)
+    least = np.minimum.reduceat(cost, starts)
+    big = np.iinfo(labs.dtype).max
+    lowest = np.minimum.reduceat(np.where(cost == least[rep], labs, big), starts)
+    top = np.maximum.reduceat(labs, starts)
+    prev = np.zeros(len(seg), dtype=labs.dtype)
+    for g, s in enumerate(seg):
+        keep = keeps[s]
+        if keep is not None:
+            prev[g] = regions.label_at(float(keep[0]), float(keep[1]))
+    prev_cost = np.minimum.reduceat(np.where(labs == prev[rep], cost, np.inf), starts)
+    for g, s in enumerate(seg):
+        if not math.isfinite(float(least[g])):
+            continue
+        choice = int(lowest[g])
+        pv = int(prev[g])
+        if keeps[s] is not None and 0 < pv <= int(top[g]):
+            if float(prev_cost[g]) <= float(least[g]) + (np.inf if flying[s] else p.keep_m):
+                choice = pv
+        out[s] = choice
+    return out
 
 
 def lost_region(
@@ -870,7 +999,6 @@ def choose_footholds(
     order = np.lexsort((path.leg, path.t_touchdown))[:K]
     legs = path.leg[order].astype(np.intp)
     same = np.abs(memory.t_touchdown - t_td_next) < 0.15
-    polys: list[ConvexRegion | None] = []
     z_ref = z_stance.copy()
     cache = {} if polygon_cache is None else polygon_cache
     res = regions.resolution_m
@@ -885,38 +1013,66 @@ def choose_footholds(
     held_l = (same & np.all(np.isfinite(memory.p_chosen), axis=1)).tolist()
     stance_l = view.stance.tolist()
     legs_l = legs.tolist()
-    for j, k in enumerate(order):
-        leg = legs_l[j]
-        nom = path.p_world_touchdown[k, :2]
-        first = j < 4
-        keep = memory.p_chosen[leg, :2] if first and held_l[leg] else None
-        flying = first and not stance_l[leg]
-        was_on = memory.on_region is None or bool(memory.on_region[leg])
-        if keep is not None and was_on and lost_region(regions, maps, memory.p_chosen[leg], p):
-            lost[j] = True
-            polys.append(None)
-            z_ref[leg] = float(memory.p_chosen[leg, 2])
-            continue
-        label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying, hips[j], reach)
-        if not label and np.isfinite(reach):
-            # no region within the leg's reach: the nearest one beyond it (a long step onto a stone), not none
-            label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying)
-        poly = None
-        if label:
-            key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
-            if key not in cache:
-                cache[key] = convex_around(regions, label, nom, p.window_m)
-            poly = cache[key]
-        if poly is None and first:
-            # no region at all: a foot in stance steps in place, one in the air keeps its choice made on a region,
-            # not its nominal place over a gap or a pit
-            hold = held_foothold(view, leg, memory.p_chosen[leg] if keep is not None and was_on else None)
-            if hold is not None:
-                held_at[j] = hold
-                z_ref[leg] = float(hold[2])
-        polys.append(poly)
-        if poly is not None:
-            z_ref[leg] = float(poly.height_at(poly.project(nom)))
+    # In strides of four slots (one per leg: a stride's choices do not depend on each other), the regions of a
+    # stride's slots chosen at once (_choose_regions: choose_region's answers), then their polygons in slot order.
+    order_l = order.tolist()
+    polys: list[ConvexRegion | None] = [None] * K
+    for g0 in range(0, K, 4):
+        group = list(range(g0, min(g0 + 4, K)))
+        if len({legs_l[j] for j in group}) < len(group):
+            group_sets = [[j] for j in group]  # a leg twice in a stride: one slot at a time
+        else:
+            group_sets = [group]
+        for gs in group_sets:
+            asked: list[tuple[int, NDArray[np.float64] | None, bool]] = []
+            for j in gs:
+                leg = legs_l[j]
+                first = j < 4
+                keep = memory.p_chosen[leg, :2] if first and held_l[leg] else None
+                was_on = memory.on_region is None or bool(memory.on_region[leg])
+                if keep is not None and was_on and lost_region(regions, maps, memory.p_chosen[leg], p):
+                    lost[j] = True
+                    z_ref[leg] = float(memory.p_chosen[leg, 2])
+                    continue
+                asked.append((j, keep, first and not stance_l[leg]))
+            if not asked:
+                continue
+            labels = _choose_regions(
+                regions,
+                maps,
+                path.p_world_touchdown[[order_l[j] for j, _, _ in asked], :2],
+                [float(z_ref[legs_l[j]]) for j, _, _ in asked],
+                [keep for _, keep, _ in asked],
+                p,
+                [flying for _, _, flying in asked],
+                hips[[j for j, _, _ in asked]],
+                reach,
+            )
+            for (j, keep, flying), label in zip(asked, labels, strict=True):
+                leg = legs_l[j]
+                nom = path.p_world_touchdown[order_l[j], :2]
+                if not label and np.isfinite(reach):
+                    # no region within the leg's reach: the nearest one beyond it (a long step onto a stone)
+                    label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying)
+                poly = None
+                if label:
+                    key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
+                    if key not in cache:
+                        cache[key] = convex_around(regions, label, nom, p.window_m)
+                    poly = cache[key]
+                if poly is None and j < 4:
+                    # no region at all: a foot in stance steps in place, one in the air keeps its choice made on a
+                    # region, not its nominal place over a gap or a pit
+                    was_on = memory.on_region is None or bool(memory.on_region[leg])
+                    hold = held_foothold(
+                        view, leg, memory.p_chosen[leg] if keep is not None and was_on else None
+                    )
+                    if hold is not None:
+                        held_at[j] = hold
+                        z_ref[leg] = float(hold[2])
+                polys[j] = poly
+                if poly is not None:
+                    z_ref[legs_l[j]] = float(poly.height_at(poly.project(nom)))
     # Each polygon of the next touchdowns with its bounds along the heading (the shin clear of edges behind the
     # foot, the hip in reach).
     # (leg_bounds' first test, the shin and the reach at each polygon's place nearest the nominal foothold, for the
@@ -1058,12 +1214,24 @@ def _regions_maps() -> dict[str, Any]:
     cells that are step obstacles only for standing higher than max_step_height_m above the lowest ground nearby
     (dense_counts_high False). With the sensor a stone 0.318 m above its pit is such a cell by cell against the 0.32 m
     limit, the whole stone turned into a body obstacle, and the body path swerved around it (stones seed 1: 114
-    body-obstacle cells at 2.5 s, 5 with this); the body passes over a stone, and the step map keeps it no-step.
+    body-obstacle cells at 2.5 s, 5 with this); the body passes over a stone. Nor are such cells step obstacles
+    (high_is_step False): the region choice bounds each step's rise from the leg's own last foothold (max_rise_m),
+    and the rule took a band low_radius_m wide off the regions along a flight's open side (more than
+    max_step_height_m above the floor beside it), where the feet of a body walking off the flight's centre line
+    stand. Nor does the step map close no-step gaps as wide as min_support_m (min_support_m 0: one cell): the
+    regions are inset by the foot radius and an edge margin, which leaves out a patch too small for a foot, while
+    the closing (a disk of 7 cells, 0.21 m at 3 cm cells, for 0.16 m) took a steep flight's whole tread off the map
+    wherever its clear part, between the bands at its riser and its nosing, came out 7 cells wide.
     The body band starts above the ground the robot stands on as well as above each cell's own (band_from_support):
     the pit in the 4-10 cm slot between a left and a right stone holds the stones' top edges 0.3 m above its floor,
     inside the band measured from the pit, and those few cells swung the body path 0.3-0.6 m aside onto the outer
     stones' edges (stones draw 3: body path to y -0.4…-0.6, a foot in the pit at 9.1 s; straight with this)."""
-    return {"dense_counts_high": False, "band_from_support": True}
+    return {
+        "dense_counts_high": False,
+        "high_is_step": False,
+        "min_support_m": 0.0,
+        "band_from_support": True,
+    }
 
 
 def _regions_qp() -> StepQPParams:

@@ -54,7 +54,10 @@ class MapParams:
     dense_radius_m, dense_fraction: where step obstacles cover more than this share of the disk, the area becomes a
     body obstacle (dense_counts_high False: cells that are step obstacles only for standing higher than
     max_step_height_m above the lowest ground nearby do not count: a stone's top beside a pit is no obstacle to the
-    body above it); speck_cells: obstacle components smaller than this are removed; close_cells: body-map closing
+    body above it); high_is_step: cells higher than max_step_height_m above the lowest ground within low_radius_m
+    are step obstacles (False: not; a foothold chooser that bounds each step's rise from the leg's own last
+    foothold, as the regions pipeline does, needs no such rule, and with it the side of a flight above the floor
+    beside it, a stone above its pit, lost a band low_radius_m wide from the ground a foot may stand on); speck_cells: obstacle components smaller than this are removed; close_cells: body-map closing
     radius (cells); fill_min_cells: unknown cells within this many cells of known ones take the lowest neighbor;
     ceiling_above_m: overhangs at least this high count for clearance; fill_low_radius_m: an unknown cell's ground is
     at most the lowest observed ground within this radius (None: not; the shadow behind a stone's far edge then
@@ -81,6 +84,7 @@ class MapParams:
     dense_radius_m: float = 0.3
     dense_fraction: float = 0.85
     dense_counts_high: bool = True
+    high_is_step: bool = True
     speck_cells: int = 3
     close_cells: int = 2
     fill_min_cells: int = 12
@@ -445,7 +449,7 @@ def build_maps(
     step |= _count_between(cum, z0, dz, h + p.leg_band_m[0], h + p.leg_band_m[1]) > 0
     knee = disk_filter(h, _disk(p.knee_radius_m / res), np.maximum) - h
     step |= knee > p.knee_height_m
-    high = h - h_low > p.max_step_height_m
+    high = (h - h_low > p.max_step_height_m) if p.high_is_step else np.zeros(h.shape, dtype=bool)
     low_only = None if p.dense_counts_high else _remove_specks(step, p.speck_cells)
     step = _remove_specks(step | high, p.speck_cells)
     dense_src = step if low_only is None else low_only

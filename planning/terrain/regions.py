@@ -506,7 +506,7 @@ def _grow(
     if verts is None:
         return None
     # The polygon's own edges (the planes that touch it), as A p <= b in world coordinates.
-    nxt = np.roll(verts, -1, axis=0)
+    nxt = np.concatenate((verts[1:], verts[:1]))  # (np.roll's values, without its dispatch)
     e = nxt - verts
     length = np.hypot(e[:, 0], e[:, 1])
     keep = length > 1e-9
@@ -516,9 +516,8 @@ def _grow(
     An = np.column_stack([e[:, 1], -e[:, 0]]) / length[:, None]  # outward for a counter-clockwise polygon
     vw = verts + seed
     bn = np.einsum("ij,ij->i", An, vw)
-    area = 0.5 * float(
-        np.sum(verts[:, 0] * np.roll(verts[:, 1], -1) - np.roll(verts[:, 0], -1) * verts[:, 1])
-    )
+    nxt = np.concatenate((verts[1:], verts[:1]))
+    area = 0.5 * float((verts[:, 0] * nxt[:, 1] - nxt[:, 0] * verts[:, 1]).sum())
     return ConvexRegion(
         label=label,
         A=An,
@@ -571,7 +570,9 @@ def convex_around(
     j0, j1 = max(cy - w, 0), min(cy + w + 1, ny)
     if i0 >= i1 or j0 >= j1:
         return None
-    mine = regions.inset[i0:i1, j0:j1] & (regions.labels[i0:i1, j0:j1] == label)
+    if label <= 0:
+        return None  # (no region: no inset cell carries label 0)
+    mine = regions.inset_labels[i0:i1, j0:j1] == label
     ci, cj = np.nonzero(mine)
     if ci.size == 0:
         return None

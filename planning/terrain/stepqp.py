@@ -491,7 +491,8 @@ class StepQP:
         ]
         feet = x[: 2 * K].reshape(K, 2)
         slack_all = x[4 * K :].reshape(K, len(FAMILIES))
-        slack = {fam: float(max(0.0, slack_all[:, _F[fam]].max())) for fam in FAMILIES}
+        top = slack_all.max(axis=0).tolist()  # each family's largest slack over the slots
+        slack = {fam: float(max(0.0, top[_F[fam]])) for fam in FAMILIES}
         softened = tuple(f for f in FAMILIES if slack[f] > p.softened_tol_m)
         if maps is not None:
             z = np.asarray(maps.height_at(feet[:, 0], feet[:, 1]), dtype=np.float64)
@@ -656,11 +657,6 @@ class StepQP:
     def _fill_support(self, k: int, req: StepRequest, stance: dict[int, int | NDArray[np.float64]]) -> None:
         """The cop and balance rows of phase k (on Python floats: each 2-vector dot as two products and a sum)."""
         p = self.params
-        cx, cy = (float(v) for v in req.c_body[k])
-        idc = self._idc(k)
-        nominal = {
-            leg: (req.p_nominal[ref] if isinstance(ref, int) else ref).tolist() for leg, ref in stance.items()
-        }
         # (its cop and balance rows were cleared by _fill_static, all slots at once)
         n_st = len(stance)
         if n_st < 2:
@@ -669,17 +665,12 @@ class StepQP:
         t_k = td[k]
         if any(abs(t - t_k) < 1e-6 for t in td[k + 1 :]):
             return  # a later slot lands at the same time: its phase carries the rows
-
-        def term(vc: dict[int, float], leg: int, w0: float, w1: float) -> float:
-            """Adds w·p_leg to vc (a variable) or gives its constant value (a fixed foot)."""
-            ref = stance[leg]
-            if isinstance(ref, int):
-                jp = self._ip(ref)
-                vc[jp] = vc.get(jp, 0.0) + w0
-                vc[jp + 1] = vc.get(jp + 1, 0.0) + w1
-                return 0.0
-            return w0 * float(ref[0]) + w1 * float(ref[1])
-
+        cx, cy = (float(v) for v in req.c_body[k])
+        idc = self._idc(k)
+        nominal = {
+            leg: (req.p_nominal[ref] if isinstance(ref, int) else ref).tolist() for leg, ref in stance.items()
+        }
+        row = self._support_row
         if n_st == 2:
             a, b = sorted(stance)
             d0, d1 = nominal[b][0] - nominal[a][0], nominal[b][1] - nominal[a][1]
@@ -691,21 +682,21 @@ class StepQP:
             lam = p.cop_fraction * L
             dc = d0 * cx + d1 * cy
             # d·(c + dc - p_a) >= lam
-            vc: dict[int, float] = {idc: d0, idc + 1: d1}
-            const = term(vc, a, -d0, -d1)
-            self._set_row(self.b_cop, k, 0, self._coeff_on(self.b_cop, k, vc, 1.0), lam - dc - const, np.inf)
+            coeffs, const = row(self.b_cop, k, idc, d0, d1, ((a, -d0, -d1),), stance)
+            self._set_row(self.b_cop, k, 0, coeffs, lam - dc - const, np.inf)
             # d·(p_b - c - dc) >= lam
-            vc = {idc: -d0, idc + 1: -d1}
-            const = term(vc, b, d0, d1)
-            self._set_row(self.b_cop, k, 1, self._coeff_on(self.b_cop, k, vc, 1.0), lam + dc - const, np.inf)
+            coeffs, const = row(self.b_cop, k, idc, -d0, -d1, ((b, d0, d1),), stance)
+            self._set_row(self.b_cop, k, 1, coeffs, lam + dc - const, np.inf)
             # |n·(c + dc - (p_a + p_b)/2)| <= balance_lateral
             nc = n0 * cx + n1 * cy
             for i, sgn in ((0, 1.0), (1, -1.0)):
-                vc = {idc: sgn * n0, idc + 1: sgn * n1}
                 h = -0.5 * sgn
-                const = term(vc, a, h * n0, h * n1) + term(vc, b, h * n0, h * n1)
+                w0, w1 = h * n0, h * n1
+                coeffs, const = row(
+                    self.b_bal, k, idc, sgn * n0, sgn * n1, ((a, w0, w1), (b, w0, w1)), stance
+                )
                 lo = -p.balance_lateral_m - sgn * nc - const
-                self._set_row(self.b_bal, k, i, self._coeff_on(self.b_bal, k, vc, 1.0), lo, np.inf)
+                self._set_row(self.b_bal, k, i, coeffs, lo, np.inf)
             return
         # Three or four feet: the support polygon of the nominal positions, counterclockwise.
         order = list(stance)
@@ -722,9 +713,48 @@ class StepQP:
             n0, n1 = -e1 / L, e0 / L  # inward for a counterclockwise polygon
             nc = n0 * cx + n1 * cy
             for blk, m in ((self.b_cop, p.cop_margin_m), (self.b_bal, p.balance_margin_m)):
-                vc = {idc: n0, idc + 1: n1}
-                const = term(vc, la, -n0, -n1)
-                self._set_row(blk, k, i, self._coeff_on(blk, k, vc, 1.0), m - nc - const, np.inf)
+                coeffs, const = row(blk, k, idc, n0, n1, ((la, -n0, -n1),), stance)
+                self._set_row(blk, k, i, coeffs, m - nc - const, np.inf)
+
+    def _support_row(
+        self,
+        block: _Block,
+        k: int,
+        idc: int,
+        c0: float,
+        c1: float,
+        terms: tuple[tuple[int, float, float], ...],
+        stance: dict[int, int | NDArray[np.float64]],
+    ) -> tuple[list[float], float]:
+        """Gives a cop or balance row of slot k: its coefficients in the block's variable order (c0, c1 on the body
+        shift idc, idc + 1; w·p_leg for each term (leg, w0, w1) of a leg whose foothold is a variable; the slack 1)
+        and its constant (the terms' w·p of the fixed feet, summed in order; 0 for the others)."""
+        pos = block.pos[k]
+        out = [0.0] * (len(pos) + 1)
+        out[-1] = 1.0
+        i = pos.get(idc)
+        if i is not None:
+            out[i] = c0
+        i = pos.get(idc + 1)
+        if i is not None:
+            out[i] = c1
+        consts: list[float] = []
+        for leg, w0, w1 in terms:
+            ref = stance[leg]
+            if isinstance(ref, int):
+                jp = self._ip(ref)
+                # (a leg's slot is never the body's shift nor another term's: each variable is set once; 0.0 + w
+                # as the dictionary's accumulation gave)
+                i = pos.get(jp)
+                if i is not None:
+                    out[i] = 0.0 + w0
+                i = pos.get(jp + 1)
+                if i is not None:
+                    out[i] = 0.0 + w1
+                consts.append(0.0)
+            else:
+                consts.append(w0 * float(ref[0]) + w1 * float(ref[1]))
+        return out, (consts[0] if len(consts) == 1 else consts[0] + consts[1])
 
     def _snap(self, req: StepRequest, legs: NDArray[np.intp], maps: TerrainMaps) -> StepRequest:
         """Gives the request with its nominal footholds moved off no-step regions along the heading (see

@@ -59,3 +59,26 @@ def test_the_float_knees_are_the_vectorized_ones() -> None:
             assert np.abs(kf - km).max() < 1e-6
             compared += len(kept_f)
     assert compared > 60
+
+
+def test_sample_pair_is_sample_many_of_each() -> None:
+    """The paths' x and y sampled together (one piece lookup) give each axis's sample_many, bit for bit."""
+    from planning.swing._poly import sample_pair
+    from planning.swing.policies import HORIZONTAL_POLICIES, LegCtx
+
+    rng = np.random.default_rng(7)
+    pairs = 0
+    for _ in range(40):
+        p0 = tuple(rng.normal(0.0, 0.2, 2).tolist())
+        ctx = LegCtx(0.1, 0.1 + rng.uniform(0.1, 0.4), p0, tuple(rng.normal(0.0, 1.0, 2).tolist()),
+                     tuple(rng.normal(0.0, 0.2, 2).tolist()), 4.0, 80.0, [], 0.03, 0.1, [])  # fmt: skip
+        ts = np.linspace(ctx.t0 - 0.01, ctx.t_end + 0.05, 20)
+        for _, fn in HORIZONTAL_POLICIES:
+            hp = fn(ctx)
+            if hp is None:
+                continue
+            hx, hy = sample_pair(hp.x, hp.y, ts)
+            assert hx.tobytes() == hp.x.sample_many(ts).tobytes()
+            assert hy.tobytes() == hp.y.sample_many(ts).tobytes()
+            pairs += hp.x.breaks == hp.y.breaks
+    assert pairs > 40

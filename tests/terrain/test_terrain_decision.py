@@ -19,6 +19,7 @@ from planning.terrain.decision import (
     HeightGrid,
     TerrainView,
     TerrainWorld,
+    _choose_regions,
     cadence,
     choose_footholds,
     choose_region,
@@ -481,6 +482,7 @@ def test_choose_region_equals_its_cell_by_cell_rule(seed: int) -> None:
     maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
     regions = segment_regions(maps, P.regions, cover=False)
     assert regions.n_regions > 2
+    asked = []
     for _ in range(40):
         xy = np.array([rng.uniform(-0.2, 1.7), rng.uniform(-0.8, 0.8)])
         z_ref = float(rng.choice([0.0, 0.05, 0.1, 0.15]))
@@ -491,6 +493,27 @@ def test_choose_region_equals_its_cell_by_cell_rule(seed: int) -> None:
         got = choose_region(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
         want = _choose_region_reference(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
         assert got == want
+        if hip is not None:
+            asked.append((xy, z_ref, keep, flying, hip, got))
+    # several at once (as the footholds ask a stride's four), one reach for all: each one's own answer
+    reach = 0.3
+    assert len(asked) >= 8
+    for g in range(0, len(asked) - 3, 4):
+        group = asked[g : g + 4]
+        got_all = _choose_regions(
+            regions,
+            maps,
+            np.array([a[0] for a in group]),
+            [a[1] for a in group],
+            [a[2] for a in group],
+            P,
+            [a[3] for a in group],
+            np.array([a[4] for a in group]),
+            reach,
+        )
+        assert got_all == [
+            choose_region(regions, maps, a[0], a[1], a[2], P, a[3], a[4], reach) for a in group
+        ]
 
 
 def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own() -> None:

@@ -1,0 +1,139 @@
+"""The regions pipeline's map settings on staircases (issue 26): every tread of a steep flight keeps steppable ground
+across the flight, where the shared step map's closing (min_support_m) and its too-high rule took whole treads and
+the flight's open sides off it."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from planning.robot import load_robot
+from planning.steps import SteeringCommand
+from planning.steps.gait import get_gait
+from planning.terrain.decision import (
+    DecisionParams,
+    FootholdDecision,
+    FootholdMemory,
+    PipelineParams,
+    TerrainView,
+    TerrainWorld,
+    cadence,
+    step_rise,
+    swing_ground,
+)
+from planning.terrain.maps import MapParams, TerrainMaps, maps_from_grids, maps_from_scene
+from planning.terrain.regions import RegionParams, segment_regions
+from planning.terrain.spec import load_terrain
+
+RES = 0.03
+# (riser m, tread m, railings): building-code and steeper flights, with and without railings
+FLIGHTS = [(0.128, 0.266, True), (0.18, 0.28, False), (0.195, 0.274, False), (0.2, 0.25, True)]
+
+
+def _pipeline_maps() -> MapParams:
+    return dataclasses.replace(MapParams(), **PipelineParams().maps)
+
+
+def _tread_rows(maps: TerrainMaps, inset: np.ndarray, x0: float, tread: float, k: int, half_w: float) -> int:
+    """How many rows (cells along the heading) of tread k (1: the first) are inset cells all across |y| <= half_w."""
+    xs, ys = maps.cell_centers()
+    sel = (xs > x0 + (k - 1) * tread) & (xs < x0 + k * tread)
+    across = np.abs(ys) <= half_w
+    return int(np.count_nonzero(np.all(inset[np.ix_(sel, across)], axis=1)))
+
+
+@pytest.mark.parametrize(("riser", "tread", "rails"), FLIGHTS)
+def test_every_tread_keeps_a_strip_a_foot_stands_on_across_the_flight(
+    riser: float, tread: float, rails: bool
+) -> None:
+    """With the pipeline's map settings each of the first five treads has at least two rows of inset cells (a foot
+    of the robot's radius, with its edge margin, inside its region) all across the middle 0.8 m of a 1.2 m flight:
+    a body walking up to 0.3 m off the centre line has ground for its feet on every tread."""
+    terrain = f"stairs:riser_m={riser},tread_m={tread},n_steps=6,railings={str(rails).lower()}"
+    scene = load_terrain(terrain)
+    rp = RegionParams.from_robot(load_robot("spot"), max_planes=8)
+    x0 = scene.span_x[0]
+    maps = maps_from_scene(scene, (x0 + 1.0, 0.0), 2.5, RES, _pipeline_maps())
+    regions = segment_regions(maps, rp)
+    rows = [_tread_rows(maps, regions.inset, x0, tread, k, 0.4) for k in range(1, 6)]
+    assert min(rows) >= 2, f"inset rows per tread {rows}"
+
+
+def test_the_shared_step_map_loses_treads_the_pipeline_keeps() -> None:
+    """The shared settings (MapParams()) on the same flights: some tread has no such strip (what the pipeline's
+    settings change; if the shared rule changes, the pipeline's override may no longer be needed)."""
+    rp = RegionParams.from_robot(load_robot("spot"), max_planes=8)
+    lost = 0
+    for riser, tread, rails in FLIGHTS:
+        scene = load_terrain(
+            f"stairs:riser_m={riser},tread_m={tread},n_steps=6,railings={str(rails).lower()}"
+        )
+        x0 = scene.span_x[0]
+        maps = maps_from_scene(scene, (x0 + 1.0, 0.0), 2.5, RES, MapParams())
+        regions = segment_regions(maps, rp)
+        lost += min(_tread_rows(maps, regions.inset, x0, tread, k, 0.4) for k in range(1, 6)) < 2
+    assert lost >= 2
+
+
+def _world(h: np.ndarray) -> TerrainWorld:
+    xs = -0.6 + np.arange(h.shape[0]) * RES
+    ys = -0.9 + np.arange(h.shape[1]) * RES
+    maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    regions = segment_regions(maps, RegionParams(foot_radius_m=0.02, max_planes=8), cover=False)
+    return TerrainWorld(maps, regions, swing_ground(maps, 0.03), None)
+
+
+def _going(world: TerrainWorld, foot: tuple[float, float], to: tuple[float, float]) -> tuple[float, str]:
+    """step_rise and the gait when the front-left foot stands at foot (x, z) and its next foothold is to (x, z)."""
+    feet = np.array(
+        [[foot[0], 0.15, foot[1] + 0.02], [0.3, -0.15, 0.02], [-0.3, 0.15, 0.02], [-0.3, -0.15, 0.02]]
+    )
+    view = TerrainView(
+        t_s=1.0,
+        p_world_body=np.array([0.0, 0.0, 0.55]),
+        yaw=0.0,
+        p_world_foot=feet,
+        v_world_foot=np.zeros((4, 3)),
+        stance=np.ones(4, bool),
+        z_contact=0.0,
+        gait="trot",
+        gait_since_s=-10.0,
+        fast_gait="trot",
+        operator=SteeringCommand(0.5, 0.0, 0.0),
+        goal=None,
+        pitch_rad=0.0,
+        height_m=0.52,
+        foot_radius_m=0.02,
+        standing_height_m=0.52,
+        p_body_hip=np.array([[0.3, 0.1], [0.3, -0.1], [-0.3, 0.1], [-0.3, -0.1]]),
+        dt_s=0.01,
+    )
+    chosen = np.full((4, 3), np.nan)
+    chosen[0] = [to[0], 0.15, to[1]]
+    last = FootholdDecision(
+        np.zeros((0, 3)), (), None, 0.0, FootholdMemory(np.full(4, np.nan), chosen, np.full(4, np.nan))
+    )
+    return step_rise(view, world, last), cadence(view, world, last, DecisionParams())
+
+
+@pytest.mark.parametrize("riser", [0.10, 0.12, 0.18])
+def test_a_swing_up_a_riser_gets_the_time_to_rise_it(riser: float) -> None:
+    """A foot stepping from a tread onto the next, a riser higher, counts the riser (step_rise): the gait's swing lasts
+    at least base_swing_s + riser / rise_speed_mps, where the nosing's hump alone let the 0.3 s `climb` swing take
+    it; on a slope as steep (one region) nothing counts, and stepping down nothing either."""
+    X = np.broadcast_to((-0.6 + np.arange(110) * RES)[:, None], (110, 60))
+    stairs = _world(
+        np.asarray(riser * np.clip(np.floor((X - 0.405) / 0.3) + 1.0, 0.0, 4.0), dtype=np.float64)
+    )
+    rise, gait = _going(stairs, (0.55, riser), (0.85, 2 * riser))
+    p = DecisionParams()
+    assert rise == pytest.approx(riser, abs=0.01)
+    assert (
+        get_gait(gait).swing_s >= p.base_swing_s + riser / p.rise_speed_mps - 1e-9
+        or gait == p.climb_gaits[-1]
+    )
+    assert _going(stairs, (0.85, 2 * riser), (0.55, riser))[0] == 0.0
+    slope = _world(np.asarray(np.clip(X, 0.0, None) * riser / 0.3, dtype=np.float64))
+    assert _going(slope, (0.55, 0.55 * riser / 0.3), (0.85, 0.85 * riser / 0.3))[0] == 0.0
