@@ -78,6 +78,7 @@ class LegProblem:
     previous_policy: str | None
     u_z_aggressive: float  # vertical undesirability of the most aggressive policy, added to every candidate
     z_ref: float  # lift-off height of this swing, m: vertical tops are measured from max(z_ref, touchdown z)
+    xy_liftoff: np.ndarray | None = None  # (2,) lift-off place of this swing (None: the foot's place now), m
     z_ceiling: float = math.inf  # highest foot the leg can reach, m
     g_knee_max: float | None = None  # highest ground probed around the hips (filled on first use), m
     z_gentlest: Poly1D | None = None  # the gentlest vertical policy's trajectory (filled on first use)
@@ -270,7 +271,29 @@ class Analyzer:
         h_ref = p0[2] + prog * (p1[2] - p0[2])
         # the highest ground on each ring, where it is an obstacle (the max of the obstacle ground, as before)
         gr = gall[K:].reshape(8, m // 8, K).max(axis=0).T  # (K,R)
-        return g, h_ref, np.where(gr > (h_ref + self.params.obstacle_step_m)[:, None], gr, -np.inf)
+        ring_g = np.where(gr > (h_ref + self.params.obstacle_step_m)[:, None], gr, -np.inf)
+        if self.params.endpoint_zone_m is not None:
+            g = self._at_endpoints(prob, xw, yw, g, ring_g)
+        return g, h_ref, ring_g
+
+    def _at_endpoints(
+        self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray, g: np.ndarray, ring_g: np.ndarray
+    ) -> np.ndarray:
+        """The ground (K,) with the samples within SwingParams.endpoint_zone_m of the lift-off or the touchdown point
+        no higher than that point; their ring probes (ring_g, in place) see no edge."""
+        zone = float(self.params.endpoint_zone_m or 0.0)
+        lift = prob.p_start[:2] if prob.xy_liftoff is None else prob.xy_liftoff
+        for x, y, z in (
+            (float(lift[0]), float(lift[1]), prob.z_ref),
+            (float(prob.p_target[0]), float(prob.p_target[1]), float(prob.p_target[2])),
+        ):
+            dx = xw - x
+            dy = yw - y
+            near = dx * dx + dy * dy <= zone * zone
+            if near.any():
+                g = np.where(near, np.minimum(g, z), g)
+                ring_g[near] = -np.inf
+        return g
 
     # ---- the tiers ----------------------------------------------------------------------------------------
     def analyze(self, prob: LegProblem, hp: HPath, u_total: float) -> Verdict:

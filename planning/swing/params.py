@@ -92,6 +92,19 @@ class SwingParams:
     # is as high as it reaches, when that clears the terrain by 5 mm (True), or does not wait (False)
     rise_first_within_reach: bool = False
     step_down_top_m: float = 0.10  # a step down (by more than rise_first_above_m) rises at most this much
+    # A plan that collides with the terrain or scrapes an edge is planned again with its apex free of the swing's
+    # first plan's (apex_tolerance_m: the foothold moved, or the map changed, since), and, still colliding, a swing
+    # that is not a step up rises first over a box on its route (terrain on the straight route higher than both the
+    # lift-off height and the line to the touchdown by more than rise_first_above_m); each kept when it ranks better.
+    # False: neither (boxes on the way are the tiers' business)
+    rise_over_boxes: bool = False
+    # On mapped terrain, path samples within this (m) of the lift-off or the touchdown point see the ground there no
+    # higher than that point, and no edge: the foot stands there. A swing ground dilated by the foot puts a noisy
+    # floor's highest cell under the foot standing on it, and every candidate ranked a terrain collision at its
+    # touchdown sample alone, the boxes on the way unjudged (clutter seed 190: the target 4 mm under its dilated
+    # floor). Farther out the ground is judged as given (a box's edge beside the foothold may be under the foot
+    # there). None: the ground as given everywhere.
+    endpoint_zone_m: float | None = None
 
     # Other legs
     keepout_radius_m: float = 0.07  # lower legs closer than this collide (foot center to segment foot→knee)

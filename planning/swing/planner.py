@@ -187,6 +187,9 @@ class SwingPlanner:
         self._last_t: list[float] = [-np.inf] * 4  # when each leg was last planned, s
         # rise first: the highest clearance height asked for during the current swing, m (None: none asked)
         self._z_clear: list[float | None] = [None] * 4
+        # rise over a box: the current swing (not a step up) rises first over the boxes on its route (see
+        # SwingParams.rise_over_boxes)
+        self._over_box = [False] * 4
         self._side = np.sign(robot.p_body_hip[:, 1])
         # per-leg constants resolved once
         self._ramp = np.arange(self.params.samples, dtype=float)  # for the sample times
@@ -221,6 +224,7 @@ class SwingPlanner:
         self._z_top = [None] * 4
         self._last_t = [-np.inf] * 4
         self._z_clear = [None] * 4
+        self._over_box = [False] * 4
 
     def _forget(self, leg: int) -> None:
         if self._z_liftoff[leg] is None and self._last_plan[leg] is None and self._trip[leg] is None:
@@ -232,6 +236,7 @@ class SwingPlanner:
         self._xy_liftoff[leg] = None
         self._z_top[leg] = None
         self._z_clear[leg] = None
+        self._over_box[leg] = False
 
     # ---- the tick -----------------------------------------------------------------------------------------
     def plan(
@@ -367,11 +372,54 @@ class SwingPlanner:
         if trip is not None and t_now - trip.t_s <= pr.trip_response_s:
             return self._trip_plan(prob, req, trip, stance, planned, ground)
         choice = self._select_horizontal(prob)
+        if (
+            pr.rise_over_boxes
+            and not self._over_box[leg]
+            and choice.verdict.tier in _TERRAIN_TIERS
+            and not isinstance(ground, FlatGround)
+        ):
+            prob, choice = self._clear_terrain(t_now, req, ground, fixed, body, planned, c, s, prob, choice)
         elevated = trip is not None and trip.kind is TripKind.NORMAL
         # a rise-first swing keeps the most aggressive vertical policy (capped just above the terrain it rises
         # over): the hold waits for it, and a gentler one, planned from a foot still rising fast, overshoots
         rising = self._z_clear[leg] is not None
         return self._finish(prob, req, choice, force_aggressive=elevated or rising)
+
+    def _clear_terrain(
+        self,
+        t_now: float,
+        req: SwingRequest,
+        ground: GroundHeightFn,
+        fixed: _Obstacles,
+        body: BodyMotion,
+        planned: dict[int, SwingPlan],
+        c: float,
+        s: float,
+        prob: LegProblem,
+        choice: _Choice,
+    ) -> tuple[LegProblem, _Choice]:
+        """The plan collides with the terrain or scrapes an edge: the leg planned again with its apex free of the
+        first plan's (the foothold moved, or the map changed, since: a top kept from a swing planned over the floor
+        left the foot at a box's side), and, still colliding, with a rise-first hold over the boxes on its route as
+        well (SwingParams.rise_over_boxes); each taken when it ranks better (its top then the swing's new one, and the
+        swing keeps rising over boxes until it lands), else the leg's memory is left as it was."""
+        leg = req.leg
+        for over_box in (False, True):
+            if over_box and choice.verdict.tier != Tier.TERRAIN_COLLISION:
+                break
+            kept = (self._z_top[leg], self._z_clear[leg], self._over_box[leg])
+            self._z_top[leg] = None
+            self._over_box[leg] = over_box
+            again_prob = self._problem(t_now, req, ground, fixed, body, planned, c, s)
+            if over_box and again_prob.hold is None:
+                self._z_top[leg], self._z_clear[leg], self._over_box[leg] = kept
+                break
+            again = self._select_horizontal(again_prob)
+            if (int(again.verdict.tier), again.verdict.key) < (int(choice.verdict.tier), choice.verdict.key):
+                prob, choice = again_prob, again
+            else:
+                self._z_top[leg], self._z_clear[leg], self._over_box[leg] = kept
+        return prob, choice
 
     def _problem(
         self,
@@ -452,7 +500,7 @@ class SwingPlanner:
         z_agg, z_ok = vertical(agg, t_now, z0, vz0, z1, req.t_touchdown, z_ceiling, z_ref)
         hold = None
         if not isinstance(ground, FlatGround):
-            z_clear, approach = self._rise_first_height(req, ground, z_ref)
+            z_clear, approach = self._rise_first_height(req, ground, z_ref, self._over_box[leg])
             if pr.rise_first_within_reach and z_clear is not None and z_clear > z_ceiling - 0.003:
                 # the leg cannot lift the foot rise_first_margin_m over the terrain: it waits for what it can
                 # reach, if that still clears the terrain by 5 mm (else as before: no wait)
@@ -503,6 +551,7 @@ class SwingPlanner:
             previous_policy=self._previous[leg],
             u_z_aggressive=undesirability_z(z_agg, agg.height_m, pr),
             z_ref=z_ref,
+            xy_liftoff=self._xy_liftoff[leg],
             z_ceiling=z_ceiling,
             hold=hold,
             hip_z_min=hip_z_min,
@@ -511,7 +560,7 @@ class SwingPlanner:
         )
 
     def _rise_first_height(
-        self, req: SwingRequest, ground: GroundHeightFn, z_ref: float
+        self, req: SwingRequest, ground: GroundHeightFn, z_ref: float, over_box: bool = False
     ) -> tuple[float | None, float]:
         """The height (m) the foot must reach before it moves over the terrain ahead (see
         SwingParams.rise_first_above_m), None when nothing on the route asks for it; and how far (m) the foot may
@@ -522,13 +571,16 @@ class SwingPlanner:
         lift-off height to the touchdown height (the riser) must be cleared
         before the foot moves over it: the foot rises rise_first_margin_m above the highest ground on the route
         first, closing in on it up to rise_first_gap_m. Replanned every tick from the measured foot, so a lagging
-        leg waits longer.
+        leg waits longer. over_box: any other swing rises so over terrain on the route that stands above both the
+        lift-off height and that line by more than rise_first_above_m (a box on the way; see
+        SwingParams.rise_over_boxes).
         """
         pr = self.params
         if not math.isfinite(pr.rise_first_above_m):
             return None, 0.0
         p0, p1 = req.p_world_foot, req.p_touchdown
-        if float(p1[2]) - z_ref <= pr.rise_first_above_m:
+        step_up = float(p1[2]) - z_ref > pr.rise_first_above_m
+        if not step_up and not over_box:
             return None, 0.0  # not a step up: boxes on the way are the tiers' business
         n = 24
         u = np.linspace(0.0, 1.0, n)
@@ -542,6 +594,8 @@ class SwingPlanner:
             np.asarray(ground(xs + ahead[0], ys + ahead[1]), dtype=float),
         )
         h_line = z_ref + u * (float(p1[2]) - z_ref)
+        if not step_up:
+            h_line = np.maximum(h_line, z_ref)  # a box, not the surface stepped down from
         above = np.flatnonzero(g > h_line + pr.rise_first_above_m)
         if above.size == 0:
             return None, 0.0
@@ -902,6 +956,10 @@ class SwingPlanner:
         if v.tier == Tier.VIOLATES_CONSTRAINTS:
             v.tier = Tier.DEFAULT
         return self._finish(prob, req, _Choice(hp, v, 1), trip=trip.kind)
+
+
+# the tiers of a plan that meets the terrain: planned again (SwingParams.rise_over_boxes)
+_TERRAIN_TIERS = (Tier.TERRAIN_COLLISION, Tier.CLIFF_SCRAPING)
 
 
 def _could_beat(opt: tuple[int, tuple[float, ...]], best: tuple[int, tuple[float, ...]]) -> bool:
