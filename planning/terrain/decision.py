@@ -104,10 +104,10 @@ class DecisionParams:
     touchdown whose previous foothold lies on no region in this map (the segmentation lost the cell for a
     moment: a re-segmentation, a cell seen anew) while the ground there is within this of the foothold's
     height keeps that foothold: the ground did not move, and a foot committed to a tread is not sent to the floor
-    beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) only where its ground dips more than
-    this below the ground at both of its ends (ground that drops below the feet and comes back: a pit, the space
-    between stones), not a riser's or a box's edge band, whose ground goes from one side's height to the other's
-    (None: every run counts)."""
+    beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) unless it only goes from one height to
+    another (its two ends differ by more than this and its ground stays within this of the range between them: a
+    riser's edge band), or, at the line's end, its ground stays above this below its one end (None: every run
+    counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -424,15 +424,20 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
 
 
 def _dips(ground: NDArray[np.float64], a: int, b: int, dip_m: float | None) -> bool:
-    """Whether the ground of the run [a, b) of a line dips more than dip_m below the ground at both of its ends (the
-    cells just outside it; a run at the line's end: the one end it has): a pit or a gap between stones does, a
-    riser's edge band (the ground going from one tread's height to the next) does not."""
+    """Whether the run [a, b) of a line without a region is a gap: not where it only goes from one height to
+    another (its ends, the cells just outside it, differ by more than dip_m and its ground stays within dip_m of
+    the range between them: a riser's edge band, treads a step map lost between two kept ones); a run at the line's
+    end (one end) is a gap where its ground dips more than dip_m below that end."""
     if dip_m is None:
         return True
-    ends = [ground[i] for i in (a - 1, b) if 0 <= i < ground.size]
+    ends = [float(ground[i]) for i in (a - 1, b) if 0 <= i < ground.size]
     if not ends:
         return True
-    return bool(np.min(ground[a:b]) < min(ends) - dip_m)
+    seg = ground[a:b]
+    lo, hi = min(ends), max(ends)
+    if len(ends) == 1:
+        return bool(np.min(seg) < lo - dip_m)
+    return not (hi - lo > dip_m and float(np.min(seg)) >= lo - dip_m and float(np.max(seg)) <= hi + dip_m)
 
 
 def capped(cmd: SteeringCommand, cap: float, p: DecisionParams) -> SteeringCommand:
