@@ -104,10 +104,10 @@ class DecisionParams:
     touchdown whose previous foothold lies on no region in this map (the segmentation lost the cell for a
     moment: a re-segmentation, a cell seen anew) while the ground there is within this of the foothold's
     height keeps that foothold: the ground did not move, and a foot committed to a tread is not sent to the floor
-    beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) only where its ground dips more than
-    this below the ground at both of its ends (ground that drops below the feet and comes back: a pit, the space
-    between stones), not a riser's or a box's edge band, whose ground goes from one side's height to the other's
-    (None: every run counts)."""
+    beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) unless it only goes from one height to
+    another (its two ends differ by more than this and its ground stays within this of the range between them: a
+    riser's edge band), or, at the line's end, its ground stays above this below its one end (None: every run
+    counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -233,11 +233,13 @@ class TerrainWorld:
 @dataclass(frozen=True, eq=False)
 class FootholdMemory:
     """Per leg: the touchdown time (s, nan: none) of its next touchdown as last decided, the foothold chosen for it
-    (3,), and the height (m) of its last stance foothold."""
+    (3,), the height (m) of its last stance foothold, and whether that foothold was chosen on a region (None: all
+    were)."""
 
     t_touchdown: NDArray[np.float64]
     p_chosen: NDArray[np.float64]
     z_stance: NDArray[np.float64]
+    on_region: NDArray[np.bool_] | None = None
 
     @staticmethod
     def empty() -> FootholdMemory:
@@ -422,15 +424,20 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
 
 
 def _dips(ground: NDArray[np.float64], a: int, b: int, dip_m: float | None) -> bool:
-    """Whether the ground of the run [a, b) of a line dips more than dip_m below the ground at both of its ends (the
-    cells just outside it; a run at the line's end: the one end it has): a pit or a gap between stones does, a
-    riser's edge band (the ground going from one tread's height to the next) does not."""
+    """Whether the run [a, b) of a line without a region is a gap: not where it only goes from one height to
+    another (its ends, the cells just outside it, differ by more than dip_m and its ground stays within dip_m of
+    the range between them: a riser's edge band, treads a step map lost between two kept ones); a run at the line's
+    end (one end) is a gap where its ground dips more than dip_m below that end."""
     if dip_m is None:
         return True
-    ends = [ground[i] for i in (a - 1, b) if 0 <= i < ground.size]
+    ends = [float(ground[i]) for i in (a - 1, b) if 0 <= i < ground.size]
     if not ends:
         return True
-    return bool(np.min(ground[a:b]) < min(ends) - dip_m)
+    seg = ground[a:b]
+    lo, hi = min(ends), max(ends)
+    if len(ends) == 1:
+        return bool(np.min(seg) < lo - dip_m)
+    return not (hi - lo > dip_m and float(np.min(seg)) >= lo - dip_m and float(np.max(seg)) <= hi + dip_m)
 
 
 def capped(cmd: SteeringCommand, cap: float, p: DecisionParams) -> SteeringCommand:
@@ -882,6 +889,31 @@ def leg_bounds(
     return out
 
 
+HOLD_HALF_M = 0.005  # a held touchdown's square in the step QP (half side, m): it stays where it is held
+
+
+def held_foothold(
+    view: TerrainView, leg: int, kept: NDArray[np.float64] | None = None
+) -> NDArray[np.float64] | None:
+    """Gives where a next touchdown of leg `leg` with no region goes (3,): where the foot stands if it is in stance
+    (ground it is standing on: a step in place); in the air, its kept choice for this touchdown (kept (3,), chosen
+    on a region; None: none, and the foot keeps its nominal)."""
+    if bool(view.stance[leg]):
+        q = np.asarray(view.p_world_foot[leg], dtype=np.float64).copy()
+        q[2] -= view.foot_radius_m
+        return q
+    if kept is not None and bool(np.all(np.isfinite(kept))):
+        return np.asarray(kept, dtype=np.float64).copy()
+    return None
+
+
+def _square_rows(xy: NDArray[np.float64], half_m: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gives the half-planes (A, b) of the square of half side half_m around xy (2,)."""
+    A = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+    x, y = float(xy[0]), float(xy[1])
+    return A, np.array([x + half_m, half_m - x, y + half_m, half_m - y])
+
+
 def step_request(
     view: TerrainView, path: StepPath, order: NDArray[np.intp], hip_height_m: float
 ) -> StepRequest | None:
@@ -966,7 +998,8 @@ def choose_footholds(
     t_td_next, _ = path.next_touchdowns()
     mem_t = np.full(4, np.nan)
     mem_p = np.full((4, 3), np.nan)
-    empty = FootholdDecision(p_new, (), None, 0.0, FootholdMemory(mem_t, mem_p, z_stance))
+    mem_on = np.ones(4, dtype=bool)
+    empty = FootholdDecision(p_new, (), None, 0.0, FootholdMemory(mem_t, mem_p, z_stance, mem_on))
     if path.n_touchdowns < K:
         return empty
     order = np.lexsort((path.leg, path.t_touchdown))[:K]
@@ -981,6 +1014,7 @@ def choose_footholds(
     hips = bodies + rotate_yaw(yaws, view.p_body_hip[legs])
     reach = reach_xy(view, p)
     lost = np.zeros(K, dtype=bool)
+    held_at: dict[int, NDArray[np.float64]] = {}
     # per leg, as Python bools: the remembered choice is of this touchdown (same) and complete (finite)
     held_l = (same & np.all(np.isfinite(memory.p_chosen), axis=1)).tolist()
     stance_l = view.stance.tolist()
@@ -1001,7 +1035,8 @@ def choose_footholds(
                 leg = legs_l[j]
                 first = j < 4
                 keep = memory.p_chosen[leg, :2] if first and held_l[leg] else None
-                if keep is not None and lost_region(regions, maps, memory.p_chosen[leg], p):
+                was_on = memory.on_region is None or bool(memory.on_region[leg])
+                if keep is not None and was_on and lost_region(regions, maps, memory.p_chosen[leg], p):
                     lost[j] = True
                     z_ref[leg] = float(memory.p_chosen[leg, 2])
                     continue
@@ -1019,14 +1054,28 @@ def choose_footholds(
                 hips[[j for j, _, _ in asked]],
                 reach,
             )
-            for (j, _, _), label in zip(asked, labels, strict=True):
+            for (j, keep, flying), label in zip(asked, labels, strict=True):
+                leg = legs_l[j]
                 nom = path.p_world_touchdown[order_l[j], :2]
+                if not label and np.isfinite(reach):
+                    # no region within the leg's reach: the nearest one beyond it (a long step onto a stone)
+                    label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying)
                 poly = None
                 if label:
                     key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
                     if key not in cache:
                         cache[key] = convex_around(regions, label, nom, p.window_m)
                     poly = cache[key]
+                if poly is None and j < 4:
+                    # no region at all: a foot in stance steps in place, one in the air keeps its choice made on a
+                    # region, not its nominal place over a gap or a pit
+                    was_on = memory.on_region is None or bool(memory.on_region[leg])
+                    hold = held_foothold(
+                        view, leg, memory.p_chosen[leg] if keep is not None and was_on else None
+                    )
+                    if hold is not None:
+                        held_at[j] = hold
+                        z_ref[leg] = float(hold[2])
                 polys[j] = poly
                 if poly is not None:
                     z_ref[legs_l[j]] = float(poly.height_at(poly.project(nom)))
@@ -1045,6 +1094,9 @@ def choose_footholds(
         passed = {j for j, ok in zip(slots, ok0, strict=True) if ok}
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
+        if j in held_at:
+            rows.append(_square_rows(held_at[j][:2], HOLD_HALF_M))
+            continue
         if q is None:
             rows.append(None)
             continue
@@ -1082,6 +1134,8 @@ def choose_footholds(
         held = j < 4 and held_l[leg]
         if (t_rel[j] < p.freeze_s and held) or lost[j]:
             p_new[k] = memory.p_chosen[leg]
+        elif j in held_at:
+            p_new[k] = held_at[j]
         elif plan is not None:
             x, y = plan.footholds[j, :2].tolist()
             p_new[k, 0], p_new[k, 1] = x, y
@@ -1096,12 +1150,13 @@ def choose_footholds(
             back += max(0.0, -along) / 4.0
             mem_t[leg] = float(path.t_touchdown[k])
             mem_p[leg] = p_new[k]
+            mem_on[leg] = polys[j] is not None or bool(lost[j]) or j in held_at
     return FootholdDecision(
         p_new,
         tuple(polys),
         plan,
         shift,
-        FootholdMemory(mem_t, mem_p, z_stance),
+        FootholdMemory(mem_t, mem_p, z_stance, mem_on),
         back,
         path.t_liftoff_now.copy(),
     )
@@ -1182,8 +1237,17 @@ def _regions_maps() -> dict[str, Any]:
     stand. Nor does the step map close no-step gaps as wide as min_support_m (min_support_m 0: one cell): the
     regions are inset by the foot radius and an edge margin, which leaves out a patch too small for a foot, while
     the closing (a disk of 7 cells, 0.21 m at 3 cm cells, for 0.16 m) took a steep flight's whole tread off the map
-    wherever its clear part, between the bands at its riser and its nosing, came out 7 cells wide."""
-    return {"dense_counts_high": False, "high_is_step": False, "min_support_m": 0.0}
+    wherever its clear part, between the bands at its riser and its nosing, came out 7 cells wide.
+    The body band starts above the ground the robot stands on as well as above each cell's own (band_from_support):
+    the pit in the 4-10 cm slot between a left and a right stone holds the stones' top edges 0.3 m above its floor,
+    inside the band measured from the pit, and those few cells swung the body path 0.3-0.6 m aside onto the outer
+    stones' edges (stones draw 3: body path to y -0.4…-0.6, a foot in the pit at 9.1 s; straight with this)."""
+    return {
+        "dense_counts_high": False,
+        "high_is_step": False,
+        "min_support_m": 0.0,
+        "band_from_support": True,
+    }
 
 
 def _regions_qp() -> StepQPParams:

@@ -61,7 +61,10 @@ class MapParams:
     radius (cells); fill_min_cells: unknown cells within this many cells of known ones take the lowest neighbor;
     ceiling_above_m: overhangs at least this high count for clearance; fill_low_radius_m: an unknown cell's ground is
     at most the lowest observed ground within this radius (None: not; the shadow behind a stone's far edge then
-    reads as the pit it most likely is, not as more stone).
+    reads as the pit it most likely is, not as more stone); band_from_support: the body band's lower end is also at
+    least its lower bound above the ground the robot stands on (build_maps' default_ground_z: the body's height
+    less its standing height), so a cell below the feet's ground (the pit between two stones) does not read the
+    stones' top edges beside it as a body obstacle, while ground at or above the feet's keeps its own band.
     """
 
     body_band_m: tuple[float, float] = (0.30, 0.52)
@@ -87,6 +90,7 @@ class MapParams:
     fill_min_cells: int = 12
     ceiling_above_m: float = 0.30
     fill_low_radius_m: float | None = None
+    band_from_support: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -423,6 +427,8 @@ def build_maps(
     h_ref = square_filter(h, size(p.body_ref_radius_m), np.maximum)
     lo, hi = p.body_band_m
     z_lo = h + lo if p.body_above_ground_m is None else np.maximum(h + lo, h_ref + p.body_above_ground_m)
+    if p.band_from_support:
+        z_lo = np.maximum(z_lo, default_ground_z + lo)
     body = (_count_between(cum, z0, dz, z_lo, h + hi) > 0) | (
         _count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0
     )

@@ -20,6 +20,7 @@ from planning.terrain.decision import (
     TerrainView,
     TerrainWorld,
     cadence,
+    gap_ahead,
     step_rise,
     swing_ground,
 )
@@ -77,20 +78,19 @@ def test_the_shared_step_map_loses_treads_the_pipeline_keeps() -> None:
     assert lost >= 2
 
 
-def _world(h: np.ndarray) -> TerrainWorld:
+def _world(h: np.ndarray, no_step: np.ndarray | None = None) -> TerrainWorld:
     xs = -0.6 + np.arange(h.shape[0]) * RES
     ys = -0.9 + np.arange(h.shape[1]) * RES
-    maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    maps = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool) if no_step is None else no_step)
     regions = segment_regions(maps, RegionParams(foot_radius_m=0.02, max_planes=8), cover=False)
     return TerrainWorld(maps, regions, swing_ground(maps, 0.03), None)
 
 
-def _going(world: TerrainWorld, foot: tuple[float, float], to: tuple[float, float]) -> tuple[float, str]:
-    """step_rise and the gait when the front-left foot stands at foot (x, z) and its next foothold is to (x, z)."""
-    feet = np.array(
-        [[foot[0], 0.15, foot[1] + 0.02], [0.3, -0.15, 0.02], [-0.3, 0.15, 0.02], [-0.3, -0.15, 0.02]]
-    )
-    view = TerrainView(
+def _going_view(feet: np.ndarray | None = None) -> TerrainView:
+    """The body at the origin heading +x, walking (trot), feet under the hips unless given (4, 3)."""
+    if feet is None:
+        feet = np.array([[0.3, 0.15, 0.02], [0.3, -0.15, 0.02], [-0.3, 0.15, 0.02], [-0.3, -0.15, 0.02]])
+    return TerrainView(
         t_s=1.0,
         p_world_body=np.array([0.0, 0.0, 0.55]),
         yaw=0.0,
@@ -110,6 +110,14 @@ def _going(world: TerrainWorld, foot: tuple[float, float], to: tuple[float, floa
         p_body_hip=np.array([[0.3, 0.1], [0.3, -0.1], [-0.3, 0.1], [-0.3, -0.1]]),
         dt_s=0.01,
     )
+
+
+def _going(world: TerrainWorld, foot: tuple[float, float], to: tuple[float, float]) -> tuple[float, str]:
+    """step_rise and the gait when the front-left foot stands at foot (x, z) and its next foothold is to (x, z)."""
+    feet = np.array(
+        [[foot[0], 0.15, foot[1] + 0.02], [0.3, -0.15, 0.02], [-0.3, 0.15, 0.02], [-0.3, -0.15, 0.02]]
+    )
+    view = _going_view(feet)
     chosen = np.full((4, 3), np.nan)
     chosen[0] = [to[0], 0.15, to[1]]
     last = FootholdDecision(
@@ -137,3 +145,20 @@ def test_a_swing_up_a_riser_gets_the_time_to_rise_it(riser: float) -> None:
     assert _going(stairs, (0.85, 2 * riser), (0.55, riser))[0] == 0.0
     slope = _world(np.asarray(np.clip(X, 0.0, None) * riser / 0.3, dtype=np.float64))
     assert _going(slope, (0.55, 0.55 * riser / 0.3), (0.85, 0.85 * riser / 0.3))[0] == 0.0
+
+
+def test_a_gap_is_ground_that_drops_below_the_feet_and_comes_back_not_a_flights_edge_bands() -> None:
+    """gap_ahead with gap_dip_m: a pit 0.3 m deep and 0.3 m wide ahead (its floor no-step, as the step map's knee
+    rule makes it) is a gap (the slow gait); two treads of a flight (0.18 m risers) with no region on them (a step
+    map that closed them off) are a longer run without a region but no gap; without gap_dip_m both count."""
+    X = np.broadcast_to((-0.6 + np.arange(110) * RES)[:, None], (110, 60))
+    in_pit = (X > 0.6) & (X < 0.9)
+    pit = _world(np.asarray(np.where(in_pit, -0.3, 0.0), dtype=np.float64), np.asarray(in_pit, dtype=bool))
+    lost = (X > 0.6) & (X < 1.2)
+    flight = _world(np.asarray(0.18 * np.clip(np.floor((X - 0.6) / 0.28) + 1.0, 0.0, 4.0)), np.asarray(lost))
+    view = _going_view()
+    dip = DecisionParams(gap_dip_m=0.05)
+    every = DecisionParams(gap_dip_m=None)
+    assert gap_ahead(view, pit, dip) > dip.slow_gap_m and gap_ahead(view, pit, every) > every.slow_gap_m
+    assert gap_ahead(view, flight, every) > every.slow_gap_m
+    assert gap_ahead(view, flight, dip) < dip.slow_gap_m

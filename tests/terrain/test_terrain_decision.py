@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from planning.steps import SteeringCommand
+from planning.steps.state import BodyMotion, StepPath
 from planning.terrain.bodypath import plan_body_path
 from planning.terrain.cadence import CADENCES, CadenceParams, make_request
 from planning.terrain.decision import (
@@ -20,6 +21,7 @@ from planning.terrain.decision import (
     TerrainWorld,
     _choose_regions,
     cadence,
+    choose_footholds,
     choose_region,
     crouch_height,
     decide,
@@ -381,6 +383,61 @@ def test_a_table_top_out_of_the_sensors_sight_is_remembered_and_keeps_the_body_c
     assert crouch_height(view, maps, P) == pytest.approx(view.standing_height_m)
     crouched = crouch_height(view, maps, P, HeightGrid(origin, RES, remembered))
     assert P.min_height_m <= crouched <= 0.58 - P.body_top_m - P.head_margin_m + 1e-9
+
+
+def _trot_path(x_feet: np.ndarray, nominal_x: np.ndarray, t_now: float = 1.0) -> StepPath:
+    """Two trot steps per leg, the first pair (FL, RR) 0.1 s ahead, the other (FR, RL) 0.3 s ahead; the body moving at
+    0.3 m/s along x from x 0; each leg's two touchdowns at nominal_x[leg] and 0.3 m further on (y ±0.15)."""
+    legs = np.array([0, 3, 1, 2, 0, 3, 1, 2])
+    t_td = t_now + np.array([0.1, 0.1, 0.3, 0.3, 0.5, 0.5, 0.7, 0.7])
+    y = np.array([0.15, -0.15, 0.15, -0.15])
+    p = np.column_stack([nominal_x[legs] + np.repeat([0.0, 0.3], 4), y[legs], np.zeros(8)])
+    body = BodyMotion(np.array([0.0, 0.0]), 0.0, np.array([0.3, 0.0]), 0.0, t_now)
+    lo_now = np.array([t_now - 0.1, t_now + 0.1, t_now + 0.1, t_now - 0.1])
+    return StepPath(legs, t_td, t_td + 0.2, p, lo_now, body, "reference", "trot")
+
+
+def test_a_touchdown_with_no_region_steps_in_place_and_a_foothold_off_every_region_is_not_held() -> None:
+    """A pit 1 m wide (x 0.6-1.6): a stance foot whose next nominal lies mid-pit, farther than search_m from any
+    region, keeps standing where it is (held in the step QP), not sent to its nominal over the pit; a foot in the
+    air keeps its choice made on a region; and a foothold remembered in the pit (chosen off every region) is not
+    held by the lost-region rule."""
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (110, 60))
+    h = np.asarray(np.where((X < 0.6) | (X > 1.6), 0.0, -0.3), dtype=np.float64)
+    world = _world(xs, ys, h)
+    feet_x = np.array([0.45, 0.45, -0.15, -0.15])
+    view = dataclass_replace(_view(np.zeros(4), feet_x), stance=np.array([False, True, True, True]))
+    # FR (leg 1, in stance) has its next nominal at x 1.1, mid-pit; the others on the platform
+    path = _trot_path(feet_x, np.array([0.5, 1.1, -0.1, -0.1]))
+    qp = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
+    d = choose_footholds(view, path, world, FootholdMemory.empty(), qp, P)
+    k_fr = int(np.flatnonzero(path.leg == 1)[0])
+    np.testing.assert_allclose(d.p_world_touchdown[k_fr, :2], view.p_world_foot[1, :2], atol=0.011)
+    assert d.memory.on_region is not None and d.memory.on_region[1]
+    # the other legs' first touchdowns stay on the platform (their regions)
+    for leg in (0, 2, 3):
+        k = int(np.flatnonzero(path.leg == leg)[0])
+        assert d.p_world_touchdown[k, 0] < 0.6
+    # a foothold remembered in the pit, chosen off every region: not held, the touchdown steps in place instead
+    chosen = np.full((4, 3), np.nan)
+    chosen[1] = [1.1, -0.15, -0.3]
+    t_mem = np.full(4, np.nan)
+    t_mem[1] = float(path.t_touchdown[k_fr])
+    off = FootholdMemory(t_mem, chosen, np.zeros(4), np.array([True, False, True, True]))
+    d2 = choose_footholds(view, path, world, off, qp, P)
+    np.testing.assert_allclose(d2.p_world_touchdown[k_fr, :2], view.p_world_foot[1, :2], atol=0.011)
+    # FL in the air, its nominal moved mid-pit after it lifted off toward a foothold on the platform: kept there
+    path_fl = _trot_path(feet_x, np.array([1.1, 0.5, -0.1, -0.1]))
+    k_fl = int(np.flatnonzero(path_fl.leg == 0)[0])
+    chosen = np.full((4, 3), np.nan)
+    chosen[0] = [0.5, 0.15, 0.0]
+    t_mem = np.full(4, np.nan)
+    t_mem[0] = float(path_fl.t_touchdown[k_fl])
+    kept = FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool))
+    d3 = choose_footholds(view, path_fl, world, kept, qp, P)
+    np.testing.assert_allclose(d3.p_world_touchdown[k_fl, :2], [0.5, 0.15], atol=0.011)
 
 
 def _choose_region_reference(regions, maps, xy, z_ref, keep_xy, p, in_flight, hip, reach_m):  # type: ignore[no-untyped-def]

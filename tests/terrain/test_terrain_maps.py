@@ -193,6 +193,35 @@ def test_a_stone_too_high_above_its_pit_is_no_body_obstacle_when_dense_counts_hi
     assert counted_low.step_obstacle[18:42, 18:42].all() and not counted_low.body_obstacle.any()
 
 
+def test_the_body_band_from_the_support_keeps_stone_edges_over_a_pit_slot_out_and_a_tall_box_in() -> None:
+    """A 6 cm slot of pit between two stones holds the stones' top-edge returns 0.3 m above the pit floor: inside the
+    body band measured from the slot's own ground (a body obstacle the body path swerves around), not with the band
+    also measured from the ground the robot stands on (band_from_support; the stones' tops, default_ground_z 0).
+    A box 0.45 m tall on the floor the robot stands on stays a body obstacle either way."""
+    n, res, dz = 40, 0.03, 0.03
+    z0 = -0.30
+    nz = 40
+    p = MapParams()
+    ground = np.zeros((n, n))
+    ground[:, 19:21] = -0.30  # the slot between the left and right stones
+    occ = np.zeros((n, n, nz), dtype=bool)
+    k_top = int(round((0.0 - z0) / dz))  # the stones' top edges seen in the slot's columns
+    occ[:, 19:21, k_top] = True
+    columns = Columns((0.0, 0.0), res, ground, occ, z0, dz)
+    shipped = build_maps(columns, p, default_ground_z=0.0)
+    support = build_maps(columns, dataclasses.replace(p, band_from_support=True), default_ground_z=0.0)
+    assert shipped.body_obstacle[:, 19:21].any()
+    assert not support.body_obstacle.any()
+    # A tall box on the floor: its sides are in the band above the floor the robot stands on.
+    floor = np.zeros((n, n))
+    occ_box = np.zeros((n, n, nz), dtype=bool)
+    k_lo, k_hi = int(round((0.0 - z0) / dz)), int(round((0.45 - z0) / dz))
+    occ_box[18:22, 18:22, k_lo : k_hi + 1] = True
+    box = Columns((0.0, 0.0), res, floor, occ_box, z0, dz)
+    for params in (p, dataclasses.replace(p, band_from_support=True)):
+        assert build_maps(box, params, default_ground_z=0.0).body_obstacle[18:22, 18:22].all()
+
+
 def test_the_step_sdf_computed_on_first_read_equals_the_one_computed_at_once() -> None:
     """build_maps leaves the step SDF and its gradient to their first read: the same values; replace, pickling
     and a missing attribute behave as for plain maps."""
