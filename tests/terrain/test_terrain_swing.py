@@ -4,6 +4,7 @@ radius and the swing margin, whatever its place in the map's cells. Open-loop: t
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,6 +17,8 @@ from planning.terrain.maps import maps_from_grids
 
 RES = 0.03
 H_BOX = 0.092
+# the swing rules under test, on the pipeline's swing settings (TerrainSwing leaves them off)
+SWING = dataclasses.replace(TerrainSwing(), rise_over_boxes=True, endpoint_zone_m=0.01)
 
 
 def _maps_with_box(box: tuple[float, float, float, float]) -> object:
@@ -77,7 +80,7 @@ def test_a_swing_whose_foothold_moves_past_a_box_clears_it_by_the_swing_margin(
     margin = DecisionParams().swing_margin_m
     box = (0.30 + near_edge_m, 0.46, 0.11, 0.23)
     ground = swing_ground(_maps_with_box(box), r + margin)
-    planner = SwingPlanner(robot, TerrainSwing().applied_to(SwingParams()))
+    planner = SwingPlanner(robot, SWING.applied_to(SwingParams()))
     first, moved = np.array([0.448, 0.338, 0.0]), np.array([0.468, 0.055, 0.0])
     path = _fly(planner, ground, np.array([0.30, 0.12, 0.0]), [(0.0, first), (t_moved_s, moved)], 0.27)
     assert _box_gap(path, r, box) >= margin - 0.002
