@@ -28,6 +28,10 @@ def test_terrains_lists_names(capsys) -> None:
         (["walk", "--terrain", "stairs", "--maps", "lidar"], "--maps 'lidar': one of sensor, truth, off"),
         (["walk", "--terrain", "stairs", "--speed", "1.0"], "--speed 1.0 m/s is outside [0.2, 0.5] m/s"),
         (["walk", "--vx", "1.0", "--speed", "1.0"], "--speed: only on a terrain"),
+        (
+            ["walk", "--terrain", "stairs", "--terrain-pipeline", "modes"],
+            "--terrain-pipeline 'modes': removed",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, needle, capsys) -> None:

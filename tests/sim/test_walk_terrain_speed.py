@@ -46,14 +46,14 @@ def test_slope_steered_at_1_mps_with_the_sensor() -> None:
 
 def test_a_live_studio_walk_honours_the_terrain_speed_limit() -> None:
     """A live session (the studio's, REST's /sessions) walks a terrain at up to its TERRAIN_SPEED_LIMITS_MPS, like
-    the CLI's --speed: on the slope the navigator's cap is 1.0 m/s and a 1.0 m/s command walks near it (it was
+    the CLI's --speed: on the slope the pipeline's cap is 1.0 m/s and a 1.0 m/s command walks near it (it was
     capped at 0.5 m/s there); on the stairs the cap stays at the default."""
     from server.engine import LiveSim, walk_command
 
     stairs = LiveSim(walk_command(vx=1.0), "stairs")
-    assert stairs.session.navigator.params.max_speed_mps == TERRAIN_SPEED_DEFAULT_MPS
+    assert stairs.session.pipeline.params.decision.max_speed_mps == TERRAIN_SPEED_DEFAULT_MPS
     sim = LiveSim(walk_command(vx=1.0), "slope")
-    assert sim.session.navigator.params.max_speed_mps == terrain_speed_limit("slope") == 1.0
+    assert sim.session.pipeline.params.decision.max_speed_mps == terrain_speed_limit("slope") == 1.0
     x_at, late = None, 3.5
     while sim.t < late:
         sim.step()
