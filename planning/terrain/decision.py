@@ -51,6 +51,7 @@ from planning.terrain.regions import (
     segment_regions,
 )
 from planning.terrain.scenes import TerrainScene
+from planning.terrain.steering import StopParams, stop_short
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
 
 
@@ -1172,7 +1173,8 @@ class PipelineParams:
     what the pipeline's walk changes in the swing planner's parameters (SwingParams fields), the same on every
     terrain (see TerrainSwing); maps: what the pipeline changes in perception.maps (MapParams fields, the same on
     every terrain, see _regions_maps); replan_height_from_plan_m: HandlerParams.replan_height_from_plan_m while walking
-    on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m)."""
+    on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m); stop: a steered
+walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint)."""
 
     use_sensor: bool = True
     truth_half_extent_m: float = 2.5
@@ -1185,6 +1187,7 @@ class PipelineParams:
     step_qp: StepQPParams = field(default_factory=lambda: _regions_qp())
     swing: TerrainSwing = field(default_factory=lambda: TerrainSwing())
     replan_height_from_plan_m: float = 0.03
+    stop: StopParams = field(default_factory=StopParams)
 
 
 @dataclass(frozen=True)
@@ -1423,6 +1426,9 @@ class TerrainPipeline:
         if self.world is None:
             return None
         d = decide(view, self.world, self.last, self.decision_params)
+        if view.goal is None:
+            xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
+            d = dataclasses.replace(d, command=stop_short(maps, xy, view.yaw, d.command, p.path, p.stop))
         if d.gait != view.gait:
             self.stats.gait_switches += 1
         self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)

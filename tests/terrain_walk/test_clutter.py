@@ -1,13 +1,14 @@
-"""Clutter: the rules it needs (ground memory, keep-outs around low boxes, swings over boxes, held swing targets,
-the swing-collision count) as fast unit tests, and the closed-loop crossing."""
+"""Clutter: the ground memory, swings over boxes, held swing targets and the swing-collision count as fast unit
+tests, and the closed-loop crossings with the depth sensor on the terrain pipeline, as a rate."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from terrain_rates import crossings
 
 from planning.robot import load_robot
-from planning.sim.run import _TERRAIN_TRIPS
+from planning.sim.run import _TERRAIN_TRIPS, RunOptions, WalkCommand
 from planning.swing import BodyMotion, Box, BoxGround, SwingParams, SwingPlanner, SwingRequest, TripKind
 from planning.terrain.memory import GroundMemory
 from planning.terrain.voxels import Columns
@@ -111,3 +112,35 @@ def test_a_replan_raises_the_apex_for_a_box_seen_late_but_not_on_open_ground() -
 def test_swing_collisions_count_terrain_trips_only() -> None:
     assert TripKind.NORMAL in _TERRAIN_TRIPS and TripKind.KNEE in _TERRAIN_TRIPS
     assert TripKind.SELF_CROSSED not in _TERRAIN_TRIPS and TripKind.SELF_UNCROSSED not in _TERRAIN_TRIPS
+
+
+# (low boxes, platform, scene seed): draws of sweeps/family-clutter.yaml
+CLUTTER_DRAWS = [(5, False, 762), (3, True, 899), (3, False, 945), (8, False, 4)]
+MIN_CLUTTER_CROSSED = 2
+MAX_SWING_COLLISIONS = 2.0  # terrain trips per 100 touchdowns, the median crossing
+
+
+@pytest.mark.sim
+def test_clutter_crossings_with_the_sensor_at_a_rate() -> None:
+    """Four clutter layouts of the family (3-8 low boxes, with and without the platform) walked to the terrain's
+    goal with the depth sensor: at least MIN_CLUTTER_CROSSED cross clean (no fall, no body collision, crossed, the
+    goal reached, no landing in a no-step place), and the median crossing's swings trip on the terrain at most
+    MAX_SWING_COLLISIONS times per 100 touchdowns. MEASURED"""
+    from planning.terrain.spec import load_terrain
+
+    variants = []
+    for n_low, platform, seed in CLUTTER_DRAWS:
+        terrain = f"clutter:n_low={n_low},platform={str(platform).lower()}"
+        goal = load_terrain(terrain, seed=seed).goal_xy
+        cmd = WalkCommand(goal=(float(goal[0]), float(goal[1])), terrain_sensor=True, stop_at_goal=True)
+        variants.append(
+            (f"{terrain} seed {seed}", cmd, RunOptions(terrain=terrain, seed=seed, duration_s=35.0))
+        )
+    n, outcome, reports = crossings(variants, max_no_step=0)
+    assert n >= MIN_CLUTTER_CROSSED, outcome
+    trips = sorted(
+        r["swing_collisions_per_100_steps"]
+        for r, ok in zip(reports, outcome.values(), strict=True)
+        if ok is None
+    )
+    assert trips[len(trips) // 2] <= MAX_SWING_COLLISIONS, trips

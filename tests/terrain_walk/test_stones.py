@@ -1,12 +1,15 @@
-"""Stepping stones: the pit detection that switches the stones mode on, foothold snapping along the heading onto
-the nearer stone, the snapped footholds pinned over the QP's answer, the maps' stones rules, and the closed-loop
-crossings (seed 0) on the scene's ground-truth maps and with the depth sensor.
+"""Stepping stones: the step QP's foothold snapping along the heading onto the nearer stone (an option of the step
+QP; the terrain pipeline constrains footholds to their regions instead), and the closed-loop crossings with the
+depth sensor on the terrain pipeline, as a rate.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from terrain_rates import crossings
 
+from planning.sim.run import RunOptions, WalkCommand
 from planning.terrain.bodypath import plan_body_path
 from planning.terrain.cadence import CADENCES, CadenceParams, make_request
 from planning.terrain.maps import TerrainMaps, maps_from_grids
@@ -104,3 +107,30 @@ def test_step_qp_with_snapping_lands_gap_footholds_on_stones_and_reports_its_nom
     np.testing.assert_allclose(plain.p_nominal, req.p_nominal)  # no snapping: the request's nominals
     sd_nom = np.asarray(maps.sdf_step(snap.p_nominal[:, 0], snap.p_nominal[:, 1]))
     assert np.all(sd_nom >= CLEAR - 1e-9)  # the snapped nominals are all on stones with the clearance
+
+
+# (gaps m, stone depths m, stone widths m, top jitter m, scene seed): draws of sweeps/family-stones.yaml
+STONES_DRAWS = [
+    ("0.25..0.3", "0.3..0.4", "0.4..0.5", 0.0027, 234),
+    ("0.2..0.25", "0.35..0.45", "0.4..0.5", 0.0219, 813),
+    ("0.25..0.3", "0.3..0.4", "0.4..0.5", 0.0222, 169),
+    ("0.15..0.2", "0.25..0.35", "0.4..0.5", 0.0137, 506),
+]
+MIN_STONES_CROSSED = 3
+
+
+@pytest.mark.sim
+def test_stones_crossings_with_the_sensor_at_a_rate() -> None:
+    """Four stepping-stone fields of the family (gaps 0.15-0.30 m, tops jittered up to 2.2 cm) walked to the
+    terrain's goal with the depth sensor: at least MIN_STONES_CROSSED cross clean (no fall, no body collision,
+    crossed, the goal reached, no landing in a no-step place). MEASURED"""
+    from planning.terrain.spec import load_terrain
+
+    variants = []
+    for gap, depth, width, jitter, seed in STONES_DRAWS:
+        terrain = f"stones:gap_m={gap},stone_depth_m={depth},stone_width_m={width},jitter_z_m={jitter}"
+        goal = load_terrain(terrain, seed=seed).goal_xy
+        cmd = WalkCommand(goal=(float(goal[0]), float(goal[1])), terrain_sensor=True, stop_at_goal=True)
+        variants.append((f"stones seed {seed}", cmd, RunOptions(terrain=terrain, seed=seed, duration_s=35.0)))
+    n, outcome, _ = crossings(variants, max_no_step=0)
+    assert n >= MIN_STONES_CROSSED, outcome
