@@ -237,7 +237,9 @@ class VoxelMap:
         inside = np.all((o > lo) & (o < hi), axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             t_axis = np.where(u > 0, (hi - o) / u, np.where(u < 0, (lo - o) / u, np.inf))
-        t_exit = np.minimum(np.minimum(t_axis[:, 0], t_axis[:, 1]), t_axis[:, 2])  # (not min over axis 1: slow)
+        t_exit = np.minimum(
+            np.minimum(t_axis[:, 0], t_axis[:, 1]), t_axis[:, 2]
+        )  # (not min over axis 1: slow)
         big = np.iinfo(np.intp).max // 4
         keep = np.floor(np.minimum(t_exit / res + 0.5, big)).astype(np.intp) + 1
         return np.where(inside, np.maximum(keep, 0), big)
