@@ -1174,7 +1174,7 @@ class PipelineParams:
     terrain (see TerrainSwing); maps: what the pipeline changes in perception.maps (MapParams fields, the same on
     every terrain, see _regions_maps); replan_height_from_plan_m: HandlerParams.replan_height_from_plan_m while walking
     on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m); stop: a steered
-walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint)."""
+    walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint)."""
 
     use_sensor: bool = True
     truth_half_extent_m: float = 2.5

@@ -93,7 +93,7 @@ def test_run_writes_report_and_exit_codes(tmp_path, capsys) -> None:
 
 
 def test_walk_maps_truth_writes_the_navigator_section(tmp_path, capsys) -> None:
-    """`walk --terrain slope --maps truth` walks on the scene's own maps: the report carries the navigator's
+    """`walk --terrain slope --maps truth` walks on the scene's own maps: the report carries the terrain pipeline's
     counters (no sensor scans needed, maps rebuilt around the body)."""
     out = tmp_path / "r.json"
     code = main(

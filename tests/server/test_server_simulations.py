@@ -54,9 +54,9 @@ def test_walk_maps_field(client: TestClient) -> None:
     assert bad.status_code == 422 and "maps" in bad.text
 
 
-def test_headless_walk_maps_reach_the_navigator() -> None:
+def test_headless_walk_maps_reach_the_terrain_pipeline() -> None:
     """The worker turns "maps" into the walk's map source: "truth" runs the terrain pipeline on the scene's maps (its
-    counters in the report), "off" walks blind (no navigator section)."""
+    counters in the report), "off" walks blind (no `navigator` section: the report's name for the pipeline's counters)."""
     from server.engine import run_headless
 
     job = {"id": "t", "terrain": "slope", "pushes": [], "duration": 1.0, "robot": "spot", "maneuver": None}
