@@ -125,7 +125,9 @@ def test_clutter_crossings_with_the_sensor_at_a_rate() -> None:
     """Four clutter layouts of the family (3-8 low boxes, with and without the platform) walked to the terrain's
     goal with the depth sensor: at least MIN_CLUTTER_CROSSED cross clean (no fall, no body collision, crossed, the
     goal reached, no landing in a no-step place), and the median crossing's swings trip on the terrain at most
-    MAX_SWING_COLLISIONS times per 100 touchdowns. MEASURED"""
+    MAX_SWING_COLLISIONS times per 100 touchdowns. Measured 2026-11-27 on this project's 2-core machine: 3 of 4
+    (seeds 762, 899, 945 crossed at 13.0-15.1 s; seed 4 reached the goal with one no-step touchdown); about 17 s of
+    CPU each."""
     from planning.terrain.spec import load_terrain
 
     variants = []

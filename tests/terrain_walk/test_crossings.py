@@ -3,7 +3,8 @@ pipeline crosses in every family draw (slope, rough, under-table: 50 of 50 each)
 
 Each crossing simulates ~13 s. Clean: no fall, no body collision, crossed (the body center 0.5 m past the terrain's
 end) within 18 s, the goal reached, no no-step touchdown (ground-truth check). The claim is a rate (≥ 3 of 4), so a
-last-bit floating-point difference between machines cannot flip it.
+last-bit floating-point difference between machines cannot flip it. Measured 2026-11-27 on this project's 2-core
+machine: 4 of 4 (crossed at 8.5-11.3 s); about 14 s of CPU each.
 """
 
 from __future__ import annotations

@@ -47,7 +47,9 @@ MIN_STEERED_STAIRS = 2
 def test_steered_over_the_stairs_with_the_sensor_at_a_rate() -> None:
     """Steered straight ahead (no goal) at 0.3-0.5 m/s with the depth sensor up the default stairs (four risers, a
     landing, four down): the pipeline's speed rule keeps the body below the command on the stairs and its footholds
-    carry it up and down. Clean: crossed, no fall, no body collision, no landing in a no-step place."""
+    carry it up and down. Clean: crossed, no fall, no body collision, no landing in a no-step place. Measured
+    2026-11-27 on this project's 2-core machine: 3 of 4 (0.4, 0.45, 0.5 m/s crossed at 12.8-14.1 s, mean 0.37-0.42
+    m/s; 0.3 m/s fell going down at 14.4 s, a hind lower leg on a nosing); about 16 s of CPU each."""
     ok = {}
     for vx in STEERED_STAIRS_SPEEDS:
         r = run_walk(WalkCommand(vx=vx, terrain_sensor=True), RunOptions(terrain="stairs", duration_s=16.0))
