@@ -20,6 +20,8 @@ from planning.swing.policies import Hold, HPath, LegCtx, vertical, vertical_fami
 from planning.swing.types import BodyMotion, GroundHeightFn, Tier
 
 _FEW_KNEES = 8  # up to this many knee samples, one float IK each beats the vectorized one
+# ndarray.max()/.min() without the method's Python wrapper (the same reduction: the same result, NaN included)
+_max, _min = np.maximum.reduce, np.minimum.reduce
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
 
 
@@ -37,11 +39,11 @@ class OtherLeg:
     shank_f: tuple[float, float, float] = field(init=False)  # shank as floats
 
     def __post_init__(self) -> None:
-        self.shank_f = (float(self.shank[0]), float(self.shank[1]), float(self.shank[2]))
+        sx, sy, sz = self.shank.tolist()
+        self.shank_f = (sx, sy, sz)
         if self.xy_box:
             return
         fc = self.foot_center
-        sx, sy = float(self.shank[0]), float(self.shank[1])
         if len(fc) == 1:
             x, y = float(fc[0, 0]), float(fc[0, 1])
             self.xy_box = (min(x, x + sx), max(x, x + sx), min(y, y + sy), max(y, y + sy))
@@ -191,6 +193,7 @@ class Analyzer:
         self.knee_reach = float(np.sqrt(robot.l_upper**2 + np.max(np.abs(robot.abd_offset)) ** 2))
         self.family = vertical_family(params)
         self._ring_radii = np.asarray(params.cliff_rings_m, dtype=float)
+        self._ring_radii_f = self._ring_radii.tolist()
         self._ring_offsets = (self._ring_radii[:, None, None] * _DIRS[None, :, :]).reshape(-1, 2)  # (R·8, 2)
         self._ring_offsets_dr = np.ascontiguousarray(
             (_DIRS[:, None, :] * self._ring_radii[None, :, None]).reshape(-1, 2)
@@ -290,7 +293,7 @@ class Analyzer:
             dx = xw - x
             dy = yw - y
             near = dx * dx + dy * dy <= zone * zone
-            if near.any():
+            if True in near.tolist():  # near.any(), without its dispatch cost (a tenth of the time)
                 g = np.where(near, np.minimum(g, z), g)
                 ring_g[near] = -np.inf
         return g
@@ -307,7 +310,7 @@ class Analyzer:
         if prob.flat_height is None:
             g, h_ref, ring_g = self._terrain_and_rings(prob, xw, yw)
             obstacle = g > h_ref + pr.obstacle_step_m
-            any_obstacle = bool(obstacle.any())
+            any_obstacle = True in obstacle.tolist()  # obstacle.any()
         else:  # flat ground is never an obstacle
             g, _ = self._terrain(prob, xw, yw)
             obstacle, ring_g, any_obstacle = self._no_obstacle(len(xw)), None, False
@@ -362,16 +365,18 @@ class Analyzer:
         """Returns (penetration depth m, vertical margin short over an obstacle, horizontal margin m)."""
         pr = self.params
         clear = zs - v.g
-        pen = float(-clear.min()) if len(clear) else 0.0
-        scrape = v.any_obstacle and bool((v.obstacle & (clear < pr.clearance_margin_m)).any())
+        pen = -float(_min(clear)) if len(clear) else 0.0
+        # the .any() of small boolean arrays as `True in` their lists: the same answer, a tenth of the time
+        scrape = v.any_obstacle and True in (v.obstacle & (clear < pr.clearance_margin_m)).tolist()
+        if scrape:
+            return pen, True, 0.0
         h_margin = math.inf
         if v.ring_g is not None:
-            hit = v.ring_g > (zs - pr.clearance_margin_m)[:, None]  # (K,R)
-            rings = hit.any(axis=0)
-            if rings.any():
-                h_margin = float(self._ring_radii[int(np.argmax(rings))])
-        if scrape:
-            h_margin = 0.0
+            hit = v.ring_g.T > zs - pr.clearance_margin_m  # (R,K)
+            for radius, ring in zip(self._ring_radii_f, hit.tolist(), strict=True):
+                if True in ring:  # the innermost ring with a hit
+                    h_margin = radius
+                    break
         return pen, scrape, h_margin
 
     def clearance_need(self, v: Verdict) -> float:
@@ -380,9 +385,9 @@ class Analyzer:
         (-inf when nothing on the way asks for height)."""
         need = -math.inf
         if v.any_obstacle:
-            need = float(v.g[v.obstacle].max())
+            need = float(_max(v.g[v.obstacle]))
         if v.ring_g is not None and self._n_cliff_rings:
-            need = max(need, float(v.ring_g[:, : self._n_cliff_rings].max()))
+            need = max(need, float(_max(v.ring_g[:, : self._n_cliff_rings], axis=None)))
         return need + self.params.clearance_margin_m
 
     def gentlest(self, prob: LegProblem) -> tuple[Poly1D, np.ndarray]:
@@ -400,7 +405,8 @@ class Analyzer:
         if not prob.others:
             return []
         r = max(self.params.knee_check_radius_m, self.params.keepout_radius_m)
-        x0, x1, y0, y1 = float(xw.min()) - r, float(xw.max()) + r, float(yw.min()) - r, float(yw.max()) + r
+        xl, yl = xw.tolist(), yw.tolist()  # finite sample positions: min and max of the lists, as NumPy's
+        x0, x1, y0, y1 = min(xl) - r, max(xl) + r, min(yl) - r, max(yl) + r
         return [
             o
             for o in prob.others
@@ -472,9 +478,9 @@ class Analyzer:
                 prob.g_knee_max = prob.flat_height
             else:
                 px, py = self.knee_grid(prob.leg, prob.hips, prob.cos_yaw, prob.sin_yaw)
-                prob.g_knee_max = float(np.max(prob.ground(px, py)))
+                prob.g_knee_max = float(_max(prob.ground(px, py)))
         # on flat ground g is all flat_height (= g_knee_max)
-        g_max = prob.g_knee_max if prob.flat_height is not None else max(prob.g_knee_max, float(g.max()))
+        g_max = prob.g_knee_max if prob.flat_height is not None else max(prob.g_knee_max, float(_max(g)))
         terrain = prob.hip_z_min - self.knee_reach - g_max < pr.knee_radius_m
         idx = self._knee_idx(len(near))
         if not terrain:

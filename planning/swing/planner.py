@@ -72,6 +72,7 @@ from planning.swing.types import (
 )
 
 _WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
+_max = np.maximum.reduce  # ndarray.max() without the method's Python wrapper (the same reduction)
 _SHANK_CACHE_M = 0.005  # a leg's shank is recomputed once its foot moved this far in the body frame (m)
 # other legs as obstacles and their keep-out areas (heading frame), in one order
 _Obstacles = tuple[tuple[OtherLeg, ...] | list[OtherLeg], tuple[AABB, ...] | list[AABB]]
@@ -630,18 +631,29 @@ class SwingPlanner:
         gall = np.asarray(ground(px, py), dtype=float)
         g = gall[:n]
         if extra is not None:
-            g_extra = float(gall[n:].max())
+            g_extra = float(_max(gall[n:]))
         line = float(p0[2]) + u * float(p1[2] - p0[2])
         above = g > line + self.params.obstacle_step_m
         g_obstacle = (
-            float(g[above].max()) if above.any() and self.params.apex_free_over_obstacles else -math.inf
+            float(_max(g[above]))
+            if self.params.apex_free_over_obstacles and True in above.tolist()  # above.any()
+            else -math.inf
         )
-        return (float(g.max()), g_obstacle), g_extra
+        return (float(_max(g)), g_obstacle), g_extra
 
     def _checked_stance(self, feet: Mapping[int, np.ndarray]) -> dict[int, np.ndarray]:
         """The stance feet as (3,) float arrays by leg index; a clear error naming the first bad entry."""
         if not feet:
             return {}
+        fast: dict[int, np.ndarray] = {}
+        for k, a in feet.items():  # the usual case, checked in floats: float (3,) arrays of finite numbers
+            if type(k) is not int or not 0 <= k < 4 or type(a) is not np.ndarray or a.shape != (3,):
+                break
+            if a.dtype != np.float64 or not math.isfinite(sum(a.tolist())):  # a sum is finite if each term is
+                break
+            fast[k] = a
+        else:
+            return fast
         keys = list(feet)
         try:
             arr = np.array([feet[k] for k in keys], dtype=float)
