@@ -199,6 +199,9 @@ class Analyzer:
             (_DIRS[:, None, :] * self._ring_radii[None, :, None]).reshape(-1, 2)
         )  # (8·R, 2), direction-major
         # the rings closer than the cliff margin: terrain hit on one of them fails the vertical check
+        self._probe_offsets = np.vstack(
+            (np.zeros((1, 2)), self._ring_offsets_dr)
+        )  # the samples, then the rings
         self._n_cliff_rings = int(np.count_nonzero(self._ring_radii < params.cliff_margin_m))
         self._knee_idx_cache: dict[int, np.ndarray] = {}
         self._no_obstacle_cache: dict[int, np.ndarray] = {}
@@ -248,36 +251,39 @@ class Analyzer:
         self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """_terrain and _ring_ground (mapped ground) in one ground lookup: the ground (K,) under the samples, the
-        reference surface (K,) and the highest obstacle ground (K,R) on each probe ring.
+        height (K,) above which ground is an obstacle (the reference surface plus obstacle_step_m) and the highest
+        obstacle ground (K,R) on each probe ring.
 
         The probes lie direction by direction, ring by ring, then sample by sample, so that the highest of the 8
-        directions is a reduction over the outer axis (over the inner axis of 8 it costs several times more)."""
+        directions is a reduction over the outer axis (over the inner axis of 8 it costs several times more); the
+        samples themselves come first (offset 0), all in one broadcast addition per axis."""
         K = len(xw)
-        off = self._ring_offsets_dr  # (8·R, 2), direction-major
-        m = len(off)
-        px = np.empty(K * (1 + m))
-        py = np.empty(K * (1 + m))
-        px[:K] = xw
-        py[:K] = yw
-        np.add(xw[None, :], off[:, 0:1], out=px[K:].reshape(m, K))
-        np.add(yw[None, :], off[:, 1:2], out=py[K:].reshape(m, K))
-        gall = np.asarray(prob.ground(px, py), dtype=float)
+        off = self._probe_offsets  # (1 + 8·R, 2): 0, then the rings direction-major
+        m = len(off) - 1
+        px = xw + off[:, 0:1]  # (1 + 8·R, K), C-contiguous: ravel is a view
+        py = yw + off[:, 1:2]
+        gall = np.asarray(prob.ground(px.ravel(), py.ravel()), dtype=float)
         g = gall[:K]
-        p0, p1 = prob.p_start, prob.p_target
-        d = p1[:2] - p0[:2]
-        dd = float(d @ d)
+        x0, y0, z0 = prob.p_start.tolist()
+        x1, y1, z1 = prob.p_target.tolist()
+        dx, dy = x1 - x0, y1 - y0
+        dd = dx * dx + dy * dy
         if dd > 1e-12:
-            u = ((xw - p0[0]) * d[0] + (yw - p0[1]) * d[1]) / dd
-            prog = np.minimum(np.maximum(u, 0.0), 1.0)  # np.clip, without its dispatch cost
+            u = (xw - x0) * dx
+            u += (yw - y0) * dy
+            u /= dd
+            prog = np.minimum(np.maximum(u, 0.0, out=u), 1.0, out=u)  # np.clip, without its dispatch cost
         else:
             prog = np.linspace(0.0, 1.0, K)
-        h_ref = p0[2] + prog * (p1[2] - p0[2])
+        h_obs = prog * (z1 - z0)
+        h_obs += z0  # the reference surface ...
+        h_obs += self.params.obstacle_step_m  # ... and the step above it that makes ground an obstacle
         # the highest ground on each ring, where it is an obstacle (the max of the obstacle ground, as before)
-        gr = gall[K:].reshape(8, m // 8, K).max(axis=0).T  # (K,R)
-        ring_g = np.where(gr > (h_ref + self.params.obstacle_step_m)[:, None], gr, -np.inf)
+        gr = _max(gall[K:].reshape(8, m // 8, K), axis=0)  # (R,K)
+        ring_g = np.where(gr > h_obs, gr, -np.inf).T  # (K,R)
         if self.params.endpoint_zone_m is not None:
             g = self._at_endpoints(prob, xw, yw, g, ring_g)
-        return g, h_ref, ring_g
+        return g, h_obs, ring_g
 
     def _at_endpoints(
         self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray, g: np.ndarray, ring_g: np.ndarray
@@ -308,8 +314,8 @@ class Analyzer:
             return Verdict(Tier.VIOLATES_CONSTRAINTS, (0.0,), u_total, miss)
         xw, yw = self.world_xy(prob, hp)
         if prob.flat_height is None:
-            g, h_ref, ring_g = self._terrain_and_rings(prob, xw, yw)
-            obstacle = g > h_ref + pr.obstacle_step_m
+            g, h_obs, ring_g = self._terrain_and_rings(prob, xw, yw)
+            obstacle = g > h_obs
             any_obstacle = True in obstacle.tolist()  # obstacle.any()
         else:  # flat ground is never an obstacle
             g, _ = self._terrain(prob, xw, yw)
