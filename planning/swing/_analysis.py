@@ -208,6 +208,7 @@ class Analyzer:
         # per leg: the knee probe grid's fore-aft offsets (every ~4 cm) and its two lateral offsets (hip, foot)
         fore = np.linspace(-self.knee_reach, self.knee_reach, 17)
         self._knee_grid = [(fore, np.array([0.0, float(robot.abd_offset[leg])])) for leg in range(4)]
+        self._knee_grid_flat = [(np.repeat(f, len(sd)), np.tile(sd, len(f))) for f, sd in self._knee_grid]
 
     # ---- geometry of one candidate ------------------------------------------------------------------------
     def world_xy(self, prob: LegProblem, hp: HPath) -> tuple[np.ndarray, np.ndarray]:
@@ -496,9 +497,11 @@ class Analyzer:
     def knee_grid(self, leg: int, hips: np.ndarray, c: float, sn: float) -> tuple[np.ndarray, np.ndarray]:
         """World x and y of the ground probed for the knees: a grid fore and aft of the hips (3,3) at the swing's
         start, middle and end, in line with the hip and with the foot (abduction offset); heading cos c, sin sn."""
-        fore, side = self._knee_grid[leg]
-        ox = (fore[:, None] * c - side[None, :] * sn).ravel()
-        oy = (fore[:, None] * sn + side[None, :] * c).ravel()
+        fore, side = self._knee_grid_flat[leg]  # the grid's (fore, side) pairs, flat
+        ox = fore * c
+        ox -= side * sn
+        oy = fore * sn
+        oy += side * c
         return (hips[:, 0:1] + ox).ravel(), (hips[:, 1:2] + oy).ravel()
 
     def _no_obstacle(self, K: int) -> np.ndarray:
