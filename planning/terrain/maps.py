@@ -488,7 +488,6 @@ def build_maps(
         body_obstacle=body,
         step_obstacle=step,
         sdf_body_m=sdf_body,
-        grad_sdf_body=_gradient(sdf_body, res),
         clearance_m=clearance,
         t_s=t_s,
     )
@@ -496,13 +495,17 @@ def build_maps(
 
 class _StepSDFOnUse(TerrainMaps):
     """The maps build_maps gives: the step SDF and its gradient are computed when first read (the unified terrain
-    pipeline never reads them: its footholds keep to the steppable regions), the same values as computed at once.
-    Every other field is set when built; dataclasses.replace passes every field on (the lazy ones read)."""
+    pipeline never reads them: its footholds keep to the steppable regions), and so is the body SDF's gradient (read
+    only near body obstacles), the same values as computed at once. Every other field is set when built;
+    dataclasses.replace passes every field on (the lazy ones read)."""
 
-    _LAZY = ("sdf_step_m", "grad_sdf_step")
+    _LAZY = ("sdf_step_m", "grad_sdf_step", "grad_sdf_body")
 
     def __getattr__(self, name: str) -> Any:
-        # (only for attributes not set: the two lazy fields before their first read)
+        # (only for attributes not set: the lazy fields before their first read)
+        if name == "grad_sdf_body":
+            object.__setattr__(self, name, _gradient(self.sdf_body_m, self.resolution_m))
+            return object.__getattribute__(self, name)
         if name in _StepSDFOnUse._LAZY:
             sdf = signed_distance(self.step_obstacle, self.resolution_m)
             object.__setattr__(self, "sdf_step_m", sdf)
@@ -512,7 +515,7 @@ class _StepSDFOnUse(TerrainMaps):
 
     @staticmethod
     def made(**fields: Any) -> TerrainMaps:
-        """Gives maps with these fields (all of TerrainMaps' but the two lazy ones)."""
+        """Gives maps with these fields (all of TerrainMaps' but the lazy ones)."""
         if fields.keys() != _EAGER_FIELDS:
             raise TypeError(
                 f"_StepSDFOnUse.made: needs the fields {sorted(_EAGER_FIELDS)}, got {sorted(fields)}"
