@@ -123,7 +123,11 @@ class SwingPlan:
         """Returns world positions (K,3) at times ts (K,)."""
         hx, hy = self.x_heading.sample_many(ts), self.y_heading.sample_many(ts)
         c, s = self.cos_yaw, self.sin_yaw
-        return np.column_stack((c * hx - s * hy, s * hx + c * hy, self.z.sample_many(ts)))
+        out = np.empty((len(ts), 3))
+        out[:, 0] = c * hx - s * hy
+        out[:, 1] = s * hx + c * hy
+        out[:, 2] = self.z.sample_many(ts)
+        return out
 
     def derivatives(self, ts: np.ndarray, order: int) -> np.ndarray:
         """Returns world velocities (order 1) or accelerations (order 2), (K,3), at times ts (K,)."""
