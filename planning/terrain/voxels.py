@@ -291,9 +291,8 @@ class VoxelMap:
         hits_b = self.hits[lo : hi + 1].reshape(-1)
         cand = np.flatnonzero(hits_b >= p.min_hits * w)
         occ_i = cand[hits_b[cand] >= p.hit_miss_ratio * self.misses[lo : hi + 1].reshape(-1)[cand]]
-        occ = obstacle[
-            lo : hi + 1
-        ]  # (the obstacles are the occupied voxels but the ground ones, cleared below)
+        # (the obstacles are the occupied voxels but the ground ones, cleared below)
+        occ = obstacle[lo : hi + 1]
         occ.reshape(-1)[occ_i] = True
         first_occ = np.full(cells, n_band, dtype=np.intp)
         np.minimum.at(first_occ, occ_i % cells, occ_i // cells)
