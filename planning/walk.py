@@ -79,7 +79,7 @@ class WalkParams:
     # the centroidal solver's work per tick, bounded (see CentroidalParams: a tick that runs out keeps the last
     # good solution driving); measured: without a bound 1 tick in 100 took over 50 times the median
     centroidal: CentroidalParams = field(
-        default_factory=lambda: CentroidalParams(max_tick_iterations=100, max_tick_solves=3)
+        default_factory=lambda: CentroidalParams(max_tick_iterations=100, max_tick_solves=3, max_knots=10)
     )
     balance_rate_hz: float = 250.0  # phases and force distribution (500 Hz tracked no better, measured)
     swing_rate_hz: float = 1000.0 / 3.0

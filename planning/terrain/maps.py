@@ -272,6 +272,8 @@ def _remove_specks(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]
         return mask
     labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    if sizes[1:].min() >= min_cells:
+        return mask  # no speck (the same cells, without the gather)
     keep = sizes >= min_cells
     keep[0] = False
     return keep[labels]
@@ -299,8 +301,13 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
         h = m
         known = np.isfinite(h)
     if not known.all():
-        ix, iy = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
-        h = h[ix, iy]
+        # the nearest known cell's value: its indices in int32 (ndimage's own are int64), as one flat index
+        ft = np.empty((2, nx, ny), np.int32)
+        ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True, indices=ft)
+        flat = ft[0]
+        flat *= ny
+        flat += ft[1]
+        h = h.reshape(-1).take(flat)
     return h
 
 

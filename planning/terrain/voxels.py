@@ -284,14 +284,19 @@ class VoxelMap:
                 self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
             )
         lo, hi = lo + int(can[0]), lo + int(can[-1])
-        hits = self.hits[lo : hi + 1]
-        # hits >= min_hits w and hits >= ratio misses, as one comparison with the larger bound
-        bound = p.hit_miss_ratio * self.misses[lo : hi + 1]
-        np.maximum(bound, p.min_hits * w, out=bound)
-        occ = hits >= bound
-        del bound
+        n_band = hi + 1 - lo
+        # Occupied: hits >= min_hits w and hits >= ratio misses. The first test over the band picks the few voxels
+        # with enough hits (the surfaces), the second only on them; the band's occupancy is set from their indices
+        # (in the band, layer by layer), and a column's lowest occupied layer is the least layer among its indices.
+        hits_b = self.hits[lo : hi + 1].reshape(-1)
+        cand = np.flatnonzero(hits_b >= p.min_hits * w)
+        occ_i = cand[hits_b[cand] >= p.hit_miss_ratio * self.misses[lo : hi + 1].reshape(-1)[cand]]
+        # (the obstacles are the occupied voxels but the ground ones, cleared below)
+        occ = obstacle[lo : hi + 1]
+        occ.reshape(-1)[occ_i] = True
+        first_occ = np.full(cells, n_band, dtype=np.intp)
+        np.minimum.at(first_occ, occ_i % cells, occ_i // cells)
         # Occupied layers lie in [lo, hi]; the lowest occupied layer of each column, and whether it has one.
-        first_occ = _first_true(occ.reshape(hi + 1 - lo, cells))
         any_occ = first_occ <= hi - lo
         first_occ = np.minimum(first_occ, hi - lo)
         col = np.arange(cells)
@@ -327,8 +332,7 @@ class VoxelMap:
         z1s = np.where(thin, sumz_flat[i1], 0.0)
         ground_z = np.where(has_ground, (z0s + z1s) / np.maximum(h0 + h1, 1e-12), np.nan).astype(np.float64)
         # Obstacles: every occupied voxel but the ground voxel (and the one above it on a thin surface).
-        band = obstacle[lo : hi + 1].reshape(hi + 1 - lo, cells)
-        band[...] = occ.reshape(hi + 1 - lo, cells)
+        band = occ.reshape(hi + 1 - lo, cells)
         g = np.flatnonzero(has_ground)
         band[first_occ[g], g] = False
         t = np.flatnonzero(thin)
