@@ -123,7 +123,11 @@ class SwingPlan:
         """Returns world positions (K,3) at times ts (K,)."""
         hx, hy = self.x_heading.sample_many(ts), self.y_heading.sample_many(ts)
         c, s = self.cos_yaw, self.sin_yaw
-        return np.column_stack((c * hx - s * hy, s * hx + c * hy, self.z.sample_many(ts)))
+        out = np.empty((len(ts), 3))
+        out[:, 0] = c * hx - s * hy
+        out[:, 1] = s * hx + c * hy
+        out[:, 2] = self.z.sample_many(ts)
+        return out
 
     def derivatives(self, ts: np.ndarray, order: int) -> np.ndarray:
         """Returns world velocities (order 1) or accelerations (order 2), (K,3), at times ts (K,)."""
@@ -482,7 +486,7 @@ class SwingPlanner:
             hips = self._hips_at(body, (t_now, float(ts[len(ts) // 2]), req.t_touchdown), leg)
             kx, ky = self.analyzer.knee_grid(leg, hips, c, s)
             (g_way, g_obstacle), g_knee_max = self._ground_on_way(req, ground, (kx, ky))
-        if pr.terrain_apex_m is not None and np.isfinite(g_way):
+        if pr.terrain_apex_m is not None and math.isfinite(g_way):
             # On mapped terrain the swing rises no higher than needed over the highest ground on its way: a foot
             # high in the air lands late.
             z_ceiling = min(z_ceiling, max(g_way, z0) + pr.terrain_apex_m)
@@ -644,11 +648,13 @@ class SwingPlanner:
             return (-math.inf, -math.inf), None
         u = _WAY_SAMPLES
         n = len(u)
-        p0, p1 = req.p_world_foot, req.p_touchdown
+        (x0, y0, z0), (x1, y1, z1) = req.p_world_foot.tolist(), req.p_touchdown.tolist()
         m = n if extra is None else n + len(extra[0])
         px, py = np.empty(m), np.empty(m)
-        px[:n] = p0[0] + u * (p1[0] - p0[0])
-        py[:n] = p0[1] + u * (p1[1] - p0[1])
+        np.multiply(u, x1 - x0, out=px[:n])
+        px[:n] += x0
+        np.multiply(u, y1 - y0, out=py[:n])
+        py[:n] += y0
         g_extra = None
         if extra is not None:
             px[n:], py[n:] = extra
@@ -656,8 +662,10 @@ class SwingPlanner:
         g = gall[:n]
         if extra is not None:
             g_extra = float(_max(gall[n:]))
-        line = float(p0[2]) + u * float(p1[2] - p0[2])
-        above = g > line + self.params.obstacle_step_m
+        line = u * (z1 - z0)
+        line += z0
+        line += self.params.obstacle_step_m
+        above = g > line
         g_obstacle = (
             float(_max(g[above]))
             if self.params.apex_free_over_obstacles and True in above.tolist()  # above.any()
