@@ -107,7 +107,11 @@ class DecisionParams:
     beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) unless it only goes from one height to
     another (its two ends differ by more than this and its ground stays within this of the range between them: a
     riser's edge band), or, at the line's end, its ground stays above this below its one end (None: every run
-    counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps."""
+    counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps;
+    gap_flight_steps: with gap_dip_m, a run from one height to another is no gap only on a line whose ground is a
+    flight: it goes one way only (never back by more than gap_dip_m) through at least this many steps (height
+    changes of more than gap_dip_m, each its edge cells together): the floor onto a box and off it again, or one
+    box's edge alone, stay gaps (None: any line)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -156,7 +160,8 @@ class DecisionParams:
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
     lost_hold_m: float = 0.03
-    gap_dip_m: float | None = None
+    gap_dip_m: float | None = 0.05
+    gap_flight_steps: int | None = 2
     count_step_rise: bool = True
 
 
@@ -416,11 +421,34 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
     for k, row in enumerate(ok):
         # runs of False: from the positions where the row changes
         edges = np.flatnonzero(np.diff(np.concatenate([[1], row.astype(np.int8), [1]])))
+        flight = ground is not None and (
+            p.gap_flight_steps is None or is_flight(ground[k], p.gap_dip_m, p.gap_flight_steps)
+        )
         for a, b in zip(edges[::2], edges[1::2], strict=True):
-            if ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
+            if flight and ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
                 continue
             longest = max(longest, int(b - a))
     return longest * res
+
+
+def is_flight(ground: NDArray[np.float64], dip_m: float | None, steps: int) -> bool:
+    """Whether a line's ground (heights along it, m) is a flight of steps: it goes one way only (up or down, never
+    back by more than dip_m from the highest, or lowest, ground before) through at least `steps` height changes of
+    more than dip_m, each the change over a run of cells that each change by more than half of dip_m (a riser seen
+    over one or a few cells)."""
+    if dip_m is None or ground.size < 2 or not bool(np.all(np.isfinite(ground))):
+        return False
+    d = np.diff(ground)
+    sharp = np.abs(d) > 0.5 * dip_m
+    bounds = np.flatnonzero(np.diff(np.concatenate([[0], sharp.astype(np.int8), [0]])))
+    changes = [float(np.sum(d[a:b])) for a, b in zip(bounds[::2], bounds[1::2], strict=True)]
+    up = sum(1 for c in changes if c > dip_m)
+    down = sum(1 for c in changes if c < -dip_m)
+    if up >= steps and down == 0:
+        return bool(np.all(ground >= np.maximum.accumulate(ground) - dip_m))
+    if down >= steps and up == 0:
+        return bool(np.all(ground <= np.minimum.accumulate(ground) + dip_m))
+    return False
 
 
 def _dips(ground: NDArray[np.float64], a: int, b: int, dip_m: float | None) -> bool:
