@@ -110,7 +110,8 @@ class DecisionParams:
     counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps;
     gap_flight_steps: with gap_dip_m, a run from one height to another is no gap only on a line whose ground is a
     flight: it goes one way only (never back by more than gap_dip_m) through at least this many steps (height
-    changes of more than gap_dip_m, each its edge cells together): the floor onto a box and off it again, or one
+    changes of more than gap_dip_m, each its edge cells together), read on its observed cells only (the treads of a
+    climb above the sensor are unseen, their filled heights low): the floor onto a box and off it again, or one
     box's edge alone, stay gaps (None: any line)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
@@ -417,12 +418,14 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
     cx, cy = np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)
     ok = np.where(on, regions.inset[cx, cy], True)
     ground = world.maps.ground_height[cx, cy] if p.gap_dip_m is not None else None
+    seen = np.where(on, world.maps.observed[cx, cy], False) if p.gap_dip_m is not None else None
     longest = 0
     for k, row in enumerate(ok):
         # runs of False: from the positions where the row changes
         edges = np.flatnonzero(np.diff(np.concatenate([[1], row.astype(np.int8), [1]])))
         flight = ground is not None and (
-            p.gap_flight_steps is None or is_flight(ground[k], p.gap_dip_m, p.gap_flight_steps)
+            p.gap_flight_steps is None
+            or (seen is not None and is_flight(ground[k][seen[k]], p.gap_dip_m, p.gap_flight_steps))
         )
         for a, b in zip(edges[::2], edges[1::2], strict=True):
             if flight and ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
