@@ -438,9 +438,14 @@ def is_flight(ground: NDArray[np.float64], dip_m: float | None, steps: int) -> b
     """Whether a line's ground (heights along it, m) is a flight of steps: it goes one way only (up or down, never
     back by more than dip_m from the highest, or lowest, ground before) through at least `steps` height changes of
     more than dip_m, each the change over a run of cells that each change by more than half of dip_m (a riser seen
-    over one or a few cells)."""
+    over one or a few cells); a single cell out of line with both its neighbours is read at their median."""
     if dip_m is None or ground.size < 2 or not bool(np.all(np.isfinite(ground))):
         return False
+    if ground.size >= 3:
+        # a cell alone above or below its neighbours (a nosing or a riser's face seen edge-on at the sensor's range)
+        # is no step: the median of each cell and its two neighbours
+        mid = np.median(np.stack([ground[:-2], ground[1:-1], ground[2:]]), axis=0)
+        ground = np.concatenate([ground[:1], mid, ground[-1:]])
     d = np.diff(ground)
     sharp = np.abs(d) > 0.5 * dip_m
     bounds = np.flatnonzero(np.diff(np.concatenate([[0], sharp.astype(np.int8), [0]])))

@@ -181,6 +181,9 @@ def test_only_a_flight_makes_a_step_between_two_heights_no_gap() -> None:
     assert gap_ahead(view, box, any_line) < any_line.slow_gap_m
     down = 0.9 - 0.18 * np.clip(np.floor((np.arange(60) * RES - 0.3) / 0.28) + 1.0, 0.0, 4.0)
     assert is_flight(down, 0.05, 2) and is_flight(down[::-1], 0.05, 2)
+    spike = down[::-1].copy()
+    spike[40] += 0.15  # one cell seen high (a riser's face edge-on): still a flight
+    assert is_flight(spike, 0.05, 2)
     one = np.where(np.arange(60) * RES > 0.8, 0.18, 0.0)
     assert not is_flight(one, 0.05, 2) and is_flight(one, 0.05, 1)
     assert not is_flight(np.concatenate([down[::-1], down]), 0.05, 2)
