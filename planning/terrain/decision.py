@@ -623,8 +623,8 @@ def choose_region(
     if hip is not None and np.isfinite(reach_m):
         ok &= np.hypot(dx + x - float(hip[0]), dy + y - float(hip[1])) <= reach_m
     if side is not None and p.own_side_m is not None:
-        cx, cy, sx, sy = (float(v) for v in side)
-        ok &= (dx + x - cx) * sx + (dy + y - cy) * sy >= own_side(p)
+        bx, by, sx, sy = (float(v) for v in side)
+        ok &= (dx + x - bx) * sx + (dy + y - by) * sy >= own_side(p)
     cost = np.where(ok, dist + p.w_height * dz, np.inf)
     # The region of least cost (a region's cost: its least over its cells; a tie: the lowest label).
     least = float(cost.min())
@@ -660,7 +660,9 @@ def _choose_regions(
     S = len(z_refs)
     if S == 1:
         side = None if sides is None else sides[0]
-        return [choose_region(regions, maps, xys[0], z_refs[0], keeps[0], p, flying[0], hips[0], reach_m, side)]
+        return [
+            choose_region(regions, maps, xys[0], z_refs[0], keeps[0], p, flying[0], hips[0], reach_m, side)
+        ]
     res = regions.resolution_m
     ox, oy = regions.origin_xy
     w = int(math.ceil(p.search_m / res))
