@@ -21,6 +21,7 @@ import json
 import os
 import re
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -31,12 +32,24 @@ from planning.sim.run import RunOptions, WalkCommand, WalkSession
 
 
 def _session(
-    vx: float, vy: float, yaw_rate: float, duration_s: float, rates: dict[str, float] | None = None
+    vx: float,
+    vy: float,
+    yaw_rate: float,
+    duration_s: float,
+    rates: dict[str, float] | None = None,
+    problem: dict[str, Any] | None = None,
 ) -> WalkSession:
-    """The walk's session; ``rates`` (stage name → Hz) runs those loop stages at other rates (an experiment: the
-    defaults are what the closed-loop tests establish)."""
+    """The walk's session; ``rates`` (stage name → Hz) runs those loop stages at other rates, ``problem`` sets
+    fields of the centroidal problem's WalkProblemParams (e.g. horizon_s, max_knots): experiments (the defaults are
+    what the closed-loop tests establish)."""
     cmd = WalkCommand(vx, vy, yaw_rate, "trot", centroidal=True, terrain_aware=False)
     session = WalkSession(cmd, RunOptions(duration_s=duration_s))
+    if problem:
+        probs = session.controller.problems
+        try:
+            probs.params = replace(probs.params, **problem)
+        except TypeError as e:
+            raise ValueError(f"--problem: {e}") from None
     stages = {st.name: st for st in session.loop.stages}
     for name, hz in (rates or {}).items():
         if name not in stages:
@@ -53,9 +66,10 @@ def run(
     yaw_rate: float = 0.0,
     duration_s: float = 10.0,
     rates: dict[str, float] | None = None,
+    problem: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Runs the walk headless and returns the solver's per-tick figures."""
-    session = _session(vx, vy, yaw_rate, duration_s, rates)
+    session = _session(vx, vy, yaw_rate, duration_s, rates, problem)
     t0, c0 = time.perf_counter(), time.thread_time()
     report = session.run(None)
     wall, cpu_s = time.perf_counter() - t0, time.thread_time() - c0
@@ -95,17 +109,18 @@ def beside_peer(
     vx: float = 0.5,
     duration_s: float = 10.0,
     rates: dict[str, float] | None = None,
+    problem: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The centroidal walk and a peer in one run: each one's real-time factor in CPU time (simulated seconds per
     CPU second), their ratio, and where the walk's CPU goes (each stage beside the bare solver's time)."""
-    ours = run(vx, duration_s=duration_s, rates=rates)
-    prof = profile_session(_session(vx, 0.0, 0.0, duration_s, rates))
+    ours = run(vx, duration_s=duration_s, rates=rates, problem=problem)
+    prof = profile_session(_session(vx, 0.0, 0.0, duration_s, rates, problem))
     prof.pop("report")
     peer = peer_side(peer_cmd, peer_seconds)
     m = _PEER_LOOP.search(peer["last_line"])
     peer_rtf = float(m.group(1)) if m else peer["real_time_factor_cpu"]
     ours2 = run(
-        vx, duration_s=duration_s, rates=rates
+        vx, duration_s=duration_s, rates=rates, problem=problem
     )  # again after the peer: the load may have changed meanwhile
     rtf = min(ours["real_time_factor_cpu"], ours2["real_time_factor_cpu"])
     parts = prof["cpu_ms_per_simulated_s"]
@@ -150,7 +165,21 @@ def main() -> None:
         metavar="STAGE=HZ",
         help="run a loop stage at another rate (step_plan, swing, balance, centroidal); an experiment",
     )
+    ap.add_argument(
+        "--problem",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="a field of the centroidal problem's WalkProblemParams, e.g. horizon_s=0.4 max_knots=10; an experiment",
+    )
     a = ap.parse_args()
+    problem: dict[str, Any] = {}
+    for item in a.problem:
+        name, _, val = item.partition("=")
+        try:
+            problem[name] = int(val) if name == "max_knots" else float(val)
+        except ValueError:
+            ap.error(f"--problem {item!r}: needs FIELD=NUMBER, e.g. horizon_s=0.4")
     rates: dict[str, float] = {}
     for item in a.rate:
         name, _, hz = item.partition("=")
@@ -159,9 +188,9 @@ def main() -> None:
         except ValueError:
             ap.error(f"--rate {item!r}: needs STAGE=HZ, e.g. step_plan=50")
     if a.peer is not None:
-        print(json.dumps(beside_peer(a.peer, a.peer_seconds, a.vx, a.duration, rates), indent=1))
+        print(json.dumps(beside_peer(a.peer, a.peer_seconds, a.vx, a.duration, rates, problem), indent=1))
     else:
-        print(json.dumps(run(a.vx, a.vy, a.yaw_rate, a.duration, rates), indent=1))
+        print(json.dumps(run(a.vx, a.vy, a.yaw_rate, a.duration, rates, problem), indent=1))
 
 
 if __name__ == "__main__":

@@ -80,7 +80,7 @@ class WalkParams:
     # the centroidal solver's work per tick, bounded (see CentroidalParams: a tick that runs out keeps the last
     # good solution driving); measured: without a bound 1 tick in 100 took over 50 times the median
     centroidal: CentroidalParams = field(
-        default_factory=lambda: CentroidalParams(max_tick_iterations=100, max_tick_solves=3)
+        default_factory=lambda: CentroidalParams(max_tick_iterations=100, max_tick_solves=3, max_knots=10)
     )
     balance_rate_hz: float = 250.0  # phases and force distribution (500 Hz tracked no better, measured)
     swing_rate_hz: float = 1000.0 / 3.0
@@ -117,6 +117,15 @@ class WalkParams:
     pair_gait_kp_pitch: float = 100.0
     pair_gait_kd_pitch: float = 15.0
     pair_gait_kd_xy: float = 30.0
+    # The gaits whose horizontal velocity error is integrated into the body target's acceleration (a feed-forward
+    # of the forward force the stance feet do not deliver; issue 29): the gain (1/s²) and the feed-forward's bound
+    # (m/s²). The error is integrated only while the steering command is steady (within
+    # speed_integral_band_mps for speed_integral_hold_s, s), so accelerating from a stand does not wind it up.
+    speed_integral_gaits: tuple[str, ...] = ("gallop",)
+    speed_integral_ki: float = 4.0
+    speed_integral_max_mps2: float = 3.0
+    speed_integral_band_mps: float = 0.05
+    speed_integral_hold_s: float = 0.2
     steps: StepPlannerParams = field(default_factory=StepPlannerParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     handler: HandlerParams = field(default_factory=HandlerParams)
@@ -174,6 +183,10 @@ class WalkController:
         self._swing_limits: tuple[float, float] | None = (
             None  # the fast swing's horizontal limits applied now
         )
+        self._a_ff_along = 0.0  # m/s², along the command
+        self._a_ff = np.zeros(2)  # the integrated velocity error's feed-forward (WalkParams.speed_integral_*)
+        self._v_cmd_ref = np.zeros(2)  # the command the steady test compares with, and since when
+        self._t_cmd_ref = 0.0
         self._pair_gains = False  # the balance QP has the pair gaits' gains (WalkParams.pair_gait_*)
         self.problems = StepPathProblems(robot)
         self.driver = (
@@ -433,6 +446,36 @@ class WalkController:
         # turning while moving: the velocity turns with the yaw rate, so the body needs the centripetal
         # acceleration ω × v (2.25 m/s² on a 1 m radius at 1.5 m/s; without it the body slid out of the circle)
         t.a_world_body = np.array([-cmd.yaw_rate * v[1], cmd.yaw_rate * v[0], 0.0])
+        self._speed_integral(s, v, np.array([cmd.vx, cmd.vy]), dt)
+        t.a_world_body[:2] += self._a_ff
+
+    def _speed_integral(self, s: RobotState, v: np.ndarray, v_cmd: np.ndarray, dt: float) -> None:
+        """Integrates the horizontal velocity error (world frame; v the target's velocity) into self._a_ff in the
+        gaits of WalkParams.speed_integral_gaits while the command (v_cmd, heading frame) is steady; resets it in
+        other gaits."""
+        p = self.params
+        if float(np.linalg.norm(v_cmd - self._v_cmd_ref)) > p.speed_integral_band_mps:
+            self._v_cmd_ref[:] = v_cmd
+            self._t_cmd_ref = s.t
+        if self.planner.clock.gait.name not in p.speed_integral_gaits:
+            self._a_ff_along = 0.0
+            self._a_ff[:] = 0.0
+            return
+        if dt <= 0.0 or s.t - self._t_cmd_ref < p.speed_integral_hold_s:
+            return
+        # along the command only: sideways (the turns' centripetal term) it added roll and slowed the turning walks
+        # (a scalar that turns with the command: a world-frame vector went stale at 0.4 rad/s)
+        speed = float(np.linalg.norm(v[:2]))
+        if speed < p.speed_integral_band_mps:
+            self._a_ff_along = 0.0
+            self._a_ff[:] = 0.0
+            return
+        u = v[:2] / speed
+        e = float(u @ (v[:2] - s.v_world_body[:2]))
+        self._a_ff_along = min(
+            max(self._a_ff_along + p.speed_integral_ki * dt * e, 0.0), p.speed_integral_max_mps2
+        )
+        self._a_ff[:] = self._a_ff_along * u
 
     def _swing(self, s: RobotState) -> None:
         self.handler.plan_swings(s, self.target.v_world_body)

@@ -26,9 +26,13 @@ from planning.steps.state import StepPath
 class WalkProblemParams:
     """Horizon, grid and weights of steering-mode problems."""
 
-    horizon_s: float = 0.8  # s
+    # The horizon and its knots (the QP's size; WalkParams.centroidal's max_knots matches). 0.4 s (10 knots) in place
+    # of 0.8 s (20): the centroidal tick 3.85 -> 3.3 ms CPU p50, the same tracking (trot 0.5 / 1.0 m/s and 0.3 m/s
+    # at 0.4 rad/s, velocity RMS within 0.002 m/s; docs/agility-notes.md). The peer's MPC plans one gait period
+    # (0.33 s, 16 knots).
+    horizon_s: float = 0.4  # s
     base_dt_s: float = 0.05  # s
-    max_knots: int = 20
+    max_knots: int = 10
     # an event this close after the knot before it moves onto a knot (make_time_grid): no ms-long QP steps
     min_event_gap_s: float = 0.012
     w_position_xy: float = 1.0  # per m²: the command is about velocity, so position is held loosely

@@ -220,13 +220,24 @@ class Builder:
         self.breaks.append(self.t)
         self.coeffs.append((p0, v0, c2, c3))
         a0, a1 = abs(2.0 * c2), abs(2.0 * c2 + 6.0 * c3 * dt)
-        self.peak_a = max(self.peak_a, a0, a1)
-        vmax = max(abs(v0), abs(v1))
+        # the builtin max written out (max(a, b) is `b if b > a else a`): the same values, fewer calls
+        pa = self.peak_a
+        if a0 > pa:
+            pa = a0
+        if a1 > pa:
+            pa = a1
+        self.peak_a = pa
+        vmax, av1 = abs(v0), abs(v1)
+        if av1 > vmax:
+            vmax = av1
         if c3 != 0.0:
             tv = -c2 / (3.0 * c3)
             if 0.0 < tv < dt:
-                vmax = max(vmax, abs(v0 + tv * (2.0 * c2 + 3.0 * tv * c3)))
-        self.peak_v = max(self.peak_v, vmax)
+                av = abs(v0 + tv * (2.0 * c2 + 3.0 * tv * c3))
+                if av > vmax:
+                    vmax = av
+        if vmax > self.peak_v:
+            self.peak_v = vmax
         self.p, self.v, self.t = p1, v1, self.t + dt
 
     @classmethod
@@ -275,14 +286,15 @@ def rest_segments(p: float, v: float, p1: float, v_max: float, a_max: float) -> 
         D -= 0.5 * V * dt
         V = 0.0
         s, D = -s, -D
-    vp = math.sqrt(max(a_max * D + 0.5 * V * V, 0.0))
+    q = a_max * D + 0.5 * V * V
+    vp = math.sqrt(0.0 if 0.0 > q else q)  # max(q, 0.0) without the builtin call
     if vp <= v_max:
         segs.append(((vp - V) / a_max, s * a_max))
         segs.append((vp / a_max, -s * a_max))
     else:
         cruise = (D - (2.0 * v_max * v_max - V * V) / (2.0 * a_max)) / v_max
         segs.append(((v_max - V) / a_max, s * a_max))
-        segs.append((max(cruise, 0.0), 0.0))
+        segs.append((0.0 if 0.0 > cruise else cruise, 0.0))
         segs.append((v_max / a_max, -s * a_max))
     return segs
 
@@ -305,11 +317,12 @@ def rest_time(p: float, v: float, p1: float, v_max: float, a_max: float) -> floa
         t += V / a_max
         D = 0.5 * V * V / a_max - D
         V = 0.0
-    vp = math.sqrt(max(a_max * D + 0.5 * V * V, 0.0))
+    q = a_max * D + 0.5 * V * V
+    vp = math.sqrt(0.0 if 0.0 > q else q)  # max(q, 0.0) without the builtin call
     if vp <= v_max:
         return t + (2.0 * vp - V) / a_max
     cruise = (D - (2.0 * v_max * v_max - V * V) / (2.0 * a_max)) / v_max
-    return t + (2.0 * v_max - V) / a_max + max(cruise, 0.0)
+    return t + (2.0 * v_max - V) / a_max + (0.0 if 0.0 > cruise else cruise)
 
 
 def to_rest(b: Builder, p1: float, v_max: float, a_max: float) -> float:

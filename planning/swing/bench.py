@@ -2,18 +2,31 @@
 and per leg in a trot's tick (two diagonal legs planned in one call, which share the stance legs' set-up).
 
 Each case replans its legs from states along their own swings (as the loop does every 3 ms) a few hundred times.
+Per case: wall time (``p50_ms``, ``p99_ms``), this thread's CPU time (``cpu_p50_us``, ``cpu_p99_us``: other
+processes on the machine do not add to it) and, measured in a second pass, the CPU time of the bare geometry calls
+inside each replan (``geometry_cpu_us``: the ground lookups and the leg IK; the rest is the selection's own work).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from planning.robot import load_robot
 from planning.swing.params import SwingParams
 from planning.swing.planner import SwingPlanner
-from planning.swing.types import BodyMotion, Box, BoxGround, GroundHeightFn, SwingRequest, flat_ground
+from planning.swing.types import (
+    BodyMotion,
+    Box,
+    BoxGround,
+    FlatGround,
+    GroundHeightFn,
+    SwingRequest,
+    flat_ground,
+)
 
 
 def _case(name: str) -> tuple[SwingRequest, GroundHeightFn, dict[int, np.ndarray], BodyMotion]:
@@ -44,7 +57,7 @@ def _trot_pair(calls: int) -> dict[str, object]:
         SwingRequest(3, np.array([-0.40, -0.165, 0.0]), np.zeros(3), np.array([-0.10, -0.165, 0.0]), 0.25),
     ]
     first = planner.plan(0.0, reqs, flat_ground, stance, body)
-    times, evals = [], []
+    times, cpu, evals = [], [], []
     horizon = 0.25 - 0.03
     for k in range(calls):
         t = horizon * k / calls
@@ -53,14 +66,18 @@ def _trot_pair(calls: int) -> dict[str, object]:
             p, v, _ = first[r.leg].sample(t)
             rs.append(SwingRequest(r.leg, p, v, r.p_touchdown, r.t_touchdown))
         b = BodyMotion(t, body.p_world_body + body.v_world_body * t, body.R_world_body, body.v_world_body)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         plans = planner.plan(t, rs, flat_ground, stance, b)
+        cpu.append((time.thread_time() - c0) / len(rs))
         times.append((time.perf_counter() - t0) / len(rs))
         evals += [pl.evaluations for pl in plans.values()]
     ms = np.array(times) * 1e3
+    cpu_us = np.array(cpu) * 1e6
     return {
         "p50_ms": round(float(np.percentile(ms, 50)), 4),
         "p99_ms": round(float(np.percentile(ms, 99)), 4),
+        "cpu_p50_us": round(float(np.percentile(cpu_us, 50)), 1),
+        "cpu_p99_us": round(float(np.percentile(cpu_us, 99)), 1),
         "evaluations_mean": round(float(np.mean(evals)), 2),
         "evaluations_max": int(np.max(evals)),
         "evaluations_bound": planner.max_evaluations,
@@ -68,26 +85,71 @@ def _trot_pair(calls: int) -> dict[str, object]:
     }
 
 
-def _run(name: str, calls: int) -> dict[str, object]:
+class _Geometry:
+    """Times the bare geometry calls (the ground lookups and the leg IK) inside one planner, in this thread's CPU
+    time, by wrapping the ground height function and the robot's IK methods of that planner's robot instance."""
+
+    _IK = ("knee_of_foot", "ik_leg", "ik_leg_many", "knee_body", "knee_body_many")
+
+    def __init__(self, robot: object) -> None:
+        self.spent = 0.0
+        for name in self._IK:
+            setattr(robot, name, self._timed(getattr(robot, name)))
+
+    def _timed(self, fn: Callable[..., Any]) -> Callable[..., Any]:
+        def timed(*args: Any) -> Any:
+            t0 = time.thread_time()
+            try:
+                return fn(*args)
+            finally:
+                self.spent += time.thread_time() - t0
+
+        return timed
+
+    def ground(self, ground: GroundHeightFn) -> GroundHeightFn:
+        if isinstance(ground, FlatGround):
+            return ground  # the planner skips terrain sampling on flat ground
+        return self._timed(ground)
+
+
+def _run(name: str, calls: int, geometry: bool = False) -> dict[str, object]:
+    """Replans the case's leg ``calls`` times: wall and thread CPU time per call (p50, p99), evaluations; with
+    ``geometry``, the CPU time of the bare geometry calls inside each call instead (p50, p99, µs)."""
     robot = load_robot("spot")
+    geo = _Geometry(robot) if geometry else None
     planner = SwingPlanner(robot, SwingParams())
     req, ground, stance, body = _case(name)
+    if geo is not None:
+        ground = geo.ground(ground)
     first = planner.plan(0.0, [req], ground, stance, body)[0]
-    times, evals = [], []
+    times, cpu, geo_s, evals = [], [], [], []
     horizon = req.t_touchdown - 0.03
     for k in range(calls):
         t = horizon * k / calls
         p, v, _ = first.sample(t)
         r = SwingRequest(0, p, v, req.p_touchdown, req.t_touchdown)
         b = BodyMotion(t, body.p_world_body, body.R_world_body)
-        t0 = time.perf_counter()
+        g0 = 0.0 if geo is None else geo.spent
+        t0, c0 = time.perf_counter(), time.thread_time()
         plan = planner.plan(t, [r], ground, stance, b)[0]
+        cpu.append(time.thread_time() - c0)
         times.append(time.perf_counter() - t0)
         evals.append(plan.evaluations)
+        if geo is not None:
+            geo_s.append(geo.spent - g0)
+    if geo is not None:
+        us = np.array(geo_s) * 1e6
+        return {
+            "p50_us": round(float(np.percentile(us, 50)), 1),
+            "p99_us": round(float(np.percentile(us, 99)), 1),
+        }
     ms = np.array(times) * 1e3
+    cpu_us = np.array(cpu) * 1e6
     return {
         "p50_ms": round(float(np.percentile(ms, 50)), 4),
         "p99_ms": round(float(np.percentile(ms, 99)), 4),
+        "cpu_p50_us": round(float(np.percentile(cpu_us, 50)), 1),
+        "cpu_p99_us": round(float(np.percentile(cpu_us, 99)), 1),
         "evaluations_mean": round(float(np.mean(evals)), 2),
         "evaluations_max": int(np.max(evals)),
         "evaluations_bound": planner.max_evaluations,
@@ -99,6 +161,12 @@ def _run(name: str, calls: int) -> dict[str, object]:
 def bench_swing_select(calls: int = 300) -> dict[str, object]:
     """Returns p50/p99 (ms) and evaluation counts per case; the top-level p50/p99 are the flat case's."""
     out: dict[str, object] = {case: _run(case, calls) for case in ("flat", "box", "crossing")}
+    for case in ("flat", "box", "crossing"):
+        # the ground lookups and the leg IK alone, timed inside the same replans (a second pass: their timers
+        # would otherwise add to the times above)
+        r = out[case]
+        assert isinstance(r, dict)
+        r["geometry_cpu_us"] = _run(case, calls, geometry=True)
     out["trot_pair"] = _trot_pair(calls)
     flat = out["flat"]
     assert isinstance(flat, dict)

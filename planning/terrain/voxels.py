@@ -176,7 +176,9 @@ class VoxelMap:
         # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
         o = cloud.p_world_origins[:: p.carve_every]
         d = pts[:: p.carve_every] - o
-        length = np.linalg.norm(d, axis=1)
+        # (the norm's sum written out: a reduction along an axis of 3 is a loop per row, several times slower)
+        dd = d * d
+        length = np.sqrt(dd[:, 0] + dd[:, 1] + dd[:, 2])
         u = d / np.maximum(length, 1e-9)[:, None]
         n_k = np.maximum(np.floor((length - p.carve_margin_m) / self.res - 0.5).astype(np.intp) + 1, 0)
         n_k = np.minimum(n_k, self._samples_inside(o, u))
@@ -192,31 +194,32 @@ class VoxelMap:
         cameras = np.flatnonzero(np.any(o[1:] != o[:-1], axis=1)) + 1
         bounds = np.unique(np.concatenate([[0, len(n_k)], cuts, cameras])).tolist()
         misses = self.misses.reshape(-1)
-        inv = 1.0 / self.res
         n, nz = self.n_xy, self.n_z
-        i0 = np.array([[self._ix0], [self._iy0], [self._iz0]], dtype=np.intp)
-        lim = np.array([[n], [n], [nz]], dtype=np.uintp)
+        # The samples in voxel units from the map's corner voxel: (o / res - i0) + u (k + 1/2) for sample k of a
+        # ray (o + u t at t = (k + 1/2) res, as _flat_index_xyz rounds it; the same voxels but where a sample lies
+        # within rounding of a voxel face). Indices in int32 (the map has far fewer than 2**31 voxels).
+        i0 = np.array([self._ix0, self._iy0, self._iz0], dtype=np.float64)
+        o_vox = o[np.minimum(bounds[:-1], len(n_k) - 1)] / self.res - i0  # each chunk's (one camera's) origin
+        lim = np.array([[n], [n], [nz]], dtype=np.uint32)
         uT = u.T
-        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        for c, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
             nk = n_k[a:b]
             m = int(nk.sum())
             if m == 0:
                 continue
-            first = np.repeat(np.cumsum(nk) - nk, nk)
-            t = (np.arange(m) - first + 0.5) * self.res
-            # The samples o + u t, as (3, m), then their voxel (rint(x / res) - i0 per axis, as _flat_index_xyz).
+            s = np.arange(m, dtype=np.float64)
+            s -= np.repeat(np.cumsum(nk) - nk, nk)
+            s += 0.5
             xyz = np.repeat(uT[:, a:b], nk, axis=1)
-            xyz *= t
-            xyz += o[a][:, None]
-            xyz *= inv
+            xyz *= s
+            xyz += o_vox[c][:, None]
             np.rint(xyz, out=xyz)
-            idx = xyz.astype(np.intp)
-            idx -= i0
-            ok = idx.view(np.uintp) < lim  # one unsigned comparison per axis checks both bounds
+            idx = xyz.astype(np.int32)
+            ok = idx.view(np.uint32) < lim  # one unsigned comparison per axis checks both bounds
             inside = ok[0] & ok[1] & ok[2]
-            flat_f = idx[2] * n
+            flat_f = idx[2] * np.int32(n)
             flat_f += idx[0]
-            flat_f *= n
+            flat_f *= np.int32(n)
             flat_f += idx[1]
             flat_f = flat_f[inside]
             np.add.at(misses, flat_f, w)
@@ -234,7 +237,9 @@ class VoxelMap:
         inside = np.all((o > lo) & (o < hi), axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             t_axis = np.where(u > 0, (hi - o) / u, np.where(u < 0, (lo - o) / u, np.inf))
-        t_exit = np.min(t_axis, axis=1)
+        t_exit = np.minimum(
+            np.minimum(t_axis[:, 0], t_axis[:, 1]), t_axis[:, 2]
+        )  # (not min over axis 1: slow)
         big = np.iinfo(np.intp).max // 4
         keep = np.floor(np.minimum(t_exit / res + 0.5, big)).astype(np.intp) + 1
         return np.where(inside, np.maximum(keep, 0), big)
@@ -279,14 +284,19 @@ class VoxelMap:
                 self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
             )
         lo, hi = lo + int(can[0]), lo + int(can[-1])
-        hits = self.hits[lo : hi + 1]
-        # hits >= min_hits w and hits >= ratio misses, as one comparison with the larger bound
-        bound = p.hit_miss_ratio * self.misses[lo : hi + 1]
-        np.maximum(bound, p.min_hits * w, out=bound)
-        occ = hits >= bound
-        del bound
+        n_band = hi + 1 - lo
+        # Occupied: hits >= min_hits w and hits >= ratio misses. The first test over the band picks the few voxels
+        # with enough hits (the surfaces), the second only on them; the band's occupancy is set from their indices
+        # (in the band, layer by layer), and a column's lowest occupied layer is the least layer among its indices.
+        hits_b = self.hits[lo : hi + 1].reshape(-1)
+        cand = np.flatnonzero(hits_b >= p.min_hits * w)
+        occ_i = cand[hits_b[cand] >= p.hit_miss_ratio * self.misses[lo : hi + 1].reshape(-1)[cand]]
+        # (the obstacles are the occupied voxels but the ground ones, cleared below)
+        occ = obstacle[lo : hi + 1]
+        occ.reshape(-1)[occ_i] = True
+        first_occ = np.full(cells, n_band, dtype=np.intp)
+        np.minimum.at(first_occ, occ_i % cells, occ_i // cells)
         # Occupied layers lie in [lo, hi]; the lowest occupied layer of each column, and whether it has one.
-        first_occ = _first_true(occ.reshape(hi + 1 - lo, cells))
         any_occ = first_occ <= hi - lo
         first_occ = np.minimum(first_occ, hi - lo)
         col = np.arange(cells)
@@ -322,8 +332,7 @@ class VoxelMap:
         z1s = np.where(thin, sumz_flat[i1], 0.0)
         ground_z = np.where(has_ground, (z0s + z1s) / np.maximum(h0 + h1, 1e-12), np.nan).astype(np.float64)
         # Obstacles: every occupied voxel but the ground voxel (and the one above it on a thin surface).
-        band = obstacle[lo : hi + 1].reshape(hi + 1 - lo, cells)
-        band[...] = occ.reshape(hi + 1 - lo, cells)
+        band = occ.reshape(hi + 1 - lo, cells)
         g = np.flatnonzero(has_ground)
         band[first_occ[g], g] = False
         t = np.flatnonzero(thin)

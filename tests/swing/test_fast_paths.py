@@ -82,3 +82,29 @@ def test_sample_pair_is_sample_many_of_each() -> None:
             assert hy.tobytes() == hp.y.sample_many(ts).tobytes()
             pairs += hp.x.breaks == hp.y.breaks
     assert pairs > 40
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    yaw=st.floats(-3.2, 3.2),
+    yaw_rate=st.sampled_from([0.0, 0.8, -1.5]),
+    v=st.tuples(*[st.floats(-2.0, 2.0)] * 3),
+    dts=st.tuples(*[st.floats(-0.1, 0.5)] * 3),
+    leg=st.integers(0, 3),
+)
+def test_the_float_hips_are_hip_world_many(
+    yaw: float, yaw_rate: float, v: tuple[float, float, float], dts: tuple[float, float, float], leg: int
+) -> None:
+    """SwingPlanner._hips_at (Python floats) places the hips where BodyMotion.hip_world_many does, to rounding."""
+    from planning.robot import load_robot
+    from planning.swing.planner import SwingPlanner
+    from planning.swing.types import BodyMotion
+
+    robot = load_robot("spot")
+    c, s = np.cos(yaw), np.sin(yaw)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    body = BodyMotion(0.3, np.array([1.0, -0.5, 0.52]), R, np.array(v), yaw_rate)
+    times = tuple(0.3 + dt for dt in dts)
+    got = SwingPlanner(robot)._hips_at(body, times, leg)
+    want = body.hip_world_many(np.array(times), robot.p_body_hip[leg])
+    assert np.abs(got - want).max() < 1e-12

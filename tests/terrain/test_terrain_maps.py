@@ -223,20 +223,23 @@ def test_the_body_band_from_the_support_keeps_stone_edges_over_a_pit_slot_out_an
 
 
 def test_the_step_sdf_computed_on_first_read_equals_the_one_computed_at_once() -> None:
-    """build_maps leaves the step SDF and its gradient to their first read: the same values; replace, pickling
-    and a missing attribute behave as for plain maps."""
+    """build_maps leaves the step SDF and its gradient, and the body SDF's gradient, to their first read: the same
+    values; replace, pickling and a missing attribute behave as for plain maps."""
     import pickle
 
     from planning.terrain.maps import _gradient, columns_from_scene
 
     maps = build_maps(columns_from_scene(build_terrain("stairs"), (1.0, 0.0), 1.5))
     assert isinstance(maps, TerrainMaps)
-    assert "sdf_step_m" not in vars(maps)
+    assert "sdf_step_m" not in vars(maps) and "grad_sdf_body" not in vars(maps)
     again = pickle.loads(pickle.dumps(maps))  # pickled before the first read: still computed on use
     sdf = signed_distance(maps.step_obstacle, maps.resolution_m)
     np.testing.assert_array_equal(maps.sdf_step_m, sdf)
     np.testing.assert_array_equal(maps.grad_sdf_step, _gradient(sdf, maps.resolution_m))
     assert maps.sdf_step_m is maps.sdf_step_m  # computed once
+    np.testing.assert_array_equal(maps.grad_sdf_body, _gradient(maps.sdf_body_m, maps.resolution_m))
+    assert maps.grad_sdf_body is maps.grad_sdf_body
+    np.testing.assert_array_equal(again.grad_sdf_body, maps.grad_sdf_body)
     np.testing.assert_array_equal(again.grad_sdf_step, maps.grad_sdf_step)
     assert maps.sdf_step(1.0, 0.2) == again.sdf_step(1.0, 0.2)
     plain = dataclasses.replace(maps, t_s=1.0)
