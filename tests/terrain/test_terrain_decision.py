@@ -620,3 +620,54 @@ def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own() -> No
         c1, w1 = leg_clearance(view, world.maps, int(leg), hips[i], feet[i : i + 1], P)
         assert clear[i] == c1[0] and within[i] == w1[0]
     assert not within[5] and np.any(np.isfinite(clear))
+
+
+@pytest.mark.parametrize("robot_name", ["spot", "go1"])
+def test_the_body_paths_footprint_from_the_robot_covers_its_legs_past_a_tall_box(robot_name: str) -> None:
+    """The pipeline's body path sweeps circles that cover the robot's legs, not only its trunk (robot_footprint):
+    every knee of the standing pose lies inside them, which the trunk's circles (BodyPathParams' defaults) leave
+    out for Spot's hind knees; and a path planned past a tall box with them keeps those knees off the box, where
+    the trunk's circles took them into it (the clutter falls on a hind thigh against a tall box). (The rule is off
+    on the pipeline by default: PipelineParams.footprint_from_robot.)"""
+    from planning.robot import load_robot
+    from planning.terrain.bodypath import BodyPathParams
+    from planning.terrain.decision import PipelineParams, robot_footprint
+
+    robot = load_robot(robot_name)
+    trunk = BodyPathParams()
+    on = PipelineParams(footprint_from_robot=True)
+    fp = robot_footprint(robot, on, trunk)
+    knees = np.array([robot.knee_body(leg, robot.q_nominal[leg])[:2] for leg in range(4)])
+
+    def covered(pts: np.ndarray, params: BodyPathParams) -> np.ndarray:
+        d = np.hypot(pts[:, None, 0] - np.asarray(params.footprint_x_m)[None, :], pts[:, None, 1])
+        return np.min(d, axis=1) <= params.footprint_r_m - on.footprint_margin_m + 1e-9
+
+    assert np.all(covered(knees, fp))
+    assert robot_footprint(robot, PipelineParams(footprint_from_robot=False), trunk) == trunk
+    with pytest.raises(ValueError, match="footprint_circles"):
+        robot_footprint(robot, dataclass_replace(on, footprint_circles=0), trunk)
+    if robot_name != "spot":
+        return
+    assert not np.all(covered(knees, trunk))
+    # a tall box across the straight line (clutter's first tall box), body obstacle cells
+    xs, ys = -1.0 + np.arange(200) * RES, -1.5 + np.arange(100) * RES
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    box = (1.5, 1.95, -0.3, 0.3)
+    body = (X >= box[0]) & (X <= box[1]) & (Y >= box[2]) & (Y <= box[3])
+    maps = maps_from_grids((xs[0], ys[0]), RES, np.where(body, 0.7, 0.0), body, body)
+
+    def knees_clear(params: BodyPathParams, y0: float) -> float:
+        path = plan_body_path(maps, (0.0, y0), 0.0, (4.0, y0), params)
+        c, s = np.cos(path.yaw)[:, None], np.sin(path.yaw)[:, None]
+        wx = path.xy[:, 0:1] + c * knees[None, :, 0] - s * knees[None, :, 1]
+        wy = path.xy[:, 1:2] + s * knees[None, :, 0] + c * knees[None, :, 1]
+        dx = np.maximum(np.maximum(box[0] - wx, wx - box[1]), 0.0)
+        dy = np.maximum(np.maximum(box[2] - wy, wy - box[3]), 0.0)
+        inside = (dx == 0.0) & (dy == 0.0)
+        return float(np.min(np.where(inside, -1.0, np.hypot(dx, dy))))
+
+    starts = (0.0, -0.1)
+    assert min(knees_clear(trunk, y0) for y0 in starts) < 0.0
+    for y0 in starts:
+        assert knees_clear(fp, y0) >= 0.02
