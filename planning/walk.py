@@ -7,6 +7,7 @@ the swing foot lands. The body reference follows the filtered command.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -98,6 +99,11 @@ class WalkParams:
     # v / (1 − duty) at any cycle time: at 6 m/s the feet landed short and late and the gallop ran 2.2-2.3 m/s; at
     # 7.5 m/s (with its 0.30 s cycle) 2.33-2.37 (8 m/s: 1 to 5 falls in 5 walks)
     gait_swing_limits: tuple[tuple[str, float, float], ...] = (("gallop", 7.5, 120.0),)
+    # ... per gait, the lowest share of the nominal friction the forces assume after foot slips (HandlerParams.
+    # slip_friction_min, 0.25 otherwise; none set): the gallop at 2.5 m/s slips a few times a run and at 0.25 (μ
+    # 0.15) its feet push little; 0.5 with the speed integral: 2.35-2.43 m/s, 4 of 5 walks within 5 %, pushed 3 of 5
+    # fell; 0.5 alone: 1 fall in the family; 0.7: 2 falls (docs/agility-notes.md)
+    gait_slip_friction_min: tuple[tuple[str, float], ...] = ()
     # ... a late foot descends this fast (m/s; 0.6 otherwise: at 2 m/s a late foot still 6 cm up left the body on
     # one diagonal for 0.1 s and it rolled over)
     fast_swing_late_descent_mps: float = 1.2
@@ -120,11 +126,20 @@ class WalkParams:
     # of the forward force the stance feet do not deliver; issue 29): the gain (1/s²) and the feed-forward's bound
     # (m/s²). The error is integrated only while the steering command is steady (within
     # speed_integral_band_mps for speed_integral_hold_s, s), so accelerating from a stand does not wind it up.
-    speed_integral_gaits: tuple[str, ...] = ("gallop",)
+    # Off by default: in the gallop at 2.5 m/s it raised the steered family from 2.33-2.36 to 2.32-2.42 m/s (3 of 5
+    # walks within 5 %), but pushed sideways by 15-25 N·s the gallop then fell in 3 of 5 walks (0 of 5 without)
+    # (docs/agility-notes.md).
+    speed_integral_gaits: tuple[str, ...] = ()
     speed_integral_ki: float = 4.0
     speed_integral_max_mps2: float = 3.0
     speed_integral_band_mps: float = 0.05
     speed_integral_hold_s: float = 0.2
+    # ... and dropped (time constant speed_integral_drop_s, s) while the velocity across the command is off by more
+    # than speed_integral_disturbed_mps (a push): the forward push it asks for takes the friction the sideways
+    # recovery needs (pushed 15-25 N·s sideways at 2.5 m/s the gallop fell in 3 of 5 walks without this, 0 of 5 without
+    # the integral)
+    speed_integral_disturbed_mps: float = 0.2
+    speed_integral_drop_s: float = 0.05
     steps: StepPlannerParams = field(default_factory=StepPlannerParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     handler: HandlerParams = field(default_factory=HandlerParams)
@@ -171,9 +186,8 @@ class WalkController:
         self._swing_slow: SwingParams | None = None  # the swing parameters to restore after trot_fast
         self._handler_slow: HandlerParams | None = None  # ... and the handler's
         self._gait_swing_limits = {g: (v, a) for g, v, a in p.gait_swing_limits}
-        self._swing_limits: tuple[float, float] | None = (
-            None  # the fast swing's horizontal limits applied now
-        )
+        # the fast swing's horizontal limits applied now, and the gait's slip friction floor (None: the handler's)
+        self._swing_limits: tuple[float, float, float | None] | None = None
         self._a_ff_along = 0.0  # m/s², along the command
         self._a_ff = np.zeros(2)  # the integrated velocity error's feed-forward (WalkParams.speed_integral_*)
         self._v_cmd_ref = np.zeros(2)  # the command the steady test compares with, and since when
@@ -347,7 +361,9 @@ class WalkController:
         name = self.planner.clock.gait.name
         fast = name in self.params.fast_swing_gaits
         p = self.params
-        limits = self._gait_swing_limits.get(name, (p.fast_swing_v_max_xy_mps, p.fast_swing_a_max_xy_mps2))
+        v_a = self._gait_swing_limits.get(name, (p.fast_swing_v_max_xy_mps, p.fast_swing_a_max_xy_mps2))
+        slip_min = dict(p.gait_slip_friction_min).get(name)
+        limits = (v_a[0], v_a[1], slip_min)
         if fast == (self._swing_slow is not None) and (not fast or limits == self._swing_limits):
             return
         sp = self.handler.swing_planner
@@ -367,7 +383,9 @@ class WalkController:
             )
             assert self._handler_slow is not None
             self.handler.params = replace(
-                self._handler_slow, replan_height_from_plan_m=p.fast_replan_height_from_plan_m
+                self._handler_slow,
+                replan_height_from_plan_m=p.fast_replan_height_from_plan_m,
+                slip_friction_min=self._handler_slow.slip_friction_min if slip_min is None else slip_min,
             )
         else:
             assert self._swing_slow is not None and self._handler_slow is not None
@@ -444,7 +462,7 @@ class WalkController:
             self._a_ff_along = 0.0
             self._a_ff[:] = 0.0
             return
-        if dt <= 0.0 or s.t - self._t_cmd_ref < p.speed_integral_hold_s:
+        if dt <= 0.0:
             return
         # along the command only: sideways (the turns' centripetal term) it added roll and slowed the turning walks
         # (a scalar that turns with the command: a world-frame vector went stale at 0.4 rad/s)
@@ -454,7 +472,16 @@ class WalkController:
             self._a_ff[:] = 0.0
             return
         u = v[:2] / speed
-        e = float(u @ (v[:2] - s.v_world_body[:2]))
+        err = v[:2] - s.v_world_body[:2]
+        if abs(float(u[0] * err[1] - u[1] * err[0])) > p.speed_integral_disturbed_mps:
+            self._a_ff_along *= math.exp(-dt / p.speed_integral_drop_s)
+            self._t_cmd_ref = s.t  # and integrates again only after the hold
+            self._a_ff[:] = self._a_ff_along * u
+            return
+        if s.t - self._t_cmd_ref < p.speed_integral_hold_s:
+            self._a_ff[:] = self._a_ff_along * u
+            return
+        e = float(u @ err)
         self._a_ff_along = min(
             max(self._a_ff_along + p.speed_integral_ki * dt * e, 0.0), p.speed_integral_max_mps2
         )

@@ -184,8 +184,10 @@ def _generate(
     if maps is not None:
         # Off the no-step cells: each touchdown on one moves to the nearest allowed point of its footprint
         # (any direction, or only forward / backward along the heading: a longer or a shorter step).
-        for name, keep in (("avoid", None), ("avoid_long", 1.0), ("avoid_short", -1.0)):
-            fam.add(_avoid(clamped, yaw_td, maps, keep), name)
+        for name, moved in zip(
+            ("avoid", "avoid_long", "avoid_short"), _avoid_all(clamped, yaw_td, maps), strict=True
+        ):
+            fam.add(moved, name)
     # Push counteraction.
     v_err = state.v_world_com[:2] - body.velocity_world(t0)
     decay = 0.5**rank
@@ -281,6 +283,36 @@ def _avoid(xy: F64, yaw: F64, maps: StepMaps, forward: float | None) -> F64:
     idx = np.flatnonzero(bad)
     out[idx[found]] = cand[found, first[found]]
     return out
+
+
+_AVOID_FORWARD = (None, 1.0, -1.0)  # _avoid_all's variants: any direction, forward only, backward only
+# each variant's offsets as a mask of _AVOID_OFFSETS (the same samples, in the same order, as _avoid selects)
+_AVOID_MASKS = [None if f is None else f * _AVOID_OFFSETS[:, 0] > 0.0 for f in _AVOID_FORWARD]
+
+
+def _avoid_all(xy: F64, yaw: F64, maps: StepMaps) -> list[F64]:
+    """Gives [_avoid(xy, yaw, maps, f) for f in _AVOID_FORWARD] from one evaluation of the no-step map at the
+    touchdowns and one at every sample (a variant's samples are columns of the whole set's, turned the same way
+    point by point: the same values, the same answers)."""
+    bad = eval_map(maps.no_step, xy[:, 0], xy[:, 1]) > 0.5
+    if not bad.any():
+        return [xy, xy, xy]
+    nb = int(bad.sum())
+    cand_all = xy[bad][:, None, :] + _heading_to_world(
+        yaw[bad][:, None], np.broadcast_to(_AVOID_OFFSETS, (nb, *_AVOID_OFFSETS.shape))
+    )
+    ok_all = ~(eval_map(maps.no_step, cand_all[..., 0], cand_all[..., 1]) > 0.5)
+    idx = np.flatnonzero(bad)
+    outs = []
+    for mask in _AVOID_MASKS:
+        cand = cand_all if mask is None else cand_all[:, mask]
+        ok = ok_all if mask is None else ok_all[:, mask]
+        first = np.argmax(ok, axis=1)
+        out = xy.copy()
+        found = ok.any(axis=1)
+        out[idx[found]] = cand[found, first[found]]
+        outs.append(out)
+    return outs
 
 
 def _liftoff_or_nominal(path: StepPath) -> F64:

@@ -108,7 +108,17 @@ class DecisionParams:
     beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) unless it only goes from one height to
     another (its two ends differ by more than this and its ground stays within this of the range between them: a
     riser's edge band), or, at the line's end, its ground stays above this below its one end (None: every run
-    counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps."""
+    counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps;
+    gap_flight_steps: with gap_dip_m, a run from one height to another is no gap only on a line whose ground is a
+    flight: it goes one way only (never back by more than gap_dip_m) through at least this many steps (height
+    changes of more than gap_dip_m, each its edge cells together), read on its observed cells only (the treads of a
+    climb above the sensor are unseen, their filled heights low): the floor onto a box and off it again, or one
+    box's edge alone, stay gaps (None: any line);
+    own_side_m: a region's cell is chosen for a foothold only where it lies at least the foot's radius plus this on
+    the leg's own side of the body's centre line (the body where the path puts it at touchdown; None: no such
+    bound): a left foot is not sent onto a right stone, where the legs cross and one's shin meets the other
+    stone or leg (stones draws 254 and 167: a front left foot's own stone 1-4 mm farther than reach_frac from
+    its hip, the right stone of the row 1-4 mm nearer, chosen, both lower legs then on the right stone, a fall)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -158,7 +168,9 @@ class DecisionParams:
     height_reach_frac: float = 0.9
     lost_hold_m: float = 0.03
     gap_dip_m: float | None = None
+    gap_flight_steps: int | None = 2
     count_step_rise: bool = True
+    own_side_m: float | None = 0.0
 
 
 # ---- typed inputs and outputs ----------------------------------------------------------------------------------
@@ -413,15 +425,45 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
     cx, cy = np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)
     ok = np.where(on, regions.inset[cx, cy], True)
     ground = world.maps.ground_height[cx, cy] if p.gap_dip_m is not None else None
+    seen = np.where(on, world.maps.observed[cx, cy], False) if p.gap_dip_m is not None else None
     longest = 0
     for k, row in enumerate(ok):
         # runs of False: from the positions where the row changes
         edges = np.flatnonzero(np.diff(np.concatenate([[1], row.astype(np.int8), [1]])))
+        flight = ground is not None and (
+            p.gap_flight_steps is None
+            or (seen is not None and is_flight(ground[k][seen[k]], p.gap_dip_m, p.gap_flight_steps))
+        )
         for a, b in zip(edges[::2], edges[1::2], strict=True):
-            if ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
+            if flight and ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
                 continue
             longest = max(longest, int(b - a))
     return longest * res
+
+
+def is_flight(ground: NDArray[np.float64], dip_m: float | None, steps: int) -> bool:
+    """Whether a line's ground (heights along it, m) is a flight of steps: it goes one way only (up or down, never
+    back by more than dip_m from the highest, or lowest, ground before) through at least `steps` height changes of
+    more than dip_m, each the change over a run of cells that each change by more than half of dip_m (a riser seen
+    over one or a few cells); a single cell out of line with both its neighbours is read at their median."""
+    if dip_m is None or ground.size < 2 or not bool(np.all(np.isfinite(ground))):
+        return False
+    if ground.size >= 3:
+        # a cell alone above or below its neighbours (a nosing or a riser's face seen edge-on at the sensor's range)
+        # is no step: the median of each cell and its two neighbours
+        mid = np.median(np.stack([ground[:-2], ground[1:-1], ground[2:]]), axis=0)
+        ground = np.concatenate([ground[:1], mid, ground[-1:]])
+    d = np.diff(ground)
+    sharp = np.abs(d) > 0.5 * dip_m
+    bounds = np.flatnonzero(np.diff(np.concatenate([[0], sharp.astype(np.int8), [0]])))
+    changes = [float(np.sum(d[a:b])) for a, b in zip(bounds[::2], bounds[1::2], strict=True)]
+    up = sum(1 for c in changes if c > dip_m)
+    down = sum(1 for c in changes if c < -dip_m)
+    if up >= steps and down == 0:
+        return bool(np.all(ground >= np.maximum.accumulate(ground) - dip_m))
+    if down >= steps and up == 0:
+        return bool(np.all(ground <= np.minimum.accumulate(ground) + dip_m))
+    return False
 
 
 def _dips(ground: NDArray[np.float64], a: int, b: int, dip_m: float | None) -> bool:
@@ -567,6 +609,12 @@ def swing_ground(maps: TerrainMaps, radius_m: float) -> HeightGrid:
     return HeightGrid(maps.origin_xy, res, np.asarray(h, dtype=np.float64))
 
 
+def own_side(p: DecisionParams) -> float:
+    """Gives how far a foothold's centre lies at least on its leg's side of the body's centre line (m): the foot's
+    radius plus own_side_m (-inf: no bound)."""
+    return -math.inf if p.own_side_m is None else p.regions.foot_radius_m + p.own_side_m
+
+
 def choose_region(
     regions: SteppableRegions,
     maps: TerrainMaps,
@@ -577,13 +625,16 @@ def choose_region(
     in_flight: bool = False,
     hip: NDArray[np.float64] | None = None,
     reach_m: float = np.inf,
+    side: NDArray[np.float64] | None = None,
 ) -> int:
     """Gives the region (label; 0: none) for a foothold whose nominal place is xy (2,), for a leg whose last
     foothold was at height z_ref (m): among the regions with an inset cell within search_m, those within
     max_rise_m of z_ref, the one of least distance + w_height × |height change|; the region under keep_xy (the
     previous choice) is kept unless another costs keep_m less, and while the foot is in flight (in_flight) as long
     as it is within reach at all: a swing commits to its region at liftoff. hip (2,): the leg's hip at touchdown;
-    cells farther than reach_m from it (in the ground plane) are out of reach."""
+    cells farther than reach_m from it (in the ground plane) are out of reach. side (4,): the body's centre at
+    touchdown (x, y) and the unit vector from it toward the leg's side: only cells own_side(p) or more along
+    it are chosen (see DecisionParams.own_side_m)."""
     res = regions.resolution_m
     ox, oy = regions.origin_xy
     w = int(math.ceil(p.search_m / res))
@@ -608,6 +659,9 @@ def choose_region(
     ok = (dist <= p.search_m) & (dz <= p.max_rise_m)
     if hip is not None and np.isfinite(reach_m):
         ok &= np.hypot(dx + x - float(hip[0]), dy + y - float(hip[1])) <= reach_m
+    if side is not None and p.own_side_m is not None:
+        bx, by, sx, sy = (float(v) for v in side)
+        ok &= (dx + x - bx) * sx + (dy + y - by) * sy >= own_side(p)
     cost = np.where(ok, dist + p.w_height * dz, np.inf)
     # The region of least cost (a region's cost: its least over its cells; a tie: the lowest label).
     least = float(cost.min())
@@ -634,13 +688,18 @@ def _choose_regions(
     flying: list[bool],
     hips: NDArray[np.float64],
     reach_m: float,
+    sides: NDArray[np.float64] | None = None,
 ) -> list[int]:
-    """choose_region for several footholds at once (xys (S, 2), a height reference, kept place, flight flag and
-    hip (S, 2) each): the window cells of all of them in one set of arrays, each one's least cost, lowest label of
-    it and kept region's least cost by segment (min / max are exact in any order: the same answers)."""
+    """choose_region for several footholds at once (xys (S, 2), a height reference, kept place, flight flag,
+    hip (S, 2) and side (S, 4) each): the window cells of all of them in one set of arrays, each one's least cost,
+    lowest label of it and kept region's least cost by segment (min / max are exact in any order: the same
+    answers)."""
     S = len(z_refs)
     if S == 1:
-        return [choose_region(regions, maps, xys[0], z_refs[0], keeps[0], p, flying[0], hips[0], reach_m)]
+        side = None if sides is None else sides[0]
+        return [
+            choose_region(regions, maps, xys[0], z_refs[0], keeps[0], p, flying[0], hips[0], reach_m, side)
+        ]
     res = regions.resolution_m
     ox, oy = regions.origin_xy
     w = int(math.ceil(p.search_m / res))
@@ -682,6 +741,11 @@ def _choose_regions(
         x_cell = xys[seg_a, 0][rep]
         y_cell = xys[seg_a, 1][rep]
         ok &= np.hypot(dx + x_cell - hips[seg_a, 0][rep], dy + y_cell - hips[seg_a, 1][rep]) <= reach_m
+    if sides is not None and p.own_side_m is not None:
+        sd = sides[seg_a][rep]
+        ok &= (dx + xys[seg_a, 0][rep] - sd[:, 0]) * sd[:, 2] + (dy + xys[seg_a, 1][rep] - sd[:, 1]) * sd[
+            :, 3
+        ] >= own_side(p)
     cost = np.where(ok, dist + p.w_height * dz, np.inf)
     least = np.minimum.reduceat(cost, starts)
     big = np.iinfo(labs.dtype).max
@@ -1013,6 +1077,10 @@ def choose_footholds(
     bodies = path.body.position(t_abs)[:, :2]
     yaws = np.asarray(path.body.yaw(t_abs), dtype=np.float64).reshape(-1)
     hips = bodies + rotate_yaw(yaws, view.p_body_hip[legs])
+    # each slot's body centre at touchdown and the unit vector toward its leg's side (own_side_m)
+    outward = np.zeros((K, 2))
+    outward[:, 1] = np.where(view.p_body_hip[legs, 1] >= 0.0, 1.0, -1.0)
+    sides = np.hstack([bodies, rotate_yaw(yaws, outward)])
     reach = reach_xy(view, p)
     lost = np.zeros(K, dtype=bool)
     held_at: dict[int, NDArray[np.float64]] = {}
@@ -1054,13 +1122,16 @@ def choose_footholds(
                 [flying for _, _, flying in asked],
                 hips[[j for j, _, _ in asked]],
                 reach,
+                sides[[j for j, _, _ in asked]],
             )
             for (j, keep, flying), label in zip(asked, labels, strict=True):
                 leg = legs_l[j]
                 nom = path.p_world_touchdown[order_l[j], :2]
                 if not label and np.isfinite(reach):
                     # no region within the leg's reach: the nearest one beyond it (a long step onto a stone)
-                    label = choose_region(regions, maps, nom, float(z_ref[leg]), keep, p, flying)
+                    label = choose_region(
+                        regions, maps, nom, float(z_ref[leg]), keep, p, flying, side=sides[j]
+                    )
                 poly = None
                 if label:
                     key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
@@ -1174,7 +1245,12 @@ class PipelineParams:
     terrain (see TerrainSwing); maps: what the pipeline changes in perception.maps (MapParams fields, the same on
     every terrain, see _regions_maps); replan_height_from_plan_m: HandlerParams.replan_height_from_plan_m while walking
     on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m); stop: a steered
-    walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint)."""
+    walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint);
+    footprint_from_robot, footprint_circles, footprint_margin_m: the body path's footprint is footprint_circles
+    circles along the body covering the robot's planform with its legs, grown by footprint_margin_m (m), in place
+    of path's footprint_x_m and footprint_r_m (robot_footprint). Off: on the clutter quick spec it gave 6 of 12
+    clean (8 circles, no margin; 4 circles and 2 cm: 0 of the first 6) against 7 without (docs/terrain-notes.md):
+    the hind knees kept off the tall boxes, but the wider body took routes nearer the low boxes and fell on them."""
 
     use_sensor: bool = True
     truth_half_extent_m: float = 2.5
@@ -1188,6 +1264,50 @@ class PipelineParams:
     swing: TerrainSwing = field(default_factory=lambda: TerrainSwing())
     replan_height_from_plan_m: float = 0.03
     stop: StopParams = field(default_factory=StopParams)
+    footprint_from_robot: bool = False
+    footprint_circles: int = 8
+    footprint_margin_m: float = 0.0
+
+
+def robot_planform(robot: Any) -> tuple[float, float, float]:
+    """Gives the robot's planform in its standing pose, in the body frame: (x_min, x_max, half_width) m, the
+    horizontal extent of every collision geom of the robot (the trunk, and the legs: a knee that points back sticks
+    out behind the trunk, a thigh beside it), each geom by its axis-aligned box."""
+    m = robot.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = robot.home_qpos()
+    mujoco.mj_forward(m, d)
+    base = d.xpos[robot.body_id]
+    ground = {int(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)) for n in robot.ground_geom_names}
+    lo = np.full(2, np.inf)
+    hi = np.full(2, -np.inf)
+    for g in range(m.ngeom):
+        if int(m.geom_bodyid[g]) == 0 or g in ground or not (m.geom_contype[g] or m.geom_conaffinity[g]):
+            continue
+        R = d.geom_xmat[g].reshape(3, 3)
+        c = d.geom_xpos[g] + R @ m.geom_aabb[g, :3] - base
+        half = np.abs(R) @ m.geom_aabb[g, 3:]
+        lo = np.minimum(lo, c[:2] - half[:2])
+        hi = np.maximum(hi, c[:2] + half[:2])
+    return float(lo[0]), float(hi[0]), float(max(-lo[1], hi[1]))
+
+
+def robot_footprint(robot: Any, params: PipelineParams, path: BodyPathParams) -> BodyPathParams:
+    """Gives the body path's parameters with its footprint from the robot (footprint_from_robot): footprint_circles
+    circles along the body's x axis, evenly spaced, whose union covers the planform (robot_planform) grown by
+    footprint_margin_m: the legs as well as the trunk (a tall box passed beside the body meets a hind knee 0.52 m
+    behind Spot's centre and 0.2 m to its side, outside the trunk's circles)."""
+    if not params.footprint_from_robot:
+        return path
+    n = params.footprint_circles
+    if n < 1:
+        raise ValueError(f"PipelineParams.footprint_circles: must be at least 1, got {n}")
+    x0, x1, w = robot_planform(robot)
+    e = params.footprint_margin_m
+    x0, x1, w = x0 - e, x1 + e, w + e
+    s = (x1 - x0) / n
+    xs = tuple(float(x0 + s * (k + 0.5)) for k in range(n))
+    return dataclasses.replace(path, footprint_x_m=xs, footprint_r_m=float(math.hypot(w, s / 2.0)))
 
 
 @dataclass(frozen=True)
@@ -1353,6 +1473,7 @@ class TerrainPipeline:
         perception = dataclasses.replace(p.perception, maps=dataclasses.replace(p.perception.maps, **p.maps))
         self.perception = Perception(model, body, perception) if p.use_sensor else None
         self.qp = StepQP(p.step_qp)
+        self.path_params = robot_footprint(robot, p, p.path)
         self.overhangs = OverhangMemory()
         self.world: TerrainWorld | None = None
         self.path: BodyPath | None = None
@@ -1414,10 +1535,10 @@ class TerrainPipeline:
             rest = BodyPath(
                 path.xy[k:], path.yaw[k:], path.s[k:] - path.s[k], path.method, path.valid, np.inf
             )
-            if sweep_clearance(self.world.maps, rest, self.params.path) >= 0.0:
+            if sweep_clearance(self.world.maps, rest, self.path_params) >= 0.0:
                 return
         self._t_path = t_s
-        self.path = plan_body_path(self.world.maps, p_world_body[:2], yaw, self.goal, self.params.path)
+        self.path = plan_body_path(self.world.maps, p_world_body[:2], yaw, self.goal, self.path_params)
         self.world = dataclasses.replace(self.world, path=self.path)
         self.stats.body_paths += 1
 

@@ -104,3 +104,19 @@ def test_works_with_terrain_maps_no_step_and_heights() -> None:
         x, z = p.p_world_touchdown[:, 0], p.p_world_touchdown[:, 2]
         assert not np.any(np.asarray(maps.no_step(x, p.p_world_touchdown[:, 1])))
         assert np.allclose(z, np.where(x > 0.71, 0.1, np.where(x < 0.69, 0.0, z)))
+
+
+def test_avoid_variants_from_one_map_evaluation_equal_each_variant_alone() -> None:
+    """_avoid_all (the three off-no-step variants from one evaluation of the map) gives what _avoid gives for each
+    variant alone: on a strip that catches some touchdowns, one it catches whole (no sample allowed), and none."""
+    from planning.steps.potential import _avoid, _avoid_all
+
+    rng = np.random.default_rng(7)
+    for x0, hw in ((0.3, 0.05), (0.0, 5.0), (9.0, 0.05)):
+        maps = StripMaps(x0, hw)
+        for _ in range(20):
+            xy = rng.uniform(-0.2, 0.8, (8, 2))
+            yaw = rng.uniform(-np.pi, np.pi, 8)
+            got = _avoid_all(xy, yaw, maps)
+            for out, forward in zip(got, (None, 1.0, -1.0), strict=True):
+                assert np.array_equal(out, _avoid(xy, yaw, maps, forward))

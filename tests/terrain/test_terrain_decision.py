@@ -20,6 +20,7 @@ from planning.terrain.decision import (
     TerrainView,
     TerrainWorld,
     _choose_regions,
+    _regions_qp,
     cadence,
     choose_footholds,
     choose_region,
@@ -28,6 +29,7 @@ from planning.terrain.decision import (
     leg_bounds,
     leg_clearance,
     lost_region,
+    own_side,
     pitched_nominals,
     reach_height,
     swing_ground,
@@ -440,7 +442,7 @@ def test_a_touchdown_with_no_region_steps_in_place_and_a_foothold_off_every_regi
     np.testing.assert_allclose(d3.p_world_touchdown[k_fl, :2], [0.5, 0.15], atol=0.011)
 
 
-def _choose_region_reference(regions, maps, xy, z_ref, keep_xy, p, in_flight, hip, reach_m):  # type: ignore[no-untyped-def]
+def _choose_region_reference(regions, maps, xy, z_ref, keep_xy, p, in_flight, hip, reach_m, side=None):  # type: ignore[no-untyped-def]
     """choose_region's rule cell by cell: each region's least cost over its inset cells in the window."""
     res, (ox, oy) = regions.resolution_m, regions.origin_xy
     w = int(math.ceil(p.search_m / res))
@@ -456,6 +458,9 @@ def _choose_region_reference(regions, maps, xy, z_ref, keep_xy, p, in_flight, hi
             ok = dist <= p.search_m and dz <= p.max_rise_m
             if hip is not None and math.isfinite(reach_m):
                 ok = ok and math.hypot(dx + xy[0] - hip[0], dy + xy[1] - hip[1]) <= reach_m
+            if side is not None:
+                along = (dx + xy[0] - side[0]) * side[2] + (dy + xy[1] - side[1]) * side[3]
+                ok = ok and along >= p.regions.foot_radius_m + p.own_side_m
             best[lab] = min(best.get(lab, math.inf), dist + p.w_height * dz if ok else math.inf)
     finite = {k: v for k, v in best.items() if math.isfinite(v)}
     if not finite:
@@ -490,11 +495,18 @@ def test_choose_region_equals_its_cell_by_cell_rule(seed: int) -> None:
         flying = bool(rng.random() < 0.5)
         hip = None if rng.random() < 0.5 else xy + rng.uniform(-0.2, 0.2, 2)
         reach = float(rng.uniform(0.1, 0.4))
+        a = rng.uniform(-math.pi, math.pi)
+        side = xy - rng.uniform(0.0, 0.2) * np.array([math.cos(a), math.sin(a)])
+        side = np.concatenate([side, [math.cos(a), math.sin(a)]])
         got = choose_region(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
         want = _choose_region_reference(regions, maps, xy, z_ref, keep, P, flying, hip, reach)
         assert got == want
+        got_side = choose_region(regions, maps, xy, z_ref, keep, P, flying, hip, reach, side)
+        assert got_side == _choose_region_reference(
+            regions, maps, xy, z_ref, keep, P, flying, hip, reach, side
+        )
         if hip is not None:
-            asked.append((xy, z_ref, keep, flying, hip, got))
+            asked.append((xy, z_ref, keep, flying, hip, side))
     # several at once (as the footholds ask a stride's four), one reach for all: each one's own answer
     reach = 0.3
     assert len(asked) >= 8
@@ -514,6 +526,78 @@ def test_choose_region_equals_its_cell_by_cell_rule(seed: int) -> None:
         assert got_all == [
             choose_region(regions, maps, a[0], a[1], a[2], P, a[3], a[4], reach) for a in group
         ]
+        got_all = _choose_regions(
+            regions,
+            maps,
+            np.array([a[0] for a in group]),
+            [a[1] for a in group],
+            [a[2] for a in group],
+            P,
+            [a[3] for a in group],
+            np.array([a[4] for a in group]),
+            reach,
+            np.array([a[5] for a in group]),
+        )
+        assert got_all == [
+            choose_region(regions, maps, a[0], a[1], a[2], P, a[3], a[4], reach, a[5]) for a in group
+        ]
+
+
+def _row_of_two() -> TerrainWorld:
+    """A platform up to x = 0.6 m, a pit 0.3 m deep, one row of two stones at x 0.85-1.15 m: the left stone from
+    y 0.10 m out, the right one from y -0.04 m out (a slot 14 cm wide between them, off the centre line)."""
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (110, 60))
+    Y = np.broadcast_to(ys[None, :], (110, 60))
+    row = (X > 0.85) & (X < 1.15) & ((Y > 0.10) | (Y < -0.04)) & (np.abs(Y) < 0.55)
+    h = np.where((X < 0.6) | (X > 1.4) | row, 0.0, -0.3)
+    return _world(xs, ys, np.asarray(h, dtype=np.float64))
+
+
+def test_a_foothold_is_chosen_on_its_legs_own_side_of_the_body() -> None:
+    """A left foot whose nominal place lies over the slot between a row's two stones, nearer the right stone: the
+    right stone without the side bound (the legs would cross), the left stone with it; a right foot there keeps
+    the right stone; the same through choose_footholds (stones draws 254 and 167's fault)."""
+    world = _row_of_two()
+    regions, maps = world.regions, world.maps
+    left, right = regions.label_at(1.0, 0.3), regions.label_at(1.0, -0.3)
+    assert left and right and left != right
+    nom = np.array([1.0, 0.02])
+    body = np.array([0.7, 0.0])
+    left_side = np.array([*body, 0.0, 1.0])
+    right_side = np.array([*body, 0.0, -1.0])
+    assert choose_region(regions, maps, nom, 0.0, None, P) == right
+    assert choose_region(regions, maps, nom, 0.0, None, P, side=left_side) == left
+    assert choose_region(regions, maps, nom, 0.0, None, P, side=right_side) == right
+    # no bound: the old choice
+    loose = dataclass_replace(P, own_side_m=None)
+    assert choose_region(regions, maps, nom, 0.0, None, loose, side=left_side) == right
+    # a cell exactly on the bound counts; the bound is the robot's foot radius plus own_side_m
+    assert own_side(P) == pytest.approx(P.regions.foot_radius_m + P.own_side_m)
+    # the footholds: the body at the platform's edge, FL (leg 0) 0.1 s from its touchdown with its nominal place at
+    # (1.0, 0.02), both stones' inner cells within its reach: its own stone with the bound, the right one without
+    feet = np.array([[0.52, 0.15, 0.02], [0.52, -0.15, 0.02], [-0.05, 0.15, 0.02], [-0.05, -0.15, 0.02]])
+    view = dataclass_replace(
+        _view(np.zeros(4), feet[:, 0]),
+        p_world_body=np.array([0.62, 0.0, 0.55]),
+        p_world_foot=feet,
+        stance=np.array([False, True, True, True]),
+        l_upper_m=0.33,
+        l_lower_m=0.33,
+    )
+    legs = np.array([0, 3, 1, 2, 0, 3, 1, 2])
+    t_td = 1.0 + np.array([0.1, 0.1, 0.3, 0.3, 0.5, 0.5, 0.7, 0.7])
+    p_td = np.array([[1.0, 0.02, 0.0], [0.45, -0.15, 0.0], [0.75, -0.15, 0.0], [0.1, 0.15, 0.0]])
+    p_td = np.vstack([p_td, p_td + [0.3, 0.0, 0.0]])
+    body = BodyMotion(np.array([0.62, 0.0]), 0.0, np.array([0.3, 0.0]), 0.0, 1.0)
+    lo_now = np.array([0.9, 1.1, 1.1, 0.9])
+    path = StepPath(legs, t_td, t_td + 0.2, p_td, lo_now, body, "reference", "trot")
+    qp = StepQP(_regions_qp())
+    for params, want_left in ((P, True), (loose, False)):
+        d = choose_footholds(view, path, world, FootholdMemory.empty(), qp, params)
+        y = float(d.p_world_touchdown[0, 1])
+        assert y > 0.10 if want_left else y < -0.04, (params.own_side_m, d.p_world_touchdown[0])
 
 
 def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own() -> None:
@@ -536,3 +620,54 @@ def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own() -> No
         c1, w1 = leg_clearance(view, world.maps, int(leg), hips[i], feet[i : i + 1], P)
         assert clear[i] == c1[0] and within[i] == w1[0]
     assert not within[5] and np.any(np.isfinite(clear))
+
+
+@pytest.mark.parametrize("robot_name", ["spot", "go1"])
+def test_the_body_paths_footprint_from_the_robot_covers_its_legs_past_a_tall_box(robot_name: str) -> None:
+    """The pipeline's body path sweeps circles that cover the robot's legs, not only its trunk (robot_footprint):
+    every knee of the standing pose lies inside them, which the trunk's circles (BodyPathParams' defaults) leave
+    out for Spot's hind knees; and a path planned past a tall box with them keeps those knees off the box, where
+    the trunk's circles took them into it (the clutter falls on a hind thigh against a tall box). (The rule is off
+    on the pipeline by default: PipelineParams.footprint_from_robot.)"""
+    from planning.robot import load_robot
+    from planning.terrain.bodypath import BodyPathParams
+    from planning.terrain.decision import PipelineParams, robot_footprint
+
+    robot = load_robot(robot_name)
+    trunk = BodyPathParams()
+    on = PipelineParams(footprint_from_robot=True)
+    fp = robot_footprint(robot, on, trunk)
+    knees = np.array([robot.knee_body(leg, robot.q_nominal[leg])[:2] for leg in range(4)])
+
+    def covered(pts: np.ndarray, params: BodyPathParams) -> np.ndarray:
+        d = np.hypot(pts[:, None, 0] - np.asarray(params.footprint_x_m)[None, :], pts[:, None, 1])
+        return np.min(d, axis=1) <= params.footprint_r_m - on.footprint_margin_m + 1e-9
+
+    assert np.all(covered(knees, fp))
+    assert robot_footprint(robot, PipelineParams(footprint_from_robot=False), trunk) == trunk
+    with pytest.raises(ValueError, match="footprint_circles"):
+        robot_footprint(robot, dataclass_replace(on, footprint_circles=0), trunk)
+    if robot_name != "spot":
+        return
+    assert not np.all(covered(knees, trunk))
+    # a tall box across the straight line (clutter's first tall box), body obstacle cells
+    xs, ys = -1.0 + np.arange(200) * RES, -1.5 + np.arange(100) * RES
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    box = (1.5, 1.95, -0.3, 0.3)
+    body = (X >= box[0]) & (X <= box[1]) & (Y >= box[2]) & (Y <= box[3])
+    maps = maps_from_grids((xs[0], ys[0]), RES, np.where(body, 0.7, 0.0), body, body)
+
+    def knees_clear(params: BodyPathParams, y0: float) -> float:
+        path = plan_body_path(maps, (0.0, y0), 0.0, (4.0, y0), params)
+        c, s = np.cos(path.yaw)[:, None], np.sin(path.yaw)[:, None]
+        wx = path.xy[:, 0:1] + c * knees[None, :, 0] - s * knees[None, :, 1]
+        wy = path.xy[:, 1:2] + s * knees[None, :, 0] + c * knees[None, :, 1]
+        dx = np.maximum(np.maximum(box[0] - wx, wx - box[1]), 0.0)
+        dy = np.maximum(np.maximum(box[2] - wy, wy - box[3]), 0.0)
+        inside = (dx == 0.0) & (dy == 0.0)
+        return float(np.min(np.where(inside, -1.0, np.hypot(dx, dy))))
+
+    starts = (0.0, -0.1)
+    assert min(knees_clear(trunk, y0) for y0 in starts) < 0.0
+    for y0 in starts:
+        assert knees_clear(fp, y0) >= 0.02
