@@ -33,11 +33,6 @@ _WALKS: dict[str, tuple[WalkCommand, str]] = {
     "flat": (WalkCommand(0.8, 0.0, 0.0, "trot"), "flat"),
     "stairs": (WalkCommand(0.0, 0.0, 0.0, "trot", goal=(6.0, 0.0)), "stairs"),
     "clutter": (WalkCommand(0.0, 0.0, 0.0, "trot", goal=(6.0, 0.0)), "clutter"),
-    # the stairs climb with the unified terrain pipeline (benchmarks.loop_profile's stairs_regions)
-    "stairs_regions": (
-        WalkCommand(0.0, 0.0, 0.0, "trot", goal=(6.0, 0.0), terrain_pipeline="regions"),
-        "stairs",
-    ),
 }
 
 
