@@ -51,6 +51,7 @@ from planning.terrain.regions import (
     segment_regions,
 )
 from planning.terrain.scenes import TerrainScene
+from planning.terrain.steering import StopParams, stop_short
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
 
 
@@ -108,6 +109,11 @@ class DecisionParams:
     another (its two ends differ by more than this and its ground stays within this of the range between them: a
     riser's edge band), or, at the line's end, its ground stays above this below its one end (None: every run
     counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps;
+    gap_flight_steps: with gap_dip_m, a run from one height to another is no gap only on a line whose ground is a
+    flight: it goes one way only (never back by more than gap_dip_m) through at least this many steps (height
+    changes of more than gap_dip_m, each its edge cells together), read on its observed cells only (the treads of a
+    climb above the sensor are unseen, their filled heights low): the floor onto a box and off it again, or one
+    box's edge alone, stay gaps (None: any line);
     own_side_m: a region's cell is chosen for a foothold only where it lies at least the foot's radius plus this on
     the leg's own side of the body's centre line (the body where the path puts it at touchdown; None: no such
     bound): a left foot is not sent onto a right stone, where the legs cross and one's shin meets the other
@@ -162,6 +168,7 @@ class DecisionParams:
     height_reach_frac: float = 0.9
     lost_hold_m: float = 0.03
     gap_dip_m: float | None = None
+    gap_flight_steps: int | None = 2
     count_step_rise: bool = True
     own_side_m: float | None = 0.0
 
@@ -418,15 +425,45 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
     cx, cy = np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)
     ok = np.where(on, regions.inset[cx, cy], True)
     ground = world.maps.ground_height[cx, cy] if p.gap_dip_m is not None else None
+    seen = np.where(on, world.maps.observed[cx, cy], False) if p.gap_dip_m is not None else None
     longest = 0
     for k, row in enumerate(ok):
         # runs of False: from the positions where the row changes
         edges = np.flatnonzero(np.diff(np.concatenate([[1], row.astype(np.int8), [1]])))
+        flight = ground is not None and (
+            p.gap_flight_steps is None
+            or (seen is not None and is_flight(ground[k][seen[k]], p.gap_dip_m, p.gap_flight_steps))
+        )
         for a, b in zip(edges[::2], edges[1::2], strict=True):
-            if ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
+            if flight and ground is not None and not _dips(ground[k], int(a), int(b), p.gap_dip_m):
                 continue
             longest = max(longest, int(b - a))
     return longest * res
+
+
+def is_flight(ground: NDArray[np.float64], dip_m: float | None, steps: int) -> bool:
+    """Whether a line's ground (heights along it, m) is a flight of steps: it goes one way only (up or down, never
+    back by more than dip_m from the highest, or lowest, ground before) through at least `steps` height changes of
+    more than dip_m, each the change over a run of cells that each change by more than half of dip_m (a riser seen
+    over one or a few cells); a single cell out of line with both its neighbours is read at their median."""
+    if dip_m is None or ground.size < 2 or not bool(np.all(np.isfinite(ground))):
+        return False
+    if ground.size >= 3:
+        # a cell alone above or below its neighbours (a nosing or a riser's face seen edge-on at the sensor's range)
+        # is no step: the median of each cell and its two neighbours
+        mid = np.median(np.stack([ground[:-2], ground[1:-1], ground[2:]]), axis=0)
+        ground = np.concatenate([ground[:1], mid, ground[-1:]])
+    d = np.diff(ground)
+    sharp = np.abs(d) > 0.5 * dip_m
+    bounds = np.flatnonzero(np.diff(np.concatenate([[0], sharp.astype(np.int8), [0]])))
+    changes = [float(np.sum(d[a:b])) for a, b in zip(bounds[::2], bounds[1::2], strict=True)]
+    up = sum(1 for c in changes if c > dip_m)
+    down = sum(1 for c in changes if c < -dip_m)
+    if up >= steps and down == 0:
+        return bool(np.all(ground >= np.maximum.accumulate(ground) - dip_m))
+    if down >= steps and up == 0:
+        return bool(np.all(ground <= np.minimum.accumulate(ground) + dip_m))
+    return False
 
 
 def _dips(ground: NDArray[np.float64], a: int, b: int, dip_m: float | None) -> bool:
@@ -1207,7 +1244,8 @@ class PipelineParams:
     what the pipeline's walk changes in the swing planner's parameters (SwingParams fields), the same on every
     terrain (see TerrainSwing); maps: what the pipeline changes in perception.maps (MapParams fields, the same on
     every terrain, see _regions_maps); replan_height_from_plan_m: HandlerParams.replan_height_from_plan_m while walking
-    on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m);
+    on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m); stop: a steered
+    walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint);
     footprint_from_robot, footprint_circles, footprint_margin_m: the body path's footprint is footprint_circles
     circles along the body covering the robot's planform with its legs, grown by footprint_margin_m (m), in place
     of path's footprint_x_m and footprint_r_m (robot_footprint). Off: on the clutter quick spec it gave 6 of 12
@@ -1225,6 +1263,7 @@ class PipelineParams:
     step_qp: StepQPParams = field(default_factory=lambda: _regions_qp())
     swing: TerrainSwing = field(default_factory=lambda: TerrainSwing())
     replan_height_from_plan_m: float = 0.03
+    stop: StopParams = field(default_factory=StopParams)
     footprint_from_robot: bool = False
     footprint_circles: int = 8
     footprint_margin_m: float = 0.0
@@ -1508,6 +1547,9 @@ class TerrainPipeline:
         if self.world is None:
             return None
         d = decide(view, self.world, self.last, self.decision_params)
+        if view.goal is None:
+            xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
+            d = dataclasses.replace(d, command=stop_short(maps, xy, view.yaw, d.command, p.path, p.stop))
         if d.gait != view.gait:
             self.stats.gait_switches += 1
         self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)

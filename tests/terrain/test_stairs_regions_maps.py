@@ -21,6 +21,7 @@ from planning.terrain.decision import (
     TerrainWorld,
     cadence,
     gap_ahead,
+    is_flight,
     step_rise,
     swing_ground,
 )
@@ -162,3 +163,27 @@ def test_a_gap_is_ground_that_drops_below_the_feet_and_comes_back_not_a_flights_
     assert gap_ahead(view, pit, dip) > dip.slow_gap_m and gap_ahead(view, pit, every) > every.slow_gap_m
     assert gap_ahead(view, flight, every) > every.slow_gap_m
     assert gap_ahead(view, flight, dip) < dip.slow_gap_m
+
+
+def test_only_a_flight_makes_a_step_between_two_heights_no_gap() -> None:
+    """gap_flight_steps: the edge band from the floor onto a box 0.18 m high and 0.6 m long (0.35 m without a
+    region, from one height to another) stays a gap, the line going up onto the box and down off it again; with any
+    line counting (gap_flight_steps None) it is none. A flight's lost treads (above) are none either way; a flight
+    going down counts as one, a single step does not."""
+    X = np.broadcast_to((-0.6 + np.arange(110) * RES)[:, None], (110, 60))
+    band = (X > 0.4) & (X < 0.75)
+    box = _world(np.asarray(np.where((X > 0.6) & (X < 1.2), 0.18, 0.0), dtype=np.float64), np.asarray(band))
+    view = _going_view()
+    flights = DecisionParams(gap_dip_m=0.05)
+    any_line = DecisionParams(gap_dip_m=0.05, gap_flight_steps=None)
+    assert flights.gap_flight_steps == 2
+    assert gap_ahead(view, box, flights) > flights.slow_gap_m
+    assert gap_ahead(view, box, any_line) < any_line.slow_gap_m
+    down = 0.9 - 0.18 * np.clip(np.floor((np.arange(60) * RES - 0.3) / 0.28) + 1.0, 0.0, 4.0)
+    assert is_flight(down, 0.05, 2) and is_flight(down[::-1], 0.05, 2)
+    spike = down[::-1].copy()
+    spike[40] += 0.15  # one cell seen high (a riser's face edge-on): still a flight
+    assert is_flight(spike, 0.05, 2)
+    one = np.where(np.arange(60) * RES > 0.8, 0.18, 0.0)
+    assert not is_flight(one, 0.05, 2) and is_flight(one, 0.05, 1)
+    assert not is_flight(np.concatenate([down[::-1], down]), 0.05, 2)
