@@ -1,6 +1,6 @@
 """The regions climb's foothold decisions, recorded once and replayed through this tree's code call by call.
 
-``record FILE``: runs ``footfall walk --terrain stairs --goal 6,0 --terrain-pipeline regions`` headless for
+``record FILE``: runs ``footfall walk --terrain stairs --goal 6,0`` headless for
 ``--duration`` s and stores every ``decide`` and ``choose_footholds`` call of the terrain pipeline (their inputs and
 what they gave). ``replay FILE``: feeds the same inputs, in the same order, to this tree's functions (a fresh step
 QP, which then sees the same warm starts; the polygon cache emptied with each new map, as the pipeline does) and
@@ -64,7 +64,7 @@ def record(path: str, duration_s: float, terrain: str = "stairs") -> int:
 
     decision.decide, decision.choose_footholds = decide_rec, choose_rec  # type: ignore[assignment]
     try:
-        cmd, _, _ = _WALKS["stairs_regions"]
+        cmd, _, _ = _WALKS["stairs"]
         report = WalkSession(cmd, RunOptions(terrain=terrain, duration_s=duration_s)).run(None)
     finally:
         decision.decide, decision.choose_footholds = decide0, choose0  # type: ignore[assignment]

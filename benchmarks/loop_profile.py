@@ -8,8 +8,8 @@ stages (``perception.<stage>``). What is left of the run (the loop's bookkeeping
 ``other``.
 
 Run: ``python -m benchmarks.loop_profile`` (every walk: ``footfall walk --vx 0.5 --solver centroidal`` on flat
-for 5 s, ``footfall walk --terrain stairs --goal 6,0`` with the sensor for 10 s, and the same with
-``--terrain-pipeline regions``), ``--walk flat``, ``--walk stairs`` or ``--walk stairs_regions`` for one,
+for 5 s and ``footfall walk --terrain stairs --goal 6,0`` with the sensor for 10 s), ``--walk flat`` or
+``--walk stairs`` for one,
 ``--duration S`` to change the simulated time. docs/agility-notes.md ("Where the loop's CPU goes") has the
 figures measured.
 """
@@ -31,12 +31,6 @@ from planning.sim.run import RunOptions, WalkCommand, WalkSession
 _WALKS: dict[str, tuple[WalkCommand, str, float]] = {
     "flat": (WalkCommand(0.5, 0.0, 0.0, "trot", centroidal=True, terrain_aware=False), "flat", 5.0),
     "stairs": (WalkCommand(0.0, 0.0, 0.0, "trot", goal=(6.0, 0.0)), "stairs", 10.0),
-    # the same walk with the unified terrain pipeline (steppable regions, footholds by the step QP in them)
-    "stairs_regions": (
-        WalkCommand(0.0, 0.0, 0.0, "trot", goal=(6.0, 0.0), terrain_pipeline="regions"),
-        "stairs",
-        10.0,
-    ),
 }
 
 
@@ -95,7 +89,7 @@ def profile_session(session: WalkSession) -> dict[str, Any]:
 
         return timed
 
-    nav = session.navigator
+    nav = session.pipeline
     perception_cpu: dict[str, float] = defaultdict(float)
     perception = getattr(nav, "perception", None)
     if perception is not None:

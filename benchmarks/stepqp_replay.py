@@ -1,6 +1,6 @@
 """The regions climb's step-QP replans, recorded and replayed through two versions of the step QP call by call.
 
-Runs ``footfall walk --terrain stairs --goal 6,0 --terrain-pipeline regions`` headless for ``--duration`` s,
+Runs ``footfall walk --terrain stairs --goal 6,0`` headless for ``--duration`` s,
 records every ``StepQP.solve`` call, then replays them through the step QP of another checkout (``--before``: the
 path of a ``planning/terrain/stepqp.py``, e.g. from ``git archive``) and through this tree's, alternating call by
 call in one process, in this thread's CPU time: the load of a shared machine falls on both alike. Prints p50, p99
@@ -48,7 +48,7 @@ def replay(before_path: str, duration_s: float) -> dict[str, Any]:
 
     current.StepQP.solve = recording  # type: ignore[method-assign]
     try:
-        cmd, terrain, _ = _WALKS["stairs_regions"]
+        cmd, terrain, _ = _WALKS["stairs"]
         WalkSession(cmd, RunOptions(terrain=terrain, duration_s=duration_s)).run(None)
     finally:
         current.StepQP.solve = solve0  # type: ignore[method-assign]

@@ -27,6 +27,7 @@ import numpy as np
 
 from planning.sim.run import RunOptions, WalkCommand, WalkSession
 from planning.swing import planner as swing_planner
+from planning.swing.params import SwingParams
 
 _WALKS: dict[str, tuple[WalkCommand, str]] = {
     "flat": (WalkCommand(0.8, 0.0, 0.0, "trot"), "flat"),
@@ -87,17 +88,37 @@ def record(path: str, walk: str, duration_s: float) -> int:
     return len(calls)
 
 
-def replay(path: str, repeats: int = 3) -> dict[str, Any]:
+def _current(params: SwingParams, full: bool, seen: dict[int, SwingParams]) -> SwingParams:
+    """The recorded parameters as this tree's SwingParams (fields added since the recording at their defaults);
+    full: the event-driven selection off (the full tier analysis every replan)."""
+    out = seen.get(id(params))
+    if out is None:
+        kept = {
+            f.name: getattr(params, f.name)
+            for f in dataclasses.fields(SwingParams)
+            if hasattr(params, f.name)
+        }
+        out = SwingParams(**kept)
+        if full:
+            out = dataclasses.replace(out, reuse_selection_s=0.0)
+        seen[id(params)] = out
+    return out
+
+
+def replay(path: str, repeats: int = 3, full: bool = False) -> dict[str, Any]:
     """Replays the recorded calls through a fresh planner ``repeats`` times; CPU µs per swing leg (p50, p99 over
-    every call of every pass) and the selections that differ from the recorded ones (first pass)."""
+    every call of every pass) and the selections that differ from the recorded ones (first pass). full: the full
+    tier analysis every replan (SwingParams.reuse_selection_s = 0) instead of the event-driven selection."""
     from planning.robot import load_robot
 
     with open(path, "rb") as f:
         rec = pickle.load(f)
-    calls = rec["calls"]
+    seen: dict[int, SwingParams] = {}
+    calls = [(_current(p, full, seen), args, want) for p, args, want in rec["calls"]]
     robot = load_robot("spot")
     per_leg: list[float] = []
-    differ = total = 0
+    cpu_total = 0.0
+    differ = total = reused = 0
     worst = 0.0
     for rep in range(repeats):
         planner = swing_planner.SwingPlanner(robot, calls[0][0])
@@ -106,10 +127,12 @@ def replay(path: str, repeats: int = 3) -> dict[str, Any]:
             t0 = time.thread_time()
             got = planner.plan(t, legs, ground, stance, body)
             dt = time.thread_time() - t0
+            cpu_total += dt
             if legs:
                 per_leg.append(dt / len(legs))
             if rep:
                 continue
+            reused = planner.reused
             have = _outcome(t, got)
             for leg, (h, v, tier, pos) in want.items():
                 total += 1
@@ -119,13 +142,17 @@ def replay(path: str, repeats: int = 3) -> dict[str, Any]:
                 else:
                     worst = max(worst, float(np.abs(gpos - pos).max()))
     us = np.array(per_leg) * 1e6
+    sim_s = max(calls[-1][1][0] - calls[0][1][0], 1e-9)
     return {
         "walk": rec["walk"],
         "calls": len(calls),
         "legs_planned": total,
         "per_leg_cpu_us_p50": round(float(np.percentile(us, 50)), 1),
         "per_leg_cpu_us_p99": round(float(np.percentile(us, 99)), 1),
+        # the planner's CPU time per simulated second of the walk (mean over the passes)
+        "cpu_ms_per_sim_s": round(cpu_total / repeats / sim_s * 1e3, 1),
         "selections_differ": differ,
+        "reused_selections": reused,  # of legs_planned: reused without the tier analysis (first pass)
         "worst_position_diff_m": worst,
     }
 
@@ -140,11 +167,12 @@ def main() -> None:
     p = sub.add_parser("replay")
     p.add_argument("file")
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--full", action="store_true", help="the full tier analysis every replan (no reuse)")
     a = ap.parse_args()
     if a.cmd == "record":
         print(json.dumps({"calls": record(a.file, a.walk, a.duration)}))
     else:
-        print(json.dumps(replay(a.file, a.repeats)))
+        print(json.dumps(replay(a.file, a.repeats, a.full)))
 
 
 if __name__ == "__main__":

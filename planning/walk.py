@@ -8,7 +8,6 @@ the swing foot lands. The body reference follows the filtered command.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -171,18 +170,10 @@ class WalkController:
         self._via_gait: str | None = None  # the gait walked for one cycle on the way to _then_gait
         self._trot_since: float | None = None
         self.goal: np.ndarray | None = None
-        # Terrain hooks (terrain-aware walking sets them): maps for step screening and foothold heights; a
-        # command source that overrides steering (e.g. following a body path to a goal); the body height.
-        self.maps: Any = None
-        self.swing_maps: Any = None  # the maps the swing planner sees, when other than self.maps (stairs)
-        self.command_source: Callable[[RobotState], SteeringCommand] | None = None
-        self.foothold_filter: Callable[[RobotState, Selection], Selection] | None = None
-        # what the terrain stack draws in the studio (its maps, body path, step-QP footholds), when it runs
-        self.navigator_overlays: Callable[[], dict[str, dict[str, Any]]] | None = None
-        # The unified terrain pipeline (planning.terrain.decision), when walking on it: the controller asks it for
+        # The terrain pipeline (planning.terrain.decision), when walking on it: the controller asks it for
         # a decision every step-plan tick and applies it (use_terrain).
         self.terrain: TerrainPipeline | None = None
-        self._fast_gait = gait
+        self.fast_gait = gait  # on a terrain: the gait the pipeline returns to where its cadence allows
         self._gait_since = -np.inf
         self.f_des = np.zeros((4, 3))
         self.height = robot.standing_height_m
@@ -220,7 +211,7 @@ class WalkController:
         and its footholds. The swing planner and the handler take the pipeline's swing settings (the same on every
         terrain)."""
         self.terrain = terrain
-        self._fast_gait = self.gait
+        self.fast_gait = self.gait
         sp = self.handler.swing_planner
         sp.set_params(terrain.params.swing.applied_to(sp.params))
         self.handler.params = replace(
@@ -228,7 +219,6 @@ class WalkController:
         )
         if terrain.goal is not None:
             self.set_goal(*terrain.goal)
-        self.navigator_overlays = terrain.overlays
         self.stages[:0] = [
             Stage(
                 "perception", terrain.params.perception_rate_hz, lambda s: terrain.perceive(s.p_world_body)
@@ -249,7 +239,7 @@ class WalkController:
             z_contact=float(np.mean(self.handler.p_contact[:, 2])),
             gait=self.gait,
             gait_since_s=self._gait_since,
-            fast_gait=self._fast_gait,
+            fast_gait=self.fast_gait,
             operator=self.command,
             goal=None if self.goal is None else self.goal.copy(),
             pitch_rad=self.pitch,
@@ -337,24 +327,17 @@ class WalkController:
             self.pitch = decision.body_pitch_rad
             self.handler.ground = decision.swing_ground
             cmd = decision.command
-        elif self.command_source is not None:
-            cmd = self.command_source(s)
         elif self.goal is not None:
             cmd = self._goal_command(s)
         else:
             cmd = self.command
-        if self.maps is not None:
-            swing_maps = self.maps if self.swing_maps is None else self.swing_maps
-            self.handler.ground = swing_maps.height_at
-        maps = self.maps if self.terrain is None else self.terrain.maps
+        maps = None if self.terrain is None else self.terrain.maps
         sel = self.planner.tick(cmd, self._walk_state(s), maps)
         self._swing_for_speed()
         self._balance_for_gait()
         if self.reference_only:
             ref = sel.candidates[0]
             sel = Selection(ref, 0.0, sel.scores, 0, sel.candidates, sel.xi_td, sel.xi_td_reference, True, 1)
-        if self.foothold_filter is not None:
-            sel = self.foothold_filter(s, sel)
         if self.terrain is not None and view is not None:
             sel = self.terrain.footholds(view, sel)
         self.plan.update(sel)
@@ -510,13 +493,13 @@ class WalkController:
     def plan_overlays(self) -> dict[str, dict[str, Any]]:
         """Returns the studio's overlays: the chosen and the reference step paths, the other potential paths, the
         capture points at touchdowns (chosen and reference), swing trajectories and contact forces; on a terrain,
-        the navigator's (planning.terrain.overlays)."""
+        the terrain pipeline's (planning.terrain.overlays)."""
         s = self._last_state
         if s is None:
             return {}
         out = self.handler.overlays(self.f_des, s.p_world_foot)
-        if self.navigator_overlays is not None:
-            out.update(self.navigator_overlays())
+        if self.terrain is not None:
+            out.update(self.terrain.overlays())
         sel = self.plan.selection
         if sel is None:
             return out

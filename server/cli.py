@@ -226,6 +226,12 @@ def cmd_walk(a: argparse.Namespace) -> int:
         raise UsageError(f"--duration {a.duration}: must be in (0, 600] s")
     if a.maps not in ("sensor", "truth", "off"):
         raise UsageError(f"--maps {a.maps!r}: one of sensor, truth, off")
+    if a.terrain_pipeline is not None:
+        from planning.terrain.spec import check_terrain_pipeline
+
+        why = check_terrain_pipeline(a.terrain_pipeline)
+        if why is not None:
+            raise UsageError(f"--terrain-pipeline {why}")
     if a.speed is not None:
         from planning.sim.run import check_terrain_speed
 
@@ -248,7 +254,6 @@ def cmd_walk(a: argparse.Namespace) -> int:
         centroidal=a.solver == "centroidal",
         terrain_aware=False if a.maps == "off" else None,
         terrain_sensor=a.maps == "sensor",
-        terrain_pipeline=a.terrain_pipeline,
         terrain_speed_mps=a.speed,
     )
     opts = RunOptions(
@@ -437,10 +442,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     w.add_argument(
         "--terrain-pipeline",
-        choices=("modes", "regions"),
-        default="modes",
-        help="on a terrain: modes (the stairs, stones and clutter rules, default) or regions (the unified "
-        "pipeline: steppable regions and footholds by the step QP inside them; see the README's Terrain section)",
+        default=None,
+        metavar="NAME",
+        help="removed: there is one terrain pipeline (steppable regions, footholds by the step QP inside them; "
+        "the README's Terrain section); 'regions' is still accepted",
     )
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")

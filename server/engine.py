@@ -87,7 +87,7 @@ def walk_command(
 def _with_terrain_speed(command: Any, terrain: str) -> Any:
     """Gives a live session's walk command with its terrain speed at the terrain's limit (TERRAIN_SPEED_LIMITS_MPS,
     the same as `footfall walk --speed` and REST's terrain_speed may ask): the studio's sliders then set the speed,
-    up to that limit, instead of the navigator's default cap. A command with its own terrain speed, flat ground
+    up to that limit, instead of the terrain pipeline's default cap. A command with its own terrain speed, flat ground
     and terrain files keep theirs."""
     import dataclasses
 
@@ -305,12 +305,11 @@ class LiveSim:
         if not self.walking:
             raise NotSteerable()
         c = self.session.controller
-        nav = getattr(self.session, "navigator", None)
-        if nav is not None:
-            # on a terrain the navigator switches gaits (stairs, stones, dense clutter): the asked gait is the one it
-            # returns to on open ground
-            if gait != nav.fast_gait:
-                nav.fast_gait = gait
+        if c.terrain is not None:
+            # on a terrain the pipeline's cadence switches gaits (the slow gait over gaps, the climb gaits): the asked
+            # gait is the one it returns to where the terrain allows
+            if gait != c.fast_gait:
+                c.fast_gait = gait
                 self.maneuver = WalkLabel(gait)
         elif gait != c.gait:
             c.set_gait(gait)
@@ -518,6 +517,7 @@ def run_headless(job: dict[str, Any]) -> dict[str, Any]:
         goal = w.pop("goal", None)
         maps = w.pop("maps", "sensor")
         speed = w.pop("terrain_speed", None)
+        w.pop("terrain_pipeline", None)  # one pipeline: "regions" is accepted and means it
         command = WalkCommand(
             **w,
             terrain_speed_mps=speed,

@@ -23,17 +23,18 @@ from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
 from planning.sim.world import Push, RobotState, World
 from planning.swing.types import TripKind
+from planning.terrain.decision import PipelineParams, TerrainPipeline
 from planning.terrain.spec import load_terrain
 
 POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
 YAW_TOLERANCE_RAD = 0.2
 
 # A terrain walk's speed (WalkCommand.terrain_speed_mps; `footfall walk --speed`, REST walk `terrain_speed`): the
-# navigator's speed to a goal and its cap on a steered command, m/s. The default is the navigator's own
-# (NavigatorParams.max_speed_mps, 0.5); a walk may ask for up to its terrain's limit, raised only where a faster walk
-# was measured to hold with the depth sensor (slope and rough seeds 0-3: 1.0 m/s held, no fall; the slope at 1.5
-# fell). The terrain's own caps still apply under it (one tread per step on stairs, the stones speed, the slow gait
-# in clutter, dense no-step ground, obstacles ahead); TERRAIN_SPEED_MIN_MPS is the navigators' min_speed_mps.
+# terrain pipeline's speed to a goal and its cap on a steered command, m/s (DecisionParams.max_speed_mps). The
+# default is the pipeline's own (0.5); a walk may ask for up to its terrain's limit, raised only where a faster walk
+# was measured to hold with the depth sensor (slope and rough: 1.0 m/s). The pipeline's own caps still apply under
+# it (the footholds' moves off their nominal places, the stride, the trailing legs); TERRAIN_SPEED_MIN_MPS is its
+# min_speed_mps.
 TERRAIN_SPEED_DEFAULT_MPS = 0.5
 TERRAIN_SPEED_MIN_MPS = 0.2
 TERRAIN_SPEED_LIMITS_MPS: dict[str, float] = {"slope": 1.0, "rough": 1.0}
@@ -42,19 +43,6 @@ TERRAIN_SPEED_LIMITS_MPS: dict[str, float] = {"slope": 1.0, "rough": 1.0}
 def terrain_speed_limit(terrain: str) -> float:
     """Gives the highest terrain speed a walk on this terrain (a scene name; any other: a user's) may ask, m/s."""
     return TERRAIN_SPEED_LIMITS_MPS.get(terrain, TERRAIN_SPEED_DEFAULT_MPS)
-
-
-def _cadences_up_to(robot: RobotModel, speed: float) -> Any:
-    """Gives the navigator's cadence choice (CadenceParams) with its fastest cadence's body speed raised to `speed`
-    (m/s) when below it: a cadence's speed caps a walk to a goal."""
-    from planning.terrain.cadence import CadenceParams
-
-    fastest = max(CadenceParams().cadences, key=lambda c: c.speed_mps)
-    cadences = tuple(
-        dataclasses.replace(c, speed_mps=max(c.speed_mps, speed)) if c is fastest else c
-        for c in CadenceParams().cadences
-    )
-    return CadenceParams.from_robot(robot, cadences=cadences)
 
 
 def check_terrain_speed(speed: float, terrain: str) -> str | None:
@@ -431,18 +419,35 @@ class WalkCommand:
         False  # True: the centroidal solver turns the step plan into forces (balance QP otherwise)
     )
     settle_s: float = 1.5  # velocity tracking is measured after this much time (s)
-    # Terrain-aware walking (planning.terrain.navigate), to the goal or steered: None = on every terrain other
-    # than flat. terrain_sensor: maps from the simulated depth sensor (False: the scene's ground truth).
+    # Terrain-aware walking (the terrain pipeline, planning.terrain.decision: steppable regions, footholds by the
+    # step QP inside them), to the goal or steered: None = on every terrain other than flat. terrain_sensor: maps
+    # from the simulated depth sensor (False: the scene's ground truth).
     terrain_aware: bool | None = None
     terrain_sensor: bool = True
-    # which terrain stack: "modes" (the navigator's stairs/stones/clutter rules) or "regions" (the unified
-    # pipeline: steppable regions, footholds by the step QP inside them; planning.terrain.decision)
-    terrain_pipeline: str = "modes"
     stop_at_goal: bool = False  # end the run once the body has held within half the goal tolerance for 1 s
     sensor_noise_m: float | None = None  # the depth sensor's range noise floor (1σ, m; None: SensorParams')
     # on a terrain: the speed to a goal and the cap on a steered command (m/s; None: TERRAIN_SPEED_DEFAULT_MPS; at
     # most terrain_speed_limit(terrain))
     terrain_speed_mps: float | None = None
+
+
+def pipeline_params(command: WalkCommand, terrain: str) -> PipelineParams:
+    """Gives the terrain pipeline's parameters for a walk: maps from the sensor or the scene, the walk's terrain
+    speed (checked against the terrain's limit) and the sensor's noise floor."""
+    params = PipelineParams(use_sensor=command.terrain_sensor)
+    speed = command.terrain_speed_mps
+    if speed is not None:
+        why = check_terrain_speed(speed, terrain)
+        if why is not None:
+            raise ValueError(f"WalkCommand.terrain_speed_mps: {why}")
+        params = dataclasses.replace(
+            params, decision=dataclasses.replace(params.decision, max_speed_mps=speed)
+        )
+    if command.sensor_noise_m is not None:
+        perception = params.perception
+        sensor = dataclasses.replace(perception.sensor, noise_m=command.sensor_noise_m)
+        params = dataclasses.replace(params, perception=dataclasses.replace(perception, sensor=sensor))
+    return params
 
 
 class WalkSession(_Session):
@@ -466,7 +471,7 @@ class WalkSession(_Session):
             self.controller.set_goal(*command.goal)
         else:
             self.controller.steer(command.vx, command.vy, command.yaw_rate)
-        self.navigator: Any = None
+        self.pipeline: TerrainPipeline | None = None
         self.collisions: Any = None
         monitors: list[Callable[[RobotState], None]] = []
         aware = command.terrain_aware
@@ -474,47 +479,16 @@ class WalkSession(_Session):
             aware = self.scene.name != "flat"
         if aware:
             from planning.terrain.crossing import BodyCollisionMonitor
-            from planning.terrain.navigate import NavigatorParams, attach_navigator
 
-            params = NavigatorParams(use_sensor=command.terrain_sensor)
-            speed = command.terrain_speed_mps
-            if speed is not None:
-                why = check_terrain_speed(speed, self.scene.name)
-                if why is not None:
-                    raise ValueError(f"WalkCommand.terrain_speed_mps: {why}")
-                params = dataclasses.replace(
-                    params, max_speed_mps=speed, cadence=_cadences_up_to(self.robot, speed)
-                )
-            if command.sensor_noise_m is not None:
-                perception = params.perception
-                sensor = dataclasses.replace(perception.sensor, noise_m=command.sensor_noise_m)
-                params = dataclasses.replace(
-                    params, perception=dataclasses.replace(perception, sensor=sensor)
-                )
-            if command.terrain_pipeline == "regions":
-                from planning.terrain.decision import PipelineParams, TerrainPipeline
-
-                pipeline = PipelineParams(use_sensor=command.terrain_sensor, perception=params.perception)
-                if speed is not None:
-                    decision = dataclasses.replace(pipeline.decision, max_speed_mps=speed)
-                    pipeline = dataclasses.replace(pipeline, decision=decision)
-                self.navigator = TerrainPipeline(
-                    self.robot,
-                    self.world.model,
-                    self.world.data,
-                    command.goal,
-                    self.scene,
-                    pipeline,
-                )
-                self.controller.use_terrain(self.navigator)
-            elif command.terrain_pipeline == "modes":
-                self.navigator = attach_navigator(
-                    self.controller, self.world.model, self.world.data, command.goal, self.scene, params
-                )
-            else:
-                raise ValueError(
-                    f"WalkCommand.terrain_pipeline: {command.terrain_pipeline!r} is not one of modes, regions"
-                )
+            self.pipeline = TerrainPipeline(
+                self.robot,
+                self.world.model,
+                self.world.data,
+                command.goal,
+                self.scene,
+                pipeline_params(command, self.scene.name),
+            )
+            self.controller.use_terrain(self.pipeline)
             self.collisions = BodyCollisionMonitor(self.world)
             monitors.append(self.collisions)
         self._t_at_goal: float | None = None
@@ -601,7 +575,7 @@ class WalkSession(_Session):
         }
 
     def _terrain_report(self) -> dict[str, Any]:
-        """Ground-truth terrain fields: no-step touchdowns, body collisions, crossed, time taken, navigator stats."""
+        """Ground-truth terrain fields: no-step touchdowns, body collisions, crossed, time taken, the pipeline's stats."""
         from planning.terrain.crossing import no_step_touchdowns, terrain_span_x
 
         rec = self.recorder
@@ -635,8 +609,8 @@ class WalkSession(_Session):
                 1 if self.loop.fell and self.collisions.body_collisions == 0 else 0
             )
             out["foot_obstacle_contacts"] = int(self.collisions.foot_on_obstacle)
-        if self.navigator is not None:
-            out["navigator"] = self.navigator.stats.summary()
+        if self.pipeline is not None:
+            out["navigator"] = self.pipeline.stats.summary()
         return out
 
 

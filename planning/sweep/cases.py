@@ -369,7 +369,6 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
         centroidal=w["solver"] == "centroidal",
         terrain_aware=False if w["maps"] == "off" else None,
         terrain_sensor=w["maps"] == "sensor",
-        terrain_pipeline=w.get("terrain_pipeline", "modes"),
         stop_at_goal=w["stop_at_goal"],
         sensor_noise_m=params["sensor_noise_m"],
     )

@@ -141,6 +141,20 @@ class SwingParams:
     # Joint command
     foot_effective_mass_kg: float = 0.9  # lower-leg mass seen at the foot, for the feed-forward force
 
+    # Event-driven selection (fields added last: recordings of older parameters unpickle by position): a replan
+    # reuses the leg's last selection (the preferred policy in tier Success) and only rebuilds its trajectories from
+    # the measured foot, skipping the tier analysis, while none of its inputs changed: the same terrain map object
+    # and swing and stance legs, the stance feet within reuse_stance_tol_m and the target within reuse_target_tol_m
+    # of where they were at the last full analysis, no rise-first hold or trip, no gentler vertical policy on time
+    # again, the foot within reuse_foot_tol_m and reuse_foot_vel_tol_mps of where the last plan put it, and the last
+    # full analysis at most reuse_selection_s ago (0: the full analysis every replan). Replays of recorded walks
+    # (benchmarks.swing_replay, stairs, clutter, flat) select with these values what the full analysis selects.
+    reuse_selection_s: float = 0.03
+    reuse_foot_tol_m: float = 0.002
+    reuse_foot_vel_tol_mps: float = 0.1
+    reuse_stance_tol_m: float = 0.002
+    reuse_target_tol_m: float = 0.0  # on stairs a target 2 mm off can meet the step's edge
+
     def __post_init__(self) -> None:
         for name in (
             "v_max_xy_mps",

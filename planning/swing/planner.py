@@ -195,6 +195,15 @@ class SwingPlanner:
         # rise over a box: the current swing (not a step up) rises first over the boxes on its route (see
         # SwingParams.rise_over_boxes)
         self._over_box = [False] * 4
+        # event-driven selection (SwingParams.reuse_selection_s): per leg, the inputs of the last full tier analysis
+        # (time s, terrain map object, the tick's swing legs, the stance feet, the target), and the legs analysed this
+        # tick
+        self._memo: list[tuple[float, object, frozenset[int], dict[int, np.ndarray], list[float]] | None] = [
+            None
+        ] * 4
+        self._analysed: set[int] = set()
+        self._swinging: frozenset[int] = frozenset()  # this tick's swing legs
+        self.reused = 0  # selections reused without the tier analysis so far (diagnostics)
         self._side = np.sign(robot.p_body_hip[:, 1])
         # per-leg constants resolved once
         self._ramp = np.arange(self.params.samples, dtype=float)  # for the sample times
@@ -230,6 +239,7 @@ class SwingPlanner:
         self._last_t = [-np.inf] * 4
         self._z_clear = [None] * 4
         self._over_box = [False] * 4
+        self._memo = [None] * 4
 
     def _forget(self, leg: int) -> None:
         if self._z_liftoff[leg] is None and self._last_plan[leg] is None and self._trip[leg] is None:
@@ -242,6 +252,7 @@ class SwingPlanner:
         self._z_top[leg] = None
         self._z_clear[leg] = None
         self._over_box[leg] = False
+        self._memo[leg] = None
 
     # ---- the tick -----------------------------------------------------------------------------------------
     def plan(
@@ -287,6 +298,9 @@ class SwingPlanner:
         c, s = math.cos(yaw), math.sin(yaw)
         # the stance legs as obstacles: the same for every swing leg of this tick, set up once for all of them
         fixed = self._stance_obstacles(stance, body, t_now, c, s)
+        self._analysed.clear()
+        swinging = self._swinging = frozenset(seen)
+        terrain = _terrain_of(ground)
         for req in order:
             plan = self._plan_leg(t_now, req, ground, stance, body, planned, fixed)
             blame = plan.colliding_leg
@@ -295,6 +309,8 @@ class SwingPlanner:
                     t_now, req, by_leg[blame], plan, ground, stance, body, planned, fixed
                 )
             planned[req.leg] = plan
+        for leg in self._analysed:
+            self._memo[leg] = (t_now, terrain, swinging, stance, by_leg[leg].p_touchdown.tolist())
         for leg, p in planned.items():
             if self._z_top[leg] is None and p.vertical_policy != "LateTouchdown":
                 self._z_top[leg] = float(np.max(p.positions(np.linspace(t_now, p.t_touchdown, 12))[:, 2]))
@@ -374,6 +390,12 @@ class SwingPlanner:
         trip = self._trip[leg]
         if trip is not None and t_now - trip.t_s > max(pr.trip_response_s, pr.recent_trip_s):
             trip = self._trip[leg] = None
+        if trip is None and pr.reuse_selection_s > 0.0:
+            reused = self._reuse(t_now, req, ground, stance, prob)
+            if reused is not None:
+                self.reused += 1
+                return reused
+        self._analysed.add(leg)
         if trip is not None and t_now - trip.t_s <= pr.trip_response_s:
             return self._trip_plan(prob, req, trip, stance, planned, ground)
         choice = self._select_horizontal(prob)
@@ -389,6 +411,91 @@ class SwingPlanner:
         # over): the hold waits for it, and a gentler one, planned from a foot still rising fast, overshoots
         rising = self._z_clear[leg] is not None
         return self._finish(prob, req, choice, force_aggressive=elevated or rising)
+
+    def _reuse(
+        self,
+        t_now: float,
+        req: SwingRequest,
+        ground: GroundHeightFn,
+        stance: dict[int, np.ndarray],
+        prob: LegProblem,
+    ) -> SwingPlan | None:
+        """The event-driven selection (SwingParams.reuse_selection_s): the last selection's policies rebuilt from
+        this tick's problem, without the tier analysis, when none of its inputs changed beyond the tolerances; None
+        when one did (then the full selection runs)."""
+        pr = self.params
+        leg = req.leg
+        memo, last = self._memo[leg], self._last_plan[leg]
+        if memo is None or last is None:
+            return None
+        t_full, ground_full, swinging, stance_full, target_full = memo
+        if (
+            t_now - t_full > pr.reuse_selection_s
+            or ground_full is not _terrain_of(ground)
+            or last.tier != Tier.SUCCESS
+            or last.horizontal_policy != pr.preferred_policy
+            or last.trip is not None
+            or last.t_touchdown != req.t_touchdown
+            or prob.hold is not None
+            or not prob.z_ok
+            or self._z_clear[leg] is not None
+            or self._over_box[leg]
+            or swinging != self._swinging
+            or stance_full.keys() != stance.keys()
+        ):
+            return None
+        (ax, ay, az), (bx, by, bz) = req.p_touchdown.tolist(), target_full
+        tol = pr.reuse_target_tol_m
+        if abs(ax - bx) > tol or abs(ay - by) > tol or abs(az - bz) > tol:
+            return None
+        tol = pr.reuse_stance_tol_m
+        for j, p in stance.items():
+            (ax, ay, az), (bx, by, bz) = p.tolist(), stance_full[j].tolist()
+            if abs(ax - bx) > tol or abs(ay - by) > tol or abs(az - bz) > tol:
+                return None
+        # the foot where the last plan put it (position and velocity)
+        pp, vv, _ = last.sample(t_now)
+        (px, py, pz), (fx, fy, fz) = pp.tolist(), req.p_world_foot.tolist()
+        tol = pr.reuse_foot_tol_m
+        if abs(px - fx) > tol or abs(py - fy) > tol or abs(pz - fz) > tol:
+            return None
+        (vx, vy, vz), (wx, wy, wz) = vv.tolist(), req.v_world_foot.tolist()
+        tol = pr.reuse_foot_vel_tol_mps
+        if abs(vx - wx) > tol or abs(vy - wy) > tol or abs(vz - wz) > tol:
+            return None
+        c = prob.ctx
+        hp = HORIZONTAL_POLICIES[HORIZONTAL_NAMES.index(last.horizontal_policy)][1](c)
+        if hp is None or not limits_ok(hp, c) or not reaches(hp, c, pr):
+            return None
+        names = [spec.name for spec in self.family]
+        if last.vertical_policy not in names:
+            return None
+        i = names.index(last.vertical_policy)
+        z0, vz0, z1 = prob.z_v_z1
+        for spec in self.family[:i]:  # a gentler policy on time again: the full selection decides
+            if vertical_outlook(spec, c.t0, z0, vz0, z1, c.t_end, prob.z_ceiling, prob.z_ref)[1]:
+                return None
+        if i == len(self.family) - 1:
+            z_poly = prob.z_aggressive
+        else:
+            z_poly, ok = vertical(self.family[i], c.t0, z0, vz0, z1, c.t_end, prob.z_ceiling, prob.z_ref)
+            if not ok:
+                return None
+        return SwingPlan(
+            leg=leg,
+            t_start=c.t0,
+            t_touchdown=req.t_touchdown,
+            p_touchdown=req.p_touchdown,
+            tier=Tier.SUCCESS,
+            horizontal_policy=hp.name,
+            vertical_policy=last.vertical_policy,
+            evaluations=i + 2,
+            x_heading=hp.x,
+            y_heading=hp.y,
+            z=z_poly,
+            cos_yaw=prob.cos_yaw,
+            sin_yaw=prob.sin_yaw,
+        )
 
     def _clear_terrain(
         self,
@@ -1000,6 +1107,12 @@ class SwingPlanner:
         if v.tier == Tier.VIOLATES_CONSTRAINTS:
             v.tier = Tier.DEFAULT
         return self._finish(prob, req, _Choice(hp, v, 1), trip=trip.kind)
+
+
+def _terrain_of(ground: GroundHeightFn) -> object:
+    """The object behind a ground height function: a map's bound method (a new object on every access) by its map,
+    which stays one object until the map is updated."""
+    return getattr(ground, "__self__", ground)
 
 
 # the tiers of a plan that meets the terrain: planned again (SwingParams.rise_over_boxes)

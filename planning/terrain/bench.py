@@ -215,13 +215,13 @@ def bench_terrain_crossings(
     truth_terrains: tuple[str, ...] = ("clutter", "stairs", "stones"),
 ) -> dict:
     """Gives, per terrain, {"crossed", "fell", "no_step_touchdowns", "no_step_scuffs", "body_collisions",
-    "swing_collisions_per_100_steps", "time_s", "rtf", "stairs_mode_s", "reached_goal", "failure_reason",
+    "swing_collisions_per_100_steps", "time_s", "rtf", "reached_goal", "failure_reason",
     "step_qp_ms", "perception_ms"} of a terrain-aware walk to goal_xy in MuJoCo (time_s: simulated seconds until
     the body got past the terrain's end, None when it did not), with the depth sensor's maps (sensor=True) or the
     scene's ground truth; plus "<terrain>/truth" for each of truth_terrains on ground-truth maps (perfect perception:
     what the planning and control do on their own). step_qp_ms: the step QP's replans in that walk, {"p50", "p99",
     "bare_solver_p50", "bare_solver_p99", "solves"} (ms; bare: OSQP's own solves, all rounds of a replan);
-    perception_ms: its perception stage (scan → voxels → maps → keep-outs), {"p50", "p99", "points"}. Slow: a
+    perception_ms: its perception stage (scan → voxels → maps → regions), {"p50", "p99", "points"}. Slow: a
     crossing simulates ~15 s each."""
     from planning.sim.run import RunOptions, WalkCommand, run_walk
 
@@ -243,7 +243,6 @@ def bench_terrain_crossings(
             "swing_collisions_per_100_steps": r["swing_collisions_per_100_steps"],
             "time_s": r["time_to_cross_s"],
             "rtf": r["timing"]["rtf"],
-            "stairs_mode_s": nav.get("stairs_mode_s"),
             "reached_goal": r["success"],
             "failure_reason": r["failure_reason"],
             "step_qp_ms": {

@@ -51,6 +51,7 @@ from planning.terrain.regions import (
     segment_regions,
 )
 from planning.terrain.scenes import TerrainScene
+from planning.terrain.steering import StopParams, stop_short
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
 
 
@@ -1243,7 +1244,8 @@ class PipelineParams:
     what the pipeline's walk changes in the swing planner's parameters (SwingParams fields), the same on every
     terrain (see TerrainSwing); maps: what the pipeline changes in perception.maps (MapParams fields, the same on
     every terrain, see _regions_maps); replan_height_from_plan_m: HandlerParams.replan_height_from_plan_m while walking
-    on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m);
+    on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m); stop: a steered
+    walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint);
     footprint_from_robot, footprint_circles, footprint_margin_m: the body path's footprint is footprint_circles
     circles along the body covering the robot's planform with its legs, grown by footprint_margin_m (m), in place
     of path's footprint_x_m and footprint_r_m (robot_footprint). Off: on the clutter quick spec it gave 6 of 12
@@ -1261,6 +1263,7 @@ class PipelineParams:
     step_qp: StepQPParams = field(default_factory=lambda: _regions_qp())
     swing: TerrainSwing = field(default_factory=lambda: TerrainSwing())
     replan_height_from_plan_m: float = 0.03
+    stop: StopParams = field(default_factory=StopParams)
     footprint_from_robot: bool = False
     footprint_circles: int = 8
     footprint_margin_m: float = 0.0
@@ -1544,6 +1547,9 @@ class TerrainPipeline:
         if self.world is None:
             return None
         d = decide(view, self.world, self.last, self.decision_params)
+        if view.goal is None:
+            xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
+            d = dataclasses.replace(d, command=stop_short(maps, xy, view.yaw, d.command, p.path, p.stop))
         if d.gait != view.gait:
             self.stats.gait_switches += 1
         self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)

@@ -44,6 +44,19 @@ FILE_SUFFIXES = MJCF_SUFFIXES + HEIGHTMAP_SUFFIXES
 MAX_SPEC_CHARS = 2000  # longest terrain string accepted
 
 
+# The terrain pipeline's name (`terrain_pipeline` in sweep specs, REST walks, `footfall walk --terrain-pipeline`): there
+# is one (planning.terrain.decision); "regions" is still accepted so that old specs run, any other name is refused.
+TERRAIN_PIPELINE = "regions"
+PIPELINE_REMOVED = "removed: there is one terrain pipeline (steppable regions; 'regions' is still accepted)"
+
+
+def check_terrain_pipeline(name: str | None) -> str | None:
+    """Gives why a terrain pipeline name (from a spec, a request, the command line) is refused, or None."""
+    if name is None or name == TERRAIN_PIPELINE:
+        return None
+    return f"{name!r}: {PIPELINE_REMOVED}"
+
+
 class TerrainSpecError(ValueError):
     """A terrain that cannot be named or built; the message names the key or value and what is valid."""
 

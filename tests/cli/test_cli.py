@@ -28,6 +28,10 @@ def test_terrains_lists_names(capsys) -> None:
         (["walk", "--terrain", "stairs", "--maps", "lidar"], "--maps 'lidar': one of sensor, truth, off"),
         (["walk", "--terrain", "stairs", "--speed", "1.0"], "--speed 1.0 m/s is outside [0.2, 0.5] m/s"),
         (["walk", "--vx", "1.0", "--speed", "1.0"], "--speed: only on a terrain"),
+        (
+            ["walk", "--terrain", "stairs", "--terrain-pipeline", "modes"],
+            "--terrain-pipeline 'modes': removed",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, needle, capsys) -> None:
@@ -89,7 +93,7 @@ def test_run_writes_report_and_exit_codes(tmp_path, capsys) -> None:
 
 
 def test_walk_maps_truth_writes_the_navigator_section(tmp_path, capsys) -> None:
-    """`walk --terrain slope --maps truth` walks on the scene's own maps: the report carries the navigator's
+    """`walk --terrain slope --maps truth` walks on the scene's own maps: the report carries the terrain pipeline's
     counters (no sensor scans needed, maps rebuilt around the body)."""
     out = tmp_path / "r.json"
     code = main(

@@ -54,9 +54,9 @@ def test_walk_maps_field(client: TestClient) -> None:
     assert bad.status_code == 422 and "maps" in bad.text
 
 
-def test_headless_walk_maps_reach_the_navigator() -> None:
-    """The worker turns "maps" into the walk's map source: "truth" runs the navigator on the scene's maps (its
-    counters in the report), "off" walks blind (no navigator section)."""
+def test_headless_walk_maps_reach_the_terrain_pipeline() -> None:
+    """The worker turns "maps" into the walk's map source: "truth" runs the terrain pipeline on the scene's maps (its
+    counters in the report), "off" walks blind (no `navigator` section: the report's name for the pipeline's counters)."""
     from server.engine import run_headless
 
     job = {"id": "t", "terrain": "slope", "pushes": [], "duration": 1.0, "robot": "spot", "maneuver": None}
@@ -92,6 +92,11 @@ def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
         ({"walk": {"vx": 9.0}}, 422, "body.walk.vx"),
         ({"walk": {"vx": 1.0, "terrain_speed": 1.0}, "terrain": "stairs"}, 422, "body.walk.terrain_speed"),
         ({"walk": {"vx": 1.0, "terrain_speed": 3.0}, "terrain": "slope"}, 422, "body.walk.terrain_speed"),
+        (
+            {"walk": {"goal": [6, 0], "terrain_pipeline": "modes"}, "terrain": "stairs"},
+            422,
+            "body.walk.terrain_pipeline",
+        ),
     ],
 )
 def test_bad_simulation_requests(client: TestClient, body: dict[str, Any], status: int, field: str) -> None:
@@ -150,13 +155,13 @@ def test_the_queue_is_bounded(slow_client: TestClient, settings: Settings) -> No
 
 
 def test_live_walk_on_a_terrain_walks_on_the_scenes_maps() -> None:
-    """A live (studio) walking session on a terrain runs the navigator on the scene's own maps, so it keeps real
+    """A live (studio) walking session on a terrain runs the terrain pipeline on the scene's own maps, so it keeps real
     time: steered onto the slope it keeps its feet, with maps and no sensor."""
     from server.engine import LiveSim, walk_command
 
     sim = LiveSim(walk_command(vx=0.4), "slope")
     for _ in range(int(1.0 / sim.dt)):
         sim.step()
-    nav = sim.session.navigator
+    nav = sim.session.pipeline
     assert nav is not None and nav.perception is None and nav.maps is not None
     assert not sim.fell

@@ -108,3 +108,37 @@ def test_the_float_hips_are_hip_world_many(
     got = SwingPlanner(robot)._hips_at(body, times, leg)
     want = body.hip_world_many(np.array(times), robot.p_body_hip[leg])
     assert np.abs(got - want).max() < 1e-12
+
+
+def test_the_event_driven_selection_reuses_only_while_its_inputs_hold() -> None:
+    """A replan from where the last plan put the foot reuses its selection (the same policies and trajectory the
+    full analysis gives); a moved target, or the full analysis turned off, runs the full selection."""
+    import dataclasses
+
+    from planning.robot import load_robot
+    from planning.swing.params import SwingParams
+    from planning.swing.planner import SwingPlanner
+    from planning.swing.types import SwingRequest
+
+    robot = load_robot("spot")
+    full = SwingPlanner(robot, dataclasses.replace(SwingParams(), reuse_selection_s=0.0))
+    event = SwingPlanner(robot)
+    p0, p1, t1 = np.array([0.3, 0.165, 0.0]), np.array([0.45, 0.165, 0.0]), 0.3
+    first = event.plan(0.0, [SwingRequest(0, p0, np.zeros(3), p1, t1)])[0]
+    full.plan(0.0, [SwingRequest(0, p0, np.zeros(3), p1, t1)])
+    for k in range(1, 6):
+        t = 0.003 * k
+        p, v, _ = first.sample(t)
+        got = event.plan(t, [SwingRequest(0, p, v, p1, t1)])[0]
+        want = full.plan(t, [SwingRequest(0, p, v, p1, t1)])[0]
+        assert (got.horizontal_policy, got.vertical_policy, got.tier) == (
+            want.horizontal_policy,
+            want.vertical_policy,
+            want.tier,
+        )
+        ts = np.linspace(t, t1, 7)
+        assert np.allclose(got.positions(ts), want.positions(ts), atol=1e-9)
+    assert event.reused == 5 and full.reused == 0
+    p, v, _ = first.sample(0.018)
+    event.plan(0.018, [SwingRequest(0, p, v, p1 + np.array([0.01, 0.0, 0.0]), t1)])
+    assert event.reused == 5  # the target moved: the full selection

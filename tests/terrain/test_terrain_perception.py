@@ -78,14 +78,13 @@ def test_a_table_the_body_can_crouch_under_is_no_body_obstacle(clearance_m: floa
 
 def test_the_body_band_tops_out_at_the_crouched_body() -> None:
     # The maps' body band and the decision's crouch agree: whatever the body can crouch under is not a body
-    # obstacle (both pipelines).
+    # obstacle.
     from planning.terrain.decision import DecisionParams
     from planning.terrain.maps import MapParams
-    from planning.terrain.navigate import NavigatorParams
 
     top = MapParams().body_band_m[1]
-    for q in (DecisionParams(), NavigatorParams()):
-        assert top <= q.min_height_m + q.body_top_m + q.head_margin_m + 1e-9
+    q = DecisionParams()
+    assert top <= q.min_height_m + q.body_top_m + q.head_margin_m + 1e-9
 
 
 def test_stairs_rails_are_body_obstacles_in_perceived_maps() -> None:

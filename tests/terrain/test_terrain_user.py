@@ -328,7 +328,7 @@ def test_the_robot_walks_onto_a_user_terrain(tmp_path: Path, kind: str) -> None:
     session = WalkSession(
         WalkCommand(goal=(6.0, 0.0), terrain_sensor=False), RunOptions(terrain=terrain, duration_s=3.0)
     )
-    assert session.navigator is not None  # a user terrain is walked terrain-aware
+    assert session.pipeline is not None  # a user terrain is walked terrain-aware
     report = session.run()
     assert report["terrain"] == terrain and report["seed"] == 0
     assert not report["fell"], report["failure_reason"]

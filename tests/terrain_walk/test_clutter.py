@@ -1,5 +1,5 @@
-"""Clutter: the rules it needs (ground memory, keep-outs around low boxes, swings over boxes, held swing targets,
-the swing-collision count) as fast unit tests, and the closed-loop crossing."""
+"""Clutter: the ground memory, swings over boxes, held swing targets and the swing-collision count as fast unit
+tests, and the closed-loop crossings with the depth sensor on the terrain pipeline, as a rate."""
 
 from __future__ import annotations
 
@@ -10,9 +10,7 @@ from terrain_rates import crossings
 from planning.robot import load_robot
 from planning.sim.run import _TERRAIN_TRIPS, RunOptions, WalkCommand
 from planning.swing import BodyMotion, Box, BoxGround, SwingParams, SwingPlanner, SwingRequest, TripKind
-from planning.terrain.maps import maps_from_grids
 from planning.terrain.memory import GroundMemory
-from planning.terrain.navigate import shin_keepout, with_keepouts
 from planning.terrain.voxels import Columns
 
 RES = 0.03
@@ -60,33 +58,6 @@ def test_memory_follows_the_rolling_window_and_forgets_what_leaves_it() -> None:
     assert np.all(np.isnan(moved.ground_z[-10:]))
     # Bounded: no more cells than the window holds.
     assert mem.n_cells <= h.size
-
-
-# ---- keep-outs around a low box --------------------------------------------------------------------------------
-def test_riser_margin_keeps_the_foot_off_the_sides_of_a_low_box() -> None:
-    xs, h = _box_heights()
-    maps = maps_from_grids((0.0, -0.6), RES, h, np.zeros(h.shape, bool))
-    grown = with_keepouts(maps, 0.0, 1.6, 0.0, 0.27, 0.0, 0.02, riser_margin_m=0.07, riser_height_m=0.04)
-    # 6 cm in front of the box's side (foot radius 3.5 cm + tracking): no-step; 12 cm away: free.
-    assert bool(grown.no_step(0.81 - 0.06, 0.0)) and not bool(grown.no_step(0.81 - 0.12, 0.0))
-    # A drop needs no margin: the box top itself is not made no-step by it.
-    assert not bool(grown.no_step(0.9, 0.0))
-
-
-def test_shin_keepout_with_a_forward_foot_covers_a_low_box_behind() -> None:
-    xs, h = _box_heights()
-    maps = maps_from_grids((0.0, -0.6), RES, h, np.zeros(h.shape, bool))
-    flat_shin = shin_keepout(maps, 0.0, slope=1.6, radius_m=0.0, reach_m=0.27, min_rise_m=0.02)
-    steep_shin = shin_keepout(maps, 0.0, slope=0.9, radius_m=0.04, reach_m=0.27, min_rise_m=0.03)
-    iy = 20  # y = 0, through the box
-    ahead = xs > 0.995
-    # A foot landing ahead of its hip (flat shin) keeps farther from the box behind it than at the nominal stance.
-    far_flat = xs[ahead & flat_shin[:, iy]].max()
-    far_steep = xs[ahead & steep_shin[:, iy]].max()
-    assert far_flat > far_steep
-    assert 1.05 <= far_flat <= 1.11
-    # Nothing is blocked behind the box (the shin trails backward, away from it).
-    assert not flat_shin[xs < 0.8, iy].any()
 
 
 # ---- swings over a box -----------------------------------------------------------------------------------------
@@ -143,38 +114,35 @@ def test_swing_collisions_count_terrain_trips_only() -> None:
     assert TripKind.SELF_CROSSED not in _TERRAIN_TRIPS and TripKind.SELF_UNCROSSED not in _TERRAIN_TRIPS
 
 
-# ---- closed loop -----------------------------------------------------------------------------------------------
-MAX_NO_STEP_TOUCHDOWNS = 4
-MAX_SWING_COLLISIONS = 1.0
-
-
-CLUTTER_SEEDS = (0, 1, 2, 3)
+# (low boxes, platform, scene seed): draws of sweeps/family-clutter.yaml
+CLUTTER_DRAWS = [(5, False, 762), (3, True, 899), (3, False, 945), (8, False, 4)]
 MIN_CLUTTER_CROSSED = 2
+MAX_SWING_COLLISIONS = 2.0  # terrain trips per 100 touchdowns, the median crossing
 
 
+@pytest.mark.sim
 def test_clutter_crossings_with_the_sensor_at_a_rate() -> None:
-    """Crossing toward (6, 0) on four clutter layouts (scene seeds 0-3) with the simulated depth sensor (the
-    product's default): at least MIN_CLUTTER_CROSSED of them clean (no fall, no body collision, crossed, goal
-    reached, at most MAX_NO_STEP_TOUCHDOWNS landings in a no-step place: a foot bouncing on a box edge after a trip
-    logs each re-contact). A rate, not one seed: which layouts cross flips with the last bits of the arithmetic
-    (seed 0 crossed on the machine these rules were tuned on and falls on this one). Every run that crosses keeps
-    its swing collisions (trips against terrain) within MAX_SWING_COLLISIONS per 100 touchdowns at the median.
-    Measured 2026-11-26 on this project's 2-core build machine: seeds 1, 2, 3 cross, seed 0 falls (3 of 4)."""
-    variants = [
-        (
-            f"clutter seed {seed}",
-            WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=True, stop_at_goal=True),
-            RunOptions(terrain="clutter", duration_s=35.0, seed=seed),
+    """Four clutter layouts of the family (3-8 low boxes, with and without the platform) walked to the terrain's
+    goal with the depth sensor: at least MIN_CLUTTER_CROSSED cross clean (no fall, no body collision, crossed, the
+    goal reached, no landing in a no-step place), and the median crossing's swings trip on the terrain at most
+    MAX_SWING_COLLISIONS times per 100 touchdowns. Measured 2026-11-27 on this project's 2-core machine: 3 of 4
+    (seeds 762, 899, 945 crossed at 13.0-15.1 s; seed 4 reached the goal with one no-step touchdown); about 17 s of
+    CPU each."""
+    from planning.terrain.spec import load_terrain
+
+    variants = []
+    for n_low, platform, seed in CLUTTER_DRAWS:
+        terrain = f"clutter:n_low={n_low},platform={str(platform).lower()}"
+        goal = load_terrain(terrain, seed=seed).goal_xy
+        cmd = WalkCommand(goal=(float(goal[0]), float(goal[1])), terrain_sensor=True, stop_at_goal=True)
+        variants.append(
+            (f"{terrain} seed {seed}", cmd, RunOptions(terrain=terrain, seed=seed, duration_s=35.0))
         )
-        for seed in CLUTTER_SEEDS
-    ]
-    n, outcome, reports = crossings(variants, MAX_NO_STEP_TOUCHDOWNS)
+    n, outcome, reports = crossings(variants, max_no_step=0)
     assert n >= MIN_CLUTTER_CROSSED, outcome
     trips = sorted(
         r["swing_collisions_per_100_steps"]
         for r, ok in zip(reports, outcome.values(), strict=True)
         if ok is None
     )
-    assert trips[len(trips) // 2] <= MAX_SWING_COLLISIONS, (
-        trips
-    )  # the median crossing's trips against terrain
+    assert trips[len(trips) // 2] <= MAX_SWING_COLLISIONS, trips

@@ -1,4 +1,4 @@
-"""Closed loop in MuJoCo: the unified terrain pipeline (`terrain_pipeline="regions"`), as a rate over variants.
+"""Closed loop in MuJoCo: the terrain pipeline, as a rate over variants; the removed modes refused by name.
 
 Four walks on the scenes' ground-truth maps (≈8 s simulated each): up the slope onto its plateau (goal at x = 3 m) and over rough
 ground of two seeds. The claim is a rate, ≥ 3 of 4 clean (no fall, no body collision, no no-step touchdown, the
@@ -23,9 +23,7 @@ VARIANTS = [
 def test_regions_pipeline_crosses_slopes_and_rough_ground_at_a_rate() -> None:
     clean = []
     for terrain, seed, goal in VARIANTS:
-        cmd = WalkCommand(
-            goal=goal, terrain_aware=True, terrain_sensor=False, terrain_pipeline="regions", stop_at_goal=True
-        )
+        cmd = WalkCommand(goal=goal, terrain_aware=True, terrain_sensor=False, stop_at_goal=True)
         r = run_walk(cmd, RunOptions(terrain=terrain, seed=seed, duration_s=14.0))
         nav = r["navigator"]
         assert nav["pipeline"] == "regions" and nav["scans"] > 20 and nav["footholds_ms_p50"] is not None
@@ -37,26 +35,21 @@ def test_regions_pipeline_crosses_slopes_and_rough_ground_at_a_rate() -> None:
     assert sum(clean) >= 3, list(zip(VARIANTS, clean, strict=True))
 
 
-def test_an_unknown_pipeline_is_refused_by_name() -> None:
-    cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=False, terrain_pipeline="rules")
-    with pytest.raises(ValueError, match="terrain_pipeline"):
-        run_walk(cmd, RunOptions(terrain="slope", duration_s=0.1))
+def test_the_removed_modes_are_refused_by_name_and_regions_still_accepted() -> None:
+    from planning.sweep.spec import SweepSpecError, parse_spec
 
+    def spec(pipeline: str) -> dict[str, object]:
+        walk = {"goal": "terrain", "maps": "sensor", "terrain_pipeline": pipeline}
+        return {
+            "format": "footfall/sweep@1",
+            "name": "s",
+            "run": {"walk": walk},
+            "defaults": {"terrain": "stairs"},
+        }
 
-@pytest.mark.parametrize("maps", ["truth", "sensor"])
-@pytest.mark.parametrize("family", ["stairs", "stones", "clutter", "slope", "rough"])
-def test_the_shipped_sweeps_run_both_pipelines_on_the_same_variants(family: str, maps: str) -> None:
-    from planning.sweep.cases import expand
-    from planning.sweep.spec import load_spec
-
-    name = f"pipelines-{family}" if maps == "truth" else f"pipelines-sensor-{family}"
-    cases = [c["params"] for c in expand(load_spec(f"sweeps/{name}.yaml"))]
-    by_pipeline: dict[str, set[tuple[object, ...]]] = {"modes": set(), "regions": set()}
-    for p in cases:
-        assert p["terrain"] == family and p["walk"]["maps"] == maps
-        variant = (p["seed"], tuple(p["walk"]["goal"]), tuple(sorted(p["terrain_params"].items())))
-        by_pipeline[p["walk"]["terrain_pipeline"]].add(variant)
-    assert len(by_pipeline["regions"]) == 4 and by_pipeline["regions"] == by_pipeline["modes"]
+    with pytest.raises(SweepSpecError, match="terrain_pipeline.*removed: there is one terrain pipeline"):
+        parse_spec(spec("modes"))
+    assert parse_spec(spec("regions")).name == "s"  # old specs still run
 
 
 @pytest.mark.sim
@@ -66,7 +59,7 @@ def test_regions_pipeline_crouches_under_tables_it_no_longer_sees_at_a_rate() ->
     clearances = [0.56, 0.58, 0.60]
     clean = []
     for c in clearances:
-        cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_pipeline="regions", stop_at_goal=True)
+        cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, stop_at_goal=True)
         r = run_walk(cmd, RunOptions(terrain=f"under-table:clearance_m={c}", duration_s=16.0))
         assert r["navigator"]["pipeline"] == "regions"
         clean.append(bool(r["success"] and not r["fell"] and r["body_collisions"] == 0))

@@ -1,4 +1,4 @@
-"""Closed loop in MuJoCo: the unified terrain pipeline (`terrain_pipeline="regions"`) up staircases, as a rate.
+"""Closed loop in MuJoCo: the terrain pipeline up staircases, as a rate.
 
 Four climbs of 3 steps with the depth sensor (the product default), risers 0.11-0.16 m, treads 0.30-0.39 m, with and
 without railings, each onto a 2 m top landing with the goal 0.8 m along it (the whole body on the landing): no
@@ -34,9 +34,7 @@ def test_regions_pipeline_climbs_staircases_at_a_rate() -> None:
             "x_start_m=0.6,landing_m=2.0"
         )
         x_goal = load_terrain(terrain).span_x[0] + N_STEPS * tread + 0.8
-        cmd = WalkCommand(
-            goal=(x_goal, gy), terrain_aware=True, terrain_pipeline="regions", stop_at_goal=True
-        )
+        cmd = WalkCommand(goal=(x_goal, gy), terrain_aware=True, stop_at_goal=True)
         r = run_walk(cmd, RunOptions(terrain=terrain, duration_s=11.0))
         assert r["navigator"]["pipeline"] == "regions"
         clean.append(

@@ -1,11 +1,9 @@
-"""Stepping stones: the pit detection that switches the stones mode on, foothold snapping along the heading onto
-the nearer stone, the snapped footholds pinned over the QP's answer, the maps' stones rules, and the closed-loop
-crossings (seed 0) on the scene's ground-truth maps and with the depth sensor.
+"""Stepping stones: the step QP's foothold snapping along the heading onto the nearer stone (an option of the step
+QP; the terrain pipeline constrains footholds to their regions instead), and the closed-loop crossings with the
+depth sensor on the terrain pipeline, as a rate.
 """
 
 from __future__ import annotations
-
-import dataclasses
 
 import numpy as np
 import pytest
@@ -14,68 +12,11 @@ from terrain_rates import crossings
 from planning.sim.run import RunOptions, WalkCommand
 from planning.terrain.bodypath import plan_body_path
 from planning.terrain.cadence import CADENCES, CadenceParams, make_request
-from planning.terrain.maps import MapParams, TerrainMaps, build_maps, maps_from_grids, maps_from_scene
-from planning.terrain.navigate import NavigatorParams, StonesMode, TerrainNavigator, pit_between
-from planning.terrain.scenes import build_terrain
-from planning.terrain.stepqp import StepQP, StepQPParams, StepRequest, snap_footholds
-from planning.terrain.voxels import Columns
+from planning.terrain.maps import TerrainMaps, maps_from_grids
+from planning.terrain.stepqp import StepQP, StepQPParams, snap_footholds
 
 RES = 0.03
 CLEAR = 0.06
-MODE = StonesMode()
-
-
-def _detect(h: np.ndarray, z_feet: float = 0.0) -> bool:
-    return pit_between(np.stack([h, h]), z_feet, MODE.drop_m, MODE.return_m)
-
-
-def test_a_pit_between_stones_switches_the_mode_on() -> None:
-    d = np.arange(-0.5, 1.0 + 1e-9, RES)
-    pit = np.where((d > 0.4) & (d < 0.65), -0.3, 0.0)
-    assert _detect(pit)
-    # Standing on a stone jittered 1.5 cm up, the next one 1.5 cm down: still a pit.
-    assert _detect(pit + np.where(d > 0.65, -0.015, 0.015), z_feet=0.015)
-    # A shallow dip (a 10 cm trench) is ground to step in, not a pit.
-    assert not _detect(np.where((d > 0.4) & (d < 0.65), -0.10, 0.0))
-    # Unknown cells (NaN) are neither ground nor pit.
-    assert not _detect(np.where((d > 0.4) & (d < 0.65), np.nan, 0.0))
-
-
-@pytest.mark.parametrize("kind", ["flat", "box", "stairs_up", "stairs_down", "drop", "landing_up"])
-def test_flat_boxes_and_stairs_do_not_switch_the_mode_on(kind: str) -> None:
-    d = np.arange(-0.5, 1.0 + 1e-9, RES)
-    steps = np.floor(np.clip(d - 0.1, 0.0, None) / 0.3)
-    h, z_feet = {
-        "flat": (np.zeros_like(d), 0.0),
-        "box": (np.where((d > 0.3) & (d < 0.6), 0.3, 0.0), 0.0),
-        "stairs_up": (0.15 * steps, 0.0),
-        "stairs_down": (-0.15 * steps, 0.0),
-        "drop": (np.where(d > 0.4, -0.3, 0.0), 0.0),
-        # Climbing: the rear feet one riser below, the ground behind them lower still.
-        "landing_up": (0.15 * np.floor((d + 0.5) / 0.3), 0.45),
-    }[kind]
-    assert not _detect(h, z_feet)
-
-
-def _lines(scene: str, xy: tuple[float, float], seed: int = 0) -> np.ndarray:
-    maps = maps_from_scene(build_terrain(scene, seed=seed), xy, 2.0, params=NavigatorParams().perception.maps)
-    d = np.arange(-MODE.behind_m, MODE.ahead_m + 1e-9, maps.resolution_m)
-    return np.stack([maps.height_at(xy[0] + d, np.full_like(d, xy[1] + y)) for y in (-0.165, 0.165)])
-
-
-def test_detection_on_the_scenes_maps() -> None:
-    # Stones: on from the start platform once a gap and the stone behind it are in the window, and on a stone.
-    assert pit_between(_lines("stones", (0.5, 0.0)), 0.0, MODE.drop_m, MODE.return_m)
-    assert pit_between(_lines("stones", (2.0, 0.0)), 0.0, MODE.drop_m, MODE.return_m)
-    assert not pit_between(_lines("stones", (-1.0, 0.0)), 0.0, MODE.drop_m, MODE.return_m)
-    # Stairs, up and down the flight (feet on the tread under the body), and clutter: never.
-    stairs = build_terrain("stairs")
-    for x in np.arange(0.0, 4.5, 0.25):
-        h = _lines("stairs", (float(x), 0.0))
-        z = float(stairs.ground_height(np.array([x]), np.array([0.165]))[0])
-        assert not pit_between(h, z, MODE.drop_m, MODE.return_m), x
-    for x in np.arange(0.0, 5.0, 0.5):
-        assert not pit_between(_lines("clutter", (float(x), 0.0)), 0.0, MODE.drop_m, MODE.return_m), x
 
 
 def stones_maps(gaps: list[tuple[float, float]]) -> TerrainMaps:
@@ -168,106 +109,30 @@ def test_step_qp_with_snapping_lands_gap_footholds_on_stones_and_reports_its_nom
     assert np.all(sd_nom >= CLEAR - 1e-9)  # the snapped nominals are all on stones with the clearance
 
 
-def test_pinning_takes_free_snapped_nominals_over_the_qp() -> None:
-    nav = object.__new__(TerrainNavigator)  # only the pinning's state: no simulation needed
-    nav.params = NavigatorParams(use_sensor=False)
-    maps = stones_maps([(1.0, 1.3)])
-    plan = StepQP(StepQPParams(snap_search_m=0.45)).solve(
-        _request_at(np.array([[1.5, 0.15], [1.1, -0.15], [0.6, 0.15], [0.2, -0.15]])), maps
-    )
-    assert plan.p_nominal is not None
-    nom = plan.p_nominal.copy()
-    nom[1] = [1.15, -0.15]  # pretend one nominal is in the gap: that one keeps the QP's answer
-    plan = dataclasses.replace(plan, p_nominal=nom)
-    out = nav._pin_snapped(plan, maps)
-    free = np.asarray(maps.sdf_step(nom[:, 0], nom[:, 1])) >= MODE.pin_min_sdf_m
-    assert not free[1] and free.sum() >= 3
-    np.testing.assert_allclose(out.footholds[free, :2], nom[free])
-    np.testing.assert_allclose(out.footholds[~free], plan.footholds[~free])
+# (gaps m, stone depths m, stone widths m, top jitter m, scene seed): draws of sweeps/family-stones.yaml
+STONES_DRAWS = [
+    ("0.25..0.3", "0.3..0.4", "0.4..0.5", 0.0027, 234),
+    ("0.2..0.25", "0.35..0.45", "0.4..0.5", 0.0219, 813),
+    ("0.25..0.3", "0.3..0.4", "0.4..0.5", 0.0222, 169),
+    ("0.15..0.2", "0.25..0.35", "0.4..0.5", 0.0137, 506),
+]
+MIN_STONES_CROSSED = 2
 
 
-def _request_at(p4: np.ndarray) -> StepRequest:
-    path = plan_body_path(None, (0.0, 0.0), 0.0, (4.0, 0.0))
-    cad = next(c for c in CADENCES if c.name == "medium")
-    cp = CadenceParams()
-    req = make_request(cad, path, cp, 8, np.asarray(cp.feet_body_xy), s_now_m=0.0, phase_s=0.05)
-    p = req.p_nominal.copy()
-    p[:4] = p4
-    return dataclasses.replace(req, p_nominal=p)
+@pytest.mark.sim
+def test_stones_crossings_with_the_sensor_at_a_rate() -> None:
+    """Four stepping-stone fields of the family (gaps 0.15-0.30 m, tops jittered up to 2.2 cm) walked to the
+    terrain's goal with the depth sensor: at least MIN_STONES_CROSSED cross clean (no fall, no body collision,
+    crossed, the goal reached, no landing in a no-step place). Measured 2026-11-27 on this project's 2-core machine: 3
+    of 4 (seeds 234, 813, 169 crossed at 28.7 s; 506, clean in the family sweep, fell at 15.0 s: a front lower leg
+    on a stone); about 32 s of CPU each."""
+    from planning.terrain.spec import load_terrain
 
-
-STONES_TRUTH_SEEDS = (0, 1, 2, 3)
-MIN_STONES_CROSSED = 1
-
-
-def test_stones_crossings_on_ground_truth_maps_at_a_rate() -> None:
-    """Ground-truth maps (terrain_sensor=False) isolate planning and control from perception: four stone layouts
-    (scene seeds 0-3), at least MIN_STONES_CROSSED of them crossed clean (no fall, no body collision, crossed, at
-    the goal, at most one landing in a no-step place: a hind foot 2.5 cm from the front edge of the stone behind),
-    each in the stones mode for more than 10 s. With the depth sensor the stones cross less often (the shipped sweep
-    `footfall sweep sweeps/stones.yaml` measures it; README). Measured 2026-11-26 on this project's 2-core build
-    machine: seeds 1 and 2 cross, 0 and 3 fall (2 of 4; 4 of 4 on the machine the stones mode was tuned on)."""
-    variants = [
-        (
-            f"stones seed {seed} (truth)",
-            WalkCommand(goal=(6.0, 0.0), terrain_aware=True, terrain_sensor=False, stop_at_goal=True),
-            RunOptions(terrain="stones", duration_s=30.0, seed=seed),
-        )
-        for seed in STONES_TRUTH_SEEDS
-    ]
-    n, outcome, reports = crossings(variants, max_no_step=1)
+    variants = []
+    for gap, depth, width, jitter, seed in STONES_DRAWS:
+        terrain = f"stones:gap_m={gap},stone_depth_m={depth},stone_width_m={width},jitter_z_m={jitter}"
+        goal = load_terrain(terrain, seed=seed).goal_xy
+        cmd = WalkCommand(goal=(float(goal[0]), float(goal[1])), terrain_sensor=True, stop_at_goal=True)
+        variants.append((f"stones seed {seed}", cmd, RunOptions(terrain=terrain, seed=seed, duration_s=35.0)))
+    n, outcome, _ = crossings(variants, max_no_step=0)
     assert n >= MIN_STONES_CROSSED, outcome
-    for r, ok in zip(reports, outcome.values(), strict=True):
-        if ok is None:
-            assert r["navigator"]["stones_mode_s"] > 10.0 and r["navigator"]["stairs_mode_s"] == 0.0
-
-
-def _stone_columns() -> Columns:
-    """A stone (x 0..0.3 m, top 2 cm up) in a pit 31 cm deep (x -0.3..0 and beyond 0.3) after a platform at 0, as
-    the sensor sees it: the stone's face toward the platform occupies the pit cell in front of it up to 3 cm."""
-    xs = np.arange(-0.6, 0.6 + 1e-9, RES)
-    ys = np.arange(-0.45, 0.45 + 1e-9, RES)
-    ground = np.full((xs.size, ys.size), -0.31)
-    ground[xs < -0.3 - 1e-9] = 0.0
-    ground[(xs > 1e-9) & (xs < 0.31)] = 0.02
-    z0, nz = -0.99, 90
-    zs = z0 + np.arange(nz) * RES
-    obstacle = np.zeros((*ground.shape, nz), dtype=bool)
-    face = int(np.argmin(np.abs(xs + RES / 2)))
-    obstacle[face, :, (zs > -0.3) & (zs < 0.04)] = True
-    return Columns((float(xs[0]), float(ys[0])), RES, ground, obstacle, z0, RES)
-
-
-def test_stones_map_rules_keep_a_stone_steppable_and_its_edge_no_body_obstacle() -> None:
-    """Default maps mark a stone standing more than max_step_height_m above the pit beside it no-step and its top
-    edge seen from the pit a body obstacle (the body path then veers off the stones); the stones mode's map
-    parameters do neither, and the pit and the face stay no-step."""
-    cols = _stone_columns()
-    default = NavigatorParams().perception.maps
-    stones = dataclasses.replace(default, **MODE.maps)
-    assert isinstance(stones, MapParams) and stones != default
-    x, y = np.array([0.15, -0.15, 0.15]), np.array([0.0, 0.0, 0.3])  # stone middle, pit, stone off the line
-    m0, m1 = build_maps(cols, default), build_maps(cols, stones)
-    assert bool(m0.no_step(0.15, 0.0)) and bool(np.any(m0.body_obstacle))
-    assert not bool(m1.no_step(0.15, 0.0)) and not bool(np.any(m1.body_obstacle))
-    assert list(np.asarray(m1.no_step(x, y), dtype=bool)) == [False, True, False]
-    assert bool(m1.no_step(-0.015, 0.0))  # the face itself
-
-
-def test_stones_fill_reads_the_shadow_behind_a_stone_as_pit() -> None:
-    """The sensor never sees the pit right behind a stone's far edge; filled from its neighbors that shadow takes
-    the stone's height (here a stone 6 cm longer than it is). With fill_low_radius_m it takes the pit's, so the far
-    edge is an edge."""
-    cols = _stone_columns()
-    xs = cols.origin_xy[0] + np.arange(cols.ground_z.shape[0]) * RES
-    ground = cols.ground_z.copy()
-    ground[(xs > 0.31) & (xs < 0.44)] = np.nan  # the shadow, x 0.33..0.42
-    cols = dataclasses.replace(cols, ground_z=ground)
-    stones = dataclasses.replace(NavigatorParams().perception.maps, **MODE.maps)
-    m0 = build_maps(cols, dataclasses.replace(stones, fill_low_radius_m=None))
-    m1 = build_maps(cols, stones)
-    assert float(m0.height_at(0.33, 0.0)) > 0.0 and not bool(m0.no_step(0.3, 0.0))
-    assert (
-        float(m1.height_at(0.33, 0.0)) < -0.25 and bool(m1.no_step(0.33, 0.0)) and bool(m1.no_step(0.3, 0.0))
-    )
-    assert not bool(m1.no_step(0.15, 0.0))

@@ -1,6 +1,6 @@
 """Closed loop in MuJoCo with the depth sensor: the regions pipeline's body path over stepping stones, as a rate.
 
-The stones quick spec's draws (sweeps/family-stones-regions.yaml) walked for their first 4 s with the sensor: the
+The stones quick spec's draws (sweeps/family-stones-quick.yaml) walked for their first 4 s with the sensor: the
 pit slot between a left and a right stone shows the stones' top edges 0.3 m above the pit floor, which the body
 band measured from the slot's own ground made a body obstacle, and the body path swerved 0.3-0.6 m aside around it
 (then walked the feet off the stones). With the band also measured from the ground the robot stands on
@@ -30,7 +30,7 @@ def test_the_body_path_over_stones_stays_on_the_line_with_the_sensor_at_a_rate()
     straight = []
     for terrain, seed in DRAWS:
         scene = load_terrain(terrain, seed=seed)
-        cmd = WalkCommand(goal=scene.goal_xy, terrain_pipeline="regions")
+        cmd = WalkCommand(goal=scene.goal_xy)
         sess = WalkSession(cmd, RunOptions(terrain=terrain, seed=seed, duration_s=4.0))
         worst = [0.0]
 
@@ -39,7 +39,7 @@ def test_the_body_path_over_stones_stays_on_the_line_with_the_sensor_at_a_rate()
         def watch(
             _s: object, sess: WalkSession = sess, worst: list[float] = worst, y0: float = y_goal
         ) -> None:
-            path = sess.navigator.path
+            path = sess.pipeline.path
             if path is not None:
                 worst[0] = max(worst[0], float(np.max(np.abs(path.xy[:, 1] - y0))))
 
