@@ -167,7 +167,7 @@ class DecisionParams:
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
     lost_hold_m: float = 0.03
-    gap_dip_m: float | None = None
+    gap_dip_m: float | None = 0.05
     gap_flight_steps: int | None = 2
     count_step_rise: bool = True
     own_side_m: float | None = 0.0
