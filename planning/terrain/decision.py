@@ -78,6 +78,13 @@ class DecisionParams:
     count_step_rise: the swing time counts as well how far a next foothold lies above its foot where the two are on
     different regions (step_rise: a riser climbed, a box stepped onto; a slope is one region), so a swing up a
     riser has the time to rise over it (the 0.3 s swings of `climb` are too short for a 0.12 m riser);
+    free_rise_m: a rise (hump plus step rise) below this asks no more than base_swing_s (the swing's own lift clears
+    it): on a plain slope the swing ground, dilated by the foot's radius, stands 3-20 mm above the straight swing
+    (measured at 1.0 m/s up the slope), which alone picked `climb` there; max_stride_m: the stride (the body's
+    travel in a gait cycle) of the climb and slow gaits; fast_stride_reach_frac: the walk's own gait (ground where
+    its swings suffice) strides as far as a foot placed that far ahead of its hip and lifted that far behind it,
+    each at this share of the leg's full length with the hip at the standing height (Spot at 0.9: 0.57 m, 1.15
+    m/s at the trot's 0.5 s cycle; max_stride_m where the view has no leg lengths);
     slow_gait, slow_gap_m, gap_behind_m, gap_ahead_m: the
     gait where a gap wider than slow_gap_m lies on the feet's lines from gap_behind_m behind the body to
     gap_ahead_m ahead (far enough ahead that the switch is made before the front feet reach it); lookahead_m, yaw_gain,
@@ -139,7 +146,9 @@ class DecisionParams:
     gap_behind_m: float = 0.3
     gap_ahead_m: float = 1.3
     climb_gaits: tuple[str, ...] = ("climb", "stairs")
+    free_rise_m: float = 0.03
     max_stride_m: float = 0.3
+    fast_stride_reach_frac: float = 0.9
     base_swing_s: float = 0.2
     rise_speed_mps: float = 0.75
     gait_hold_s: float = 2.0
@@ -307,7 +316,7 @@ def decide(
     share = lo + (1.0 - lo) * frac
     cap = p.max_speed_mps * share
     gait = cadence(view, world, last, p)
-    cap = min(cap, p.max_stride_m / get_gait(gait).cycle_s, trail_speed(view, last, p))
+    cap = min(cap, stride_m(view, gait, p) / get_gait(gait).cycle_s, trail_speed(view, last, p))
     command = (
         follow_path(view, world.path, cap, p) if view.goal is not None else capped(view.operator, cap, p)
     )
@@ -318,6 +327,15 @@ def decide(
     height = view.standing_height_m + float(np.clip(offset, -p.max_height_offset_m, p.max_height_offset_m))
     height = min(height, crouch_height(view, world.maps, p, world.overhangs), reach_height(view, pitch, p))
     return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap)
+
+
+def stride_m(view: TerrainView, gait: str, p: DecisionParams) -> float:
+    """Gives the longest stride (m a gait cycle) of the gait: the leg's reach (fast_stride_reach_frac) for the walk's
+    own gait, max_stride_m for the others (and where the view has no leg lengths)."""
+    if gait != view.fast_gait or view.l_upper_m <= 0.0:
+        return p.max_stride_m
+    reach = p.fast_stride_reach_frac * (view.l_upper_m + view.l_lower_m)
+    return max(2.0 * math.sqrt(max(reach**2 - view.standing_height_m**2, 0.0)), p.max_stride_m)
 
 
 def trail_speed(view: TerrainView, last: FootholdDecision | None, p: DecisionParams) -> float:
@@ -344,8 +362,8 @@ def trail_speed(view: TerrainView, last: FootholdDecision | None, p: DecisionPar
 def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, p: DecisionParams) -> str:
     """Gives the gait: the slow gait where a gap longer than slow_gap_m lies on the feet's lines ahead (gap_ahead);
     else the first of the walk's own gait and then climb_gaits whose swing lasts long enough to rise over the
-    ground above the straight line of the next swings (swing_hump; base_swing_s + rise / rise_speed_mps); a gait
-    switch is held for gait_hold_s."""
+    ground above the straight line of the next swings (swing_hump; base_swing_s + rise / rise_speed_mps, a rise
+    below free_rise_m counting 0); a gait switch is held for gait_hold_s."""
     if view.t_s - view.gait_since_s < p.gait_hold_s:
         return view.gait
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
@@ -353,6 +371,8 @@ def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | Non
     rise = swing_hump(view, world, last, p.hump_above_start)
     if p.count_step_rise:
         rise += step_rise(view, world, last)
+    if rise < p.free_rise_m:
+        rise = 0.0
     need = p.base_swing_s + rise / p.rise_speed_mps
     for name in (view.fast_gait, *p.climb_gaits):
         if get_gait(name).swing_s >= need - 1e-9:
