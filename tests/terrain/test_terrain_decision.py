@@ -32,6 +32,7 @@ from planning.terrain.decision import (
     own_side,
     pitched_nominals,
     reach_height,
+    stride_m,
     swing_ground,
     swing_hump,
     trail_speed,
@@ -301,6 +302,37 @@ def test_a_swing_rises_over_a_nosing_going_up_but_not_stepping_down_past_it() ->
     # up the same step: the nosing is above both, a slower gait with longer swings
     line, above, gait = going(0.45, 1.2, 0.6, 0.9)
     assert above > 0.05 and above == pytest.approx(line) and gait in P.climb_gaits
+
+
+def test_a_plain_slope_is_the_walks_own_gait_ground_at_the_legs_stride() -> None:
+    """A 15° slope is one region: the dilated swing ground stands a few mm above a straight swing up it, below
+    free_rise_m, so the walk keeps its trot (without the threshold it took `climb`), and the trot strides as far
+    as the legs reach (1.0 m/s at its 0.5 s cycle), the climb gaits max_stride_m."""
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    h = np.broadcast_to(math.tan(math.radians(15.0)) * xs[:, None], (110, 60)).astype(np.float64)
+    world = _world(xs, ys, h)
+    legs = {"l_upper_m": 0.32, "l_lower_m": 0.34}
+    view = dataclass_replace(_view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3])), **legs)
+    feet = view.p_world_foot.copy()
+    feet[:, 2] = np.tan(math.radians(15.0)) * feet[:, 0] + view.foot_radius_m
+    chosen = feet.copy()
+    chosen[:, 0] += 0.25
+    chosen[:, 2] = np.tan(math.radians(15.0)) * chosen[:, 0]
+    last = FootholdDecision(
+        np.zeros((0, 3)), (), None, 0.0, FootholdMemory(np.full(4, np.nan), chosen, np.full(4, np.nan))
+    )
+    view = dataclass_replace(view, p_world_foot=feet)
+    rise = swing_hump(view, world, last, True)
+    assert 0.0 < rise < P.free_rise_m
+    assert cadence(view, world, last, P) == "trot"
+    assert cadence(view, world, last, dataclass_replace(P, free_rise_m=0.0)) in P.climb_gaits
+    stride = 2.0 * math.sqrt((P.fast_stride_reach_frac * 0.66) ** 2 - 0.52**2)
+    assert stride_m(view, "trot", P) == pytest.approx(stride) and stride > 0.5
+    assert stride_m(view, "climb", P) == P.max_stride_m
+    fast = dataclass_replace(P, max_speed_mps=1.0)
+    cmd = dataclass_replace(view, operator=SteeringCommand(1.0, 0.0, 0.0))
+    assert decide(cmd, world, last, fast).command.vx == pytest.approx(1.0)
 
 
 def test_a_trailing_stance_foot_paces_the_body_and_holds_its_height_within_the_legs_reach() -> None:
