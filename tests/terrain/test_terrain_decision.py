@@ -24,6 +24,7 @@ from planning.terrain.decision import (
     cadence,
     choose_footholds,
     choose_region,
+    climb_top_speed,
     crouch_height,
     decide,
     leg_bounds,
@@ -305,9 +306,10 @@ def test_a_swing_rises_over_a_nosing_going_up_but_not_stepping_down_past_it() ->
 
 
 def test_a_plain_slope_is_the_walks_own_gait_ground_at_the_legs_stride() -> None:
-    """A 15° slope is one region: the dilated swing ground stands a few mm above a straight swing up it, below
-    free_rise_m, so the walk keeps its trot (without the threshold it took `climb`), and the trot strides as far
-    as the legs reach (1.0 m/s at its 0.5 s cycle), the climb gaits max_stride_m."""
+    """A 15° slope: the dilated swing ground stands a few mm above a straight swing up it, below free_rise_m, so at
+    a 1.0 m/s allowance (above the climb gaits' 0.5) the walk keeps its trot (without the threshold, or at 0.5 m/s,
+    it takes `climb`), and the trot strides as far as the legs reach (1.0 m/s at its 0.5 s cycle), the climb gaits
+    max_stride_m."""
     xs = -0.6 + np.arange(110) * RES
     ys = -0.9 + np.arange(60) * RES
     h = np.broadcast_to(math.tan(math.radians(15.0)) * xs[:, None], (110, 60)).astype(np.float64)
@@ -325,12 +327,14 @@ def test_a_plain_slope_is_the_walks_own_gait_ground_at_the_legs_stride() -> None
     view = dataclass_replace(view, p_world_foot=feet)
     rise = swing_hump(view, world, last, True)
     assert 0.0 < rise < P.free_rise_m
-    assert cadence(view, world, last, P) == "trot"
-    assert cadence(view, world, last, dataclass_replace(P, free_rise_m=0.0)) in P.climb_gaits
+    fast = dataclass_replace(P, max_speed_mps=1.0)
+    assert climb_top_speed(view, P) == pytest.approx(0.5)
+    assert cadence(view, world, last, fast) == "trot"
+    assert cadence(view, world, last, dataclass_replace(fast, free_rise_m=0.0)) in P.climb_gaits
+    assert cadence(view, world, last, P) in P.climb_gaits
     stride = 2.0 * math.sqrt((P.fast_stride_reach_frac * 0.66) ** 2 - 0.52**2)
     assert stride_m(view, "trot", P) == pytest.approx(stride) and stride > 0.5
     assert stride_m(view, "climb", P) == P.max_stride_m
-    fast = dataclass_replace(P, max_speed_mps=1.0)
     cmd = dataclass_replace(view, operator=SteeringCommand(1.0, 0.0, 0.0))
     assert decide(cmd, world, last, fast).command.vx == pytest.approx(1.0)
 
