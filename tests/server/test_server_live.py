@@ -20,6 +20,7 @@ def live(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestClient]:
 
 
 def test_live_session_state_and_plan(live: TestClient) -> None:
+    started = time.monotonic()
     r = live.post("/sessions", json={"terrain": "flat", "mode": "maneuver"})
     assert r.status_code == 201
     sid = r.json()["id"]
@@ -32,8 +33,10 @@ def test_live_session_state_and_plan(live: TestClient) -> None:
     while (st := live.get(f"/sessions/{sid}/state").json())["t"] <= 1.0 and time.monotonic() < end:
         time.sleep(0.1)
     assert st["status"] == "running" and not st["fell"] and st["t"] > 1.0
-    # paced to the wall clock: never ahead of real time
-    assert 0.0 < st["realtime_factor"] <= 1.15
+    # paced to the wall clock: never ahead of real time in total (the windowed rate may exceed 1 for a moment while
+    # a session that fell behind on a loaded machine catches up on its owed time, at most MAX_LAG_S)
+    assert st["realtime_factor"] > 0.0
+    assert st["t"] <= time.monotonic() - started + 0.05
     plan = live.get(f"/sessions/{sid}/plan").json()["overlays"]
     assert {"contact_forces", "body_path", "capture_point"} <= set(plan)
     forces = plan["contact_forces"]["forces_n"]
