@@ -83,8 +83,8 @@ class DecisionParams:
     plain slope the swing ground, dilated by the foot's radius, stands up to 29 mm above the straight swing
     (measured at 1.0 m/s on slope and rough), which alone picked `climb` there (0.05 m: under the swing's gentlest
     apex, 0.06 m); at allowances the climb gaits reach every
-    rise counts (measured: the tolerance at 0.5 m/s too, the stairs quick spec 4 of 12 clean, against the 9 of 12
-    last measured without it; 5 fell); max_stride_m: the stride (the body's
+    rise counts (measured: the tolerance at 0.5 m/s too, the stairs quick spec 4 of 12 clean, against 8 of 12
+    without it, main at f821bae; 5 fell); max_stride_m: the stride (the body's
     travel in a gait cycle) of the climb and slow gaits; fast_stride_reach_frac: the walk's own gait (ground where
     its swings suffice) strides as far as a foot placed that far ahead of its hip and lifted that far behind it,
     each at this share of the leg's full length with the hip at the standing height (Spot at 0.9: 0.57 m, 1.15
