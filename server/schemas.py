@@ -19,6 +19,7 @@ from pydantic import (
 )
 
 from planning.maneuver.spec import NAME_PATTERN
+from planning.terrain.spec import terrain_pipeline_name
 from server.engine import steering_gaits, terrain_names
 
 TerrainName = Literal[terrain_names()]  # type: ignore[valid-type]
@@ -112,22 +113,12 @@ class WalkIn(_In):
         description="on a terrain: the speed to the goal and the cap on vx/vy, m/s (default 0.5; up to 1.0 on "
         "slope and rough, 0.5 elsewhere; the terrain's own caps still apply)",
     )
-    terrain_pipeline: str | None = Field(
+    terrain_pipeline: Annotated[str | None, AfterValidator(terrain_pipeline_name)] = Field(
         None,
         max_length=64,
         description="removed: there is one terrain pipeline; 'regions' (its name) is still accepted, any other "
         "value is refused",
     )
-
-    @field_validator("terrain_pipeline")
-    @classmethod
-    def _one_pipeline(cls, v: str | None) -> str | None:
-        from planning.terrain.spec import check_terrain_pipeline
-
-        why = check_terrain_pipeline(v)
-        if why is not None:
-            raise ValueError(why)
-        return v
 
 
 # a library name: documented with its pattern, checked by the library (its message says what a name is)

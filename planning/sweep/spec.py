@@ -11,7 +11,9 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from planning.terrain.spec import terrain_pipeline_name
 
 FORMAT = "footfall/sweep@1"
 MAX_CASES = 100_000  # the most cases one sweep may expand to
@@ -74,23 +76,13 @@ class Walk(_Model):
     yaw_rate: Annotated[float, Field(ge=-5, le=5)] = 0.0
     gait: str = "trot"
     maps: Literal["sensor", "truth", "off"] = "sensor"
-    terrain_pipeline: str | None = Field(
+    terrain_pipeline: Annotated[str | None, AfterValidator(terrain_pipeline_name)] = Field(
         None,
         description="removed: there is one terrain pipeline; 'regions' (its name) is still accepted so that old "
         "specs run, any other value is refused",
     )
     solver: Literal["balance", "centroidal"] = "balance"
     stop_at_goal: bool = True
-
-    @field_validator("terrain_pipeline")
-    @classmethod
-    def _one_pipeline(cls, v: str | None) -> str | None:
-        from planning.terrain.spec import check_terrain_pipeline
-
-        why = check_terrain_pipeline(v)
-        if why is not None:
-            raise ValueError(why)
-        return v
 
 
 class Probe(_Model):

@@ -57,6 +57,15 @@ def check_terrain_pipeline(name: str | None) -> str | None:
     return f"{name!r}: {PIPELINE_REMOVED}"
 
 
+def terrain_pipeline_name(name: str | None) -> str | None:
+    """A pydantic after-validator for a `terrain_pipeline` field (sweep specs, REST requests): the name, or a
+    ValueError saying why it is refused."""
+    why = check_terrain_pipeline(name)
+    if why is not None:
+        raise ValueError(why)
+    return name
+
+
 class TerrainSpecError(ValueError):
     """A terrain that cannot be named or built; the message names the key or value and what is valid."""
 
