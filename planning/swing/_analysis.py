@@ -71,7 +71,7 @@ class LegProblem:
     p_target: np.ndarray  # (3,)
     z_aggressive: Poly1D
     z_ok: bool  # the most aggressive vertical policy arrives on time
-    zs_aggressive: np.ndarray  # (K,)
+    zs_aggressive: np.ndarray | None  # (K,) (None in a problem set up for the event-driven selection only)
     others: list[OtherLeg]
     hips: np.ndarray  # (3,3) world hip positions at the first, middle and last of ts
     ground: GroundHeightFn
@@ -323,6 +323,7 @@ class Analyzer:
             obstacle, ring_g, any_obstacle = self._no_obstacle(len(xw)), None, False
         v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g, any_obstacle)
         zs = prob.zs_aggressive
+        assert zs is not None, "analyze: a problem set up without the aggressive policy's samples"
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         v.near_others = self._near_others(prob, xw, yw)
         if v.near_others:

@@ -119,6 +119,14 @@ class SwingPlan:
             np.array([c * xa - s * ya, s * xa + c * ya, za]),
         )
 
+    def state_floats(self, t: float) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """sample(t)'s position and velocity as floats (the same arithmetic, without the arrays)."""
+        xp, xv, _ = self.x_heading.state(t)
+        yp, yv, _ = self.y_heading.state(t)
+        zp, zv, _ = self.z.state(t)
+        c, s = self.cos_yaw, self.sin_yaw
+        return (c * xp - s * yp, s * xp + c * yp, zp), (c * xv - s * yv, s * xv + c * yv, zv)
+
     def positions(self, ts: np.ndarray) -> np.ndarray:
         """Returns world positions (K,3) at times ts (K,)."""
         hx, hy = self.x_heading.sample_many(ts), self.y_heading.sample_many(ts)
@@ -386,15 +394,19 @@ class SwingPlanner:
         c, s = math.cos(yaw), math.sin(yaw)
         if horizon <= 0.0:
             return self._late(t_now, req, c, s)
-        prob = self._problem(t_now, req, ground, fixed, body, planned, c, s)
         trip = self._trip[leg]
         if trip is not None and t_now - trip.t_s > max(pr.trip_response_s, pr.recent_trip_s):
             trip = self._trip[leg] = None
-        if trip is None and pr.reuse_selection_s > 0.0:
-            reused = self._reuse(t_now, req, ground, stance, prob)
+        # the last selection may be reused: the set-up leaves out what only the tier analysis needs, and completes
+        # it when the analysis runs after all
+        may_reuse = trip is None and pr.reuse_selection_s > 0.0 and self._may_reuse(t_now, req, ground, stance)
+        prob = self._problem(t_now, req, ground, fixed, body, planned, c, s, full=not may_reuse)
+        if may_reuse:
+            reused = self._reuse(t_now, req, prob)
             if reused is not None:
                 self.reused += 1
                 return reused
+            self._complete(prob, req)
         self._analysed.add(leg)
         if trip is not None and t_now - trip.t_s <= pr.trip_response_s:
             return self._trip_plan(prob, req, trip, stance, planned, ground)
@@ -412,22 +424,17 @@ class SwingPlanner:
         rising = self._z_clear[leg] is not None
         return self._finish(prob, req, choice, force_aggressive=elevated or rising)
 
-    def _reuse(
-        self,
-        t_now: float,
-        req: SwingRequest,
-        ground: GroundHeightFn,
-        stance: dict[int, np.ndarray],
-        prob: LegProblem,
-    ) -> SwingPlan | None:
-        """The event-driven selection (SwingParams.reuse_selection_s): the last selection's policies rebuilt from
-        this tick's problem, without the tier analysis, when none of its inputs changed beyond the tolerances; None
-        when one did (then the full selection runs)."""
+    def _may_reuse(
+        self, t_now: float, req: SwingRequest, ground: GroundHeightFn, stance: dict[int, np.ndarray]
+    ) -> bool:
+        """The event-driven selection's conditions that do not need this tick's problem: the last full analysis
+        recent, on the same map and legs, its selection the preferred policy in Success, not rising first, the same
+        touchdown time; the target and the stance feet within their tolerances."""
         pr = self.params
         leg = req.leg
         memo, last = self._memo[leg], self._last_plan[leg]
         if memo is None or last is None:
-            return None
+            return False
         t_full, ground_full, swinging, stance_full, target_full = memo
         if (
             t_now - t_full > pr.reuse_selection_s
@@ -436,30 +443,40 @@ class SwingPlanner:
             or last.horizontal_policy != pr.preferred_policy
             or last.trip is not None
             or last.t_touchdown != req.t_touchdown
-            or prob.hold is not None
-            or not prob.z_ok
             or self._z_clear[leg] is not None
             or self._over_box[leg]
             or swinging != self._swinging
             or stance_full.keys() != stance.keys()
         ):
-            return None
+            return False
         (ax, ay, az), (bx, by, bz) = req.p_touchdown.tolist(), target_full
         tol = pr.reuse_target_tol_m
         if abs(ax - bx) > tol or abs(ay - by) > tol or abs(az - bz) > tol:
-            return None
+            return False
         tol = pr.reuse_stance_tol_m
         for j, p in stance.items():
             (ax, ay, az), (bx, by, bz) = p.tolist(), stance_full[j].tolist()
             if abs(ax - bx) > tol or abs(ay - by) > tol or abs(az - bz) > tol:
-                return None
+                return False
+        return True
+
+    def _reuse(self, t_now: float, req: SwingRequest, prob: LegProblem) -> SwingPlan | None:
+        """The event-driven selection (SwingParams.reuse_selection_s), once _may_reuse holds: the last selection's
+        policies rebuilt from this tick's problem, without the tier analysis, when the foot is where the last plan put
+        it and the problem asks for no hold and arrives on time; None otherwise (then the full selection runs)."""
+        pr = self.params
+        leg = req.leg
+        last = self._last_plan[leg]
+        assert last is not None
+        if prob.hold is not None or not prob.z_ok or self._z_clear[leg] is not None:
+            return None  # (the set-up may have found terrain to rise over first)
         # the foot where the last plan put it (position and velocity)
-        pp, vv, _ = last.sample(t_now)
-        (px, py, pz), (fx, fy, fz) = pp.tolist(), req.p_world_foot.tolist()
+        (px, py, pz), (vx, vy, vz) = last.state_floats(t_now)
+        fx, fy, fz = req.p_world_foot.tolist()
         tol = pr.reuse_foot_tol_m
         if abs(px - fx) > tol or abs(py - fy) > tol or abs(pz - fz) > tol:
             return None
-        (vx, vy, vz), (wx, wy, wz) = vv.tolist(), req.v_world_foot.tolist()
+        wx, wy, wz = req.v_world_foot.tolist()
         tol = pr.reuse_foot_vel_tol_mps
         if abs(vx - wx) > tol or abs(vy - wy) > tol or abs(vz - wz) > tol:
             return None
@@ -543,7 +560,12 @@ class SwingPlanner:
         planned: dict[int, SwingPlan],
         c: float,
         s: float,
+        full: bool = True,
     ) -> LegProblem:
+        """The leg's problem for this tick. full: with what only the tier analysis needs (the keep-outs on the
+        straight route, the aggressive policy's samples, the hips and the highest ground around them for the knee
+        checks, looked up with the ground on the way in one call); else without them, for the event-driven
+        selection (_complete adds them, the highest ground around the hips left to the analysis)."""
         pr = self.params
         leg = req.leg
         ts = _linspace(t_now, req.t_touchdown, self._ramp)
@@ -581,7 +603,7 @@ class SwingPlanner:
             keepouts=keepouts,
             margin=pr.swing_around_margin_m,
             time_split_frac=pr.time_split_frac,
-            blocked=blocked_keepouts(p0, p1, keepouts),
+            blocked=blocked_keepouts(p0, p1, keepouts) if full else [],
         )
         z_ceiling = hip_z_min - self.robot.min_leg_length_m - pr.hip_clearance_m
         g_knee_max = None
@@ -590,9 +612,12 @@ class SwingPlanner:
             g_way, g_obstacle = -math.inf, -math.inf
         else:  # the ground on the way and around the hips (for the knees) in one lookup
             # the hips at the swing's start, middle and end: where the knee grid probes
-            hips = self._hips_at(body, (t_now, float(ts[len(ts) // 2]), req.t_touchdown), leg)
-            kx, ky = self.analyzer.knee_grid(leg, hips, c, s)
-            (g_way, g_obstacle), g_knee_max = self._ground_on_way(req, ground, (kx, ky))
+            if full:
+                hips = self._hips_at(body, (t_now, float(ts[len(ts) // 2]), req.t_touchdown), leg)
+                kx, ky = self.analyzer.knee_grid(leg, hips, c, s)
+                (g_way, g_obstacle), g_knee_max = self._ground_on_way(req, ground, (kx, ky))
+            else:
+                (g_way, g_obstacle), _ = self._ground_on_way(req, ground)
         if pr.terrain_apex_m is not None and math.isfinite(g_way):
             # On mapped terrain the swing rises no higher than needed over the highest ground on its way: a foot
             # high in the air lands late.
@@ -654,7 +679,7 @@ class SwingPlanner:
             p_target=req.p_touchdown,
             z_aggressive=z_agg,
             z_ok=z_ok,
-            zs_aggressive=z_agg.sample_many(ts),
+            zs_aggressive=z_agg.sample_many(ts) if full else None,
             others=others,
             hips=hips,
             ground=ground,
@@ -670,6 +695,17 @@ class SwingPlanner:
             z_v_z1=(z0, vz0, z1),
             g_knee_max=g_knee_max,
         )
+
+    def _complete(self, prob: LegProblem, req: SwingRequest) -> None:
+        """Adds to a problem set up for the event-driven selection (_problem with full=False) what the tier analysis
+        needs: the same values _problem computes with full=True, the highest ground around the hips looked up by
+        the analysis (Analyzer._knee_samples) in a call of its own."""
+        c = prob.ctx
+        c.blocked = blocked_keepouts(c.p0, c.p1, c.keepouts)
+        prob.zs_aggressive = prob.z_aggressive.sample_many(prob.ts)
+        if prob.flat_height is None:
+            ts = prob.ts
+            prob.hips = self._hips_at(prob.body, (c.t0, float(ts[len(ts) // 2]), req.t_touchdown), prob.leg)
 
     def _hips_at(self, body: BodyMotion, times: tuple[float, ...], leg: int) -> np.ndarray:
         """The leg's hip in the world (n,3) at a few times: body.hip_world_many in Python floats (a handful of
