@@ -399,7 +399,9 @@ class SwingPlanner:
             trip = self._trip[leg] = None
         # the last selection may be reused: the set-up leaves out what only the tier analysis needs, and completes
         # it when the analysis runs after all
-        may_reuse = trip is None and pr.reuse_selection_s > 0.0 and self._may_reuse(t_now, req, ground, stance)
+        may_reuse = (
+            trip is None and pr.reuse_selection_s > 0.0 and self._may_reuse(t_now, req, ground, stance)
+        )
         prob = self._problem(t_now, req, ground, fixed, body, planned, c, s, full=not may_reuse)
         if may_reuse:
             reused = self._reuse(t_now, req, prob)
