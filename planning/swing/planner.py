@@ -431,7 +431,8 @@ class SwingPlanner:
     ) -> bool:
         """The event-driven selection's conditions that do not need this tick's problem: the last full analysis
         recent, on the same map and legs, its selection the preferred policy in Success, not rising first, the same
-        touchdown time; the target and the stance feet within their tolerances."""
+        touchdown time; the target and the stance feet within their tolerances, and the foot where the last plan put
+        it."""
         pr = self.params
         leg = req.leg
         memo, last = self._memo[leg], self._last_plan[leg]
@@ -460,28 +461,26 @@ class SwingPlanner:
             (ax, ay, az), (bx, by, bz) = p.tolist(), stance_full[j].tolist()
             if abs(ax - bx) > tol or abs(ay - by) > tol or abs(az - bz) > tol:
                 return False
-        return True
+        # the foot where the last plan put it (position and velocity)
+        (px, py, pz), (vx, vy, vz) = last.state_floats(t_now)
+        fx, fy, fz = req.p_world_foot.tolist()
+        tol = pr.reuse_foot_tol_m
+        if abs(px - fx) > tol or abs(py - fy) > tol or abs(pz - fz) > tol:
+            return False
+        wx, wy, wz = req.v_world_foot.tolist()
+        tol = pr.reuse_foot_vel_tol_mps
+        return not (abs(vx - wx) > tol or abs(vy - wy) > tol or abs(vz - wz) > tol)
 
     def _reuse(self, t_now: float, req: SwingRequest, prob: LegProblem) -> SwingPlan | None:
         """The event-driven selection (SwingParams.reuse_selection_s), once _may_reuse holds: the last selection's
-        policies rebuilt from this tick's problem, without the tier analysis, when the foot is where the last plan put
-        it and the problem asks for no hold and arrives on time; None otherwise (then the full selection runs)."""
+        policies rebuilt from this tick's problem, without the tier analysis, when the problem asks for no hold, its
+        policies arrive on time and no gentler vertical policy does; None otherwise (then the full selection runs)."""
         pr = self.params
         leg = req.leg
         last = self._last_plan[leg]
         assert last is not None
         if prob.hold is not None or not prob.z_ok or self._z_clear[leg] is not None:
             return None  # (the set-up may have found terrain to rise over first)
-        # the foot where the last plan put it (position and velocity)
-        (px, py, pz), (vx, vy, vz) = last.state_floats(t_now)
-        fx, fy, fz = req.p_world_foot.tolist()
-        tol = pr.reuse_foot_tol_m
-        if abs(px - fx) > tol or abs(py - fy) > tol or abs(pz - fz) > tol:
-            return None
-        wx, wy, wz = req.v_world_foot.tolist()
-        tol = pr.reuse_foot_vel_tol_mps
-        if abs(vx - wx) > tol or abs(vy - wy) > tol or abs(vz - wz) > tol:
-            return None
         c = prob.ctx
         hp = HORIZONTAL_POLICIES[HORIZONTAL_NAMES.index(last.horizontal_policy)][1](c)
         if hp is None or not limits_ok(hp, c) or not reaches(hp, c, pr):
