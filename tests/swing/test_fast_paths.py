@@ -142,3 +142,45 @@ def test_the_event_driven_selection_reuses_only_while_its_inputs_hold() -> None:
     p, v, _ = first.sample(0.018)
     event.plan(0.018, [SwingRequest(0, p, v, p1 + np.array([0.01, 0.0, 0.0]), t1)])
     assert event.reused == 5  # the target moved: the full selection
+
+
+def test_a_completed_reuse_set_up_is_the_full_set_up() -> None:
+    """The event-driven selection's set-up (_problem with full=False), completed by _complete when the reuse fails,
+    gives the analysis what the full set-up gives: the same keep-outs on the route, aggressive samples and hips,
+    and the same verdicts (the knee grid's ground then looked up by the analysis), beside a box and at a
+    crossing, bodies yawed and moving."""
+    from planning.robot import load_robot
+    from planning.swing.bench import _case
+    from planning.swing.planner import SwingPlanner
+    from planning.swing.policies import HORIZONTAL_POLICIES
+    from planning.swing.types import BodyMotion, SwingRequest
+
+    robot = load_robot("spot")
+    planner = SwingPlanner(robot)
+    an = planner.analyzer
+    analysed = 0
+    for name in ("box", "crossing"):
+        req, ground, stance, _ = _case(name)
+        for yaw in (0.0, 0.4, -0.7):
+            c, s = float(np.cos(yaw)), float(np.sin(yaw))
+            R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            body = BodyMotion(0.1, np.array([0.05, 0.0, 0.52]), R, np.array([0.3, 0.1, 0.0]), 0.5)
+            r = SwingRequest(0, req.p_world_foot, np.array([0.8, 0.0, 0.6]), req.p_touchdown, req.t_touchdown)
+            fixed = planner._stance_obstacles(planner._checked_stance(stance), body, 0.1, c, s)
+            want = planner._problem(0.1, r, ground, fixed, body, {}, c, s)
+            got = planner._problem(0.1, r, ground, fixed, body, {}, c, s, full=False)
+            assert got.zs_aggressive is None
+            planner._complete(got, r)
+            assert got.ctx.blocked == want.ctx.blocked
+            assert got.zs_aggressive is not None and want.zs_aggressive is not None
+            assert np.array_equal(got.zs_aggressive, want.zs_aggressive)
+            assert np.array_equal(got.hips, want.hips)
+            for _, fn in HORIZONTAL_POLICIES:
+                hp = fn(want.ctx)
+                if hp is None:
+                    continue
+                vw, vg = an.analyze(want, hp, 1.0), an.analyze(got, hp, 1.0)
+                assert (vw.tier, vw.key, vw.blame, vw.knee_sev) == (vg.tier, vg.key, vg.blame, vg.knee_sev)
+                analysed += 1
+            assert got.g_knee_max == want.g_knee_max  # looked up by the analysis, the same highest ground
+    assert analysed > 30
