@@ -72,6 +72,8 @@ from planning.swing.types import (
 )
 
 _WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
+_ROUTE_SAMPLES = np.linspace(0.0, 1.0, 24)  # the rise-first route's samples (fractions of the way)
+_ROUTE_SAMPLES.flags.writeable = False
 _max = np.maximum.reduce  # ndarray.max() without the method's Python wrapper (the same reduction)
 _SHANK_CACHE_M = 0.005  # a leg's shank is recomputed once its foot moved this far in the body frame (m)
 # other legs as obstacles and their keep-out areas (heading frame), in one order
@@ -321,7 +323,7 @@ class SwingPlanner:
             self._memo[leg] = (t_now, terrain, swinging, stance, by_leg[leg].p_touchdown.tolist())
         for leg, p in planned.items():
             if self._z_top[leg] is None and p.vertical_policy != "LateTouchdown":
-                self._z_top[leg] = float(np.max(p.positions(np.linspace(t_now, p.t_touchdown, 12))[:, 2]))
+                self._z_top[leg] = float(_max(p.z.sample_many(np.linspace(t_now, p.t_touchdown, 12))))
             self._last_plan[leg] = p
             self._previous[leg] = p.horizontal_policy
         return planned
@@ -754,8 +756,8 @@ class SwingPlanner:
         step_up = float(p1[2]) - z_ref > pr.rise_first_above_m
         if not step_up and not over_box:
             return None, 0.0  # not a step up: boxes on the way are the tiers' business
-        n = 24
-        u = np.linspace(0.0, 1.0, n)
+        u = _ROUTE_SAMPLES
+        n = len(u)
         xs = p0[0] + u * (p1[0] - p0[0])
         ys = p0[1] + u * (p1[1] - p0[1])
         d = p1[:2] - p0[:2]
