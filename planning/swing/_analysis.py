@@ -342,12 +342,17 @@ class Analyzer:
         else:
             foot_sev, blame, near = 0.0, None, np.zeros(len(xw), dtype=bool)
         v.foot_self_sev = foot_sev
-        v.knee_idx, v.knee_terrain = self._knee_samples(prob, g, near)
-        knee_terrain, knee_self, knee_blame = self._knees(prob, v.near_others, v, zs)
-        v.knee_sev = (knee_terrain, knee_self)
+        reach = reaches(hp, c, pr)
+        if foot_sev > 0.0 or not reach or pen > pr.penetration_tol_m:
+            # the tier is decided above the knee tiers whatever the knees do: they are not computed (the knee
+            # fields stay empty; only a verdict in Success, whose vertical checks compare knees, needs them)
+            knee_terrain, knee_self, knee_blame = 0.0, 0.0, None
+        else:
+            v.knee_idx, v.knee_terrain = self._knee_samples(prob, g, near)
+            knee_terrain, knee_self, knee_blame = self._knees(prob, v.near_others, v, zs)
+            v.knee_sev = (knee_terrain, knee_self)
 
         bucket = pr.severity_bucket_m
-        reach = reaches(hp, c, pr)
         if foot_sev > 0.0:
             v.tier, v.key, v.blame = Tier.SELF_COLLISION, (math.floor(foot_sev / bucket), miss), blame
         elif not reach:
