@@ -219,6 +219,11 @@ class WalkController:
         )
         if terrain.goal is not None:
             self.set_goal(*terrain.goal)
+        # the swing replanning at the pipeline's rate
+        self.params = replace(self.params, swing_rate_hz=terrain.params.swing_rate_hz)
+        for st in self.stages:
+            if st.name == "swing":
+                st.rate_hz = terrain.params.swing_rate_hz
         self.stages[:0] = [
             Stage(
                 "perception", terrain.params.perception_rate_hz, lambda s: terrain.perceive(s.p_world_body)

@@ -1278,9 +1278,10 @@ class PipelineParams:
     walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint);
     footprint_from_robot, footprint_circles, footprint_margin_m: the body path's footprint is footprint_circles
     circles along the body covering the robot's planform with its legs, grown by footprint_margin_m (m), in place
-    of path's footprint_x_m and footprint_r_m (robot_footprint). Off: on the clutter quick spec it gave 6 of 12
-    clean (8 circles, no margin; 4 circles and 2 cm: 0 of the first 6) against 7 without (docs/terrain-notes.md):
-    the hind knees kept off the tall boxes, but the wider body took routes nearer the low boxes and fell on them."""
+    of path's footprint_x_m and footprint_r_m (robot_footprint); swing_rate_hz: see below. Footprint off: on the
+    clutter quick spec it gave 6 of 12 clean (8 circles, no margin; 4 circles and 2 cm: 0 of the first 6) against 7
+    without (docs/terrain-notes.md): the hind knees kept off the tall boxes, but the wider body took routes nearer
+    the low boxes and fell on them."""
 
     use_sensor: bool = True
     truth_half_extent_m: float = 2.5
@@ -1297,6 +1298,11 @@ class PipelineParams:
     footprint_from_robot: bool = False
     footprint_circles: int = 8
     footprint_margin_m: float = 0.0
+    # The swing replanning's rate while walking on the pipeline (Hz; the walk's own, WalkParams.swing_rate_hz, by
+    # default): swing replanning was ~22 % of the regions walk's CPU at every 3 ms; 250 (every 4 ms, two physics
+    # steps) with perception at 7.5 Hz is not measured on the families yet (docs/terrain-notes.md, "Session 9:
+    # terrain speed")
+    swing_rate_hz: float = 1000.0 / 3.0
 
 
 def robot_planform(robot: Any) -> tuple[float, float, float]:

@@ -40,3 +40,28 @@ def test_bad_goal_is_rejected_with_the_field_named() -> None:
             session.robot, session.world.model, session.world.data, (1.0, 0.0), None,
             PipelineParams(use_sensor=False),
         )  # fmt: skip
+
+
+def test_the_swing_replanning_runs_at_the_pipeline_s_rate_on_a_terrain_and_at_the_walk_s_off_it() -> None:
+    """PipelineParams.swing_rate_hz sets the swing stage's rate on the pipeline's walk (perception at
+    PipelineParams.perception_rate_hz); a walk off the pipeline keeps WalkParams.swing_rate_hz."""
+    import dataclasses
+
+    from planning.walk import WalkController, WalkParams
+
+    on = WalkSession(WalkCommand(goal=(3.0, 0.0)), RunOptions(terrain="stairs", duration_s=1.0))
+    rates = {st.name: st.rate_hz for st in on.loop.stages}
+    assert rates["swing"] == pytest.approx(PipelineParams().swing_rate_hz)
+    assert rates["perception"] == pytest.approx(PipelineParams().perception_rate_hz)
+    assert rates["step_plan"] == pytest.approx(WalkParams().step_rate_hz)
+    off = WalkSession(WalkCommand(0.3, 0.0, 0.0, terrain_aware=False), RunOptions(duration_s=1.0))
+    rates = {st.name: st.rate_hz for st in off.loop.stages}
+    assert rates["swing"] == pytest.approx(WalkParams().swing_rate_hz)
+    assert "perception" not in rates
+    # another rate on the pipeline: the controller's stage and its params follow it
+    pipeline = on.pipeline
+    pipeline.params = dataclasses.replace(pipeline.params, swing_rate_hz=250.0)
+    controller = WalkController(on.robot)
+    controller.use_terrain(pipeline)
+    assert {st.name: st.rate_hz for st in controller.stages}["swing"] == pytest.approx(250.0)
+    assert controller.params.swing_rate_hz == pytest.approx(250.0)
