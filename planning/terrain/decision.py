@@ -1298,10 +1298,11 @@ class PipelineParams:
     footprint_from_robot: bool = False
     footprint_circles: int = 8
     footprint_margin_m: float = 0.0
-    # The swing replanning's rate while walking on the pipeline (Hz; the walk's own, WalkParams.swing_rate_hz, by
-    # default): swing replanning was ~22 % of the regions walk's CPU at every 3 ms; 250 (every 4 ms, two physics
-    # steps) with perception at 7.5 Hz is not measured on the families yet (docs/terrain-notes.md, "Session 9:
-    # terrain speed")
+    # The swing replanning's rate while walking on the pipeline (Hz; by default the walk's own, WalkParams.
+    # swing_rate_hz, every 3 ms): swing replanning is ~25 % of the regions walk's CPU. 250 (every 4 ms) together with
+    # perception_rate_hz 7.5 and SensorParams.dense_spacing_m 0.03 / VoxelParams.carve_every 3 took ~6-10 % off the
+    # walk's CPU but crossed fewer quick-spec draws than main (stairs 1 of 4 against 3, clutter 1 of 5 against 3;
+    # docs/terrain-notes.md, "Session 9: terrain speed"): kept at the walk's rate.
     swing_rate_hz: float = 1000.0 / 3.0
 
 
