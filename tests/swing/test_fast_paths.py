@@ -184,3 +184,65 @@ def test_a_completed_reuse_set_up_is_the_full_set_up() -> None:
                 analysed += 1
             assert got.g_knee_max == want.g_knee_max  # looked up by the analysis, the same highest ground
     assert analysed > 30
+
+
+def test_the_split_terrain_lookups_give_the_combined_verdicts() -> None:
+    """Once a candidate collided with the terrain, the analysis looks up the ground under the samples and the ring
+    probes separately: the same tiers, keys and (where looked up) ground and ring probes as the one lookup, over
+    boxes of several heights, with and without the endpoint zone, at several swing phases."""
+    import dataclasses
+
+    from planning.robot import load_robot
+    from planning.swing.params import SwingParams
+    from planning.swing.planner import SwingPlanner
+    from planning.swing.policies import HORIZONTAL_POLICIES
+    from planning.swing.types import BodyMotion, SwingRequest
+
+    robot = load_robot("spot")
+    ground = BoxGround(
+        [
+            Box(0.30, 0.36, 0.05, 0.30, 0.04),
+            Box(0.40, 0.46, 0.10, 0.25, 0.10),
+            Box(0.52, 0.70, -0.1, 0.4, 0.03),
+        ]
+    )
+    stance = {
+        1: np.array([0.35, -0.165, 0.0]),
+        2: np.array([-0.25, 0.165, 0.0]),
+        3: np.array([-0.25, -0.165, 0.0]),
+    }
+    body = BodyMotion(0.0, np.array([0.05, 0.0, 0.52]), np.eye(3))
+    tiers = set()
+    for zone in (None, 0.03):
+        planner = SwingPlanner(robot, dataclasses.replace(SwingParams(), endpoint_zone_m=zone))
+        an = planner.analyzer
+        for x0, z0, vz0, target_z in (
+            (0.20, 0.0, 0.0, 0.0),
+            (0.25, 0.03, 0.5, 0.03),
+            (0.33, 0.06, 0.0, 0.03),
+        ):
+            for t in (0.0, 0.1, 0.2):
+                r = SwingRequest(
+                    0,
+                    np.array([x0, 0.165, z0]),
+                    np.array([0.5, 0.0, vz0]),
+                    np.array([0.56, 0.165, target_z]),
+                    0.35,
+                )
+                fixed = planner._stance_obstacles(planner._checked_stance(stance), body, t, 1.0, 0.0)
+                one = planner._problem(t, r, ground, fixed, body, {}, 1.0, 0.0)
+                split = planner._problem(t, r, ground, fixed, body, {}, 1.0, 0.0)
+                split.terrain_hit = True
+                for _, fn in HORIZONTAL_POLICIES:
+                    hp = fn(one.ctx)
+                    if hp is None:
+                        continue
+                    one.terrain_hit = False
+                    va, vb = an.analyze(one, hp, 1.0), an.analyze(split, hp, 1.0)
+                    assert (va.tier, va.key, va.blame) == (vb.tier, vb.key, vb.blame)
+                    if len(vb.g):
+                        assert np.array_equal(va.g, vb.g)
+                    if vb.ring_g is not None:
+                        assert va.ring_g is not None and np.array_equal(va.ring_g, vb.ring_g)
+                    tiers.add(va.tier.name)
+    assert {"TERRAIN_COLLISION", "SUCCESS"} <= tiers, tiers
