@@ -493,7 +493,8 @@ class WalkController:
             return
         u = v[:2] / speed
         err = v[:2] - s.v_world_body[:2]
-        if p.speed_integral_filter_s > 0.0:  # the error averaged over about a stride (a gallop's speed swings)
+        # the error averaged over about a stride (a gallop's speed swings within one)
+        if p.speed_integral_filter_s > 0.0:
             self._v_err_f += min(dt / p.speed_integral_filter_s, 1.0) * (err - self._v_err_f)
             err = self._v_err_f
         if p.speed_integral_leak_s is not None:
