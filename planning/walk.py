@@ -269,6 +269,8 @@ class WalkController:
             dt_s=1.0 / self.params.step_rate_hz,
             l_upper_m=self.robot.l_upper,
             l_lower_m=self.robot.l_lower,
+            abd_offset_m=np.asarray(self.robot.abd_offset, dtype=np.float64),
+            shin_radius_m=self.robot.shin_radius_m,
         )
 
     # ---- inputs -----------------------------------------------------------------------------------------------

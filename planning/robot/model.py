@@ -210,6 +210,18 @@ class RobotModel:
                 f"legs differ in length (upper {np.round(self._lu, 3).tolist()}, lower {np.round(self._ll, 3).tolist()} m)"
             )
         self.foot_radius_m = float(geo[0].foot_radius)
+        # the lower legs' collision radius (m): the largest capsule, cylinder or sphere radius below the knees
+        # other than the feet (0 when they are meshes or boxes: the shin rules then test the shin's axis)
+        self.shin_radius_m = max(
+            (
+                float(m.geom_size[gid, 0])
+                for g in geo
+                for gid in g.lower_geoms
+                if int(m.geom_type[gid])
+                in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_SPHERE)
+            ),
+            default=0.0,
+        )
         self.q_min = det.q_range[:, :, 0].copy()
         self.q_max = det.q_range[:, :, 1].copy()
         self.tau_max = det.tau_max

@@ -129,7 +129,13 @@ class DecisionParams:
     the leg's own side of the body's centre line (the body where the path puts it at touchdown; None: no such
     bound): a left foot is not sent onto a right stone, where the legs cross and one's shin meets the other
     stone or leg (stones draws 254 and 167: a front left foot's own stone 1-4 mm farther than reach_frac from
-    its hip, the right stone of the row 1-4 mm nearer, chosen, both lower legs then on the right stone, a fall)."""
+    its hip, the right stone of the row 1-4 mm nearer, chosen, both lower legs then on the right stone, a fall);
+    shin_segment: the shin rule reads the ground along the shin itself instead of the line along the heading
+    (shin_segment_clearance: the segment from the foot to the knee at the stance pose, the knee from the leg's
+    abducted plane, the hip where the body will be at touchdown, the ground around each point within the shin's
+    radius plus shin_margin_m): a foothold's shin then clears the ground by shin_margin_m above the shin's
+    radius (shin_clear_m, shin_behind_m and shin_edge_m are the line rule's); the search along the heading is the
+    same (shin_search_m)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -176,6 +182,8 @@ class DecisionParams:
     shin_search_m: float = 0.30
     shin_behind_m: float = 0.40
     shin_edge_m: float = 0.03
+    shin_segment: bool = True
+    shin_margin_m: float = 0.04
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
@@ -196,8 +204,9 @@ class TerrainView:
     t_s: now; p_world_body (3,), yaw; p_world_foot (4, 3): foot centres; stance (4,): feet down; z_contact: the
     mean contact height the controller holds its body height above; gait: the gait walked; operator:
     the operator's command (used when there is no goal); goal (2,) or None; pitch_rad: the pitch target now;
-    foot_radius_m, standing_height_m, p_body_hip (4, 2), l_upper_m, l_lower_m (thigh and shank; 0: no shin rule):
-    from the RobotModel; dt_s: the step-plan period."""
+    foot_radius_m, standing_height_m, p_body_hip (4, 2), l_upper_m, l_lower_m (thigh and shank; 0: no shin rule),
+    abd_offset_m (4,): each leg's plane's lateral offset from its abduction axis (left +; None: 0), shin_radius_m:
+    the lower leg's collision radius: from the RobotModel; dt_s: the step-plan period."""
 
     t_s: float
     p_world_body: NDArray[np.float64]
@@ -219,6 +228,8 @@ class TerrainView:
     dt_s: float
     l_upper_m: float = 0.0
     l_lower_m: float = 0.0
+    abd_offset_m: NDArray[np.float64] | None = None
+    shin_radius_m: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -863,11 +874,83 @@ def leg_clearance(
     feet_xy: NDArray[np.float64],
     p: DecisionParams,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Gives, for footholds feet_xy (C, 2) of leg `leg` with its hip at hip_xy (2,) at touchdown: the least
-    distance (m) from the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it
-    stands more than shin_edge_m above the ground's own slope at the foot carried back (a slope is no edge) (inf:
-    no such ground; -inf: out of reach), and whether the foot is within reach of the hip (reach_xy)."""
-    return _clearance(view, maps, hip_height(view, leg), hip_xy, feet_xy, p)
+    """Gives, for footholds feet_xy (C, 2) of leg `leg` with its hip at hip_xy (2,) at touchdown: the shin's
+    clearance (m) and whether the foot is within reach of the hip (reach_xy). The clearance, with shin_segment:
+    the least height of the shin's surface above the ground along the segment from the foot to the knee
+    (shin_segment_clearance; -inf: out of reach), compared with shin_margin_m; without: the least distance from
+    the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it stands more than
+    shin_edge_m above the ground's own slope at the foot carried back (a slope is no edge) (inf: no such ground;
+    -inf: out of reach), compared with shin_clear_m (shin_needed)."""
+    return _clearance(view, maps, hip_height(view, leg), hip_xy, feet_xy, p, leg)
+
+
+def shin_needed(p: DecisionParams) -> float:
+    """Gives the clearance (m) leg_clearance's first value must reach for a foothold's shin to pass."""
+    return p.shin_margin_m if p.shin_segment else p.shin_clear_m
+
+
+def shin_knees(
+    hip: NDArray[np.float64],
+    feet: NDArray[np.float64],
+    fwd: NDArray[np.float64],
+    left: NDArray[np.float64],
+    offset: Any,
+    l_upper: float,
+    l_lower: float,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Gives the knees (C, 3) of a leg whose abduction axis passes through hip ((3,) or one per foot (C, 3)) along
+    the body's forward axis fwd (3,), the body's left being left (3,), for feet (C, 3) (foot centres), the leg's
+    plane offset from that axis by offset (m, left +; a scalar or (C,)): the plane is rolled about the axis until
+    it holds the foot, the knee in it behind the line from the thigh's pivot to the foot (a knee that points
+    back; a foot beyond the leg's length: the leg straight toward it); and whether each foot lies outside the
+    offset and far enough from the pivot for the leg to fold to it."""
+    up = np.cross(fwd, left)
+    r = feet - hip
+    ry, rz = r @ left, r @ up
+    y = np.broadcast_to(np.asarray(offset, dtype=np.float64), ry.shape)
+    rho = np.hypot(ry, rz)
+    ok = rho > np.abs(y) + 1e-6
+    th = np.arctan2(rz, ry) + np.arccos(np.clip(y / np.maximum(rho, 1e-9), -1.0, 1.0))
+    n = np.cos(th)[:, None] * left[None, :] + np.sin(th)[:, None] * up[None, :]  # the plane's normal
+    pivot = hip + y[:, None] * n
+    d = feet - pivot
+    D = np.linalg.norm(d, axis=1)
+    reach = ok & (D > abs(l_upper - l_lower) + 1e-3)
+    Ds = np.where(reach, np.minimum(D, l_upper + l_lower - 1e-3), 1.0)
+    a = (l_upper**2 - l_lower**2 + Ds**2) / (2.0 * Ds)
+    h = np.sqrt(np.maximum(l_upper**2 - a**2, 0.0))
+    e = d / np.maximum(D, 1e-9)[:, None]
+    w = np.cross(n, e)  # in the plane, across the pivot-foot line
+    w *= np.where(w @ fwd > 0.0, -1.0, 1.0)[:, None]  # toward the back
+    return pivot + a[:, None] * e + h[:, None] * w, reach
+
+
+def shin_segment_clearance(
+    maps: TerrainMaps,
+    feet: NDArray[np.float64],
+    knees: NDArray[np.float64],
+    skip_m: float,
+    radius_m: float,
+) -> NDArray[np.float64]:
+    """Gives, for shins from feet (C, 3) to knees (C, 3), the least height (m) of the shin's surface above the
+    ground: at points along each segment a cell apart (from skip_m past the foot, the foot's own sphere and the
+    shin's radius above it: the foot's own ground is the foot's, to the knee), the point's height less radius_m less the highest ground of the maps within radius_m of
+    the point (a 3 × 3 stencil) (negative: the shin would stand in the ground, an edge beside or behind the
+    foot)."""
+    res = maps.resolution_m
+    seg = knees - feet
+    L = np.linalg.norm(seg, axis=1)
+    m = max(2, int(math.ceil(float(np.max(L, initial=0.0)) / res)) + 1)
+    t = np.linspace(0.0, 1.0, m)
+    t0 = np.minimum(skip_m / np.maximum(L, 1e-9), 1.0)
+    tt = t0[:, None] + (1.0 - t0[:, None]) * t[None, :]  # (C, M)
+    pts = feet[:, None, :] + tt[..., None] * seg[:, None, :]  # (C, M, 3)
+    off = np.array([-radius_m, 0.0, radius_m])
+    ox, oy = np.meshgrid(off, off, indexing="ij")
+    xs = pts[..., 0][..., None] + ox.ravel()
+    ys = pts[..., 1][..., None] + oy.ravel()
+    g = _ground_nearest(maps, xs.ravel(), ys.ravel()).reshape(xs.shape).max(axis=-1)
+    return np.asarray(np.min(pts[..., 2] - radius_m - g, axis=1), dtype=np.float64)
 
 
 def _clearance(
@@ -877,20 +960,39 @@ def _clearance(
     hip_xy: NDArray[np.float64],
     feet_xy: NDArray[np.float64],
     p: DecisionParams,
+    legs: Any = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """leg_clearance with the hip's height z_hip (m) and place hip_xy (2,), or one of each per foot ((C,), (C, 2)):
-    several legs' footholds in one evaluation, the same arithmetic row by row. (As in leg_clearance, rows are -inf
-    where the leg cannot fold to the foot as soon as any row has an edge behind it: a row alone without one would
-    give inf. The footholds' batched test then sends that slot through leg_bounds, which decides as before.)"""
+    """leg_clearance with the hip's height z_hip (m) and place hip_xy (2,), or one of each per foot ((C,), (C, 2)),
+    for leg `legs` (or one per foot (C,)): several legs' footholds in one evaluation, the same arithmetic row by
+    row. (Along the heading, as in leg_clearance, rows are -inf where the leg cannot fold to the foot as soon as
+    any row has an edge behind it: a row alone without one would give inf. The footholds' batched test then sends
+    that slot through leg_bounds, which decides as before.)"""
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     res = maps.resolution_m
+    within = np.hypot(*(feet_xy - hip_xy).T) <= reach_xy(view, p)
+    if p.shin_segment:
+        cp, sp = math.cos(view.pitch_rad), math.sin(view.pitch_rad)
+        fwd = np.array([cp * c, cp * sn, -sp])  # (a positive pitch: the nose down, as hip_height)
+        left = np.array([-sn, c, 0.0])
+        z_feet = _ground_nearest(maps, feet_xy[:, 0], feet_xy[:, 1])
+        feet3 = np.column_stack([feet_xy, z_feet + view.foot_radius_m])
+        if hip_xy.ndim == 1:
+            hip3: NDArray[np.float64] = np.array([hip_xy[0], hip_xy[1], float(z_hip)])
+        else:
+            hip3 = np.column_stack([hip_xy, np.asarray(z_hip, dtype=np.float64)])
+        abd = np.zeros(4) if view.abd_offset_m is None else np.asarray(view.abd_offset_m, dtype=np.float64)
+        offset = abd[np.broadcast_to(np.asarray(legs, dtype=np.intp), (len(feet_xy),))]
+        knees, reach = shin_knees(hip3, feet3, fwd, left, offset, view.l_upper_m, view.l_lower_m)
+        clear = shin_segment_clearance(
+            maps, feet3, knees, view.foot_radius_m + view.shin_radius_m, view.shin_radius_m
+        )
+        return np.where(reach, clear, -np.inf), within
     s_feet = feet_xy @ u
     if hip_xy.ndim == 1:
         hip2 = np.array([float(hip_xy @ u), z_hip])
     else:
         hip2 = np.column_stack([hip_xy @ u, np.asarray(z_hip, dtype=np.float64)])
-    within = np.hypot(*(feet_xy - hip_xy).T) <= reach_xy(view, p)
     ds = np.arange(-p.shin_behind_m, 0.05 + 1e-9, res)
     pts = feet_xy[:, None, :] + ds[None, :, None] * u[None, None, :]
     # the ground's own slope at the foot along the heading: the gentler of the one-sided differences over two
@@ -947,7 +1049,7 @@ def leg_bounds(
     u = np.array([c, sn])
     base = poly.project(nom)
     clear0, within0 = leg_clearance(view, maps, leg, hip_xy, base[None, :], p)
-    if clear0[0] >= p.shin_clear_m and within0[0]:
+    if clear0[0] >= shin_needed(p) and within0[0]:
         return []  # (most footholds: one evaluation)
     res = maps.resolution_m
     ds = np.arange(-p.shin_search_m, p.shin_search_m + 1e-9, res)
@@ -957,7 +1059,7 @@ def leg_bounds(
     inside[0] = True  # the nominal's own place
     ds, cand = ds[inside], cand[inside]
     clear, within = leg_clearance(view, maps, leg, hip_xy, cand, p)
-    ok = (clear >= p.shin_clear_m) & within
+    ok = (clear >= shin_needed(p)) & within
     if ok[0]:
         return []
     if ok.any():
@@ -1191,8 +1293,8 @@ def choose_footholds(
         slots = [j for j, _ in first4]
         bases = np.array([q.project(path.p_world_touchdown[order[j], :2]) for j, q in first4])
         z_hips = np.array([hip_height(view, legs_l[j]) for j in slots])
-        clear0, within0 = _clearance(view, maps, z_hips, hips[slots], bases, p)
-        ok0 = ((clear0 >= p.shin_clear_m) & within0).tolist()
+        clear0, within0 = _clearance(view, maps, z_hips, hips[slots], bases, p, np.asarray(legs)[slots])
+        ok0 = ((clear0 >= shin_needed(p)) & within0).tolist()
         passed = {j for j, ok in zip(slots, ok0, strict=True) if ok}
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
