@@ -933,8 +933,9 @@ def shin_segment_clearance(
     radius_m: float,
 ) -> NDArray[np.float64]:
     """Gives, for shins from feet (C, 3) to knees (C, 3), the least height (m) of the shin's surface above the
-    ground: at points along each segment a cell apart (from skip_m past the foot, the foot's own sphere and the
-    shin's radius above it: the foot's own ground is the foot's, to the knee), the point's height less radius_m less the highest ground of the maps within radius_m of
+    ground: at points along each segment a cell apart (from skip_m past the foot's centre to the knee; the
+    decisions skip the foot's radius, the shin's and the margin asked: on flat ground, a shin leaning less than
+    ~70° then always clears by that margin, the foot's own ground being the foot's), the point's height less radius_m less the highest ground of the maps within radius_m of
     the point (a 3 × 3 stencil) (negative: the shin would stand in the ground, an edge beside or behind the
     foot)."""
     res = maps.resolution_m
@@ -985,7 +986,7 @@ def _clearance(
         offset = abd[np.broadcast_to(np.asarray(legs, dtype=np.intp), (len(feet_xy),))]
         knees, reach = shin_knees(hip3, feet3, fwd, left, offset, view.l_upper_m, view.l_lower_m)
         clear = shin_segment_clearance(
-            maps, feet3, knees, view.foot_radius_m + view.shin_radius_m, view.shin_radius_m
+            maps, feet3, knees, view.foot_radius_m + view.shin_radius_m + p.shin_margin_m, view.shin_radius_m
         )
         return np.where(reach, clear, -np.inf), within
     s_feet = feet_xy @ u
