@@ -933,7 +933,7 @@ def shin_segment_clearance(
     radius_m: float,
 ) -> NDArray[np.float64]:
     """Gives, for shins from feet (C, 3) to knees (C, 3), the least height (m) of the shin's surface above the
-    ground: at points along each segment a cell apart (from skip_m past the foot's centre to the knee; the
+    ground: at points along each segment a cell apart (from skip_m past the foot's centre, and the knee; the
     decisions skip the foot's radius, the shin's and the margin asked: on flat ground, a shin leaning less than
     ~70° then always clears by that margin, the foot's own ground being the foot's), the point's height less radius_m less the highest ground of the maps within radius_m of
     the point (a 3 × 3 stencil) (negative: the shin would stand in the ground, an edge beside or behind the
@@ -941,10 +941,10 @@ def shin_segment_clearance(
     res = maps.resolution_m
     seg = knees - feet
     L = np.linalg.norm(seg, axis=1)
-    m = max(2, int(math.ceil(float(np.max(L, initial=0.0)) / res)) + 1)
-    t = np.linspace(0.0, 1.0, m)
-    t0 = np.minimum(skip_m / np.maximum(L, 1e-9), 1.0)
-    tt = t0[:, None] + (1.0 - t0[:, None]) * t[None, :]  # (C, M)
+    # a cell apart from skip_m on, the last at the knee (each row's points its own, whatever the others')
+    m = max(1, int(math.ceil(max(float(np.max(L, initial=0.0)) - skip_m, 0.0) / res)) + 1)
+    along = np.minimum(skip_m + res * np.arange(m)[None, :], L[:, None])  # (C, M)
+    tt = along / np.maximum(L, 1e-9)[:, None]
     pts = feet[:, None, :] + tt[..., None] * seg[:, None, :]  # (C, M, 3)
     off = np.array([-radius_m, 0.0, radius_m])
     ox, oy = np.meshgrid(off, off, indexing="ij")

@@ -3,6 +3,7 @@ speed, the swing ground. Pure functions on synthetic maps (the closed loop is te
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -29,6 +30,7 @@ from planning.terrain.decision import (
     decide,
     leg_bounds,
     leg_clearance,
+    shin_needed,
     lost_region,
     own_side,
     pitched_nominals,
@@ -45,6 +47,7 @@ from planning.terrain.stepqp import StepQP, StepQPParams
 
 RES = 0.03
 P = DecisionParams(regions=RegionParams(foot_radius_m=0.02, max_planes=8))
+P_LINE = dataclasses.replace(P, shin_segment=False)  # the shin rule along the heading (the line tests below)
 
 
 def _stones() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -220,14 +223,14 @@ def test_a_foot_stepping_down_is_kept_where_its_shin_clears_the_edge_it_stepped_
     view = _leg_view(0.85, 0.6)
     hip = np.array([0.85 + 0.3, 0.1])
     feet = np.column_stack([np.arange(1.05, 1.3, 0.03), np.full(9, 0.1)])
-    clear, within = leg_clearance(view, maps, 0, hip, feet, P)
+    clear, within = leg_clearance(view, maps, 0, hip, feet, P_LINE)
     assert np.all(within)
     # the farther past the nosing, the farther the shin from it: too near just past it, clear at the tread's end
-    assert clear[0] < P.shin_clear_m <= clear[-1] and np.all(np.diff(clear) > 0.0)
+    assert clear[0] < P_LINE.shin_clear_m <= clear[-1] and np.all(np.diff(clear) > 0.0)
     label = regions.label_at(1.15, 0.1)
     poly = convex_around(regions, label, np.array([1.08, 0.1]), P.window_m)
     assert poly is not None
-    bounds = leg_bounds(view, maps, 0, hip, np.array([1.08, 0.1]), poly, P)
+    bounds = leg_bounds(view, maps, 0, hip, np.array([1.08, 0.1]), poly, P_LINE)
     # one bound: the foot at least some way past the nosing (along +x), not past the tread's end
     assert len(bounds) == 1 and bounds[0][0][0] == pytest.approx(-1.0)
     x_min = -bounds[0][1]
@@ -237,7 +240,7 @@ def test_a_foot_stepping_down_is_kept_where_its_shin_clears_the_edge_it_stepped_
     poly_flat = convex_around(regions, flat, np.array([0.6, 0.1]), P.window_m)
     assert poly_flat is not None
     view_flat = _leg_view(0.3, 0.6)
-    assert leg_bounds(view_flat, maps, 0, np.array([0.6, 0.1]), np.array([0.6, 0.1]), poly_flat, P) == []
+    assert leg_bounds(view_flat, maps, 0, np.array([0.6, 0.1]), np.array([0.6, 0.1]), poly_flat, P_LINE) == []
 
 
 def test_going_down_a_slope_is_not_stepping_down_an_edge() -> None:
@@ -252,9 +255,9 @@ def test_going_down_a_slope_is_not_stepping_down_an_edge() -> None:
     assert poly is not None
     view = _leg_view(0.7, -0.19)
     hip = np.array([1.0, 0.1])
-    clear, _ = leg_clearance(view, world.maps, 0, hip, np.array([[1.0, 0.1]]), P)
+    clear, _ = leg_clearance(view, world.maps, 0, hip, np.array([[1.0, 0.1]]), P_LINE)
     assert clear[0] == np.inf
-    assert leg_bounds(view, world.maps, 0, hip, np.array([1.0, 0.1]), poly, P) == []
+    assert leg_bounds(view, world.maps, 0, hip, np.array([1.0, 0.1]), poly, P_LINE) == []
 
 
 def test_a_foothold_beyond_the_legs_reach_is_bounded_back_toward_the_hip() -> None:
@@ -636,13 +639,15 @@ def test_a_foothold_is_chosen_on_its_legs_own_side_of_the_body() -> None:
         assert y > 0.10 if want_left else y < -0.04, (params.own_side_m, d.p_world_touchdown[0])
 
 
-def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own() -> None:
+@pytest.mark.parametrize("segment", [False, True])
+def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own(segment: bool) -> None:
     """The footholds test the first four slots' shins in one evaluation (a hip per foot): the same clearances and
     reaches as leg_clearance leg by leg, near the nosing and beyond reach."""
     from planning.terrain.decision import _clearance, hip_height
 
     world = _steps_down()
-    view = dataclass_replace(_leg_view(0.85, 0.6), pitch_rad=0.2)
+    view = dataclass_replace(_leg_view(0.85, 0.6), pitch_rad=0.2, abd_offset_m=ABD, shin_radius_m=0.02)
+    p = dataclasses.replace(P, shin_segment=segment)
     rng = np.random.default_rng(3)
     legs = np.array([0, 1, 2, 3, 0, 2])
     hips = np.column_stack([0.85 + view.p_body_hip[legs, 0], view.p_body_hip[legs, 1]]) + rng.normal(
@@ -651,10 +656,10 @@ def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own() -> No
     feet = np.column_stack([rng.uniform(0.9, 1.6, 6), rng.uniform(-0.2, 0.2, 6)])
     feet[5] = hips[5] + 0.8  # out of reach
     z_hips = np.array([hip_height(view, int(leg)) for leg in legs])
-    clear, within = _clearance(view, world.maps, z_hips, hips, feet, P)
+    clear, within = _clearance(view, world.maps, z_hips, hips, feet, p, legs)
     for i, leg in enumerate(legs):
-        c1, w1 = leg_clearance(view, world.maps, int(leg), hips[i], feet[i : i + 1], P)
-        assert clear[i] == c1[0] and within[i] == w1[0]
+        c1, w1 = leg_clearance(view, world.maps, int(leg), hips[i], feet[i : i + 1], p)
+        assert clear[i] == pytest.approx(c1[0], abs=1e-12) and within[i] == w1[0]
     assert not within[5] and np.any(np.isfinite(clear))
 
 
@@ -707,3 +712,93 @@ def test_the_body_paths_footprint_from_the_robot_covers_its_legs_past_a_tall_box
     assert min(knees_clear(trunk, y0) for y0 in starts) < 0.0
     for y0 in starts:
         assert knees_clear(fp, y0) >= 0.02
+
+
+ABD = np.array([0.11, -0.11, 0.11, -0.11])  # the legs' planes' lateral offsets from their abduction axes (m)
+
+
+@pytest.mark.parametrize("robot_name", ["spot", "go1"])
+def test_the_shins_knee_is_the_robots_own_knee_for_the_foot(robot_name: str) -> None:
+    """shin_knees (the leg's plane rolled about the abduction axis to hold the foot, the knee behind the
+    pivot-foot line) puts the knee where the robot's inverse kinematics does, for feet around the nominal stance."""
+    from planning.robot.model import load_robot
+    from planning.terrain.decision import shin_knees
+
+    robot = load_robot(robot_name)
+    rng = np.random.default_rng(5)
+    n = 0
+    for leg in range(4):
+        for _ in range(30):
+            foot = robot.nominal_foot_body[leg] + [0.0, 0.0, robot.foot_radius_m] + rng.normal(0, [0.08, 0.05, 0.05])
+            knee = robot.knee_of_foot(leg, *foot.tolist())
+            if knee is None:
+                continue
+            got, reach = shin_knees(
+                robot.p_body_hip[leg], foot[None, :], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]),
+                robot.abd_offset[leg], robot.l_upper, robot.l_lower,
+            )
+            assert reach[0] and np.linalg.norm(got[0] - np.array(knee)) < 1e-6
+            n += 1
+    assert n > 60
+
+
+def _box_world(x0: float, x1: float, y0: float, y1: float, height: float) -> TerrainWorld:
+    xs = np.arange(80) * RES
+    ys = -0.6 + np.arange(40) * RES
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    box = (X > x0) & (X < x1) & (Y > y0) & (Y < y1)
+    return _world(xs, ys, np.where(box, height, 0.0))
+
+
+def _spot_leg_view(body_x: float) -> TerrainView:
+    return dataclass_replace(
+        _leg_view(body_x, 0.0), foot_radius_m=0.035, shin_radius_m=0.02, abd_offset_m=ABD, height_m=0.52
+    )
+
+
+def test_the_shin_segment_meets_a_box_corner_beside_the_foot_that_the_heading_line_misses() -> None:
+    """A front left foot 5 cm past a low box's far end (9 cm tall) and 3 cm to its right (clutter draw 86): the
+    knee lies back over the box, the shin through its top corner: the segment rule flags it (for the hip over
+    the foot or leaning in), the line along the heading passes beside the box and sees nothing; farther on,
+    the shin clears it."""
+    world = _box_world(0.75, 0.95, 0.03, 0.3, 0.09)
+    view = _spot_leg_view(0.7)
+    p_seg = dataclasses.replace(P, shin_segment=True)
+    feet = np.array([[1.0, 0.0], [1.02, 0.0]])
+    for hip in ([1.0, -0.11], [1.0, 0.0], [0.95, 0.05]):
+        clear, within = leg_clearance(view, world.maps, 0, np.array(hip), feet, p_seg)
+        line, _ = leg_clearance(view, world.maps, 0, np.array(hip), feet, P_LINE)
+        assert np.all(within) and np.all(clear < shin_needed(p_seg)), (hip, clear)
+        assert np.all(line == np.inf)
+    far, _ = leg_clearance(view, world.maps, 0, np.array([1.25, -0.11]), np.array([[1.25, 0.0]]), p_seg)
+    assert far[0] >= shin_needed(p_seg)
+    # the foothold's bounds along the heading move it on, past the box's reach (and ahead, the hip's reach)
+    label = world.regions.label_at(1.0, 0.0)
+    poly = convex_around(world.regions, label, np.array([1.0, 0.0]), P.window_m)
+    assert poly is not None
+    bounds = leg_bounds(view, world.maps, 0, np.array([1.0, -0.11]), np.array([1.0, 0.0]), poly, p_seg)
+    behind = [b for a, b in bounds if a[0] == pytest.approx(-1.0)]
+    assert len(behind) == 1 and -behind[0] > 1.03
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_shin_segment_never_flags_flat_or_gently_sloped_ground(seed: int) -> None:
+    """On a flat floor or a plain slope (up to 20°, any heading), footholds within reach around the hip, the body
+    pitched up to 0.4 rad either way: the shin always clears the ground by the margin."""
+    rng = np.random.default_rng(seed)
+    xs = np.arange(80) * RES
+    ys = -0.6 + np.arange(40) * RES
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    slope = math.tan(math.radians(rng.uniform(0.0, 20.0))) if seed else 0.0
+    a = rng.uniform(-math.pi, math.pi)
+    world = _world(xs, ys, slope * (math.cos(a) * (X - 1.2) + math.sin(a) * Y))
+    p_seg = dataclasses.replace(P, shin_segment=True)
+    for _ in range(10):
+        leg = int(rng.integers(4))
+        view = dataclass_replace(_spot_leg_view(1.2), pitch_rad=float(rng.uniform(-0.4, 0.4)))
+        hip = np.array([1.2 + view.p_body_hip[leg, 0] * 0.0, view.p_body_hip[leg, 1]]) + rng.normal(0, 0.03, 2)
+        feet = hip + rng.uniform(-0.15, 0.15, (8, 2)) + np.array([0.0, ABD[leg]])
+        z = float(world.maps.height_at(hip[0], hip[1]))
+        view = dataclass_replace(view, z_contact=z)
+        clear, within = leg_clearance(view, world.maps, leg, hip, feet, p_seg)
+        assert np.all(clear[within & np.isfinite(clear)] >= shin_needed(p_seg)), (slope, clear)
