@@ -132,9 +132,9 @@ class DecisionParams:
     its hip, the right stone of the row 1-4 mm nearer, chosen, both lower legs then on the right stone, a fall);
     shin_segment: the shin rule reads the ground along the shin itself instead of the line along the heading
     (shin_segment_clearance: the segment from the foot to the knee at the stance pose, the knee from the leg's
-    abducted plane, the hip where the body will be at touchdown, the ground around each point within the shin's
-    radius plus shin_margin_m): a foothold's shin then clears the ground by shin_margin_m above the shin's
-    radius (shin_clear_m, shin_behind_m and shin_edge_m are the line rule's); the search along the heading is the
+    abducted plane, the hip where the body will be at touchdown, the ground within the shin's radius of each
+    point, above the ground's own plane at the foot): a foothold's shin then clears the ground by shin_margin_m
+    beyond the shin's radius (shin_clear_m, shin_behind_m and shin_edge_m are the line rule's); the search along the heading is the
     same (shin_search_m)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
@@ -931,13 +931,15 @@ def shin_segment_clearance(
     knees: NDArray[np.float64],
     skip_m: float,
     radius_m: float,
+    slope: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Gives, for shins from feet (C, 3) to knees (C, 3), the least height (m) of the shin's surface above the
-    ground: at points along each segment a cell apart (from skip_m past the foot's centre, and the knee; the
-    decisions skip the foot's radius, the shin's and the margin asked: on flat ground, a shin leaning less than
-    ~70° then always clears by that margin, the foot's own ground being the foot's), the point's height less radius_m less the highest ground of the maps within radius_m of
-    the point (a 3 × 3 stencil) (negative: the shin would stand in the ground, an edge beside or behind the
-    foot)."""
+    ground: at points along each segment a cell apart from skip_m past the foot's centre, and the knee, the
+    point's height less radius_m less the highest ground of the maps within radius_m of the point (a 3 × 3
+    stencil) (negative: the shin would stand in the ground, an edge beside or behind the foot). Heights are
+    taken above the ground's own plane at each foot (slope (C, 2): dz/dx, dz/dy; None: level): a plain slope is
+    no edge. (The decisions skip the foot's radius, the shin's and the margin asked: on a plane, a shin leaning
+    less than ~70° from it then always clears by that margin, the foot's own ground being the foot's.)"""
     res = maps.resolution_m
     seg = knees - feet
     L = np.linalg.norm(seg, axis=1)
@@ -948,10 +950,33 @@ def shin_segment_clearance(
     pts = feet[:, None, :] + tt[..., None] * seg[:, None, :]  # (C, M, 3)
     off = np.array([-radius_m, 0.0, radius_m])
     ox, oy = np.meshgrid(off, off, indexing="ij")
-    xs = pts[..., 0][..., None] + ox.ravel()
+    xs = pts[..., 0][..., None] + ox.ravel()  # (C, M, 9)
     ys = pts[..., 1][..., None] + oy.ravel()
-    g = _ground_nearest(maps, xs.ravel(), ys.ravel()).reshape(xs.shape).max(axis=-1)
-    return np.asarray(np.min(pts[..., 2] - radius_m - g, axis=1), dtype=np.float64)
+    g = _ground_nearest(maps, xs.ravel(), ys.ravel()).reshape(xs.shape)
+    z = pts[..., 2]
+    if slope is not None:
+        sx, sy = slope[:, 0][:, None], slope[:, 1][:, None]
+        fx, fy = feet[:, 0][:, None], feet[:, 1][:, None]
+        g = g - (sx[..., None] * (xs - fx[..., None]) + sy[..., None] * (ys - fy[..., None]))
+        z = z - (sx * (pts[..., 0] - fx) + sy * (pts[..., 1] - fy))
+    return np.asarray(np.min(z - radius_m - g.max(axis=-1), axis=1), dtype=np.float64)
+
+
+def foot_slope(maps: TerrainMaps, feet_xy: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Gives the ground's own slope (C, 2: dz/dx, dz/dy) at footholds feet_xy (C, 2): along each axis the gentler
+    of the one-sided differences over two cells (an edge beside the foot leaves the other side's; on a slope both
+    are the slope's)."""
+    step = 2.0 * maps.resolution_m
+    C = len(feet_xy)
+    dx, dy = np.array([step, 0.0]), np.array([0.0, step])
+    every = np.concatenate([feet_xy, feet_xy + dx, feet_xy - dx, feet_xy + dy, feet_xy - dy])
+    z = _ground_nearest(maps, every[:, 0], every[:, 1]).reshape(5, C)
+    out = np.empty((C, 2))
+    for k in range(2):
+        fwd = (z[1 + 2 * k] - z[0]) / step
+        bwd = (z[0] - z[2 + 2 * k]) / step
+        out[:, k] = np.where(np.abs(fwd) <= np.abs(bwd), fwd, bwd)
+    return out
 
 
 def _clearance(
@@ -985,9 +1010,9 @@ def _clearance(
         abd = np.zeros(4) if view.abd_offset_m is None else np.asarray(view.abd_offset_m, dtype=np.float64)
         offset = abd[np.broadcast_to(np.asarray(legs, dtype=np.intp), (len(feet_xy),))]
         knees, reach = shin_knees(hip3, feet3, fwd, left, offset, view.l_upper_m, view.l_lower_m)
-        clear = shin_segment_clearance(
-            maps, feet3, knees, view.foot_radius_m + view.shin_radius_m + p.shin_margin_m, view.shin_radius_m
-        )
+        skip = view.foot_radius_m + view.shin_radius_m + p.shin_margin_m
+        slope = foot_slope(maps, feet_xy)
+        clear = shin_segment_clearance(maps, feet3, knees, skip, view.shin_radius_m, slope)
         return np.where(reach, clear, -np.inf), within
     s_feet = feet_xy @ u
     if hip_xy.ndim == 1:

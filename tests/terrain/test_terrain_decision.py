@@ -782,23 +782,23 @@ def test_the_shin_segment_meets_a_box_corner_beside_the_foot_that_the_heading_li
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_the_shin_segment_never_flags_flat_or_gently_sloped_ground(seed: int) -> None:
-    """On a flat floor or a plain slope (up to 20°, any heading), footholds within reach around the hip, the body
-    pitched up to 0.4 rad either way: the shin always clears the ground by the margin."""
+def test_the_shin_segment_never_flags_flat_or_sloped_ground(seed: int) -> None:
+    """On a flat floor or a plain slope (up to 20°, any direction; the body pitched with it along its heading, as
+    the decisions pitch it), footholds within 0.12 m of their nominal place under the hip: the shin always clears
+    the ground by the margin (the ground's own plane at the foot is no edge)."""
     rng = np.random.default_rng(seed)
     xs = np.arange(80) * RES
     ys = -0.6 + np.arange(40) * RES
     X, Y = np.meshgrid(xs, ys, indexing="ij")
-    slope = math.tan(math.radians(rng.uniform(0.0, 20.0))) if seed else 0.0
+    slope = math.tan(math.radians(rng.uniform(5.0, 20.0))) if seed else 0.0
     a = rng.uniform(-math.pi, math.pi)
     world = _world(xs, ys, slope * (math.cos(a) * (X - 1.2) + math.sin(a) * Y))
     p_seg = dataclasses.replace(P, shin_segment=True)
-    for _ in range(10):
-        leg = int(rng.integers(4))
-        view = dataclass_replace(_spot_leg_view(1.2), pitch_rad=float(rng.uniform(-0.4, 0.4)))
-        hip = np.array([1.2 + view.p_body_hip[leg, 0] * 0.0, view.p_body_hip[leg, 1]]) + rng.normal(0, 0.03, 2)
-        feet = hip + rng.uniform(-0.15, 0.15, (8, 2)) + np.array([0.0, ABD[leg]])
-        z = float(world.maps.height_at(hip[0], hip[1]))
-        view = dataclass_replace(view, z_contact=z)
-        clear, within = leg_clearance(view, world.maps, leg, hip, feet, p_seg)
-        assert np.all(clear[within & np.isfinite(clear)] >= shin_needed(p_seg)), (slope, clear)
+    pitch = -math.atan(slope * math.cos(a))  # nose down (+) where the ground falls along +x
+    view = dataclass_replace(_spot_leg_view(1.2), pitch_rad=pitch)
+    for leg in range(4):
+        hip = np.array([1.2 + view.p_body_hip[leg, 0] * math.cos(pitch), view.p_body_hip[leg, 1]])
+        feet = hip + np.array([0.0, ABD[leg]]) + rng.uniform(-0.12, 0.12, (20, 2))
+        z_under = float(world.maps.height_at(1.2, 0.0))
+        clear, within = leg_clearance(dataclass_replace(view, z_contact=z_under), world.maps, leg, hip, feet, p_seg)
+        assert np.all(np.isfinite(clear)) and np.all(clear >= shin_needed(p_seg)), (slope, a, clear)
