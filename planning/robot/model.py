@@ -218,7 +218,11 @@ class RobotModel:
                 for g in geo
                 for gid in g.lower_geoms
                 if int(m.geom_type[gid])
-                in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_SPHERE)
+                in (
+                    mujoco.mjtGeom.mjGEOM_CAPSULE,
+                    mujoco.mjtGeom.mjGEOM_CYLINDER,
+                    mujoco.mjtGeom.mjGEOM_SPHERE,
+                )
             ),
             default=0.0,
         )

@@ -134,8 +134,8 @@ class DecisionParams:
     (shin_segment_clearance: the segment from the foot to the knee at the stance pose, the knee from the leg's
     abducted plane, the hip where the body will be at touchdown, the ground within the shin's radius of each
     point, above the ground's own plane at the foot): a foothold's shin then clears the ground by shin_margin_m
-    beyond the shin's radius (shin_clear_m, shin_behind_m and shin_edge_m are the line rule's); the search along the heading is the
-    same (shin_search_m)."""
+    beyond the shin's radius (shin_clear_m, shin_behind_m and shin_edge_m are the line rule's); the search along
+    the heading is the same (shin_search_m)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30

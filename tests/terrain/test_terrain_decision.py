@@ -30,11 +30,11 @@ from planning.terrain.decision import (
     decide,
     leg_bounds,
     leg_clearance,
-    shin_needed,
     lost_region,
     own_side,
     pitched_nominals,
     reach_height,
+    shin_needed,
     stride_m,
     swing_ground,
     swing_hump,
@@ -729,13 +729,22 @@ def test_the_shins_knee_is_the_robots_own_knee_for_the_foot(robot_name: str) -> 
     n = 0
     for leg in range(4):
         for _ in range(30):
-            foot = robot.nominal_foot_body[leg] + [0.0, 0.0, robot.foot_radius_m] + rng.normal(0, [0.08, 0.05, 0.05])
+            foot = (
+                robot.nominal_foot_body[leg]
+                + [0.0, 0.0, robot.foot_radius_m]
+                + rng.normal(0, [0.08, 0.05, 0.05])
+            )
             knee = robot.knee_of_foot(leg, *foot.tolist())
             if knee is None:
                 continue
             got, reach = shin_knees(
-                robot.p_body_hip[leg], foot[None, :], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]),
-                robot.abd_offset[leg], robot.l_upper, robot.l_lower,
+                robot.p_body_hip[leg],
+                foot[None, :],
+                np.array([1.0, 0.0, 0.0]),
+                np.array([0.0, 1.0, 0.0]),
+                robot.abd_offset[leg],
+                robot.l_upper,
+                robot.l_lower,
             )
             assert reach[0] and np.linalg.norm(got[0] - np.array(knee)) < 1e-6
             n += 1
@@ -800,5 +809,7 @@ def test_the_shin_segment_never_flags_flat_or_sloped_ground(seed: int) -> None:
         hip = np.array([1.2 + view.p_body_hip[leg, 0] * math.cos(pitch), view.p_body_hip[leg, 1]])
         feet = hip + np.array([0.0, ABD[leg]]) + rng.uniform(-0.12, 0.12, (20, 2))
         z_under = float(world.maps.height_at(1.2, 0.0))
-        clear, within = leg_clearance(dataclass_replace(view, z_contact=z_under), world.maps, leg, hip, feet, p_seg)
+        clear, within = leg_clearance(
+            dataclass_replace(view, z_contact=z_under), world.maps, leg, hip, feet, p_seg
+        )
         assert np.all(np.isfinite(clear)) and np.all(clear >= shin_needed(p_seg)), (slope, a, clear)
