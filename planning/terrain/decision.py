@@ -130,12 +130,12 @@ class DecisionParams:
     bound): a left foot is not sent onto a right stone, where the legs cross and one's shin meets the other
     stone or leg (stones draws 254 and 167: a front left foot's own stone 1-4 mm farther than reach_frac from
     its hip, the right stone of the row 1-4 mm nearer, chosen, both lower legs then on the right stone, a fall);
-    shin_segment: the shin rule reads the ground along the shin itself instead of the line along the heading
-    (shin_segment_clearance: the segment from the foot to the knee at the stance pose, the knee from the leg's
+    shin_rule: "line" (the rule above), "segment": the ground read along the shin itself instead of the line along
+    the heading (shin_segment_clearance: the segment from the foot to the knee at the stance pose, the knee from the leg's
     abducted plane, the hip where the body will be at touchdown, the ground within the shin's radius of each
     point, above the ground's own plane at the foot): a foothold's shin then clears the ground by shin_margin_m
     beyond the shin's radius (shin_clear_m, shin_behind_m and shin_edge_m are the line rule's); the search along
-    the heading is the same (shin_search_m)."""
+    the heading is the same (shin_search_m); "both": a foothold passes both."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -182,7 +182,7 @@ class DecisionParams:
     shin_search_m: float = 0.30
     shin_behind_m: float = 0.40
     shin_edge_m: float = 0.03
-    shin_segment: bool = True
+    shin_rule: str = "segment"
     shin_margin_m: float = 0.04
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
@@ -875,18 +875,19 @@ def leg_clearance(
     p: DecisionParams,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Gives, for footholds feet_xy (C, 2) of leg `leg` with its hip at hip_xy (2,) at touchdown: the shin's
-    clearance (m) and whether the foot is within reach of the hip (reach_xy). The clearance, with shin_segment:
+    clearance (m) and whether the foot is within reach of the hip (reach_xy). The clearance, shin_rule "segment":
     the least height of the shin's surface above the ground along the segment from the foot to the knee
-    (shin_segment_clearance; -inf: out of reach), compared with shin_margin_m; without: the least distance from
+    (shin_segment_clearance; -inf: out of reach), compared with shin_margin_m; "line": the least distance from
     the shin's axis to the ground along the heading behind the foot (shin_behind_m) where it stands more than
     shin_edge_m above the ground's own slope at the foot carried back (a slope is no edge) (inf: no such ground;
-    -inf: out of reach), compared with shin_clear_m (shin_needed)."""
+    -inf: out of reach), compared with shin_clear_m; "both": the lesser of the two less their thresholds,
+    compared with 0 (shin_needed)."""
     return _clearance(view, maps, hip_height(view, leg), hip_xy, feet_xy, p, leg)
 
 
 def shin_needed(p: DecisionParams) -> float:
     """Gives the clearance (m) leg_clearance's first value must reach for a foothold's shin to pass."""
-    return p.shin_margin_m if p.shin_segment else p.shin_clear_m
+    return {"line": p.shin_clear_m, "segment": p.shin_margin_m}.get(p.shin_rule, 0.0)
 
 
 def shin_knees(
@@ -993,27 +994,57 @@ def _clearance(
     row. (Along the heading, as in leg_clearance, rows are -inf where the leg cannot fold to the foot as soon as
     any row has an edge behind it: a row alone without one would give inf. The footholds' batched test then sends
     that slot through leg_bounds, which decides as before.)"""
+    within = np.hypot(*(feet_xy - hip_xy).T) <= reach_xy(view, p)
+    if p.shin_rule == "line":
+        return _line_clearance(view, maps, z_hip, hip_xy, feet_xy, p), within
+    seg = _segment_clearance(view, maps, z_hip, hip_xy, feet_xy, p, legs)
+    if p.shin_rule == "segment":
+        return seg, within
+    line = _line_clearance(view, maps, z_hip, hip_xy, feet_xy, p)
+    return np.minimum(line - p.shin_clear_m, seg - p.shin_margin_m), within
+
+
+def _segment_clearance(
+    view: TerrainView,
+    maps: TerrainMaps,
+    z_hip: Any,
+    hip_xy: NDArray[np.float64],
+    feet_xy: NDArray[np.float64],
+    p: DecisionParams,
+    legs: Any,
+) -> NDArray[np.float64]:
+    """_clearance's shin_rule "segment" (-inf: the leg cannot fold to the foot)."""
+    c, sn = math.cos(view.yaw), math.sin(view.yaw)
+    cp, sp = math.cos(view.pitch_rad), math.sin(view.pitch_rad)
+    fwd = np.array([cp * c, cp * sn, -sp])  # (a positive pitch: the nose down, as hip_height)
+    left = np.array([-sn, c, 0.0])
+    z_feet = _ground_nearest(maps, feet_xy[:, 0], feet_xy[:, 1])
+    feet3 = np.column_stack([feet_xy, z_feet + view.foot_radius_m])
+    if hip_xy.ndim == 1:
+        hip3: NDArray[np.float64] = np.array([hip_xy[0], hip_xy[1], float(z_hip)])
+    else:
+        hip3 = np.column_stack([hip_xy, np.asarray(z_hip, dtype=np.float64)])
+    abd = np.zeros(4) if view.abd_offset_m is None else np.asarray(view.abd_offset_m, dtype=np.float64)
+    offset = abd[np.broadcast_to(np.asarray(legs, dtype=np.intp), (len(feet_xy),))]
+    knees, reach = shin_knees(hip3, feet3, fwd, left, offset, view.l_upper_m, view.l_lower_m)
+    skip = view.foot_radius_m + view.shin_radius_m + p.shin_margin_m
+    slope = foot_slope(maps, feet_xy)
+    clear = shin_segment_clearance(maps, feet3, knees, skip, view.shin_radius_m, slope)
+    return np.where(reach, clear, -np.inf)
+
+
+def _line_clearance(
+    view: TerrainView,
+    maps: TerrainMaps,
+    z_hip: Any,
+    hip_xy: NDArray[np.float64],
+    feet_xy: NDArray[np.float64],
+    p: DecisionParams,
+) -> NDArray[np.float64]:
+    """_clearance's shin_rule "line" (see leg_clearance)."""
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     res = maps.resolution_m
-    within = np.hypot(*(feet_xy - hip_xy).T) <= reach_xy(view, p)
-    if p.shin_segment:
-        cp, sp = math.cos(view.pitch_rad), math.sin(view.pitch_rad)
-        fwd = np.array([cp * c, cp * sn, -sp])  # (a positive pitch: the nose down, as hip_height)
-        left = np.array([-sn, c, 0.0])
-        z_feet = _ground_nearest(maps, feet_xy[:, 0], feet_xy[:, 1])
-        feet3 = np.column_stack([feet_xy, z_feet + view.foot_radius_m])
-        if hip_xy.ndim == 1:
-            hip3: NDArray[np.float64] = np.array([hip_xy[0], hip_xy[1], float(z_hip)])
-        else:
-            hip3 = np.column_stack([hip_xy, np.asarray(z_hip, dtype=np.float64)])
-        abd = np.zeros(4) if view.abd_offset_m is None else np.asarray(view.abd_offset_m, dtype=np.float64)
-        offset = abd[np.broadcast_to(np.asarray(legs, dtype=np.intp), (len(feet_xy),))]
-        knees, reach = shin_knees(hip3, feet3, fwd, left, offset, view.l_upper_m, view.l_lower_m)
-        skip = view.foot_radius_m + view.shin_radius_m + p.shin_margin_m
-        slope = foot_slope(maps, feet_xy)
-        clear = shin_segment_clearance(maps, feet3, knees, skip, view.shin_radius_m, slope)
-        return np.where(reach, clear, -np.inf), within
     s_feet = feet_xy @ u
     if hip_xy.ndim == 1:
         hip2 = np.array([float(hip_xy @ u), z_hip])
@@ -1039,7 +1070,7 @@ def _clearance(
     base = z_feet[:, None] + slope[:, None] * ds[None, :]
     edge = g > base + p.shin_edge_m
     if not edge.any():
-        return np.full(len(feet_xy), np.inf), within
+        return np.full(len(feet_xy), np.inf)
     pt2 = np.stack([s_feet[:, None] + ds[None, :], g], axis=-1)  # (C, M, 2)
     knee, reach = knee_points(hip2, feet2, view.l_upper_m, view.l_lower_m)
     shin = feet2 - knee  # (C, 2)
@@ -1052,7 +1083,7 @@ def _clearance(
     off = pt2 - (knee[:, None, :] + t[..., None] * shin[:, None, :])
     dist = np.hypot(off[..., 0], off[..., 1])
     clear = np.min(np.where(edge, dist, np.inf), axis=1)
-    return np.where(reach, clear, -np.inf), within
+    return np.where(reach, clear, -np.inf)
 
 
 def leg_bounds(

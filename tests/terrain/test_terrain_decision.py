@@ -47,7 +47,7 @@ from planning.terrain.stepqp import StepQP, StepQPParams
 
 RES = 0.03
 P = DecisionParams(regions=RegionParams(foot_radius_m=0.02, max_planes=8))
-P_LINE = dataclasses.replace(P, shin_segment=False)  # the shin rule along the heading (the line tests below)
+P_LINE = dataclasses.replace(P, shin_rule="line")  # the shin rule along the heading (the line tests below)
 
 
 def _stones() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -639,15 +639,15 @@ def test_a_foothold_is_chosen_on_its_legs_own_side_of_the_body() -> None:
         assert y > 0.10 if want_left else y < -0.04, (params.own_side_m, d.p_world_touchdown[0])
 
 
-@pytest.mark.parametrize("segment", [False, True])
-def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own(segment: bool) -> None:
+@pytest.mark.parametrize("rule", ["line", "segment", "both"])
+def test_the_shin_clearance_of_several_legs_at_once_equals_each_legs_own(rule: str) -> None:
     """The footholds test the first four slots' shins in one evaluation (a hip per foot): the same clearances and
     reaches as leg_clearance leg by leg, near the nosing and beyond reach."""
     from planning.terrain.decision import _clearance, hip_height
 
     world = _steps_down()
     view = dataclass_replace(_leg_view(0.85, 0.6), pitch_rad=0.2, abd_offset_m=ABD, shin_radius_m=0.02)
-    p = dataclasses.replace(P, shin_segment=segment)
+    p = dataclasses.replace(P, shin_rule=rule)
     rng = np.random.default_rng(3)
     legs = np.array([0, 1, 2, 3, 0, 2])
     hips = np.column_stack([0.85 + view.p_body_hip[legs, 0], view.p_body_hip[legs, 1]]) + rng.normal(
@@ -772,7 +772,7 @@ def test_the_shin_segment_meets_a_box_corner_beside_the_foot_that_the_heading_li
     the shin clears it."""
     world = _box_world(0.75, 0.95, 0.03, 0.3, 0.09)
     view = _spot_leg_view(0.7)
-    p_seg = dataclasses.replace(P, shin_segment=True)
+    p_seg = dataclasses.replace(P, shin_rule="segment")
     feet = np.array([[1.0, 0.0], [1.02, 0.0]])
     for hip in ([1.0, -0.11], [1.0, 0.0], [0.95, 0.05]):
         clear, within = leg_clearance(view, world.maps, 0, np.array(hip), feet, p_seg)
@@ -802,7 +802,7 @@ def test_the_shin_segment_never_flags_flat_or_sloped_ground(seed: int) -> None:
     slope = math.tan(math.radians(rng.uniform(5.0, 20.0))) if seed else 0.0
     a = rng.uniform(-math.pi, math.pi)
     world = _world(xs, ys, slope * (math.cos(a) * (X - 1.2) + math.sin(a) * Y))
-    p_seg = dataclasses.replace(P, shin_segment=True)
+    p_seg = dataclasses.replace(P, shin_rule="segment")
     pitch = -math.atan(slope * math.cos(a))  # nose down (+) where the ground falls along +x
     view = dataclass_replace(_spot_leg_view(1.2), pitch_rad=pitch)
     for leg in range(4):
