@@ -182,7 +182,7 @@ class DecisionParams:
     shin_search_m: float = 0.30
     shin_behind_m: float = 0.40
     shin_edge_m: float = 0.03
-    shin_rule: str = "segment"
+    shin_rule: str = "line"
     shin_margin_m: float = 0.04
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
