@@ -20,6 +20,7 @@ from planning.robot import LEGS, RobotModel
 from planning.robot.model import reference_leg_joint_inertia
 from planning.sim.world import RobotState
 from planning.stance import StanceHandler
+from planning.steps.support import SupportShiftParams, liftoff_ready
 from planning.swing import (
     TIER_RGB,
     BodyMotion,
@@ -162,6 +163,9 @@ class Handler:
         self._fz_planned = np.zeros(4)  # the normal force each foot was last asked for (torques), N
         self._t_start = 0.0  # the first phase update's time
         self._initialized = False
+        # the slow gaits' liftoff hold (planning.steps.support), set by the walk controller in the gaits that use
+        # it: a due liftoff waits while the other three feet would not hold the centre of mass (None: off)
+        self.support_hold: SupportShiftParams | None = None
 
     # ---- phases (500 Hz) -------------------------------------------------------------------------------------
     def update_phases(self, s: RobotState, plan: ContactPlan) -> None:
@@ -199,6 +203,9 @@ class Handler:
             for leg, sw in due:
                 # the wait counts from when the liftoff fell due (the plan may have moved its liftoff time since)
                 if not (late or few) or t - self._due_since[leg] > self.params.max_liftoff_delay_s:
+                    if self._support_holds(leg, s):
+                        self.waiting = True
+                        continue
                     self._lift(leg, sw, s)
                 else:
                     self.waiting = True
@@ -318,6 +325,17 @@ class Handler:
             if math.sqrt(e.dot(e)) < self.params.self_collision_m:  # np.linalg.norm's own arithmetic
                 return j
         return None
+
+    def _support_holds(self, leg: int, s: RobotState) -> bool:
+        """Whether the liftoff of ``leg``, due now, waits for static balance (support_hold; at most its
+        max_hold_s from when the liftoff fell due)."""
+        sh = self.support_hold
+        if sh is None or not sh.hold or s.t - self._due_since[leg] > sh.max_hold_s:
+            return False
+        stance = self.phase == _STANCE
+        return not liftoff_ready(
+            s.p_world_com[:2], self.p_contact[:, :2], stance, s.loaded, leg, sh.hold_margin_fraction
+        )
 
     def _lift(self, leg: int, sw: PlannedSwing, s: RobotState) -> None:
         self.phase[leg] = Phase.SWING

@@ -26,6 +26,7 @@ from planning.steps import SteeringCommand, StepPlanner, StepPlannerParams, Walk
 from planning.steps.centroidal import StepPathProblems
 from planning.steps.gait import get_gait
 from planning.steps.select import Selection
+from planning.steps.support import SupportShiftParams, support_target
 from planning.swing.params import SwingParams
 
 if TYPE_CHECKING:  # the terrain stack is imported only by the walks that use it
@@ -65,6 +66,11 @@ class StepPathPlan:
         if t >= lo:
             return _PlannedSwing(leg, float(lo), float(t_td), self._p_td[leg])
         return None
+
+    @property
+    def t_liftoff_now(self) -> np.ndarray:
+        """(4,) s, the next planned liftoff of each foot down now (inf: none; nan: a foot in the air)."""
+        return self._t_lo
 
 
 @dataclass(frozen=True)
@@ -153,6 +159,10 @@ class WalkParams:
     # m/s ran 2.37-2.44 (4 of 5 within 5 %, no fall), but 25 N·s sideways pushes at 3.9-4.1 s then held 4 of 6
     # (6 of 6 without): still off (docs/agility-notes.md, session 9)
     speed_integral_filter_s: float = 0.0
+    # the slow gaits (duty >= support.min_duty: three feet down while one swings): the body target moved into the
+    # coming support triangle before each liftoff and kept in the triangle of the feet down while one swings
+    # (planning.steps.support; docs/terrain-notes.md, session 9: crawl balance)
+    support: SupportShiftParams = field(default_factory=SupportShiftParams)
     steps: StepPlannerParams = field(default_factory=StepPlannerParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     handler: HandlerParams = field(default_factory=HandlerParams)
@@ -462,6 +472,7 @@ class WalkController:
         self._p_des[2] = ground + self.height
         t = self.target
         t.p_world_body = self._p_des.copy()
+        self._support_shift(s, t.p_world_body)
         t.v_world_body = v
         t.R_world_body = R
         t.omega_world = np.array([0.0, 0.0, cmd.yaw_rate])
@@ -470,6 +481,26 @@ class WalkController:
         t.a_world_body = np.array([-cmd.yaw_rate * v[1], cmd.yaw_rate * v[0], 0.0])
         self._speed_integral(s, v, np.array([cmd.vx, cmd.vy]), dt)
         t.a_world_body[:2] += self._a_ff
+
+    def _support_shift(self, s: RobotState, p_target: np.ndarray) -> None:
+        """Moves the body target (in place, xy) so that the centre of mass lies in the support triangle of the
+        slow gaits (WalkParams.support, planning.steps.support.support_target)."""
+        sp = self.params.support
+        gait = self.planner.clock.gait
+        h = self.handler
+        if gait.is_stand or gait.duty < sp.min_duty:
+            h.support_hold = None
+            return
+        h.support_hold = sp
+        if not sp.shift:
+            return
+        stance = h.stance
+        feet = np.where(stance[:, None], h.p_contact[:, :2], h.p_touchdown[:, :2])
+        if not np.all(np.isfinite(feet)):
+            return
+        off = s.p_world_body[:2] - s.p_world_com[:2]
+        com = p_target[:2] - off
+        p_target[:2] = support_target(com, feet, stance, self.plan.t_liftoff_now, s.t, sp) + off
 
     def _speed_integral(self, s: RobotState, v: np.ndarray, v_cmd: np.ndarray, dt: float) -> None:
         """Integrates the horizontal velocity error (world frame; v the target's velocity) into self._a_ff in the
