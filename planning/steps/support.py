@@ -40,7 +40,9 @@ class SupportShiftParams:
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.margin_fraction < 1.0:
-            raise ValueError(f"SupportShiftParams.margin_fraction: must be in [0, 1), got {self.margin_fraction}")
+            raise ValueError(
+                f"SupportShiftParams.margin_fraction: must be in [0, 1), got {self.margin_fraction}"
+            )
         if not 0.0 <= self.hold_margin_fraction < 1.0:
             raise ValueError(
                 f"SupportShiftParams.hold_margin_fraction: must be in [0, 1), got {self.hold_margin_fraction}"

@@ -9,6 +9,8 @@ from planning.robot import load_robot
 from planning.steps.support import (
     SupportShiftParams,
     incentre,
+    inside_triangle,
+    liftoff_ready,
     project_into_triangle,
     shrink_triangle,
     support_target,
@@ -17,7 +19,8 @@ from planning.steps.support import (
 
 def _inside(p: np.ndarray, tri: np.ndarray, tol: float = 1e-9) -> bool:
     s = [
-        (tri[(i + 1) % 3, 0] - tri[i, 0]) * (p[1] - tri[i, 1]) - (tri[(i + 1) % 3, 1] - tri[i, 1]) * (p[0] - tri[i, 0])
+        (tri[(i + 1) % 3, 0] - tri[i, 0]) * (p[1] - tri[i, 1])
+        - (tri[(i + 1) % 3, 1] - tri[i, 1]) * (p[0] - tri[i, 0])
         for i in range(3)
     ]
     return all(v >= -tol for v in s) or all(v <= tol for v in s)
@@ -109,3 +112,40 @@ def test_params_are_checked() -> None:
         SupportShiftParams(margin_fraction=1.0)
     with pytest.raises(ValueError):
         SupportShiftParams(ramp_s=0.0)
+
+
+def test_liftoff_waits_for_the_com_inside_the_other_three() -> None:
+    feet = _feet()
+    down = np.ones(4, dtype=bool)
+    # RR lifting: the centre of mass on the FL side of the FR-RL diagonal may lift it, on the RR side not
+    toward_fl = 0.25 * feet[0]
+    toward_rr = 0.25 * feet[3]
+    assert liftoff_ready(toward_fl, feet, down, down, 3)
+    assert not liftoff_ready(toward_rr, feet, down, down, 3)
+    # a margin asks for more than the edge
+    on_diagonal = 0.5 * (feet[1] + feet[2])
+    assert liftoff_ready(on_diagonal, feet, down, down, 3, 0.0)
+    assert not liftoff_ready(on_diagonal, feet, down, down, 3, 0.2)
+
+
+def test_liftoff_waits_for_the_landed_foot_to_carry_load() -> None:
+    feet = _feet()
+    down = np.ones(4, dtype=bool)
+    loaded = np.array([False, True, True, True])  # FL just landed, the ground does not push it yet
+    assert not liftoff_ready(0.25 * feet[0], feet, down, loaded, 3)
+    assert liftoff_ready(0.25 * feet[0], feet, down, np.ones(4, dtype=bool), 3)
+    # the lifting leg's own load does not matter
+    assert liftoff_ready(0.25 * feet[0], feet, down, np.array([True, True, True, False]), 3)
+
+
+def test_liftoff_check_does_not_apply_with_another_foot_in_the_air() -> None:
+    feet = _feet()
+    stance = np.array([False, True, True, True])
+    assert liftoff_ready(10.0 * feet[3], feet, stance, np.zeros(4, dtype=bool), 3)
+
+
+def test_inside_triangle_includes_edges() -> None:
+    tri = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    assert inside_triangle(np.array([0.5, 0.5]), tri)
+    assert inside_triangle(np.array([0.2, 0.2]), tri)
+    assert not inside_triangle(np.array([0.6, 0.6]), tri)
