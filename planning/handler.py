@@ -334,7 +334,13 @@ class Handler:
             return False
         stance = self.phase == _STANCE
         return not liftoff_ready(
-            s.p_world_com[:2], self.p_contact[:, :2], stance, s.loaded, leg, sh.hold_margin_fraction
+            s.p_world_com[:2],
+            self.p_contact[:, :2],
+            stance,
+            s.loaded,
+            leg,
+            sh.hold_margin_fraction,
+            sh.hold_com,
         )
 
     def _lift(self, leg: int, sw: PlannedSwing, s: RobotState) -> None:

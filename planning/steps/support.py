@@ -35,6 +35,9 @@ class SupportShiftParams:
     # the triangle of the three feet that stay down, shrunk by hold_margin_fraction (-), or while one of those feet
     # is not loaded (the ground does not push it: a foot just landed on nothing, or unloaded)
     hold: bool = True
+    hold_com: bool = (
+        False  # the hold also waits for the centre of mass (False: only for the three feet's load)
+    )
     hold_margin_fraction: float = 0.0
     max_hold_s: float = 0.15
 
@@ -145,10 +148,16 @@ def inside_triangle(p: F64, tri: F64) -> bool:
 
 
 def liftoff_ready(
-    p_com_xy: F64, feet_xy: F64, stance: B, loaded: B, leg: int, margin_fraction: float = 0.0
+    p_com_xy: F64,
+    feet_xy: F64,
+    stance: B,
+    loaded: B,
+    leg: int,
+    margin_fraction: float = 0.0,
+    check_com: bool = True,
 ) -> bool:
     """Whether ``leg`` may lift for static balance: the other three feet down (stance) and loaded, and p_com_xy
-    inside their triangle shrunk by margin_fraction. With another foot in the air the check does not apply (True).
+    inside their triangle shrunk by margin_fraction (when check_com). With another foot in the air the check does not apply (True).
 
     feet_xy: (4, 2) where each foot stands. stance: (4,) feet down by the plan. loaded: (4,) feet the ground pushes.
     """
@@ -158,5 +167,7 @@ def liftoff_ready(
         return True
     if not bool(np.all(np.asarray(loaded, dtype=bool)[keep])):
         return False
+    if not check_com:
+        return True
     tri = shrink_triangle(np.asarray(feet_xy, dtype=np.float64)[keep], margin_fraction)
     return inside_triangle(np.asarray(p_com_xy, dtype=np.float64), tri)
