@@ -147,8 +147,9 @@ def test_studio_loads_bow_and_previews_it(server: dict[str, Any], tmp_path: Path
 
         info = httpx.get(f"{api}/studio", timeout=5).json()
         # the tab receives a live stream of poses (how many per second depends on the machine's load: measured
-        # 40-44 on a quiet machine, in the README); here only that it streams
-        assert max(info["fps"].values()) >= 5.0, info
+        # 40-44 on a quiet machine, 3 at load 20 on 2 cores; the rate itself is the load-marked studio test's);
+        # here only that it streams
+        assert max(info["fps"].values()) > 0.0, info
 
         text = page.inner_text("body")
         shown = [w for w in ERROR_WORDS if w in text]
