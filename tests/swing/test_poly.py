@@ -48,8 +48,11 @@ def test_coast_then_bang_arrives_on_time_without_overshoot(p, v, p1, slack):
     b = Builder(0.0, p, v)
     b.accel(w, 0.0)
     t = to_rest(b, p1, V, A)
-    assert t <= horizon + 1e-7
-    if t < horizon - 1e-7 and v * v / (2 * A) <= abs(p1 - p):
+    # coast_time takes a speed under 1e-12 m/s for rest; the coast's drift (< 1e-12 m/s for up to the horizon) then
+    # costs up to 2 sqrt(drift / A), ~0.3 µs here (found by Hypothesis: p = v = p1 = 2.2e-13, 0.1 µs late)
+    tol = 1e-7 + 2.0 * np.sqrt(1e-12 * horizon / A)
+    assert t <= horizon + tol
+    if t < horizon - tol and v * v / (2 * A) <= abs(p1 - p):
         # Arriving early only happens when coasting longer would overshoot the target (unless it must anyway).
         assert v * (p1 - p) > 0.0
         P = b.finish().sample_many(np.linspace(w, t, 200))
