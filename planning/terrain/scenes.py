@@ -19,6 +19,7 @@ Heights are in meters, lengths in meters, angles in degrees.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol
@@ -63,6 +64,10 @@ class _Plane:
     def height(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.full(np.broadcast(x, y).shape, self.z_m)
 
+    def height_of(self, x: float, y: float) -> float:
+        """height at one point, on Python floats (the same value)"""
+        return self.z_m
+
 
 @dataclass(frozen=True)
 class _Box:
@@ -77,6 +82,11 @@ class _Box:
     def height(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
         inside = (x >= self.x_min) & (x <= self.x_max) & (y >= self.y_min) & (y <= self.y_max)
         return np.where(inside, self.z_top, -np.inf)
+
+    def height_of(self, x: float, y: float) -> float:
+        """height at one point, on Python floats (the same value)"""
+        inside = self.x_min <= x <= self.x_max and self.y_min <= y <= self.y_max
+        return self.z_top if inside else -math.inf
 
 
 @dataclass(frozen=True)
@@ -94,6 +104,13 @@ class _Ramp:
         inside = (x >= self.x_min) & (x <= self.x_max) & (y >= self.y_min) & (y <= self.y_max)
         s = (x - self.x_min) / (self.x_max - self.x_min)
         return np.where(inside, self.z0 + s * (self.z1 - self.z0), -np.inf)
+
+    def height_of(self, x: float, y: float) -> float:
+        """height at one point, on Python floats (the same arithmetic)"""
+        if not (self.x_min <= x <= self.x_max and self.y_min <= y <= self.y_max):
+            return -math.inf
+        s = (x - self.x_min) / (self.x_max - self.x_min)
+        return self.z0 + s * (self.z1 - self.z0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,6 +180,16 @@ class TerrainScene:
 
     def ground_height(self, x: ArrayLike, y: ArrayLike) -> Any:
         """Gives the true support height (m) at world (x, y): a float for scalars, an array for arrays."""
+        if type(x) is float and type(y) is float:
+            # one point (the loop's fall check, every physics step): the pieces that can, on Python floats (their
+            # height_of: the same values; the max of them is exact in any order)
+            zf = -math.inf
+            for piece in self._ground:
+                of = getattr(piece, "height_of", None)
+                h = of(x, y) if of is not None else float(piece.height(np.float64(x), np.float64(y)))
+                if h > zf or h != h:  # a NaN wins, as np.maximum's
+                    zf = h
+            return zf
         xa = np.asarray(x, dtype=np.float64)
         ya = np.asarray(y, dtype=np.float64)
         z = np.full(np.broadcast(xa, ya).shape, -np.inf)
