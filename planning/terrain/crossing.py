@@ -83,8 +83,10 @@ class BodyCollisionMonitor:
     def __call__(self, s: RobotState) -> None:
         d = self.world.data
         now: set[tuple[int, int]] = set()
-        for i in range(d.ncon):
-            g1, g2 = int(d.contact.geom[i][0]), int(d.contact.geom[i][1])
+        n = d.ncon
+        # the contacts' geom pairs as Python ints in one conversion (each d.contact access builds a view; this
+        # runs every physics step)
+        for g1, g2 in d.contact.geom[:n].tolist() if n else ():
             if self._obstacle[g1]:
                 g1, g2 = g2, g1
             if not self._obstacle[g2] or not (self._body[g1] or self._foot[g1]):

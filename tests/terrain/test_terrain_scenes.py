@@ -109,3 +109,20 @@ def test_bad_names_and_params_are_named_in_the_error() -> None:
         build_terrain("lava")
     with pytest.raises(ValueError, match="riser_cm"):
         build_terrain("stairs", riser_cm=15)
+
+
+@pytest.mark.parametrize("name", TERRAIN_NAMES)
+def test_ground_height_of_one_point_equals_the_array_answer(name: str) -> None:
+    # the one-point path (Python floats, the loop's fall check) gives the array path's value, inside and outside
+    # every piece and on its edges
+    scene = build_terrain(name)
+    rng = np.random.default_rng(7)
+    xs = np.append(rng.uniform(-2.0, 10.0, 300), 0.0)
+    ys = np.append(rng.uniform(-3.0, 3.0, 300), 0.0)
+    for box in scene.obstacle_boxes[:4]:
+        xs = np.append(xs, box[:2])
+        ys = np.append(ys, box[2:4])
+    want = scene.ground_height(xs, ys)
+    for x, y, w in zip(xs.tolist(), ys.tolist(), want.tolist(), strict=True):
+        got = scene.ground_height(x, y)
+        assert type(got) is float and got == w
