@@ -2,7 +2,19 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+
+
+def clip_scalar(x: Any, lo: Any, hi: Any) -> Any:
+    """np.clip(x, lo, hi) of one number without NumPy's dispatch (~5 µs a call): the same value, signed zeros, NaN
+    and lo > hi (hi) included; a NaN bound goes through np.clip itself. x is returned as given (a float or NumPy
+    scalar) when it lies within the bounds."""
+    if x != x or lo != lo or hi != hi:
+        return np.clip(x, lo, hi)
+    y = lo if x < lo else x
+    return hi if y > hi else y
 
 
 def rpy_to_R(rpy: np.ndarray) -> np.ndarray:
@@ -28,7 +40,7 @@ def R_to_rpy(R: np.ndarray) -> np.ndarray:
 
 def so3_log(R: np.ndarray) -> np.ndarray:
     """Returns the rotation vector (3,) w with exp([w]) = R."""
-    c = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
+    c = clip_scalar((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
     angle = np.arccos(c)
     v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
     if angle < 1e-6:

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from planning.geometry import clip_scalar
 from planning.robot import LEGS
 from planning.sim.world import RobotState
 
@@ -108,7 +109,7 @@ class Recorder:
                 np.array(
                     [
                         np.arctan2(R[2, 1], R[2, 2]),
-                        np.arcsin(np.clip(-R[2, 0], -1, 1)),
+                        np.arcsin(clip_scalar(-R[2, 0], -1.0, 1.0)),
                         np.arctan2(R[1, 0], R[0, 0]),
                     ]
                 )

@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from planning.geometry import clip_scalar
 from planning.steps import SteeringCommand
 from planning.steps.gait import get_gait
 from planning.steps.select import Selection
@@ -325,7 +326,7 @@ def decide(
     shift = 0.0 if last is None else last.max_shift_m
     back = 0.0 if last is None else last.back_m
     frac = float(
-        np.clip(min(1.0 - shift / max(p.shift_slow_m, 1e-9), 1.0 - back / max(p.pace_m, 1e-9)), 0.0, 1.0)
+        clip_scalar(min(1.0 - shift / max(p.shift_slow_m, 1e-9), 1.0 - back / max(p.pace_m, 1e-9)), 0.0, 1.0)
     )
     lo = p.min_speed_mps / max(p.max_speed_mps, 1e-9)
     share = lo + (1.0 - lo) * frac
@@ -336,10 +337,12 @@ def decide(
         follow_path(view, world.path, cap, p) if view.goal is not None else capped(view.operator, cap, p)
     )
     offset, slope = footholds_plane(view, last)
-    pitch_target = float(np.clip(-math.atan(p.pitch_gain * slope), -p.max_pitch_rad, p.max_pitch_rad))
+    pitch_target = float(clip_scalar(-math.atan(p.pitch_gain * slope), -p.max_pitch_rad, p.max_pitch_rad))
     step = p.max_pitch_rate_rps * view.dt_s
-    pitch = view.pitch_rad + float(np.clip(pitch_target - view.pitch_rad, -step, step))
-    height = view.standing_height_m + float(np.clip(offset, -p.max_height_offset_m, p.max_height_offset_m))
+    pitch = view.pitch_rad + float(clip_scalar(pitch_target - view.pitch_rad, -step, step))
+    height = view.standing_height_m + float(
+        clip_scalar(offset, -p.max_height_offset_m, p.max_height_offset_m)
+    )
     height = min(height, crouch_height(view, world.maps, p, world.overhangs), reach_height(view, pitch, p))
     return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap)
 
@@ -463,7 +466,10 @@ def gap_ahead(view: TerrainView, world: TerrainWorld, p: DecisionParams) -> floa
     ix = np.rint((x - regions.origin_xy[0]) / res).astype(np.intp)
     iy = np.rint((y - regions.origin_xy[1]) / res).astype(np.intp)
     on = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-    cx, cy = np.clip(ix, 0, nx - 1), np.clip(iy, 0, ny - 1)
+    cx, cy = (
+        np.minimum(np.maximum(ix, 0), nx - 1),
+        np.minimum(np.maximum(iy, 0), ny - 1),
+    )  # np.clip on integers
     ok = np.where(on, regions.inset[cx, cy], True)
     ground = world.maps.ground_height[cx, cy] if p.gap_dip_m is not None else None
     seen = np.where(on, world.maps.observed[cx, cy], False) if p.gap_dip_m is not None else None
@@ -529,7 +535,7 @@ def capped(cmd: SteeringCommand, cap: float, p: DecisionParams) -> SteeringComma
     speed = float(math.hypot(cmd.vx, cmd.vy))
     k = min(1.0, cap / speed) if speed > 1e-9 else 1.0
     return SteeringCommand(
-        cmd.vx * k, cmd.vy * k, float(np.clip(cmd.yaw_rate, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
+        cmd.vx * k, cmd.vy * k, float(clip_scalar(cmd.yaw_rate, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
     )
 
 
@@ -555,7 +561,7 @@ def follow_path(view: TerrainView, path: BodyPath | None, cap: float, p: Decisio
         return SteeringCommand()
     v_body = rotate_yaw(-view.yaw, d / n * speed)
     dyaw = float((yaw_des - view.yaw + np.pi) % (2 * np.pi) - np.pi)
-    wz = float(np.clip(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
+    wz = float(clip_scalar(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
     return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
 
 
@@ -631,7 +637,7 @@ def crouch_height(
     clear = float(np.min(np.where(rel >= p.ceiling_above_m, rel, np.inf)))
     if not np.isfinite(clear):
         return view.standing_height_m
-    return float(np.clip(clear - p.body_top_m - p.head_margin_m, p.min_height_m, view.standing_height_m))
+    return float(clip_scalar(clear - p.body_top_m - p.head_margin_m, p.min_height_m, view.standing_height_m))
 
 
 def swing_ground(maps: TerrainMaps, radius_m: float) -> HeightGrid:
