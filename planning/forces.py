@@ -480,7 +480,7 @@ class ForceDistributor:
         self._w[3:6] *= self._sqrt_wt / fs
         np.dot(G.T, G, out=self._P)
         self._P.flat[:: 3 * N_LEGS + 1] += p.alpha
-        np.take(self._P, self._p_gather, out=self._Px)
+        self._P.take(self._p_gather, out=self._Px)
         x_ref = self._x_ref.reshape(N_LEGS, 3)
         if f_world_ref is not None:
             ref = checked("f_world_ref", f_world_ref, (N_LEGS, 3))

@@ -198,8 +198,8 @@ class Handler:
             # a swing foot due down within landing_wait_s counts as late already: in a walk one foot's liftoff falls
             # on another's touchdown, and a foot still high over an obstacle lands after its time
             landing = (self.phase == _SWING) & (self.t_touchdown - t <= self.params.landing_wait_s)
-            late = bool(np.any((self.phase == _LATE) | landing))
-            few = int(np.sum(self.phase == _STANCE)) - len(due) < self.params.min_stance_legs
+            late = bool(((self.phase == _LATE) | landing).any())
+            few = int((self.phase == _STANCE).sum()) - len(due) < self.params.min_stance_legs
             for leg, sw in due:
                 # the wait counts from when the liftoff fell due (the plan may have moved its liftoff time since)
                 if not (late or few) or t - self._due_since[leg] > self.params.max_liftoff_delay_s:
@@ -225,7 +225,7 @@ class Handler:
                         self.p_touchdown[leg] = sw.p_touchdown
                 frac = (t - self.t_liftoff[leg]) / max(self.t_touchdown[leg] - self.t_liftoff[leg], 1e-3)
                 wp = self.waypoints[leg]
-                waypoints_left = wp is not None and bool(np.any(wp[:, 0] > t))
+                waypoints_left = wp is not None and bool((wp[:, 0] > t).any())
                 if s.contact[leg] and frac >= self.params.early_touchdown_fraction and not waypoints_left:
                     self._land(leg, s)
                 elif t >= self.t_touchdown[leg]:

@@ -243,7 +243,7 @@ class StanceHandler:
         cost_scale = 1.0 / max(1.0, float(np.abs(self._x_des).max()) / _X_TYPICAL)
         np.dot(self._P, self._x_des, out=self._q)
         self._q *= -cost_scale
-        np.take(self._P, self._p_gather, out=self._Px)
+        self._P.take(self._p_gather, out=self._Px)
         self._Px *= cost_scale
 
         # Constraints: torque rows -Jᵀ f scaled by 1/τ_scale, then the pyramid and normal rows.

@@ -294,15 +294,16 @@ class World:
         mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, self.body_id, self._vel6, 0)
         s.v_world_com[:] = self._vel6[3:]
         qvel = d.qvel
-        np.take(d.qpos, self.qpos_idx, out=s.q)
-        np.take(qvel, self.dof_idx, out=s.qd)
-        np.take(d.qfrc_bias, self.dof_idx, out=s.tau_bias)
-        np.take(d.site_xpos, self.foot_site, axis=0, out=s.p_world_foot)
+        # (the arrays' own take: np.take's dispatch costs ~1.3 µs a call, at every physics step)
+        d.qpos.take(self.qpos_idx, out=s.q)
+        qvel.take(self.dof_idx, out=s.qd)
+        d.qfrc_bias.take(self.dof_idx, out=s.tau_bias)
+        d.site_xpos.take(self.foot_site, axis=0, out=s.p_world_foot)
         jacs = self._jacs
         for i, sid in enumerate(self._foot_site_ids):
             mujoco.mj_jacSite(m, d, jacs[i], None, sid)
         # all four feet at once (the same products as foot by foot: a fifth of the NumPy calls)
-        np.take(jacs, self._jac_take, out=s.J_world_foot)
+        jacs.take(self._jac_take, out=s.J_world_foot)
         np.matmul(jacs, qvel, out=s.v_world_foot)
         s.contact[:] = False
         loaded = s.loaded
