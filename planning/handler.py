@@ -111,6 +111,26 @@ class HandlerParams:
     slip_recover_step: float = 0.1
 
 
+def stance_damping_torques(
+    qd: np.ndarray, J_world_foot: np.ndarray, damping: float, v_ref: np.ndarray | None = None
+) -> np.ndarray:
+    """The stance legs' joint damping (rows of legs, (n,3) N·m): -damping·qd, or, given the body velocity v_ref
+    (world, m/s; its horizontal part), -damping·(qd - qd_ref) with qd_ref the joint rates that sweep a foot standing
+    still back under a body moving at v_ref (J qd_ref = -v_ref): the damping then brakes the legs' motion relative
+    to that sweep, not the sweep itself. qd (n,3) rad/s, J_world_foot (n,3,3): d p_world_foot / d q per leg."""
+    if v_ref is None:
+        return -damping * qd
+    v = np.array([-float(v_ref[0]), -float(v_ref[1]), 0.0])
+    out = np.empty_like(qd)
+    for i in range(qd.shape[0]):
+        try:
+            qd_ref = np.linalg.solve(J_world_foot[i], v)
+        except np.linalg.LinAlgError:  # a singular leg (stretched): damp about zero
+            qd_ref = np.zeros(3)
+        out[i] = -damping * (qd[i] - qd_ref)
+    return out
+
+
 class Handler:
     """Leg phases, swing planning and the torques of one robot."""
 
@@ -166,6 +186,9 @@ class Handler:
         # the slow gaits' liftoff hold (planning.steps.support), set by the walk controller in the gaits that use
         # it: a due liftoff waits while the other three feet would not hold the centre of mass (None: off)
         self.support_hold: SupportShiftParams | None = None
+        # the body velocity (world, m/s) about whose sweep the stance legs are damped (stance_damping_torques; None:
+        # about zero joint rates); the walk controller sets it in the gaits of WalkParams.gait_stance_damping_ref
+        self.stance_damping_v_ref: np.ndarray | None = None
 
     # ---- phases (500 Hz) -------------------------------------------------------------------------------------
     def update_phases(self, s: RobotState, plan: ContactPlan) -> None:
@@ -449,7 +472,12 @@ class Handler:
             p_com_foot_world=p_com_foot,
         )
         self.tau[:] = tau
-        self.tau[self.stance] -= p.stance_damping * s.qd[self.stance]
+        if self.stance_damping_v_ref is None:
+            self.tau[self.stance] -= p.stance_damping * s.qd[self.stance]
+        else:
+            self.tau[self.stance] += stance_damping_torques(
+                s.qd[self.stance], s.J_world_foot[self.stance], p.stance_damping, self.stance_damping_v_ref
+            )
         for leg in range(4):
             if self.stance[leg]:
                 continue

@@ -159,6 +159,13 @@ class WalkParams:
     # m/s ran 2.37-2.44 (4 of 5 within 5 %, no fall), but 25 N·s sideways pushes at 3.9-4.1 s then held 4 of 6
     # (6 of 6 without): still off (docs/agility-notes.md, session 9)
     speed_integral_filter_s: float = 0.0
+    # Per gait (name, share): the stance legs' joint damping (HandlerParams.stance_damping) acts about the sweep of a
+    # foot standing still under a body moving at this share of the target velocity (planning.handler.
+    # stance_damping_torques), not about zero: at 2.5 m/s the damping of the sweep itself brakes the gallop by ~13
+    # N. Off by default: in the gallop at 2.5 m/s (25 steered walks from a stand) 0.25-0.35 raised the mean speed
+    # from ~2.31 to ~2.35-2.37 m/s (within 5 %: 3 walks off, 4-11 with it), but it fell 6, 0 and 3 times (0.25,
+    # 0.3, 0.35; 3 off) and speed-flight's gallop held 9 of 10 pushes (10 of 10 off) (docs/agility-notes.md, session 10)
+    gait_stance_damping_ref: tuple[tuple[str, float], ...] = ()
     # the slow gaits (duty >= support.min_duty: three feet down while one swings): the body target moved into the
     # coming support triangle before each liftoff and kept in the triangle of the feet down while one swings
     # (planning.steps.support; docs/terrain-notes.md, session 9: crawl balance)
@@ -209,6 +216,7 @@ class WalkController:
         self._swing_slow: SwingParams | None = None  # the swing parameters to restore after trot_fast
         self._handler_slow: HandlerParams | None = None  # ... and the handler's
         self._gait_swing_limits = {g: (v, a) for g, v, a in p.gait_swing_limits}
+        self._damping_ref = dict(p.gait_stance_damping_ref)
         # the fast swing's horizontal limits applied now, and the gait's slip friction floor (None: the handler's)
         self._swing_limits: tuple[float, float, float | None] | None = None
         self._a_ff_along = 0.0  # m/s², along the command
@@ -610,4 +618,6 @@ class WalkController:
 
     def actuate(self, s: RobotState) -> np.ndarray:
         self._last_state = s
+        share = self._damping_ref.get(self.planner.clock.gait.name)
+        self.handler.stance_damping_v_ref = None if share is None else share * self.target.v_world_body
         return self.handler.torques(s, self.f_des, self.balance.r_com_foot)
