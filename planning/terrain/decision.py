@@ -136,7 +136,14 @@ class DecisionParams:
     abducted plane, the hip where the body will be at touchdown, the ground within the shin's radius of each
     point, above the ground's own plane at the foot): a foothold's shin then clears the ground by shin_margin_m
     beyond the shin's radius (shin_clear_m, shin_behind_m and shin_edge_m are the line rule's); the search along
-    the heading is the same (shin_search_m); "both": a foothold passes both."""
+    the heading is the same (shin_search_m); "both": a foothold passes both;
+    shin_hold: when no place of a next touchdown's polygon along the heading within shin_search_m clears the shin
+    (leg_bounds_found: some places within reach, none clearing) and a foothold was chosen on a region for this
+    touchdown before where the shin cleared (FootholdMemory.shin_ok), a foot in the air keeps that choice instead
+    of taking the place of most clearance (False, a foot in stance, or no such choice: that place, which may still
+    meet the edge): a nominal that drifts, late in a swing or at a liftoff, past a
+    box or onto the tread below, where the shin would meet the edge it steps past, leaves the foot where it was
+    going."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -185,6 +192,7 @@ class DecisionParams:
     shin_edge_m: float = 0.03
     shin_rule: str = "line"
     shin_margin_m: float = 0.04
+    shin_hold: bool = False
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
@@ -271,13 +279,14 @@ class TerrainWorld:
 @dataclass(frozen=True, eq=False)
 class FootholdMemory:
     """Per leg: the touchdown time (s, nan: none) of its next touchdown as last decided, the foothold chosen for it
-    (3,), the height (m) of its last stance foothold, and whether that foothold was chosen on a region (None: all
-    were)."""
+    (3,), the height (m) of its last stance foothold, whether that foothold was chosen on a region (None: all
+    were), and whether it was chosen where the shin clears the ground (leg_bounds_found; None: not known)."""
 
     t_touchdown: NDArray[np.float64]
     p_chosen: NDArray[np.float64]
     z_stance: NDArray[np.float64]
     on_region: NDArray[np.bool_] | None = None
+    shin_ok: NDArray[np.bool_] | None = None
 
     @staticmethod
     def empty() -> FootholdMemory:
@@ -1106,14 +1115,29 @@ def leg_bounds(
     nominal foothold's place in its polygon already is; else bounds around the nearest place within shin_search_m
     inside the polygon that is (or, none being, the one of the most clearance within reach, or the nearest one
     within reach): the run of such places along the heading, bounded where it ends inside the polygon."""
+    return leg_bounds_found(view, maps, leg, hip_xy, nom, poly, p)[0]
+
+
+def leg_bounds_found(
+    view: TerrainView,
+    maps: TerrainMaps,
+    leg: int,
+    hip_xy: NDArray[np.float64],
+    nom: NDArray[np.float64],
+    poly: ConvexRegion,
+    p: DecisionParams,
+) -> tuple[list[tuple[NDArray[np.float64], float]], bool]:
+    """Gives leg_bounds' half-planes and whether a place they keep clears the shin (False: places within reach
+    were found but none clears it, and the bounds keep the one of most clearance; True also where nothing is
+    within reach or the view has no leg lengths: nothing to hold for)."""
     if view.l_upper_m <= 0.0 or view.l_lower_m <= 0.0:
-        return []
+        return [], True
     c, sn = math.cos(view.yaw), math.sin(view.yaw)
     u = np.array([c, sn])
     base = poly.project(nom)
     clear0, within0 = leg_clearance(view, maps, leg, hip_xy, base[None, :], p)
     if clear0[0] >= shin_needed(p) and within0[0]:
-        return []  # (most footholds: one evaluation)
+        return [], True  # (most footholds: one evaluation)
     res = maps.resolution_m
     ds = np.arange(-p.shin_search_m, p.shin_search_m + 1e-9, res)
     ds = np.append(0.0, ds[np.abs(ds) > 1e-9])
@@ -1124,14 +1148,15 @@ def leg_bounds(
     clear, within = leg_clearance(view, maps, leg, hip_xy, cand, p)
     ok = (clear >= shin_needed(p)) & within
     if ok[0]:
-        return []
-    if ok.any():
+        return [], True
+    found = bool(ok.any())
+    if found:
         good = ok
     elif within.any():
         best = float(np.max(np.where(within, clear, -np.inf)))
         good = within & (clear >= best - 1e-9) if np.isfinite(best) else within
     else:
-        return []
+        return [], True
     order = np.argsort(ds)
     d_sorted, g_sorted = ds[order], good[order]
     k = int(np.argmin(np.where(g_sorted, np.abs(d_sorted), np.inf)))
@@ -1146,7 +1171,7 @@ def leg_bounds(
         out.append((-u, -(s0 + float(d_sorted[lo]))))
     if hi < d_sorted.size - 1:  # nor ahead of it
         out.append((u, s0 + float(d_sorted[hi])))
-    return out
+    return out, found
 
 
 HOLD_HALF_M = 0.005  # a held touchdown's square in the step QP (half side, m): it stays where it is held
@@ -1360,6 +1385,10 @@ def choose_footholds(
         ok0 = ((clear0 >= shin_needed(p)) & within0).tolist()
         passed = {j for j, ok in zip(slots, ok0, strict=True) if ok}
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
+    # each leg's next foothold chosen where its shin clears (FootholdMemory.shin_ok)
+    shin_ok = np.zeros(4, dtype=bool)
+    for j in passed:
+        shin_ok[legs_l[j]] = True
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
         if j in held_at:
             rows.append(_square_rows(held_at[j][:2], HOLD_HALF_M))
@@ -1367,11 +1396,22 @@ def choose_footholds(
         if q is None:
             rows.append(None)
             continue
-        bounds = (
-            leg_bounds(view, maps, int(legs[j]), hips[j], path.p_world_touchdown[k, :2], q, p)
-            if j < 4 and j not in passed
-            else []
-        )
+        bounds: list[tuple[NDArray[np.float64], float]] = []
+        if j < 4 and j not in passed:
+            bounds, found = leg_bounds_found(
+                view, maps, legs_l[j], hips[j], path.p_world_touchdown[k, :2], q, p
+            )
+            leg = legs_l[j]
+            was_on = memory.on_region is None or bool(memory.on_region[leg])
+            kept_ok = memory.shin_ok is not None and bool(memory.shin_ok[leg])
+            shin_ok[leg] = found
+            if not found and p.shin_hold and not stance_l[leg] and held_l[leg] and was_on and kept_ok:
+                # no place of this polygon clears the shin: this touchdown keeps its choice made earlier (see
+                # DecisionParams.shin_hold)
+                held_at[j] = memory.p_chosen[leg].copy()
+                shin_ok[leg] = True
+                rows.append(_square_rows(held_at[j][:2], HOLD_HALF_M))
+                continue
         if not bounds:
             rows.append((q.A, q.b))
         else:
@@ -1401,6 +1441,8 @@ def choose_footholds(
         held = j < 4 and held_l[leg]
         if (t_rel[j] < p.freeze_s and held) or lost[j]:
             p_new[k] = memory.p_chosen[leg]
+            if j < 4:
+                shin_ok[leg] = memory.shin_ok is not None and bool(memory.shin_ok[leg])
         elif j in held_at:
             p_new[k] = held_at[j]
         elif plan is not None:
@@ -1423,7 +1465,7 @@ def choose_footholds(
         tuple(polys),
         plan,
         shift,
-        FootholdMemory(mem_t, mem_p, z_stance, mem_on),
+        FootholdMemory(mem_t, mem_p, z_stance, mem_on, shin_ok),
         back,
         path.t_liftoff_now.copy(),
     )

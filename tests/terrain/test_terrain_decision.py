@@ -29,6 +29,7 @@ from planning.terrain.decision import (
     crouch_height,
     decide,
     leg_bounds,
+    leg_bounds_found,
     leg_clearance,
     lost_region,
     own_side,
@@ -241,6 +242,83 @@ def test_a_foot_stepping_down_is_kept_where_its_shin_clears_the_edge_it_stepped_
     assert poly_flat is not None
     view_flat = _leg_view(0.3, 0.6)
     assert leg_bounds(view_flat, maps, 0, np.array([0.6, 0.1]), np.array([0.6, 0.1]), poly_flat, P_LINE) == []
+
+
+def test_a_tread_below_no_place_of_which_clears_the_shin_is_found_so() -> None:
+    """leg_bounds_found: with the hip well behind the nosing no place on the tread below clears the shin (the
+    bounds keep the place of most clearance, and say none clears: DecisionParams.shin_hold holds that touchdown);
+    with the hip over the tread a place clears."""
+    world = _steps_down()
+    maps, regions = world.maps, world.regions
+    label = regions.label_at(1.15, 0.1)
+    poly = convex_around(regions, label, np.array([1.08, 0.1]), P.window_m)
+    assert poly is not None
+    behind = _leg_view(0.5, 0.6)
+    hip_behind = np.array([0.8, 0.1])
+    bounds, found = leg_bounds_found(behind, maps, 0, hip_behind, np.array([1.08, 0.1]), poly, P_LINE)
+    same = leg_bounds(behind, maps, 0, hip_behind, np.array([1.08, 0.1]), poly, P_LINE)
+    assert not found and len(bounds) == len(same) >= 1
+    for (a, b), (a2, b2) in zip(bounds, same, strict=True):
+        np.testing.assert_array_equal(a, a2)
+        assert b == b2
+    # along the tread: the shin too near the nosing wherever the hip reaches
+    feet = np.column_stack([np.arange(1.06, 1.3, 0.03), np.full(8, 0.1)])
+    clear, within = leg_clearance(behind, maps, 0, hip_behind, feet, P_LINE)
+    assert within.any() and np.all(~within | (clear < P_LINE.shin_clear_m))
+    over = _leg_view(0.85, 0.6)
+    _, found_over = leg_bounds_found(
+        over, maps, 0, np.array([1.15, 0.1]), np.array([1.08, 0.1]), poly, P_LINE
+    )
+    assert found_over
+    # flat ground: nothing to bound, found
+    flat = regions.label_at(0.6, 0.1)
+    poly_flat = convex_around(regions, flat, np.array([0.6, 0.1]), P.window_m)
+    assert poly_flat is not None
+    view_flat = _leg_view(0.3, 0.6)
+    assert leg_bounds_found(
+        view_flat, maps, 0, np.array([0.6, 0.1]), np.array([0.6, 0.1]), poly_flat, P_LINE
+    ) == (
+        [],
+        True,
+    )
+
+
+def test_a_foot_in_the_air_keeps_its_clearing_choice_when_its_new_polygon_has_no_place_the_shin_clears() -> (
+    None
+):
+    """shin_hold: FL in the air, its nominal moved from before a low box (6 cm, x 0.40-0.52) to just past it, the hip
+    still behind the box: no place of the floor's polygon there clears the shin (clutter draw 548's late flip). With
+    shin_hold the foot keeps the choice made for this touchdown before the box, where the shin cleared; without
+    (or with that choice not known to clear) it goes to the polygon's place of most clearance."""
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (110, 60))
+    Y = np.broadcast_to(ys[None, :], (110, 60))
+    box = (X > 0.40) & (X < 0.52) & (Y > 0.03) & (Y < 0.33)
+    world = _world(xs, ys, np.asarray(np.where(box, 0.06, 0.0), dtype=np.float64))
+    feet_x = np.array([0.2, 0.3, -0.3, -0.3])
+    view = dataclass_replace(
+        _view(np.zeros(4), feet_x), stance=np.array([False, True, True, True]), l_upper_m=0.32, l_lower_m=0.34
+    )
+    path = _trot_path(feet_x, np.array([0.58, 0.3, -0.3, -0.3]))
+    k_fl = int(np.flatnonzero(path.leg == 0)[0])
+    chosen = np.full((4, 3), np.nan)
+    chosen[0] = [0.3, 0.15, 0.0]
+    t_mem = np.full(4, np.nan)
+    t_mem[0] = float(path.t_touchdown[k_fl])
+    qp = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
+    params = dataclasses.replace(P_LINE, shin_hold=True)
+    kept = FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool), np.ones(4, dtype=bool))
+    d = choose_footholds(view, path, world, kept, qp, params)
+    np.testing.assert_allclose(d.p_world_touchdown[k_fl, :2], [0.3, 0.15], atol=0.011)
+    assert d.memory.shin_ok is not None and d.memory.shin_ok[0]
+    # without the rule, or with the earlier choice not known to clear: the place of most clearance, elsewhere
+    off = choose_footholds(view, path, world, kept, qp, dataclasses.replace(params, shin_hold=False))
+    unknown = FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool))
+    d2 = choose_footholds(view, path, world, unknown, qp, params)
+    for dd in (off, d2):
+        assert abs(dd.p_world_touchdown[k_fl, 0] - 0.3) > 0.05
+        assert dd.memory.shin_ok is not None and not dd.memory.shin_ok[0]
 
 
 def test_going_down_a_slope_is_not_stepping_down_an_edge() -> None:
