@@ -497,6 +497,7 @@ class Handler:
                 s.p_world_body,
                 s.v_world_body,
                 s.omega_world,
+                self.swing_planner.params,
             )
             self.tau[leg] = (
                 self.kp[leg] * (q_des - s.q[leg])

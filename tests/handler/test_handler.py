@@ -156,3 +156,24 @@ def test_a_swing_near_its_plan_is_replanned_from_the_plans_height_when_asked() -
     assert abs(z_new - (z_plan + 0.05)) < 1e-6
     z_plan, z_new = _replanned_height(Handler(ROBOT), 0.02)
     assert abs(z_new - (z_plan + 0.02)) < 1e-6
+
+
+def test_the_swing_legs_track_with_the_swing_planners_own_parameters() -> None:
+    """The swing feed-forward uses the planner's SwingParams (foot_effective_mass_kg), not the defaults."""
+    from planning.swing import SwingParams, SwingPlanner
+
+    def swing_torque(params: SwingParams) -> np.ndarray:
+        h = Handler(ROBOT, swing_planner=SwingPlanner(ROBOT, params))
+        plan = _Plan()
+        h.update_phases(_state(0.0, (True,) * 4), plan)
+        s = _state(0.2, (False, True, True, True))
+        h.update_phases(s, plan)
+        h.plan_swings(s)
+        return h.torques(s, np.zeros((4, 3)))[0].copy()
+
+    light = swing_torque(SwingParams(foot_effective_mass_kg=0.5))
+    heavy = swing_torque(SwingParams(foot_effective_mass_kg=3.0))
+    # gravity alone on 2.5 kg more at the foot: ~25 N through the leg's Jacobian
+    assert np.max(np.abs(heavy - light)) > 0.5
+    same = swing_torque(SwingParams(foot_effective_mass_kg=0.5))
+    np.testing.assert_allclose(same, light, atol=1e-9)
