@@ -113,7 +113,12 @@ class DecisionParams:
     late swing elsewhere) or a tread below is not left trailing on a straight leg (the speed may fall to 0 until
     it lifts); height_reach_frac: the body height is at most the one at which every stance foot lies within this
     share of the leg's full length of its hip (along the heading and up, the hips placed by the pitch target): a
-    hind foot a tread below keeps the body down instead of hanging from a straight leg; lost_hold_m: a next
+    hind foot a tread below keeps the body down instead of hanging from a straight leg; touchdown_reach_frac: the
+    body height is also at most the one at which every swinging leg's chosen touchdown lies within this share of
+    the leg's full length of its hip (the same geometry; not below min_height_m): a front foot stepping down a
+    riser is not sent to a tread its straight leg only reaches after the body has come down (steep stairs: the
+    leg straight 1 cm above the tread, its swing thrown forward and up, the touchdown 0.2 s late; None: off);
+    lost_hold_m: a next
     touchdown whose previous foothold lies on no region in this map (the segmentation lost the cell for a
     moment: a re-segmentation, a cell seen anew) while the ground there is within this of the foothold's
     height keeps that foothold: the ground did not move, and a foot committed to a tread is not sent to the floor
@@ -196,6 +201,7 @@ class DecisionParams:
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
+    touchdown_reach_frac: float | None = 0.95
     lost_hold_m: float = 0.03
     gap_dip_m: float | None = 0.05
     gap_flight_steps: int | None = 2
@@ -353,6 +359,8 @@ def decide(
         clip_scalar(offset, -p.max_height_offset_m, p.max_height_offset_m)
     )
     height = min(height, crouch_height(view, world.maps, p, world.overhangs), reach_height(view, pitch, p))
+    if p.touchdown_reach_frac is not None and last is not None:
+        height = min(height, touchdown_reach_height(view, last.memory.p_chosen, pitch, p))
     return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap)
 
 
@@ -596,18 +604,43 @@ def reach_height(view: TerrainView, pitch: float, p: DecisionParams) -> float:
     """Gives the highest body height (m, above the mean contact height) at which every stance foot lies within
     height_reach_frac of the leg's full length of its hip along the heading and up, the hips placed by the pitch
     (positive nose down) (inf: no leg lengths, or no foot bounds it)."""
-    length = p.height_reach_frac * (view.l_upper_m + view.l_lower_m)
+    return _reach_bound(view, view.p_world_foot, view.stance, pitch, p.height_reach_frac)
+
+
+def touchdown_reach_height(
+    view: TerrainView, p_chosen: NDArray[np.float64], pitch: float, p: DecisionParams
+) -> float:
+    """Gives the highest body height (m, above the mean contact height) at which every swinging leg's chosen
+    touchdown p_chosen (4, 3: contact points on the ground; nan: none) lies within touchdown_reach_frac of the
+    leg's full length of its hip, the hips placed as in reach_height; not below min_height_m (inf: the rule off,
+    no leg lengths, or no touchdown bounds it)."""
+    if p.touchdown_reach_frac is None:
+        return np.inf
+    centres = np.asarray(p_chosen, dtype=np.float64).copy()
+    centres[:, 2] += view.foot_radius_m
+    use = ~view.stance & np.all(np.isfinite(centres), axis=1)
+    bound = _reach_bound(view, np.where(use[:, None], centres, 0.0), use, pitch, p.touchdown_reach_frac)
+    return max(bound, p.min_height_m)
+
+
+def _reach_bound(
+    view: TerrainView, feet: NDArray[np.float64], which: NDArray[np.bool_], pitch: float, frac: float
+) -> float:
+    """The highest body height (above the mean contact height) at which every foot centre feet[which] lies within
+    frac of its leg's full length of its hip, along the heading and up, the hips placed by the pitch (inf: no leg
+    lengths, or no foot bounds it)."""
+    length = frac * (view.l_upper_m + view.l_lower_m)
     if view.l_upper_m <= 0.0:
         return np.inf
     u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
     x_hip = view.p_body_hip[:, 0]
     s_hip = float(view.p_world_body[:2] @ u) + x_hip * math.cos(pitch)
-    dx = view.p_world_foot[:, :2] @ u - s_hip
-    use = view.stance & (np.abs(dx) < length)
+    dx = feet[:, :2] @ u - s_hip
+    use = which & (np.abs(dx) < length)
     if not use.any():
         return np.inf
     dz = np.sqrt(np.maximum(length**2 - dx[use] ** 2, 0.0))
-    return float(np.min(view.p_world_foot[use, 2] + dz - view.z_contact + math.sin(pitch) * x_hip[use]))
+    return float(np.min(feet[use, 2] + dz - view.z_contact + math.sin(pitch) * x_hip[use]))
 
 
 @functools.lru_cache(maxsize=8)

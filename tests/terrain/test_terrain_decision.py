@@ -35,6 +35,7 @@ from planning.terrain.decision import (
     own_side,
     pitched_nominals,
     reach_height,
+    touchdown_reach_height,
     shin_needed,
     stride_m,
     swing_ground,
@@ -891,3 +892,36 @@ def test_the_shin_segment_never_flags_flat_or_sloped_ground(seed: int) -> None:
             dataclass_replace(view, z_contact=z_under), world.maps, leg, hip, feet, p_seg
         )
         assert np.all(np.isfinite(clear)) and np.all(clear >= shin_needed(p_seg)), (slope, a, clear)
+
+
+def test_a_swinging_foot_stepping_down_out_of_reach_lowers_the_body_height() -> None:
+    # a 0.32 m thigh and a 0.34 m shank, feet under their hips on flat ground (contact points at 0)
+    legs = {"l_upper_m": 0.32, "l_lower_m": 0.34}
+    view = dataclass_replace(
+        _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3])), z_contact=0.0, foot_radius_m=0.0, **legs
+    )
+    view = dataclass_replace(view, p_world_foot=view.p_world_foot * np.array([1.0, 1.0, 0.0]))
+    on = dataclasses.replace(P, touchdown_reach_frac=0.95)
+    chosen = np.full((4, 3), np.nan)
+    chosen[1] = [0.5, -0.15, -0.18]  # FR's touchdown a riser below, 0.2 m ahead of its hip
+    # FR in stance: its chosen touchdown does not count; off: no bound
+    assert touchdown_reach_height(view, chosen, 0.0, on) == np.inf
+    air = dataclass_replace(view, stance=np.array([True, False, True, True]))
+    assert touchdown_reach_height(air, chosen, 0.0, dataclasses.replace(P, touchdown_reach_frac=None)) == np.inf
+    # in the air: the body comes down until that touchdown is within 0.95 of the leg's length of its hip
+    length = 0.95 * 0.66
+    h = touchdown_reach_height(air, chosen, 0.0, on)
+    assert h == pytest.approx(-0.18 + math.sqrt(length**2 - 0.2**2), abs=1e-9)
+    assert h < view.standing_height_m
+    # a longer leg share, or the touchdown on the ground it leaves: higher, or no lower than standing
+    assert touchdown_reach_height(air, chosen, 0.0, dataclasses.replace(on, touchdown_reach_frac=1.0)) > h
+    level = chosen.copy()
+    level[1, 2] = 0.0
+    assert touchdown_reach_height(air, level, 0.0, on) > view.standing_height_m
+    # never below min_height_m (a touchdown far down: the body does not sit on the ground)
+    deep = chosen.copy()
+    deep[1, 2] = -0.6
+    assert touchdown_reach_height(air, deep, 0.0, on) == pytest.approx(on.min_height_m)
+    # the foot radius lifts the centre the leg reaches
+    r = dataclass_replace(air, foot_radius_m=0.02)
+    assert touchdown_reach_height(r, chosen, 0.0, on) == pytest.approx(h + 0.02, abs=1e-9)
