@@ -35,11 +35,11 @@ from planning.terrain.decision import (
     own_side,
     pitched_nominals,
     reach_height,
-    touchdown_reach_height,
     shin_needed,
     stride_m,
     swing_ground,
     swing_hump,
+    touchdown_reach_height,
     trail_speed,
 )
 from planning.terrain.maps import maps_from_grids
@@ -907,7 +907,9 @@ def test_a_swinging_foot_stepping_down_out_of_reach_lowers_the_body_height() -> 
     # FR in stance: its chosen touchdown does not count; off: no bound
     assert touchdown_reach_height(view, chosen, 0.0, on) == np.inf
     air = dataclass_replace(view, stance=np.array([True, False, True, True]))
-    assert touchdown_reach_height(air, chosen, 0.0, dataclasses.replace(P, touchdown_reach_frac=None)) == np.inf
+    assert (
+        touchdown_reach_height(air, chosen, 0.0, dataclasses.replace(P, touchdown_reach_frac=None)) == np.inf
+    )
     # in the air: the body comes down until that touchdown is within 0.95 of the leg's length of its hip
     length = 0.95 * 0.66
     h = touchdown_reach_height(air, chosen, 0.0, on)
