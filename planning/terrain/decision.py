@@ -117,12 +117,13 @@ class DecisionParams:
     body height is also at most the one at which every swinging leg's chosen touchdown lies within this share of
     the leg's full length of its hip (the same geometry; not below min_height_m): a front foot stepping down a
     riser is not sent to a tread its straight leg only reaches after the body has come down (steep stairs: the
-    leg straight 1 cm above the tread, its swing thrown forward and up, the touchdown 0.2 s late; None: off);
-    lost_hold_m: a next
-    touchdown whose previous foothold lies on no region in this map (the segmentation lost the cell for a
-    moment: a re-segmentation, a cell seen anew) while the ground there is within this of the foothold's
-    height keeps that foothold: the ground did not move, and a foot committed to a tread is not sent to the floor
-    beside it; gap_dip_m: a run without a region counts as a gap (gap_ahead) unless it only goes from one height to
+    leg straight 1 cm above the tread, its swing thrown forward and up, the touchdown 0.2 s late; None: off, as
+    0.95 measured worse: the whole body comes down, the hind hips with it, and a hind shin meets the nosing it
+    steps past); lost_hold_m: a next touchdown whose previous foothold lies on no region in this map (the
+    segmentation lost the cell for a moment: a re-segmentation, a cell seen anew) while the ground there is within
+    this of the foothold's height keeps that foothold: the ground did not move, and a foot committed to a tread is
+    not sent to the floor beside it;
+    gap_dip_m: a run without a region counts as a gap (gap_ahead) unless it only goes from one height to
     another (its two ends differ by more than this and its ground stays within this of the range between them: a
     riser's edge band), or, at the line's end, its ground stays above this below its one end (None: every run
     counts); a pit, the space between stones, the floor around a box (both ends at one height) stay gaps;
@@ -201,7 +202,7 @@ class DecisionParams:
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
-    touchdown_reach_frac: float | None = 0.95
+    touchdown_reach_frac: float | None = None
     lost_hold_m: float = 0.03
     gap_dip_m: float | None = 0.05
     gap_flight_steps: int | None = 2
