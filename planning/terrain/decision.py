@@ -149,7 +149,12 @@ class DecisionParams:
     of taking the place of most clearance (False, a foot in stance, or no such choice: that place, which may still
     meet the edge): a nominal that drifts, late in a swing or at a liftoff, past a
     box or onto the tread below, where the shin would meet the edge it steps past, leaves the foot where it was
-    going."""
+    going;
+    shin_regions: the shin test as a region filter (0 or 1: off): a next touchdown's region none of whose places along
+    the heading within shin_search_m clears the shin (leg_bounds_found: some within reach, none clearing) is
+    rejected like a region out of reach, and the region choice is made again without it, up to this many regions
+    tried in all (shin_region: the landing above a tread, the floor before a box); when none of them has a
+    clearing place the first region stands and its place of most clearance is taken (the behaviour with 0)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -199,6 +204,7 @@ class DecisionParams:
     shin_rule: str = "line"
     shin_margin_m: float = 0.04
     shin_hold: bool = False
+    shin_regions: int = 0
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
@@ -716,6 +722,7 @@ def choose_region(
     hip: NDArray[np.float64] | None = None,
     reach_m: float = np.inf,
     side: NDArray[np.float64] | None = None,
+    exclude: frozenset[int] = frozenset(),
 ) -> int:
     """Gives the region (label; 0: none) for a foothold whose nominal place is xy (2,), for a leg whose last
     foothold was at height z_ref (m): among the regions with an inset cell within search_m, those within
@@ -724,7 +731,7 @@ def choose_region(
     as it is within reach at all: a swing commits to its region at liftoff. hip (2,): the leg's hip at touchdown;
     cells farther than reach_m from it (in the ground plane) are out of reach. side (4,): the body's centre at
     touchdown (x, y) and the unit vector from it toward the leg's side: only cells own_side(p) or more along
-    it are chosen (see DecisionParams.own_side_m)."""
+    it are chosen (see DecisionParams.own_side_m). exclude: labels not to choose (shin_region: rejected)."""
     res = regions.resolution_m
     ox, oy = regions.origin_xy
     w = int(math.ceil(p.search_m / res))
@@ -752,6 +759,8 @@ def choose_region(
     if side is not None and p.own_side_m is not None:
         bx, by, sx, sy = (float(v) for v in side)
         ok &= (dx + x - bx) * sx + (dy + y - by) * sy >= own_side(p)
+    if exclude:
+        ok &= ~np.isin(labs, np.fromiter(exclude, dtype=labs.dtype))
     cost = np.where(ok, dist + p.w_height * dz, np.inf)
     # The region of least cost (a region's cost: its least over its cells; a tie: the lowest label).
     least = float(cost.min())
@@ -760,7 +769,7 @@ def choose_region(
     choice = int(labs[cost == least].min())
     if keep_xy is not None:
         prev = regions.label_at(float(keep_xy[0]), float(keep_xy[1]))
-        if 0 < prev <= int(labs.max()):
+        if 0 < prev <= int(labs.max()) and prev not in exclude:
             mine = labs == prev
             prev_cost = float(cost[mine].min()) if mine.any() else np.inf
             if prev_cost <= least + (np.inf if in_flight else p.keep_m):
@@ -1208,6 +1217,64 @@ def leg_bounds_found(
     return out, found
 
 
+def _polygon(
+    regions: SteppableRegions,
+    label: int,
+    nom: NDArray[np.float64],
+    p: DecisionParams,
+    cache: dict[tuple[int, int, int], ConvexRegion | None],
+) -> ConvexRegion | None:
+    """Gives region `label`'s polygon around the nominal foothold nom (2,) (convex_around), cached by region and
+    nominal cell."""
+    res = regions.resolution_m
+    key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
+    if key not in cache:
+        cache[key] = convex_around(regions, label, nom, p.window_m)
+    return cache[key]
+
+
+def shin_region(
+    view: TerrainView,
+    world: TerrainWorld,
+    leg: int,
+    hip_xy: NDArray[np.float64],
+    nom: NDArray[np.float64],
+    z_ref: float,
+    keep_xy: NDArray[np.float64] | None,
+    flying: bool,
+    side: NDArray[np.float64] | None,
+    label: int,
+    poly: ConvexRegion,
+    p: DecisionParams,
+    cache: dict[tuple[int, int, int], ConvexRegion | None] | None = None,
+) -> tuple[int, ConvexRegion]:
+    """The shin test as a region filter (DecisionParams.shin_regions): gives the region and polygon of a next
+    touchdown of leg `leg` (hip at hip_xy (2,) at touchdown, nominal foothold nom (2,)), given the region chosen
+    for it (label, poly): that one when a place of it along the heading clears the shin (leg_bounds_found), else
+    the region choose_region gives without the regions rejected so far (the same height reference z_ref, kept
+    place, flight flag, reach and side as the first choice), the first one, up to shin_regions in all, with a place
+    that clears; none: the region given (its place of most clearance is then taken, as without the filter)."""
+    if p.shin_regions <= 1:
+        return label, poly
+    cache = {} if cache is None else cache
+    maps, regions = world.maps, world.regions
+    if leg_bounds_found(view, maps, leg, hip_xy, nom, poly, p)[1]:
+        return label, poly
+    rejected = {label}
+    reach = reach_xy(view, p)
+    while len(rejected) < p.shin_regions:
+        other = choose_region(
+            regions, maps, nom, z_ref, keep_xy, p, flying, hip_xy, reach, side, frozenset(rejected)
+        )
+        if not other or other in rejected:
+            break
+        rejected.add(other)
+        q = _polygon(regions, other, nom, p, cache)
+        if q is not None and leg_bounds_found(view, maps, leg, hip_xy, nom, q, p)[1]:
+            return other, q
+    return label, poly
+
+
 HOLD_HALF_M = 0.005  # a held touchdown's square in the step QP (half side, m): it stays where it is held
 
 
@@ -1326,7 +1393,6 @@ def choose_footholds(
     same = np.abs(memory.t_touchdown - t_td_next) < 0.15
     z_ref = z_stance.copy()
     cache = {} if polygon_cache is None else polygon_cache
-    res = regions.resolution_m
     t_abs = path.t_touchdown[order]
     bodies = path.body.position(t_abs)[:, :2]
     yaws = np.asarray(path.body.yaw(t_abs), dtype=np.float64).reshape(-1)
@@ -1388,10 +1454,24 @@ def choose_footholds(
                     )
                 poly = None
                 if label:
-                    key = (label, int(round(float(nom[0]) / res)), int(round(float(nom[1]) / res)))
-                    if key not in cache:
-                        cache[key] = convex_around(regions, label, nom, p.window_m)
-                    poly = cache[key]
+                    poly = _polygon(regions, label, nom, p, cache)
+                if poly is not None and j < 4 and p.shin_regions > 1:
+                    # a region none of whose places clears the shin: the next region that has one
+                    label, poly = shin_region(
+                        view,
+                        world,
+                        leg,
+                        hips[j],
+                        nom,
+                        float(z_ref[leg]),
+                        keep,
+                        flying,
+                        sides[j],
+                        label,
+                        poly,
+                        p,
+                        cache,
+                    )
                 if poly is None and j < 4:
                     # no region at all: a foot in stance steps in place, one in the air keeps its choice made on a
                     # region, not its nominal place over a gap or a pit

@@ -36,6 +36,7 @@ from planning.terrain.decision import (
     pitched_nominals,
     reach_height,
     shin_needed,
+    shin_region,
     stride_m,
     swing_ground,
     swing_hump,
@@ -281,6 +282,51 @@ def test_a_tread_below_no_place_of_which_clears_the_shin_is_found_so() -> None:
     ) == (
         [],
         True,
+    )
+
+
+def test_a_region_no_place_of_which_clears_the_shin_is_rejected_for_the_landing_above() -> None:
+    """shin_region (DecisionParams.shin_regions): a front foot's nominal on the tread below a landing, the hip well
+    behind the nosing: the tread has no place that clears the shin, so the region choice is made again without it
+    and gives the landing, where a place clears; with the hip over the tread, or the filter off, the tread stands;
+    with no other region to choose (max_rise_m), the tread stands (today's place of most clearance)."""
+    world = _steps_down()
+    maps, regions = world.maps, world.regions
+    nom = np.array([1.08, 0.1])
+    on = dataclasses.replace(P_LINE, shin_regions=3)
+    tread = regions.label_at(1.15, 0.1)
+    landing = regions.label_at(0.6, 0.1)
+    assert tread and landing and tread != landing
+    behind = _leg_view(0.5, 0.6)
+    hip_behind = np.array([0.8, 0.1])
+    # the first choice: the tread under the nominal
+    assert choose_region(regions, maps, nom, 0.6, None, on) == tread
+    assert choose_region(regions, maps, nom, 0.6, None, on, exclude=frozenset({tread})) == landing
+    poly = convex_around(regions, tread, nom, P.window_m)
+    assert poly is not None
+    label, q = shin_region(behind, world, 0, hip_behind, nom, 0.6, None, True, None, tread, poly, on)
+    assert label == landing and q is not poly
+    bounds, found = leg_bounds_found(behind, maps, 0, hip_behind, nom, q, on)
+    assert found
+    # the foot in the air kept on the tread (its earlier choice there): the tread is still rejected
+    kept = shin_region(behind, world, 0, hip_behind, nom, 0.6, nom, True, None, tread, poly, on)
+    assert kept[0] == landing
+    # off: the tread
+    off = shin_region(behind, world, 0, hip_behind, nom, 0.6, None, True, None, tread, poly, P_LINE)
+    assert off == (tread, poly)
+    # the hip over the tread: a place of it clears, it stands
+    over = _leg_view(0.85, 0.6)
+    assert shin_region(
+        over, world, 0, np.array([1.15, 0.1]), nom, 0.6, None, True, None, tread, poly, on
+    ) == (
+        tread,
+        poly,
+    )
+    # no other region within max_rise_m of the reference: the tread stands
+    low = dataclasses.replace(on, max_rise_m=0.1)
+    assert shin_region(behind, world, 0, hip_behind, nom, 0.45, None, True, None, tread, poly, low) == (
+        tread,
+        poly,
     )
 
 
