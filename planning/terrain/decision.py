@@ -154,7 +154,9 @@ class DecisionParams:
     the heading within shin_search_m clears the shin (leg_bounds_found: some within reach, none clearing) is
     rejected like a region out of reach, and the region choice is made again without it, up to this many regions
     tried in all (shin_region: the landing above a tread, the floor before a box); when none of them has a
-    clearing place the first region stands and its place of most clearance is taken (the behaviour with 0)."""
+    clearing place the first region stands and its place of most clearance is taken (the behaviour with 0). The
+    filter acts while the foot is in stance: in the air the foot keeps the region it lifted off for (a region
+    switched late in a swing sends a foot already past a nosing back onto it)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -1455,8 +1457,9 @@ def choose_footholds(
                 poly = None
                 if label:
                     poly = _polygon(regions, label, nom, p, cache)
-                if poly is not None and j < 4 and p.shin_regions > 1:
-                    # a region none of whose places clears the shin: the next region that has one
+                if poly is not None and j < 4 and p.shin_regions > 1 and not flying:
+                    # a region none of whose places clears the shin: the next region that has one (a foot in
+                    # stance; in the air it keeps the region it lifted off for: no switch late in a swing)
                     label, poly = shin_region(
                         view,
                         world,
