@@ -1,4 +1,5 @@
-"""`footfall sweep SPEC [--backend local|ray] [--address ADDR] [--out DIR] [--json FILE] [--workers N]`."""
+"""`footfall sweep SPEC [--backend local|ray] [--address ADDR] [--out DIR] [--json FILE] [--workers N]`, and
+`footfall sweep --compare A B [--json FILE]` (two results directories, paired case by case)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 EXIT_OK, EXIT_CRASHED, EXIT_INVALID = 0, 1, 2
 
@@ -31,7 +33,28 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:  # t
     s.add_argument("--workers", type=int, metavar="N", help="local: worker processes (default: one per core); "
                    "ray: CPUs of the local Ray it starts")  # fmt: skip
     s.add_argument("--schema", action="store_true", help="print the spec format's JSON Schema and exit")
+    s.add_argument("--compare", nargs=2, metavar=("A", "B"), help="compare two results directories of the same "
+                   "spec (before and after a change) case by case: both rates, the cases B gains and loses, and "
+                   "the exact sign test's p on them (no SPEC; --json writes the comparison)")  # fmt: skip
     return s
+
+
+def _compare(a: argparse.Namespace, err: Any) -> int:
+    from planning.sweep.compare import CompareError, compare, format_compare
+
+    if a.spec:
+        return err("--compare takes two results directories and no SPEC")
+    try:
+        c = compare(a.compare[0], a.compare[1])
+    except CompareError as e:
+        return err(f"--compare: {e}")
+    print(format_compare(c))
+    if a.json:
+        try:
+            Path(a.json).write_text(json.dumps(c, indent=2) + "\n")
+        except OSError as e:
+            return err(f"--json {a.json}: cannot write: {e.strerror}")
+    return EXIT_OK
 
 
 def main(a: argparse.Namespace) -> int:
@@ -47,6 +70,8 @@ def main(a: argparse.Namespace) -> int:
     if a.schema:
         print(json.dumps(sweep_json_schema(), indent=2))
         return EXIT_OK
+    if a.compare:
+        return _compare(a, err)
     if not a.spec:
         return err("SPEC: give a sweep spec file or a shipped sweep's name (footfall sweep push-stand)")
     if a.workers is not None and not (1 <= a.workers <= 1024):

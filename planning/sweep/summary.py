@@ -193,6 +193,7 @@ def summarize(
         }
     return {
         "sweep": spec.name,
+        "success": spec.summary.success,
         "by": by,
         "overall": _stats([records.get(k) for k in dict.fromkeys(c["key"] for c in cases)]),
         "cells": cells,

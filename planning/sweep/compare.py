@@ -1,0 +1,156 @@
+"""`footfall sweep --compare A B`: two sweeps' results on the same cases, paired case by case.
+
+A change to the robot's code or parameters is judged by running a sweep spec before and after it and comparing the
+two result directories. Cases pair by their run parameters (the code version is left out, so a case of A and a case
+of B pair when they ran the same draw). What counts is each pair's outcome: the cases B gains (A failed, B
+succeeded), the cases it loses, and the exact two-sided sign test over those discordant pairs (McNemar's exact
+test): the chance of a split at least that lopsided if the change made no difference. On 12 draws a gain of 2 and
+a loss of 0 is p = 0.5: no evidence either way.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from planning.sweep.summary import clean_record, reason_group, wilson
+
+
+class CompareError(ValueError):
+    """A results directory that cannot be compared (absent, or holding no case results)."""
+
+
+def load_results(out_dir: str | Path) -> tuple[dict[str, dict[str, Any]], str]:
+    """Gives a results directory's finished case records keyed by their run parameters (JSON, sorted keys), and the
+    success criterion its sweep counted ("clean" or "success"; "clean" where summary.json does not say)."""
+    d = Path(out_dir)
+    cases = d / "cases"
+    if not cases.is_dir():
+        raise CompareError(f"{d}: no sweep results here (no cases/ directory)")
+    success = "clean"
+    try:
+        success = str(json.loads((d / "summary.json").read_text()).get("success", "clean"))
+    except (OSError, ValueError):
+        pass
+    out: dict[str, dict[str, Any]] = {}
+    for f in sorted(cases.glob("*.json")):
+        try:
+            rec = json.loads(f.read_text())
+        except (OSError, ValueError):
+            continue  # cut short by an interruption: not a result
+        if rec.get("status") not in ("done", "crashed") or "case" not in rec:
+            continue
+        out[json.dumps(rec["case"]["params"], sort_keys=True)] = rec
+    if not out:
+        raise CompareError(f"{d}: no finished cases in {cases}")
+    return out, success
+
+
+def outcome(rec: dict[str, Any], success: str) -> tuple[bool, str]:
+    """Gives whether a record counts as a success under the criterion, and its failure reason ("" on success)."""
+    if rec.get("status") != "done":
+        return False, f"crashed: {rec.get('error') or 'no report'}"
+    r = clean_record(rec) if success == "clean" else rec
+    rep = r["report"]
+    ok = bool(rep.get("success"))
+    return ok, "" if ok else str(rep.get("failure_reason") or "failed")
+
+
+def sign_test_p(gains: int, losses: int) -> float:
+    """Gives the exact two-sided sign test's p-value for gains against losses (McNemar's exact test on the
+    discordant pairs): 1.0 with none."""
+    n = gains + losses
+    if n == 0:
+        return 1.0
+    k = min(gains, losses)
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2.0**n
+    return min(1.0, 2.0 * tail)
+
+
+def _label(rec: dict[str, Any]) -> str:
+    axes = rec["case"].get("axes") or {}
+    parts = []
+    for k, v in axes.items():
+        if k == "run":
+            parts.append(str(v))
+            continue
+        name = k.removeprefix("terrain.")
+        parts.append(f"{name}={v:.4g}" if isinstance(v, float) else f"{name}={v}")
+    return " ".join(parts) or rec["key"]
+
+
+def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
+    """Gives the paired comparison of two results directories (see the module docstring): the counts on the
+    paired cases, each side's rate with its Wilson 95 % interval, the gains, the losses, the sign test's p and the
+    changed cases (each with both outcomes)."""
+    a, a_success = load_results(a_dir)
+    b, b_success = load_results(b_dir)
+    keys = [k for k in a if k in b]
+    if not keys:
+        raise CompareError(f"{a_dir} and {b_dir} share no case (their sweeps ran different draws)")
+    changed: list[dict[str, Any]] = []
+    n_a = n_b = gains = losses = 0
+    for k in keys:
+        ok_a, why_a = outcome(a[k], a_success)
+        ok_b, why_b = outcome(b[k], b_success)
+        n_a += ok_a
+        n_b += ok_b
+        if ok_a != ok_b:
+            gains += ok_b
+            losses += ok_a
+        if ok_a != ok_b or (not ok_a and reason_group(why_a) != reason_group(why_b)):
+            changed.append(
+                {
+                    "case": _label(b[k]),
+                    "change": "gain"
+                    if ok_b and not ok_a
+                    else "loss"
+                    if ok_a and not ok_b
+                    else "other failure",
+                    "a": why_a or "success",
+                    "b": why_b or "success",
+                }
+            )
+    n = len(keys)
+    return {
+        "a": str(a_dir),
+        "b": str(b_dir),
+        "success": b_success,
+        "paired": n,
+        "a_only": len(a) - n,
+        "b_only": len(b) - n,
+        "a_successes": n_a,
+        "b_successes": n_b,
+        "a_ci95": [round(x, 4) for x in wilson(n_a, n)],
+        "b_ci95": [round(x, 4) for x in wilson(n_b, n)],
+        "gains": gains,
+        "losses": losses,
+        "sign_test_p": round(sign_test_p(gains, losses), 4),
+        "changed": changed,
+    }
+
+
+def format_compare(c: dict[str, Any]) -> str:
+    """The comparison as text: the two rates, the gains and losses with the sign test, then the changed cases."""
+
+    def rate(s: int, ci: list[float]) -> str:
+        return f"{s}/{c['paired']} ({ci[0] * 100:.0f}–{ci[1] * 100:.0f} %)"
+
+    lines = [
+        f"paired cases: {c['paired']} (only in A: {c['a_only']}, only in B: {c['b_only']}); "
+        f"success: {c['success']}",
+        f"A {c['a']}: {rate(c['a_successes'], c['a_ci95'])}",
+        f"B {c['b']}: {rate(c['b_successes'], c['b_ci95'])}",
+        f"B gains {c['gains']}, loses {c['losses']}; exact sign test on the {c['gains'] + c['losses']} changed "
+        f"outcomes: p = {c['sign_test_p']:.3g}"
+        + ("  (no evidence of a difference)" if c["sign_test_p"] > 0.05 else ""),
+    ]
+    if c["changed"]:
+        lines.append("cases whose outcome changed:")
+        for ch in c["changed"]:
+            lines.append(f"  {ch['change']:<13} {ch['case']}")
+            lines.append(f"  {'':<13}   A: {ch['a']}")
+            lines.append(f"  {'':<13}   B: {ch['b']}")
+    return "\n".join(lines)

@@ -1,0 +1,91 @@
+"""`footfall sweep --compare A B`: two results directories paired case by case, with the exact sign test."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from planning.sweep.compare import CompareError, compare, format_compare, sign_test_p
+from server.cli import main as cli_main
+
+
+def _record(
+    i: int, ok: bool, version: str, no_step: int = 0, reason: str = "fell: FL_lleg touched the world"
+) -> dict[str, Any]:
+    params = {"kind": "walk", "terrain": "stairs", "terrain_params": {"riser_m": 0.1 + 0.01 * i}, "seed": 0}
+    report = {"success": ok, "failure_reason": None if ok else f"{reason} at t={5 + i}.00 s",
+              "no_step_touchdowns": no_step, "body_collisions": 0}  # fmt: skip
+    return {"key": f"{version}{i:04d}", "status": "done", "report": report,
+            "case": {"key": f"{version}{i:04d}", "params": params, "axes": {"terrain.riser_m": 0.1 + 0.01 * i}}}  # fmt: skip
+
+
+def _write(d: Path, records: list[dict[str, Any]], summary: dict[str, Any] | None = None) -> Path:
+    (d / "cases").mkdir(parents=True)
+    for r in records:
+        (d / "cases" / f"{r['key']}.json").write_text(json.dumps(r))
+    if summary is not None:
+        (d / "summary.json").write_text(json.dumps(summary))
+    return d
+
+
+def test_sign_test_is_the_exact_binomial_tail() -> None:
+    assert sign_test_p(0, 0) == 1.0
+    assert sign_test_p(2, 0) == pytest.approx(0.5)  # two gains and no loss: no evidence
+    assert sign_test_p(0, 6) == pytest.approx(2 / 64)
+    assert sign_test_p(3, 3) == 1.0
+    n, k = 20, 4
+    assert sign_test_p(16, 4) == pytest.approx(2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
+
+
+def test_cases_pair_by_their_parameters_not_by_key(tmp_path: Path) -> None:
+    a_ok = [True, True, False, False, True, False]
+    b_ok = [True, False, True, True, True, False]
+    a = _write(tmp_path / "a", [_record(i, ok, "aaaa") for i, ok in enumerate(a_ok)])
+    # B ran one draw A did not, and its keys (another code version) differ from A's
+    b = _write(
+        tmp_path / "b", [_record(i, ok, "bbbb") for i, ok in enumerate(b_ok)] + [_record(9, True, "bbbb")]
+    )
+    c = compare(a, b)
+    assert c["paired"] == 6 and c["a_only"] == 0 and c["b_only"] == 1
+    assert (c["a_successes"], c["b_successes"]) == (3, 4)
+    assert (c["gains"], c["losses"]) == (2, 1)
+    assert c["sign_test_p"] == pytest.approx(1.0)
+    kinds = sorted(ch["change"] for ch in c["changed"])
+    assert kinds == ["gain", "gain", "loss"]
+    text = format_compare(c)
+    assert "B gains 2, loses 1" in text and "riser_m=0.11" in text
+
+
+def test_a_clean_sweep_counts_a_no_step_touchdown_as_a_failure(tmp_path: Path) -> None:
+    a = _write(tmp_path / "a", [_record(0, True, "a")], {"success": "clean"})
+    b = _write(tmp_path / "b", [_record(0, True, "b", no_step=2)], {"success": "clean"})
+    c = compare(a, b)
+    assert (c["gains"], c["losses"]) == (0, 1)
+    assert "no-step" in c["changed"][0]["b"]
+    # the same results judged by plain success: no change
+    (b / "summary.json").write_text(json.dumps({"success": "success"}))
+    assert compare(a, b)["losses"] == 0
+
+
+def test_the_cli_compares_and_refuses_what_it_cannot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a = _write(tmp_path / "a", [_record(i, i % 2 == 0, "a") for i in range(4)])
+    b = _write(tmp_path / "b", [_record(i, True, "b") for i in range(4)])
+    out = tmp_path / "c.json"
+    assert cli_main(["sweep", "--compare", str(a), str(b), "--json", str(out)]) == 0
+    assert "B gains 2, loses 0" in capsys.readouterr().out
+    assert json.loads(out.read_text())["gains"] == 2
+    assert cli_main(["sweep", "--compare", str(a), str(tmp_path / "nowhere")]) == 2
+    assert "no sweep results here" in capsys.readouterr().err
+    other = _write(tmp_path / "other", [_record(7, True, "o")])
+    other_rec = json.loads((other / "cases" / "o0007.json").read_text())
+    other_rec["case"]["params"]["seed"] = 5
+    (other / "cases" / "o0007.json").write_text(json.dumps(other_rec))
+    with pytest.raises(CompareError, match="share no case"):
+        compare(a, other)
+    assert cli_main(["sweep", "sweeps/family-stairs.yaml", "--compare", str(a), str(b)]) == 2
