@@ -59,7 +59,9 @@ class Columns:
     origin_xy: world (x, y) of cell (0, 0)'s center (m); resolution_m: cell side (m); ground_z: (nx, ny) ground
     height (m, world), NaN where unknown; obstacle: (nx, ny, nz) obstacle occupancy; z0_m: center height of layer 0
     (m); dz_m: layer height (m); obstacle_layers: (first, last) layers that may hold an obstacle (none outside them;
-    None: any layer may), so the maps need not scan the empty ones.
+    None: any layer may), so the maps need not scan the empty ones; obstacle_voxels: (layer, cell) index arrays of
+    every obstacle voxel (cell: the flat column index ix * ny + iy) when the producer lists them (the maps read them
+    instead of scanning the occupancy), None when not.
     """
 
     origin_xy: tuple[float, float]
@@ -69,6 +71,7 @@ class Columns:
     z0_m: float
     dz_m: float
     obstacle_layers: tuple[int, int] | None = None
+    obstacle_voxels: tuple[NDArray[np.intp], NDArray[np.intp]] | None = None
 
 
 class VoxelMap:
@@ -271,7 +274,14 @@ class VoxelMap:
         ground_z = np.full((n, n), np.nan)
         if self._hit_layers is None:
             return Columns(
-                self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
+                self.origin_xy,
+                self.res,
+                ground_z,
+                np.moveaxis(obstacle, 0, -1),
+                self.z0,
+                self.res,
+                (0, -1),
+                _NO_VOXELS,
             )
         w = np.float32(self._weight)
         # Only the layers whose hits may reach min_hits can hold an occupied voxel (see _layer_max); the band
@@ -281,7 +291,14 @@ class VoxelMap:
         can = np.flatnonzero(self._layer_max[lo : hi + 1] >= p.min_hits * w)
         if can.size == 0:
             return Columns(
-                self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
+                self.origin_xy,
+                self.res,
+                ground_z,
+                np.moveaxis(obstacle, 0, -1),
+                self.z0,
+                self.res,
+                (0, -1),
+                _NO_VOXELS,
             )
         lo, hi = lo + int(can[0]), lo + int(can[-1])
         n_band = hi + 1 - lo
@@ -295,7 +312,9 @@ class VoxelMap:
         occ = obstacle[lo : hi + 1]
         occ.reshape(-1)[occ_i] = True
         first_occ = np.full(cells, n_band, dtype=np.intp)
-        np.minimum.at(first_occ, occ_i % cells, occ_i // cells)
+        occ_k = occ_i // cells
+        occ_c = occ_i - occ_k * cells
+        np.minimum.at(first_occ, occ_c, occ_k)
         # Occupied layers lie in [lo, hi]; the lowest occupied layer of each column, and whether it has one.
         any_occ = first_occ <= hi - lo
         first_occ = np.minimum(first_occ, hi - lo)
@@ -303,11 +322,12 @@ class VoxelMap:
         k_ground = first_occ + lo
         # A free voxel below it (free: not occupied, seen through): only layers below hi can matter. Below a
         # column's lowest occupied voxel nothing is occupied, so there 'free' is just 'seen through': the ground
-        # stands when the lowest seen-through voxel is not below it.
+        # stands when the lowest seen-through voxel is not below it. Only layers below the highest ground can hold
+        # one under a ground: the layers from there up are not read.
         has_ground = any_occ.copy()
         if self._miss_layers is not None:
             mlo, mhi = self._miss_layers
-            top = min(mhi, hi)
+            top = min(mhi, hi, int(k_ground.max(where=any_occ, initial=lo)) - 1)
             if mlo <= top:
                 seen = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells) >= p.min_misses * w
                 first_seen = _first_true(seen)
@@ -337,9 +357,12 @@ class VoxelMap:
         band[first_occ[g], g] = False
         t = np.flatnonzero(thin)
         band[first_occ[t] + 1, t] = False
+        # The same obstacle voxels as a list (a few thousand of the band's million voxels; the maps read it).
+        fo = first_occ[occ_c]
+        kept = ~(has_ground[occ_c] & ((occ_k == fo) | (thin[occ_c] & (occ_k == fo + 1))))
         return Columns(
             self.origin_xy, self.res, ground_z.reshape(n, n), np.moveaxis(obstacle, 0, -1), self.z0, self.res,
-            (lo, hi),
+            (lo, hi), (occ_k[kept] + lo, occ_c[kept]),
         )  # fmt: skip
 
     def _ground_reference(
@@ -390,6 +413,7 @@ class VoxelMap:
 
 
 _CARVE_CHUNK = 32768
+_NO_VOXELS = (np.zeros(0, np.intp), np.zeros(0, np.intp))
 
 
 def _first_true(a: NDArray[np.bool_]) -> NDArray[np.intp]:
