@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, distance_transform, square_filter
+from planning.terrain.gridops import disk_filter, distance_transform, pad2, square_filter
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.voxels import Columns
 
@@ -440,7 +440,7 @@ def _disk_count(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArra
     map, as ndimage's mode="nearest"): one prefix sum, one difference per distinct row span (a disk's rows come
     in equal pairs and runs), one add per footprint row."""
     r = footprint.shape[0] // 2
-    padded = np.pad(mask, r, mode="edge")
+    padded = pad2(mask, r)
     prefix = np.zeros(
         (padded.shape[0], padded.shape[1] + 1), np.int32
     )  # counts: int32 is exact and half the bytes
@@ -507,7 +507,7 @@ def build_maps(
     body = _remove_specks(body, p.speck_cells)
     if p.close_cells > 0 and body.any():
         st = _disk(p.close_cells)
-        padded = np.pad(body, p.close_cells, mode="edge")
+        padded = pad2(body, p.close_cells)
         body = _closing(padded, st)[p.close_cells : -p.close_cells, p.close_cells : -p.close_cells]
 
     fp = _disk(p.edge_radius_m / res)
@@ -528,7 +528,7 @@ def build_maps(
         step |= disk_filter(body, _disk(p.near_body_m / res), np.maximum, False)
     # Steppable patches narrower than min_support_m (a small box top, a sliver between obstacles) become no-step.
     r = max(int(round(p.min_support_m / 2 / res)), 1)
-    step = _closing(np.pad(step, r, mode="edge"), _disk(r))[r:-r, r:-r]
+    step = _closing(pad2(step, r), _disk(r))[r:-r, r:-r]
 
     # Clearance under overhangs: the lowest obstacle layer at least ceiling_above_m above the ground.
     clearance = _clearance(vox, z0, dz, columns.obstacle.shape[2], h, p.ceiling_above_m)
