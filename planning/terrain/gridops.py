@@ -176,34 +176,45 @@ def _row_windows(a: NDArray[Any], halves: set[int], op: Op, cval: Any = None) ->
 def disk_filter(a: NDArray[Any], footprint: NDArray[np.bool_], op: Op, cval: Any = None) -> NDArray[Any]:
     """Gives the extremum over a centred footprint whose rows are centred runs (a disk, a cross, a square); edges
     as in window_1d. Raises ValueError for any other footprint."""
-    half = _row_halves(footprint)
-    r = len(half) // 2
-    windows = _row_windows(a, set(half), op, cval)
+    return disk_filters(a, (footprint,), op, cval)[0]
+
+
+def disk_filters(
+    a: NDArray[Any], footprints: tuple[NDArray[np.bool_], ...], op: Op, cval: Any = None
+) -> list[NDArray[Any]]:
+    """Gives disk_filter(a, footprint, op, cval) for each of the footprints, from one set of row windows (one
+    padded grid, one doubling chain, one window per distinct row width of them all)."""
+    halves = [_row_halves(fp) for fp in footprints]
+    windows = _row_windows(a, {h for half in halves for h in half}, op, cval)
     n = a.shape[0]
-    # Row x: the extremum over footprint rows i (offset d = i - r) of the row windows' row x + d, the edge row
-    # (cval None) or cval beyond the grid. The centre row first, then each other row over the rows it reaches on
-    # the grid, then over the rows it reaches past the edge. Those last add nothing with edge values where the
-    # rows narrow away from the centre (a disk: a nearer, wider row's window holds the edge row's cells), and are
-    # left out there.
-    out: NDArray[Any] = np.array(windows[half[r]])
-    skip_edge = cval is None and _narrowing(half)
-    for i, h in enumerate(half):
-        d = i - r
-        if d == 0:
-            continue
-        w = windows[h]
-        k = min(abs(d), n)  # rows past the edge
-        if d > 0:
-            if k < n:
-                op(out[: n - k], w[k:], out=out[: n - k])
-            past, edge = out[n - k :], w[n - 1]
-        else:
-            if k < n:
-                op(out[k:], w[: n - k], out=out[k:])
-            past, edge = out[:k], w[0]
-        if not skip_edge:
-            op(past, edge if cval is None else cval, out=past)
-    return out
+    outs: list[NDArray[Any]] = []
+    for half in halves:
+        r = len(half) // 2
+        # Row x: the extremum over footprint rows i (offset d = i - r) of the row windows' row x + d, the edge row
+        # (cval None) or cval beyond the grid. The centre row first, then each other row over the rows it reaches
+        # on the grid, then over the rows it reaches past the edge. Those last add nothing with edge values where
+        # the rows narrow away from the centre (a disk: a nearer, wider row's window holds the edge row's cells),
+        # and are left out there.
+        out: NDArray[Any] = np.array(windows[half[r]])
+        skip_edge = cval is None and _narrowing(half)
+        for i, h in enumerate(half):
+            d = i - r
+            if d == 0:
+                continue
+            w = windows[h]
+            k = min(abs(d), n)  # rows past the edge
+            if d > 0:
+                if k < n:
+                    op(out[: n - k], w[k:], out=out[: n - k])
+                past, edge = out[n - k :], w[n - 1]
+            else:
+                if k < n:
+                    op(out[k:], w[: n - k], out=out[k:])
+                past, edge = out[:k], w[0]
+            if not skip_edge:
+                op(past, edge if cval is None else cval, out=past)
+        outs.append(out)
+    return outs
 
 
 def _narrowing(half: tuple[int, ...]) -> bool:

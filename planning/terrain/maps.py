@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, distance_transform, pad2, square_filter
+from planning.terrain.gridops import disk_filter, disk_filters, distance_transform, pad2, square_filter
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.voxels import Columns
 
@@ -246,7 +246,9 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
     i0, i1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, mask.shape[0])
     j0, j1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, mask.shape[1])
     sub = mask[i0:i1, j0:j1]
-    d_out[i0:i1, j0:j1][sub] = -distance_transform(sub)[sub]
+    d_in = distance_transform(sub)
+    np.negative(d_in, out=d_in)
+    np.copyto(d_out[i0:i1, j0:j1], d_in, where=sub)
     # Now d_out holds +d outside and -d inside (center to center); the zero level is half a cell from either.
     d_out -= np.where(mask, -0.5, 0.5)
     d_out *= resolution_m
@@ -501,20 +503,25 @@ def build_maps(
     body = _any_between(vox, z0, dz, z_lo, h + hi) | _any_between(vox, z0, dz, h_ref + lo, h_ref + hi)
     # A wall rising right beside a cell (higher than the body can pass over) blocks the body there.
     # The same on the top side: the rim of something tall (a rail or box seen from above with nothing seen under it).
-    wall_fp = _disk(p.wall_radius_m / res)
-    body |= disk_filter(h, wall_fp, np.maximum) - h > p.body_step_m
-    body |= h - disk_filter(h, wall_fp, np.minimum) > p.body_step_m
+    # The ground's max and min filters this needs (the wall's, the edge's, the knee's), each op's from one set of
+    # row windows.
+    wall_fp, edge_fp, knee_fp = (
+        _disk(r_m / res) for r_m in (p.wall_radius_m, p.edge_radius_m, p.knee_radius_m)
+    )
+    wall_max, edge_max, knee_max = disk_filters(h, (wall_fp, edge_fp, knee_fp), np.maximum)
+    wall_min, edge_min = disk_filters(h, (wall_fp, edge_fp), np.minimum)
+    body |= wall_max - h > p.body_step_m
+    body |= h - wall_min > p.body_step_m
     body = _remove_specks(body, p.speck_cells)
     if p.close_cells > 0 and body.any():
         st = _disk(p.close_cells)
         padded = pad2(body, p.close_cells)
         body = _closing(padded, st)[p.close_cells : -p.close_cells, p.close_cells : -p.close_cells]
 
-    fp = _disk(p.edge_radius_m / res)
-    spread = disk_filter(h, fp, np.maximum) - disk_filter(h, fp, np.minimum)
+    spread = edge_max - edge_min
     step = spread > p.edge_height_m
     step |= _any_between(vox, z0, dz, h + p.leg_band_m[0], h + p.leg_band_m[1])
-    knee = disk_filter(h, _disk(p.knee_radius_m / res), np.maximum) - h
+    knee = knee_max - h
     step |= knee > p.knee_height_m
     high = (h - h_low > p.max_step_height_m) if p.high_is_step else np.zeros(h.shape, dtype=bool)
     low_only = None if p.dense_counts_high else _remove_specks(step, p.speck_cells)

@@ -10,7 +10,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, distance_transform, pad2, square_filter, window_1d
+from planning.terrain.gridops import (
+    disk_filter,
+    disk_filters,
+    distance_transform,
+    pad2,
+    square_filter,
+    window_1d,
+)
 from planning.terrain.maps import _disk, _fill_ground, signed_distance
 from planning.terrain.sensor import PointCloud
 from planning.terrain.voxels import VoxelMap, VoxelParams, _first_true
@@ -131,6 +138,20 @@ def test_ground_fill_equals_the_round_by_round_reference(seed: int, rounds: int)
     g = _grid(seed)
     g[rng.random(g.shape) < rng.uniform(0.0, 1.0)] = np.nan
     np.testing.assert_array_equal(_fill_ground(g, rounds, -1.0), _fill_reference(g, rounds, -1.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31), st.lists(st.floats(0.5, 6.0), min_size=1, max_size=4))
+def test_several_disk_filters_at_once_equal_each_alone(seed: int, radii: list[float]) -> None:
+    """Footprints sharing one set of row windows give what each gives alone, edges repeated or a constant."""
+    a = _grid(seed)
+    fps = tuple(_disk(r) for r in radii)
+    for op, cval in ((np.minimum, None), (np.maximum, None), (np.minimum, np.inf), (np.maximum, -1.0)):
+        for got, fp in zip(disk_filters(a, fps, op, cval), fps, strict=True):
+            np.testing.assert_array_equal(got, disk_filter(a, fp, op, cval))
+            if cval is None:
+                nd = ndimage.minimum_filter if op is np.minimum else ndimage.maximum_filter
+                np.testing.assert_array_equal(got, nd(a, footprint=fp, mode="nearest"))
 
 
 @settings(max_examples=60, deadline=None)
