@@ -98,10 +98,11 @@ class VoxelMap:
         # decayed to zero in place, so a band only grows, until a shift moves it or drops layers off the map.
         self._hit_layers: tuple[int, int] | None = None
         self._miss_layers: tuple[int, int] | None = None
-        # Per layer, a bound on its largest hits (at least the largest; the same scale as hits): a layer under
-        # min_hits holds no occupied voxel, so classify skips it. Raised where a scan adds hits, scaled with them
-        # when they are renormalized, moved with a vertical shift (a horizontal one drops columns: still a bound).
-        self._layer_max = np.zeros(self.n_z, np.float32)
+        # Per row of voxels (layer, ix), a bound on its largest hits (at least the largest; the same scale as hits):
+        # a row under min_hits holds no occupied voxel, so classify reads only the others (a few percent of the
+        # band's rows: the surfaces), and skips a layer with none. Raised where a scan adds hits, scaled with them
+        # when they are renormalized, moved with a vertical or x shift (a y shift drops voxels: still a bound).
+        self._row_max = np.zeros((self.n_z, self.n_xy), np.float32)
 
     # -- geometry -----------------------------------------------------------------------------------------------
 
@@ -135,7 +136,7 @@ class VoxelMap:
             _shift_clear(a, shift)
         self._ix0, self._iy0, self._iz0 = ix0, iy0, iz0
         self._hit_layers = _shift_band(self._hit_layers, shift[0], self.n_z)
-        _shift_clear(self._layer_max, shift[:1])
+        _shift_clear(self._row_max, shift[:2])
         self._miss_layers = _shift_band(self._miss_layers, shift[0], self.n_z)
         return True
 
@@ -165,7 +166,7 @@ class VoxelMap:
         self.recenter(center_xy, ground_z)
         self._weight /= p.decay
         if self._weight > 1e6:  # renormalize before float32 loses the small counts
-            for a in (self.hits, self.misses, self.sum_z, self._layer_max):
+            for a in (self.hits, self.misses, self.sum_z, self._row_max):
                 a /= self._weight
             self._weight = 1.0
         w = np.float32(self._weight)
@@ -175,7 +176,7 @@ class VoxelMap:
         np.add.at(self.hits.reshape(-1), flat, w)
         np.add.at(self.sum_z.reshape(-1), flat, (w * pts[ok, 2]).astype(np.float32))
         self._hit_layers = _grow_band(self._hit_layers, flat, self.n_xy * self.n_xy)
-        np.maximum.at(self._layer_max, flat // (self.n_xy * self.n_xy), self.hits.reshape(-1)[flat])
+        np.maximum.at(self._row_max.reshape(-1), flat // self.n_xy, self.hits.reshape(-1)[flat])
         # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
         o = cloud.p_world_origins[:: p.carve_every]
         d = pts[:: p.carve_every] - o
@@ -247,9 +248,9 @@ class VoxelMap:
         keep = np.floor(np.minimum(t_exit / res + 0.5, big)).astype(np.intp) + 1
         return np.where(inside, np.maximum(keep, 0), big)
 
-    def _recount_layer_max(self) -> None:
-        """Sets each layer's hit bound to its largest hits (for statistics written directly, as tests do)."""
-        self._layer_max = self.hits.reshape(self.n_z, -1).max(axis=1)
+    def _recount_row_max(self) -> None:
+        """Sets each row's hit bound to its largest hits (for statistics written directly, as tests do)."""
+        self._row_max = self.hits.max(axis=2)
 
     # -- classification -----------------------------------------------------------------------------------------
 
@@ -284,11 +285,11 @@ class VoxelMap:
                 _NO_VOXELS,
             )
         w = np.float32(self._weight)
-        # Only the layers whose hits may reach min_hits can hold an occupied voxel (see _layer_max); the band
+        # Only the layers whose hits may reach min_hits can hold an occupied voxel (see _row_max); the band
         # trimmed to them gives the same columns (above its top no voxel is occupied, so nothing seen through
         # there can lie under a column's ground).
         lo, hi = self._hit_layers
-        can = np.flatnonzero(self._layer_max[lo : hi + 1] >= p.min_hits * w)
+        can = np.flatnonzero(self._row_max[lo : hi + 1].max(axis=1) >= p.min_hits * w)
         if can.size == 0:
             return Columns(
                 self.origin_xy,
@@ -302,11 +303,15 @@ class VoxelMap:
             )
         lo, hi = lo + int(can[0]), lo + int(can[-1])
         n_band = hi + 1 - lo
-        # Occupied: hits >= min_hits w and hits >= ratio misses. The first test over the band picks the few voxels
-        # with enough hits (the surfaces), the second only on them; the band's occupancy is set from their indices
-        # (in the band, layer by layer), and a column's lowest occupied layer is the least layer among its indices.
+        # Occupied: hits >= min_hits w and hits >= ratio misses. The first test picks the few voxels with enough
+        # hits (the surfaces), on the rows whose bound reaches min_hits only, the second only on them; the band's
+        # occupancy is set from their indices (in the band, layer by layer, ascending), and a column's lowest
+        # occupied layer is the least layer among its indices.
         hits_b = self.hits[lo : hi + 1].reshape(-1)
-        cand = np.flatnonzero(hits_b >= p.min_hits * w)
+        thr = p.min_hits * w
+        rows = np.flatnonzero(self._row_max[lo : hi + 1].reshape(-1) >= thr)  # (layer - lo) * n + ix
+        r_i, iy = np.nonzero(hits_b.reshape(-1, n)[rows] >= thr)
+        cand = rows[r_i] * n + iy
         occ_i = cand[hits_b[cand] >= p.hit_miss_ratio * self.misses[lo : hi + 1].reshape(-1)[cand]]
         # (the obstacles are the occupied voxels but the ground ones, cleared below)
         occ = obstacle[lo : hi + 1]

@@ -238,8 +238,8 @@ def test_voxel_carving_and_classification_equal_the_ray_and_column_references(se
         _integrate_reference(ref, cloud, center)
         for name in ("hits", "misses", "sum_z"):
             np.testing.assert_array_equal(getattr(fast, name), getattr(ref, name), err_msg=name)
-        # each layer's hit bound (which classify trims the band by) is at least its largest hits
-        assert (fast._layer_max >= fast.hits.reshape(fast.n_z, -1).max(axis=1)).all()
+        # each row's hit bound (which classify reads the band's rows and trims it by) is at least its largest hits
+        assert (fast._row_max >= fast.hits.max(axis=2)).all()
         _check_classification(fast)
 
 
@@ -287,7 +287,7 @@ def test_classification_equals_the_column_reference_on_random_statistics(seed: i
     vm.misses[...] = misses
     vm.sum_z[...] = hits * rng.uniform(-0.5, 0.5, hits.shape)
     vm._hit_layers, vm._miss_layers = (h0, h1), (m0, m1)
-    vm._recount_layer_max()
+    vm._recount_row_max()
     _check_classification(vm)
 
 
@@ -297,7 +297,7 @@ def test_ground_above_every_seen_through_layer_stands() -> None:
     vm.hits[8, 3, 3] = vm.sum_z[8, 3, 3] = 5.0
     vm.misses[1, 5, 5] = 5.0
     vm._hit_layers, vm._miss_layers = (8, 8), (1, 1)
-    vm._recount_layer_max()
+    vm._recount_row_max()
     cols = vm.classify()
     assert cols.ground_z[3, 3] == 1.0
     _check_classification(vm)
