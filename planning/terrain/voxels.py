@@ -174,7 +174,7 @@ class VoxelMap:
         self.n_points = pts.shape[0]
         flat, ok = self._flat_index(pts)
         np.add.at(self.hits.reshape(-1), flat, w)
-        np.add.at(self.sum_z.reshape(-1), flat, (w * pts[ok, 2]).astype(np.float32))
+        np.add.at(self.sum_z.reshape(-1), flat, (w * pts[:, 2][ok]).astype(np.float32))
         self._hit_layers = _grow_band(self._hit_layers, flat, self.n_xy * self.n_xy)
         np.maximum.at(self._row_max.reshape(-1), flat // self.n_xy, self.hits.reshape(-1)[flat])
         # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
