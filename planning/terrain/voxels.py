@@ -310,8 +310,9 @@ class VoxelMap:
         hits_b = self.hits[lo : hi + 1].reshape(-1)
         thr = p.min_hits * w
         rows = np.flatnonzero(self._row_max[lo : hi + 1].reshape(-1) >= thr)  # (layer - lo) * n + ix
-        r_i, iy = np.nonzero(hits_b.reshape(-1, n)[rows] >= thr)
-        cand = rows[r_i] * n + iy
+        sel = np.flatnonzero(hits_b.reshape(-1, n)[rows] >= thr)  # (flat: np.nonzero in 2D is ~10× slower)
+        r_i = sel // n
+        cand = rows[r_i] * n + (sel - r_i * n)
         occ_i = cand[hits_b[cand] >= p.hit_miss_ratio * self.misses[lo : hi + 1].reshape(-1)[cand]]
         # (the obstacles are the occupied voxels but the ground ones, cleared below)
         occ = obstacle[lo : hi + 1]
