@@ -271,7 +271,7 @@ def segment_regions(
         keep[0] = False
         relabel = np.zeros(n + 1, dtype=np.int32)
         relabel[keep] = np.arange(1, int(keep.sum()) + 1, dtype=np.int32)
-        labels = relabel[labels]
+        labels = relabel.take(labels)
         n = int(keep.sum())
     labels = labels.astype(np.int32)
     inset &= labels > 0

@@ -212,8 +212,7 @@ class VoxelMap:
             if m == 0:
                 continue
             s = np.arange(m, dtype=np.float64)
-            s -= np.repeat(np.cumsum(nk) - nk, nk)
-            s += 0.5
+            s += np.repeat(0.5 - (np.cumsum(nk) - nk), nk)  # k + 1/2 (exact: half-integers)
             xyz = np.repeat(uT[:, a:b], nk, axis=1)
             xyz *= s
             xyz += o_vox[c][:, None]
@@ -225,7 +224,8 @@ class VoxelMap:
             flat_f += idx[0]
             flat_f *= np.int32(n)
             flat_f += idx[1]
-            flat_f = flat_f[inside]
+            if not inside.all():  # (most chunks lie inside the map: no copy)
+                flat_f = flat_f[inside]
             np.add.at(misses, flat_f, w)
             self._miss_layers = _grow_band(self._miss_layers, flat_f, n * n)
 
