@@ -272,6 +272,14 @@ def _params(spec: SweepSpec, coords: dict[str, Any], index: int, maneuvers: Mane
 
         assert run.walk is not None
         w = run.walk.model_dump()
+        if w["speed_mps"] is None:
+            del w["speed_mps"]  # (the default leaves the case's parameters, and so its key, as they were)
+        else:
+            from planning.sim.run import check_terrain_speed
+
+            why = check_terrain_speed(float(w["speed_mps"]), terrain)
+            if why is not None:
+                raise SweepSpecError([f"run.walk.speed_mps: {why}"])
         if w["gait"] not in GAIT_NAMES or w["gait"] == "stand":
             raise SweepSpecError([f"run.walk.gait: unknown gait {w['gait']!r}"])
         dx = _number("goal_dx_m", coords.get("goal_dx_m", d.goal_dx_m))
@@ -371,5 +379,6 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
         terrain_sensor=w["maps"] == "sensor",
         stop_at_goal=w["stop_at_goal"],
         sensor_noise_m=params["sensor_noise_m"],
+        terrain_speed_mps=w.get("speed_mps"),
     )
     return run_walk(cmd, opts)

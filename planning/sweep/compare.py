@@ -1,8 +1,10 @@
 """`footfall sweep --compare A B`: two sweeps' results on the same cases, paired case by case.
 
-A change to the robot's code or parameters is judged by running a sweep spec before and after it and comparing the
-two result directories. Cases pair by their run parameters (the code version is left out, so a case of A and a case
-of B pair when they ran the same draw). What counts is each pair's outcome: the cases B gains (A failed, B
+A change to the robot's code, or to a spec's run (a walk's speed, a duration), is judged by running the sweep before
+and after it and comparing the two result directories. Cases pair by their draw: the values of the sweep's axes
+(and the run's label), so a case of A and a case of B pair when they ran the same variant; the run parameters
+that differ between paired cases besides the code version (e.g. `walk.speed_mps`) are listed. What counts is each
+pair's outcome: the cases B gains (A failed, B
 succeeded), the cases it loses, and the exact two-sided sign test over those discordant pairs (McNemar's exact
 test): the chance of a split at least that lopsided if the change made no difference. On 12 draws a gain of 2 and
 a loss of 0 is p = 0.5: no evidence either way.
@@ -23,8 +25,9 @@ class CompareError(ValueError):
 
 
 def load_results(out_dir: str | Path) -> tuple[dict[str, dict[str, Any]], str]:
-    """Gives a results directory's finished case records keyed by their run parameters (JSON, sorted keys), and the
-    success criterion its sweep counted ("clean" or "success"; "clean" where summary.json does not say)."""
+    """Gives a results directory's finished case records keyed by their draw (the axes' values, JSON with sorted
+    keys), and the success criterion its sweep counted ("clean" or "success"; "clean" where summary.json does not
+    say)."""
     d = Path(out_dir)
     cases = d / "cases"
     if not cases.is_dir():
@@ -42,7 +45,7 @@ def load_results(out_dir: str | Path) -> tuple[dict[str, dict[str, Any]], str]:
             continue  # cut short by an interruption: not a result
         if rec.get("status") not in ("done", "crashed") or "case" not in rec:
             continue
-        out[json.dumps(rec["case"]["params"], sort_keys=True)] = rec
+        out[json.dumps(rec["case"].get("axes") or rec["case"]["params"], sort_keys=True)] = rec
     if not out:
         raise CompareError(f"{d}: no finished cases in {cases}")
     return out, success
@@ -69,6 +72,21 @@ def sign_test_p(gains: int, losses: int) -> float:
     return min(1.0, 2.0 * tail)
 
 
+def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
+    if not isinstance(d, dict):
+        return {prefix: d}
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def differing_params(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
+    """Gives the run parameters (dotted names) whose values differ between two cases' params."""
+    fa, fb = _flat(a), _flat(b)
+    return sorted(k for k in set(fa) | set(fb) if fa.get(k) != fb.get(k))
+
+
 def _label(rec: dict[str, Any]) -> str:
     axes = rec["case"].get("axes") or {}
     parts = []
@@ -83,13 +101,13 @@ def _label(rec: dict[str, Any]) -> str:
 
 def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
     """Gives the paired comparison of two results directories (see the module docstring): the counts on the
-    paired cases, each side's rate with its Wilson 95 % interval, the gains, the losses, the sign test's p and the
-    changed cases (each with both outcomes)."""
+    paired cases, each side's rate with its Wilson 95 % interval, the gains, the losses, the sign test's p, the run
+    parameters that differ between paired cases, and the changed cases (each with both outcomes)."""
     a, a_success = load_results(a_dir)
     b, b_success = load_results(b_dir)
     keys = [k for k in a if k in b]
     if not keys:
-        raise CompareError(f"{a_dir} and {b_dir} share no case (their sweeps ran different draws)")
+        raise CompareError(f"{a_dir} and {b_dir} share no draw (their sweeps' axes took other values)")
     changed: list[dict[str, Any]] = []
     n_a = n_b = gains = losses = 0
     for k in keys:
@@ -114,6 +132,9 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
                 }
             )
     n = len(keys)
+    differ = sorted(
+        {d for k in keys for d in differing_params(a[k]["case"]["params"], b[k]["case"]["params"])}
+    )
     return {
         "a": str(a_dir),
         "b": str(b_dir),
@@ -128,6 +149,7 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
         "gains": gains,
         "losses": losses,
         "sign_test_p": round(sign_test_p(gains, losses), 4),
+        "params_differ": differ,
         "changed": changed,
     }
 
@@ -141,6 +163,7 @@ def format_compare(c: dict[str, Any]) -> str:
     lines = [
         f"paired cases: {c['paired']} (only in A: {c['a_only']}, only in B: {c['b_only']}); "
         f"success: {c['success']}",
+        "the paired runs differ in: " + (", ".join(c["params_differ"]) or "nothing but the code"),
         f"A {c['a']}: {rate(c['a_successes'], c['a_ci95'])}",
         f"B {c['b']}: {rate(c['b_successes'], c['b_ci95'])}",
         f"B gains {c['gains']}, loses {c['losses']}; exact sign test on the {c['gains'] + c['losses']} changed "

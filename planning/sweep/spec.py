@@ -83,6 +83,11 @@ class Walk(_Model):
     )
     solver: Literal["balance", "centroidal"] = "balance"
     stop_at_goal: bool = True
+    speed_mps: Annotated[float | None, Field(gt=0, le=5)] = Field(
+        None,
+        description="a terrain walk's speed to its goal and cap on a steered command (m/s; `footfall walk --speed`); "
+        "None: the terrain pipeline's own (0.5); within each terrain's range (0.2 to 0.5, 1.0 on slope and rough)",
+    )
 
 
 class Probe(_Model):

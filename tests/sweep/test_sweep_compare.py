@@ -41,7 +41,7 @@ def test_sign_test_is_the_exact_binomial_tail() -> None:
     assert sign_test_p(16, 4) == pytest.approx(2 * sum(math.comb(n, i) for i in range(k + 1)) / 2**n)
 
 
-def test_cases_pair_by_their_parameters_not_by_key(tmp_path: Path) -> None:
+def test_cases_pair_by_their_draw_not_by_key(tmp_path: Path) -> None:
     a_ok = [True, True, False, False, True, False]
     b_ok = [True, False, True, True, True, False]
     a = _write(tmp_path / "a", [_record(i, ok, "aaaa") for i, ok in enumerate(a_ok)])
@@ -66,6 +66,7 @@ def test_a_clean_sweep_counts_a_no_step_touchdown_as_a_failure(tmp_path: Path) -
     c = compare(a, b)
     assert (c["gains"], c["losses"]) == (0, 1)
     assert "no-step" in c["changed"][0]["b"]
+    assert c["params_differ"] == []
     # the same results judged by plain success: no change
     (b / "summary.json").write_text(json.dumps({"success": "success"}))
     assert compare(a, b)["losses"] == 0
@@ -86,6 +87,43 @@ def test_the_cli_compares_and_refuses_what_it_cannot(
     other_rec = json.loads((other / "cases" / "o0007.json").read_text())
     other_rec["case"]["params"]["seed"] = 5
     (other / "cases" / "o0007.json").write_text(json.dumps(other_rec))
-    with pytest.raises(CompareError, match="share no case"):
+    other_rec["case"]["axes"] = {"seed": 5}
+    (other / "cases" / "o0007.json").write_text(json.dumps(other_rec))
+    with pytest.raises(CompareError, match="share no draw"):
         compare(a, other)
     assert cli_main(["sweep", "sweeps/family-stairs.yaml", "--compare", str(a), str(b)]) == 2
+
+
+def test_a_change_of_the_run_itself_pairs_by_draw_and_is_named(tmp_path: Path) -> None:
+    a = _write(tmp_path / "a", [_record(i, i == 0, "a") for i in range(3)])
+    slow = [_record(i, True, "b") for i in range(3)]
+    for r in slow:
+        r["case"]["params"]["walk"] = {"speed_mps": 0.3}
+    b = _write(tmp_path / "b", slow)
+    c = compare(a, b)
+    assert c["paired"] == 3 and c["gains"] == 2
+    assert c["params_differ"] == ["walk"] or c["params_differ"] == ["walk.speed_mps"]
+    assert "differ in: walk" in format_compare(c)
+
+
+def test_a_walks_speed_reaches_the_case_and_is_checked_against_the_terrain() -> None:
+    from planning.sweep.cases import expand
+    from planning.sweep.spec import SweepSpecError, parse_spec
+
+    def spec(speed: float | None, terrain: str = "stairs") -> dict[str, Any]:
+        walk: dict[str, Any] = {"goal": "terrain", "maps": "sensor"}
+        if speed is not None:
+            walk["speed_mps"] = speed
+        return {"format": "footfall/sweep@1", "name": "s", "run": {"walk": walk},
+                "defaults": {"terrain": terrain}, "axes": {"seed": [0, 1]}}  # fmt: skip
+
+    slow = expand(parse_spec(spec(0.3)))
+    assert [c["params"]["walk"]["speed_mps"] for c in slow] == [0.3, 0.3]
+    plain = expand(parse_spec(spec(None)))
+    assert (
+        "speed_mps" not in plain[0]["params"]["walk"]
+    )  # the default leaves the case (and its key) as it was
+    assert plain[0]["key"] != slow[0]["key"]
+    assert expand(parse_spec(spec(0.9, "slope")))[0]["params"]["walk"]["speed_mps"] == 0.9
+    with pytest.raises(SweepSpecError, match="run.walk.speed_mps"):
+        expand(parse_spec(spec(0.9)))  # faster than the stairs' 0.5 m/s
