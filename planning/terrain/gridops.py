@@ -52,6 +52,28 @@ def _pad(a: NDArray[Any], r: int, axis: int, cval: Any, spare_row: bool = False)
     return out
 
 
+def pad2(a: NDArray[Any], r: int, cval: Any = None) -> NDArray[Any]:
+    """Gives the 2D grid `a` padded by r cells on every side: edge values (cval None; np.pad's mode="edge", the
+    corners their corner cell) or cval (mode="constant"). The same grid as np.pad, without its generic set-up
+    (several times its copies' cost on the maps' grids)."""
+    n0, n1 = a.shape
+    out = np.empty((n0 + 2 * r, n1 + 2 * r), dtype=a.dtype)
+    out[r : r + n0, r : r + n1] = a
+    if r == 0:
+        return out
+    if cval is None:
+        out[:r, r : r + n1] = a[0]
+        out[r + n0 :, r : r + n1] = a[-1]
+        out[:, :r] = out[:, r : r + 1]
+        out[:, r + n1 :] = out[:, r + n1 - 1 : r + n1]
+    else:
+        out[:r] = cval
+        out[r + n0 :] = cval
+        out[r : r + n0, :r] = cval
+        out[r : r + n0, r + n1 :] = cval
+    return out
+
+
 def window_1d(a: NDArray[Any], width: int, axis: int, op: Op, cval: Any = None) -> NDArray[Any]:
     """Gives the extremum (op: np.minimum or np.maximum) over a centred window of odd `width` along `axis` (0 or 1)
     of a 2D grid; beyond the ends the edge value repeats (cval None, ndimage's mode="nearest") or cval stands
@@ -154,16 +176,51 @@ def _row_windows(a: NDArray[Any], halves: set[int], op: Op, cval: Any = None) ->
 def disk_filter(a: NDArray[Any], footprint: NDArray[np.bool_], op: Op, cval: Any = None) -> NDArray[Any]:
     """Gives the extremum over a centred footprint whose rows are centred runs (a disk, a cross, a square); edges
     as in window_1d. Raises ValueError for any other footprint."""
-    half = _row_halves(footprint)
-    r = len(half) // 2
-    by_width = {h: _pad(w, r, 0, cval) for h, w in _row_windows(a, set(half), op, cval).items()}
+    return disk_filters(a, (footprint,), op, cval)[0]
+
+
+def disk_filters(
+    a: NDArray[Any], footprints: tuple[NDArray[np.bool_], ...], op: Op, cval: Any = None
+) -> list[NDArray[Any]]:
+    """Gives disk_filter(a, footprint, op, cval) for each of the footprints, from one set of row windows (one
+    padded grid, one doubling chain, one window per distinct row width of them all)."""
+    halves = [_row_halves(fp) for fp in footprints]
+    windows = _row_windows(a, {h for half in halves for h in half}, op, cval)
     n = a.shape[0]
-    out: NDArray[Any] | None = None
-    for i, h in enumerate(half):
-        piece = by_width[h][i : i + n]
-        out = piece.copy() if out is None else op(out, piece, out=out)
-    assert out is not None
-    return out
+    outs: list[NDArray[Any]] = []
+    for half in halves:
+        r = len(half) // 2
+        # Row x: the extremum over footprint rows i (offset d = i - r) of the row windows' row x + d, the edge row
+        # (cval None) or cval beyond the grid. The centre row first, then each other row over the rows it reaches
+        # on the grid, then over the rows it reaches past the edge. Those last add nothing with edge values where
+        # the rows narrow away from the centre (a disk: a nearer, wider row's window holds the edge row's cells),
+        # and are left out there.
+        out: NDArray[Any] = np.array(windows[half[r]])
+        skip_edge = cval is None and _narrowing(half)
+        for i, h in enumerate(half):
+            d = i - r
+            if d == 0:
+                continue
+            w = windows[h]
+            k = min(abs(d), n)  # rows past the edge
+            if d > 0:
+                if k < n:
+                    op(out[: n - k], w[k:], out=out[: n - k])
+                past, edge = out[n - k :], w[n - 1]
+            else:
+                if k < n:
+                    op(out[k:], w[: n - k], out=out[k:])
+                past, edge = out[:k], w[0]
+            if not skip_edge:
+                op(past, edge if cval is None else cval, out=past)
+        outs.append(out)
+    return outs
+
+
+def _narrowing(half: tuple[int, ...]) -> bool:
+    """Gives whether the rows' half widths never grow away from the centre row, on either side."""
+    r = len(half) // 2
+    return all(half[r + d] >= half[r + d + 1] and half[r - d] >= half[r - d - 1] for d in range(r))
 
 
 _INDICES: dict[tuple[int, int], tuple[NDArray[np.int32], NDArray[np.int32]]] = {}

@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, distance_transform, square_filter
+from planning.terrain.gridops import disk_filter, disk_filters, distance_transform, pad2, square_filter
 from planning.terrain.scenes import TerrainScene
 from planning.terrain.voxels import Columns
 
@@ -246,7 +246,9 @@ def signed_distance(mask: NDArray[np.bool_], resolution_m: float) -> NDArray[np.
     i0, i1 = max(int(rows[0]) - 1, 0), min(int(rows[-1]) + 2, mask.shape[0])
     j0, j1 = max(int(cols[0]) - 1, 0), min(int(cols[-1]) + 2, mask.shape[1])
     sub = mask[i0:i1, j0:j1]
-    d_out[i0:i1, j0:j1][sub] = -distance_transform(sub)[sub]
+    d_in = distance_transform(sub)
+    np.negative(d_in, out=d_in)
+    np.copyto(d_out[i0:i1, j0:j1], d_in, where=sub)
     # Now d_out holds +d outside and -d inside (center to center); the zero level is half a cell from either.
     d_out -= np.where(mask, -0.5, 0.5)
     d_out *= resolution_m
@@ -273,8 +275,12 @@ def _closing(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[n
 
 
 def _remove_specks(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]:
+    """Gives the mask without its 8-connected components of fewer than min_cells cells."""
     if min_cells <= 1 or not mask.any():
         return mask
+    if min_cells <= 3:
+        speck = _small_components(mask, min_cells)
+        return mask & ~speck if speck.any() else mask
     labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
     if sizes[1:].min() >= min_cells:
@@ -284,27 +290,61 @@ def _remove_specks(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]
     return keep[labels]
 
 
+def _box3_count(mask: NDArray[np.bool_]) -> NDArray[np.uint8]:
+    """Gives per cell the number of mask cells in its 3 × 3 neighbourhood, itself included (none beyond the grid)."""
+    nx, ny = mask.shape
+    framed = np.zeros((nx + 2, ny + 2), np.uint8)
+    framed[1:-1, 1:-1] = mask
+    rows = framed[:, :-2] + framed[:, 1:-1]
+    rows += framed[:, 2:]
+    box = rows[:-2] + rows[1:-1]
+    box += rows[2:]
+    return box
+
+
+def _small_components(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.bool_]:
+    """Gives the cells of the mask's 8-connected components of fewer than min_cells (2 or 3) cells, from neighbour
+    counts alone (no labelling): a lone cell has no neighbour; the two cells of a pair have one each, the other."""
+    box = _box3_count(mask)
+    speck = mask & (box == 1)
+    if min_cells >= 3:
+        one = mask & (box == 2)  # exactly one neighbour: a pair when that neighbour has exactly one too
+        speck |= one & (_box3_count(one) >= 2)
+    return speck
+
+
 def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: float) -> NDArray[np.float64]:
     known = np.isfinite(ground_z)
     if not known.any():
         return np.full(ground_z.shape, default_z)
-    # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown). The
-    # 3 × 3 minimum on a grid framed by +inf: the same as repeating the edge cells (they are in the window already).
-    h = np.where(known, ground_z, np.inf)
-    nx, ny = h.shape
-    framed = np.full((nx + 2, ny + 2), np.inf)
-    rows = np.empty((nx, ny + 2))
+    # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown), on a grid
+    # framed by +inf (the same as repeating the edge cells: they are in the window already). Only the round's
+    # frontier (unknown cells beside known ones) changes: its cells' 3 × 3 minima are gathered from the flat framed
+    # grid, the rest is not touched (the grid's 3 × 3 minimum each round costs several times more).
+    nx, ny = ground_z.shape
+    w = ny + 2
+    framed = np.full((nx + 2, w), np.inf)
+    h = framed[1:-1, 1:-1]
+    np.copyto(h, ground_z, where=known)
+    flat = framed.reshape(-1)
+    known_f = np.zeros((nx + 2, w), dtype=bool)
+    known_f[1:-1, 1:-1] = known
+    known = known_f[1:-1, 1:-1]
+    front_f = np.zeros((nx + 2, w), dtype=bool)
+    around = _around_offsets(w)
     for _ in range(fill_min_cells):
-        if known.all():
+        rows = known_f[:, :-2] | known_f[:, 1:-1]
+        rows |= known_f[:, 2:]
+        near = rows[:-2] | rows[1:-1]
+        near |= rows[2:]
+        np.greater(near, known, out=front_f[1:-1, 1:-1])  # near and not known
+        idx = np.flatnonzero(front_f)
+        if idx.size == 0:  # all known
             break
-        framed[1:-1, 1:-1] = h
-        np.minimum(framed[:-2], framed[1:-1], out=rows)
-        np.minimum(rows, framed[2:], out=rows)
-        m = np.minimum(rows[:, :-2], rows[:, 1:-1])
-        np.minimum(m, rows[:, 2:], out=m)
-        np.copyto(m, h, where=known)
-        h = m
-        known = np.isfinite(h)
+        vals = flat.take(around + idx).min(axis=0)
+        flat[idx] = vals
+        known_f.reshape(-1)[idx] = True
+    h = np.ascontiguousarray(h)
     if not known.all():
         # the nearest known cell's value: its indices in int32 (ndimage's own are int64), as one flat index
         ft = np.empty((2, nx, ny), np.int32)
@@ -316,104 +356,123 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
     return h
 
 
-@dataclass(frozen=True, eq=False)
-class _Layers:
-    """Inclusive counts of obstacle layers up to each layer, kept only over the band of layers that may hold an
-    obstacle: below it the count is 0, above it the band's last count. zcum: (1 + layers of the band, nx * ny), a row
-    of zeros (below the band) then the band's counts, int16 (counts never exceed the layers; half the bytes of int32
-    to add and gather) or int32 past 32767 layers; first: the band's first layer; nz: all layers."""
-
-    zcum: NDArray[np.signedinteger[Any]]
-    first: int
-    nz: int
-
-    @property
-    def cum(self) -> NDArray[np.signedinteger[Any]]:
-        """Gives the band's counts, (layers of the band, nx * ny)."""
-        return self.zcum[1:]
-
-    def at(self, k: NDArray[Any]) -> NDArray[np.signedinteger[Any]]:
-        """Gives per column the count up to layer k (nx, ny; integer or integral float layers) (0 for k < 0)."""
-        rows, cells = self.zcum.shape
-        # Row of zcum per column: 0 below the band, the band's last above it; flat indices into zcum.
-        r = np.clip(k.reshape(-1) - (self.first - 1), 0, rows - 1).astype(np.intp, copy=False)
-        r *= cells
-        r += _column_index(cells)
-        return self.zcum.reshape(-1).take(r).reshape(k.shape)
-
-    @property
-    def total(self) -> NDArray[np.signedinteger[Any]]:
-        """Gives the number of obstacle layers of each column, (nx * ny,)."""
-        return self.zcum[-1]
+_AROUND: dict[int, NDArray[np.intp]] = {}
 
 
-_COLUMNS: dict[int, NDArray[np.intp]] = {}
-
-
-def _column_index(cells: int) -> NDArray[np.intp]:
-    """Gives arange(cells), made once per size."""
-    a = _COLUMNS.get(cells)
+def _around_offsets(width: int) -> NDArray[np.intp]:
+    """Gives the flat offsets of a cell's 3 × 3 neighbourhood (itself included) in a grid `width` cells wide, as a
+    column (9, 1); made once per width."""
+    a = _AROUND.get(width)
     if a is None:
-        a = _COLUMNS[cells] = np.arange(cells, dtype=np.intp)
+        a = _AROUND[width] = (
+            (np.arange(-1, 2)[:, None] * width + np.arange(-1, 2)).reshape(9, 1).astype(np.intp)
+        )
         a.flags.writeable = False
     return a
 
 
-def _cumulative_layers(columns: Columns) -> _Layers:
-    """Gives the counts of obstacle layers (see _Layers) of the columns' obstacle occupancy (nx, ny, nz).
+@dataclass(frozen=True, eq=False)
+class _ObstacleVoxels:
+    """The obstacle voxels of a column summary as a list (they are few: ~1-2 thousand of ~1 million voxels a scan):
+    layer (m,) and cell (m,) of each (cell: the flat column index ix * ny + iy), intp; shape: (nx, ny)."""
 
-    Layer by layer (one add per layer over a contiguous plane): a cumsum along the last axis of the (often
-    z-major underneath) occupancy is several times slower."""
+    layer: NDArray[np.intp]
+    cell: NDArray[np.intp]
+    shape: tuple[int, int]
+
+
+def _obstacle_voxels(columns: Columns) -> _ObstacleVoxels:
+    """Gives the columns' obstacle voxels: their own list (columns.obstacle_voxels), else found in the occupancy
+    over the band of layers that may hold them (layer-major order)."""
+    nx, ny = columns.ground_z.shape
+    if columns.obstacle_voxels is not None:
+        k, c = columns.obstacle_voxels
+        return _ObstacleVoxels(np.asarray(k, np.intp), np.asarray(c, np.intp), (nx, ny))
     obs = np.moveaxis(columns.obstacle, 2, 0)
     nz = obs.shape[0]
-    if columns.obstacle_layers is not None:
-        lo, hi = columns.obstacle_layers
-    else:
-        any_k = np.flatnonzero(obs.reshape(nz, -1).any(axis=1))
-        lo, hi = (int(any_k[0]), int(any_k[-1])) if any_k.size else (0, -1)
+    lo, hi = columns.obstacle_layers if columns.obstacle_layers is not None else (0, nz - 1)
     lo, hi = max(lo, 0), min(hi, nz - 1)
-    cells = obs.shape[1] * obs.shape[2]
-    zcum = np.empty((1 + max(hi + 1 - lo, 0), cells), np.int16 if nz < 2**15 else np.int32)
-    zcum[0] = 0
-    for k in range(1, zcum.shape[0]):
-        np.add(zcum[k - 1], obs[lo + k - 1].reshape(cells), out=zcum[k])
-    return _Layers(zcum, lo, nz)
+    f = np.flatnonzero(obs[lo : hi + 1]) if hi >= lo else np.zeros(0, np.intp)
+    cells = nx * ny
+    k = f // cells
+    return _ObstacleVoxels(k + lo, f - k * cells, (nx, ny))
 
 
-def _count_between(
-    cum: _Layers, z0: float, dz: float, z_lo: NDArray[np.float64], z_hi: NDArray[np.float64]
-) -> NDArray[np.signedinteger[Any]]:
-    """Gives per column the number of obstacle layers whose centers lie in [z_lo, z_hi] (cum: _cumulative_layers).
+def _any_between(
+    vox: _ObstacleVoxels, z0: float, dz: float, z_lo: NDArray[np.float64], z_hi: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """Gives per column (nx, ny) whether an obstacle layer's center lies in [z_lo, z_hi] (layers ceil((z_lo - z0) /
+    dz) .. floor((z_hi - z0) / dz), within 1e-9 of a layer): each voxel tested against its own column's span."""
+    out = np.zeros(vox.shape, dtype=bool)
+    c = vox.cell
+    if c.size:
+        k_lo = np.ceil((z_lo.reshape(-1).take(c) - z0) / dz - 1e-9)
+        k_hi = np.floor((z_hi.reshape(-1).take(c) - z0) / dz + 1e-9)
+        k = vox.layer
+        out.reshape(-1)[c[(k >= k_lo) & (k <= k_hi)]] = True
+    return out
 
-    The count up to the top layer less the count below the bottom one, never below 0 (an empty span): the counts
-    saturate below and above the band, so layers outside the grid need no clipping first."""
-    k_lo = np.ceil((z_lo - z0) / dz - 1e-9)
-    k_lo -= 1.0
-    k_hi = np.floor((z_hi - z0) / dz + 1e-9)
-    n = cum.at(k_hi)
-    n -= cum.at(k_lo)
-    return np.maximum(n, 0, out=n)
+
+def _clearance(
+    vox: _ObstacleVoxels, z0: float, dz: float, nz: int, h: NDArray[np.float64], above_m: float
+) -> NDArray[np.float64]:
+    """Gives per column the height of the lowest obstacle layer's underside at least above_m over the ground h
+    (the first layer k >= ceil((h + above_m - z0) / dz), clipped to the grid's layers, above the ground: its center
+    less half a layer, less h); +inf where no obstacle hangs that high."""
+    clearance = np.full(h.shape, np.inf)
+    c = vox.cell
+    if c.size == 0:
+        return clearance
+    hc = h.reshape(-1).take(c)
+    k_c = np.clip(np.ceil((hc + above_m - z0) / dz).astype(np.intp), 0, nz)
+    over = vox.layer >= k_c
+    if not over.any():
+        return clearance
+    cells = h.size
+    k_first = np.full(cells, nz, dtype=np.intp)
+    np.minimum.at(k_first, c[over], vox.layer[over])
+    cols = np.flatnonzero(k_first < nz)
+    z_c = z0 + k_first[cols] * dz - dz / 2
+    clearance.reshape(-1)[cols] = z_c - h.reshape(-1)[cols]
+    return clearance
 
 
 def _disk_count(mask: NDArray[np.bool_], footprint: NDArray[np.bool_]) -> NDArray[np.int32]:
     """Gives per cell the number of mask cells under a centered, symmetric footprint (edge cells repeat beyond the
-    map, as ndimage's mode="nearest"): one prefix sum and one difference per footprint row."""
+    map, as ndimage's mode="nearest"): one prefix sum, one difference per distinct row span (a disk's rows come
+    in equal pairs and runs), one add per footprint row."""
     r = footprint.shape[0] // 2
-    padded = np.pad(mask, r, mode="edge")
+    padded = pad2(mask, r)
     prefix = np.zeros(
         (padded.shape[0], padded.shape[1] + 1), np.int32
     )  # counts: int32 is exact and half the bytes
     np.cumsum(padded, axis=1, out=prefix[:, 1:])
     nx, ny = mask.shape
     count = np.zeros(mask.shape, np.int32)
-    for i in range(footprint.shape[0]):
-        row = np.flatnonzero(footprint[i])
-        if row.size == 0:
-            continue
-        # Row i spans padded columns y + a .. y + b - 1 around cell y (b - a cells).
-        a, b = int(row[0]), int(row[-1]) + 1
-        count += prefix[i : i + nx, b : b + ny] - prefix[i : i + nx, a : a + ny]
+    for (a, b), rows in _row_spans(footprint):
+        # Row i spans padded columns y + a .. y + b - 1 around cell y (b - a cells), for every padded row at once.
+        span = prefix[:, b : b + ny] - prefix[:, a : a + ny]
+        for i in rows:
+            count += span[i : i + nx]
     return count
+
+
+_SPANS: dict[tuple[tuple[int, ...], bytes], tuple[tuple[tuple[int, int], tuple[int, ...]], ...]] = {}
+
+
+def _row_spans(footprint: NDArray[np.bool_]) -> tuple[tuple[tuple[int, int], tuple[int, ...]], ...]:
+    """Gives a footprint's row spans ((first, last + 1) of each row's cells, rows without any left out), each with
+    the rows that have it; made once per footprint."""
+    key = (footprint.shape, np.asarray(footprint, dtype=bool).tobytes())
+    spans = _SPANS.get(key)
+    if spans is None:
+        by_span: dict[tuple[int, int], list[int]] = {}
+        for i in range(footprint.shape[0]):
+            row = np.flatnonzero(footprint[i])
+            if row.size:
+                by_span.setdefault((int(row[0]), int(row[-1]) + 1), []).append(i)
+        spans = _SPANS[key] = tuple((ab, tuple(rows)) for ab, rows in by_span.items())
+    return spans
 
 
 def build_maps(
@@ -429,7 +488,7 @@ def build_maps(
             np.where(observed, columns.ground_z, np.inf), _disk(p.fill_low_radius_m / res), np.minimum
         )
         h = np.where(~observed & np.isfinite(low), np.minimum(h, low), h)
-    cum = _cumulative_layers(columns)
+    vox = _obstacle_voxels(columns)
     z0, dz = columns.z0_m, columns.dz_m
 
     def size(radius_m: float) -> int:
@@ -441,25 +500,28 @@ def build_maps(
     z_lo = h + lo if p.body_above_ground_m is None else np.maximum(h + lo, h_ref + p.body_above_ground_m)
     if p.band_from_support:
         z_lo = np.maximum(z_lo, default_ground_z + lo)
-    body = (_count_between(cum, z0, dz, z_lo, h + hi) > 0) | (
-        _count_between(cum, z0, dz, h_ref + lo, h_ref + hi) > 0
-    )
+    body = _any_between(vox, z0, dz, z_lo, h + hi) | _any_between(vox, z0, dz, h_ref + lo, h_ref + hi)
     # A wall rising right beside a cell (higher than the body can pass over) blocks the body there.
     # The same on the top side: the rim of something tall (a rail or box seen from above with nothing seen under it).
-    wall_fp = _disk(p.wall_radius_m / res)
-    body |= disk_filter(h, wall_fp, np.maximum) - h > p.body_step_m
-    body |= h - disk_filter(h, wall_fp, np.minimum) > p.body_step_m
+    # The ground's max and min filters this needs (the wall's, the edge's, the knee's), each op's from one set of
+    # row windows.
+    wall_fp, edge_fp, knee_fp = (
+        _disk(r_m / res) for r_m in (p.wall_radius_m, p.edge_radius_m, p.knee_radius_m)
+    )
+    wall_max, edge_max, knee_max = disk_filters(h, (wall_fp, edge_fp, knee_fp), np.maximum)
+    wall_min, edge_min = disk_filters(h, (wall_fp, edge_fp), np.minimum)
+    body |= wall_max - h > p.body_step_m
+    body |= h - wall_min > p.body_step_m
     body = _remove_specks(body, p.speck_cells)
     if p.close_cells > 0 and body.any():
         st = _disk(p.close_cells)
-        padded = np.pad(body, p.close_cells, mode="edge")
+        padded = pad2(body, p.close_cells)
         body = _closing(padded, st)[p.close_cells : -p.close_cells, p.close_cells : -p.close_cells]
 
-    fp = _disk(p.edge_radius_m / res)
-    spread = disk_filter(h, fp, np.maximum) - disk_filter(h, fp, np.minimum)
+    spread = edge_max - edge_min
     step = spread > p.edge_height_m
-    step |= _count_between(cum, z0, dz, h + p.leg_band_m[0], h + p.leg_band_m[1]) > 0
-    knee = disk_filter(h, _disk(p.knee_radius_m / res), np.maximum) - h
+    step |= _any_between(vox, z0, dz, h + p.leg_band_m[0], h + p.leg_band_m[1])
+    knee = knee_max - h
     step |= knee > p.knee_height_m
     high = (h - h_low > p.max_step_height_m) if p.high_is_step else np.zeros(h.shape, dtype=bool)
     low_only = None if p.dense_counts_high else _remove_specks(step, p.speck_cells)
@@ -473,22 +535,10 @@ def build_maps(
         step |= disk_filter(body, _disk(p.near_body_m / res), np.maximum, False)
     # Steppable patches narrower than min_support_m (a small box top, a sliver between obstacles) become no-step.
     r = max(int(round(p.min_support_m / 2 / res)), 1)
-    step = _closing(np.pad(step, r, mode="edge"), _disk(r))[r:-r, r:-r]
+    step = _closing(pad2(step, r), _disk(r))[r:-r, r:-r]
 
     # Clearance under overhangs: the lowest obstacle layer at least ceiling_above_m above the ground.
-    # Read off the layer counts: below = layers under k_c; the first one at or over it is the first layer whose count
-    # exceeds that, i.e. the number of layers whose count does not.
-    nz = cum.nz
-    k_c = np.clip(np.ceil((h + p.ceiling_above_m - z0) / dz).astype(np.intp), 0, nz)
-    below = cum.at(k_c - 1)
-    has = cum.total.reshape(h.shape) > below
-    clearance = np.full(h.shape, np.inf)
-    cols = np.flatnonzero(has)
-    if cols.size:  # only where something hangs over (rare: under a table)
-        # Layers under the band count 0 (<= below); above it, where `has`, the total exceeds below.
-        k_first = cum.first + np.count_nonzero(cum.cum[:, cols] <= below.reshape(-1)[cols], axis=0)
-        z_c = z0 + k_first * dz - dz / 2
-        clearance.reshape(-1)[cols] = z_c - h.reshape(-1)[cols]
+    clearance = _clearance(vox, z0, dz, columns.obstacle.shape[2], h, p.ceiling_above_m)
 
     sdf_body = signed_distance(body, res)
     # (the step SDF on first use: see _StepSDFOnUse)

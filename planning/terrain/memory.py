@@ -53,7 +53,7 @@ class GroundMemory(_RollingGrid):
         g = columns.ground_z
         mem = self._rolled(columns.origin_xy, columns.resolution_m, g.shape)
         seen = np.isfinite(g)
-        mem[seen] = g[seen]
+        np.copyto(mem, g, where=seen)
         fill = ~seen & np.isfinite(mem)
         if not fill.any():
             return columns

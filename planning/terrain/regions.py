@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, distance_transform
+from planning.terrain.gridops import disk_filter, distance_transform, pad2
 from planning.terrain.maps import TerrainMaps
 
 _CROSS = ndimage.generate_binary_structure(2, 1)
@@ -261,7 +261,7 @@ def segment_regions(
     labels, n = ndimage.label(ok, structure=_CROSS)
     # Distance from a cell's centre to the nearest non-steppable cell's centre, less half a cell: to the edge.
     # (the map's border counts as an edge: nothing is known beyond it)
-    edt = distance_transform(np.pad(ok, 1))[1:-1, 1:-1] if n else np.zeros(h.shape)
+    edt = distance_transform(pad2(ok, 1, False))[1:-1, 1:-1] if n else np.zeros(h.shape)
     depth = np.where(ok, edt * res - 0.5 * res, 0.0)
     inset = ok & (depth >= p.inset_m - 1e-9)
     # Regions with too little room for a foot are dropped; the others are numbered 1..n in label order.
@@ -271,7 +271,7 @@ def segment_regions(
         keep[0] = False
         relabel = np.zeros(n + 1, dtype=np.int32)
         relabel[keep] = np.arange(1, int(keep.sum()) + 1, dtype=np.int32)
-        labels = relabel[labels]
+        labels = relabel.take(labels)
         n = int(keep.sum())
     labels = labels.astype(np.int32)
     inset &= labels > 0

@@ -59,7 +59,9 @@ class Columns:
     origin_xy: world (x, y) of cell (0, 0)'s center (m); resolution_m: cell side (m); ground_z: (nx, ny) ground
     height (m, world), NaN where unknown; obstacle: (nx, ny, nz) obstacle occupancy; z0_m: center height of layer 0
     (m); dz_m: layer height (m); obstacle_layers: (first, last) layers that may hold an obstacle (none outside them;
-    None: any layer may), so the maps need not scan the empty ones.
+    None: any layer may), so the maps need not scan the empty ones; obstacle_voxels: (layer, cell) index arrays of
+    every obstacle voxel (cell: the flat column index ix * ny + iy) when the producer lists them (the maps read them
+    instead of scanning the occupancy), None when not.
     """
 
     origin_xy: tuple[float, float]
@@ -69,6 +71,7 @@ class Columns:
     z0_m: float
     dz_m: float
     obstacle_layers: tuple[int, int] | None = None
+    obstacle_voxels: tuple[NDArray[np.intp], NDArray[np.intp]] | None = None
 
 
 class VoxelMap:
@@ -95,10 +98,11 @@ class VoxelMap:
         # decayed to zero in place, so a band only grows, until a shift moves it or drops layers off the map.
         self._hit_layers: tuple[int, int] | None = None
         self._miss_layers: tuple[int, int] | None = None
-        # Per layer, a bound on its largest hits (at least the largest; the same scale as hits): a layer under
-        # min_hits holds no occupied voxel, so classify skips it. Raised where a scan adds hits, scaled with them
-        # when they are renormalized, moved with a vertical shift (a horizontal one drops columns: still a bound).
-        self._layer_max = np.zeros(self.n_z, np.float32)
+        # Per row of voxels (layer, ix), a bound on its largest hits (at least the largest; the same scale as hits):
+        # a row under min_hits holds no occupied voxel, so classify reads only the others (a few percent of the
+        # band's rows: the surfaces), and skips a layer with none. Raised where a scan adds hits, scaled with them
+        # when they are renormalized, moved with a vertical or x shift (a y shift drops voxels: still a bound).
+        self._row_max = np.zeros((self.n_z, self.n_xy), np.float32)
 
     # -- geometry -----------------------------------------------------------------------------------------------
 
@@ -132,7 +136,7 @@ class VoxelMap:
             _shift_clear(a, shift)
         self._ix0, self._iy0, self._iz0 = ix0, iy0, iz0
         self._hit_layers = _shift_band(self._hit_layers, shift[0], self.n_z)
-        _shift_clear(self._layer_max, shift[:1])
+        _shift_clear(self._row_max, shift[:2])
         self._miss_layers = _shift_band(self._miss_layers, shift[0], self.n_z)
         return True
 
@@ -162,7 +166,7 @@ class VoxelMap:
         self.recenter(center_xy, ground_z)
         self._weight /= p.decay
         if self._weight > 1e6:  # renormalize before float32 loses the small counts
-            for a in (self.hits, self.misses, self.sum_z, self._layer_max):
+            for a in (self.hits, self.misses, self.sum_z, self._row_max):
                 a /= self._weight
             self._weight = 1.0
         w = np.float32(self._weight)
@@ -170,9 +174,9 @@ class VoxelMap:
         self.n_points = pts.shape[0]
         flat, ok = self._flat_index(pts)
         np.add.at(self.hits.reshape(-1), flat, w)
-        np.add.at(self.sum_z.reshape(-1), flat, (w * pts[ok, 2]).astype(np.float32))
+        np.add.at(self.sum_z.reshape(-1), flat, (w * pts[:, 2][ok]).astype(np.float32))
         self._hit_layers = _grow_band(self._hit_layers, flat, self.n_xy * self.n_xy)
-        np.maximum.at(self._layer_max, flat // (self.n_xy * self.n_xy), self.hits.reshape(-1)[flat])
+        np.maximum.at(self._row_max.reshape(-1), flat // self.n_xy, self.hits.reshape(-1)[flat])
         # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
         o = cloud.p_world_origins[:: p.carve_every]
         d = pts[:: p.carve_every] - o
@@ -208,8 +212,7 @@ class VoxelMap:
             if m == 0:
                 continue
             s = np.arange(m, dtype=np.float64)
-            s -= np.repeat(np.cumsum(nk) - nk, nk)
-            s += 0.5
+            s += np.repeat(0.5 - (np.cumsum(nk) - nk), nk)  # k + 1/2 (exact: half-integers)
             xyz = np.repeat(uT[:, a:b], nk, axis=1)
             xyz *= s
             xyz += o_vox[c][:, None]
@@ -221,7 +224,8 @@ class VoxelMap:
             flat_f += idx[0]
             flat_f *= np.int32(n)
             flat_f += idx[1]
-            flat_f = flat_f[inside]
+            if not inside.all():  # (most chunks lie inside the map: no copy)
+                flat_f = flat_f[inside]
             np.add.at(misses, flat_f, w)
             self._miss_layers = _grow_band(self._miss_layers, flat_f, n * n)
 
@@ -244,9 +248,9 @@ class VoxelMap:
         keep = np.floor(np.minimum(t_exit / res + 0.5, big)).astype(np.intp) + 1
         return np.where(inside, np.maximum(keep, 0), big)
 
-    def _recount_layer_max(self) -> None:
-        """Sets each layer's hit bound to its largest hits (for statistics written directly, as tests do)."""
-        self._layer_max = self.hits.reshape(self.n_z, -1).max(axis=1)
+    def _recount_row_max(self) -> None:
+        """Sets each row's hit bound to its largest hits (for statistics written directly, as tests do)."""
+        self._row_max = self.hits.max(axis=2)
 
     # -- classification -----------------------------------------------------------------------------------------
 
@@ -271,31 +275,52 @@ class VoxelMap:
         ground_z = np.full((n, n), np.nan)
         if self._hit_layers is None:
             return Columns(
-                self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
+                self.origin_xy,
+                self.res,
+                ground_z,
+                np.moveaxis(obstacle, 0, -1),
+                self.z0,
+                self.res,
+                (0, -1),
+                _NO_VOXELS,
             )
         w = np.float32(self._weight)
-        # Only the layers whose hits may reach min_hits can hold an occupied voxel (see _layer_max); the band
+        # Only the layers whose hits may reach min_hits can hold an occupied voxel (see _row_max); the band
         # trimmed to them gives the same columns (above its top no voxel is occupied, so nothing seen through
         # there can lie under a column's ground).
         lo, hi = self._hit_layers
-        can = np.flatnonzero(self._layer_max[lo : hi + 1] >= p.min_hits * w)
+        can = np.flatnonzero(self._row_max[lo : hi + 1].max(axis=1) >= p.min_hits * w)
         if can.size == 0:
             return Columns(
-                self.origin_xy, self.res, ground_z, np.moveaxis(obstacle, 0, -1), self.z0, self.res, (0, -1)
+                self.origin_xy,
+                self.res,
+                ground_z,
+                np.moveaxis(obstacle, 0, -1),
+                self.z0,
+                self.res,
+                (0, -1),
+                _NO_VOXELS,
             )
         lo, hi = lo + int(can[0]), lo + int(can[-1])
         n_band = hi + 1 - lo
-        # Occupied: hits >= min_hits w and hits >= ratio misses. The first test over the band picks the few voxels
-        # with enough hits (the surfaces), the second only on them; the band's occupancy is set from their indices
-        # (in the band, layer by layer), and a column's lowest occupied layer is the least layer among its indices.
+        # Occupied: hits >= min_hits w and hits >= ratio misses. The first test picks the few voxels with enough
+        # hits (the surfaces), on the rows whose bound reaches min_hits only, the second only on them; the band's
+        # occupancy is set from their indices (in the band, layer by layer, ascending), and a column's lowest
+        # occupied layer is the least layer among its indices.
         hits_b = self.hits[lo : hi + 1].reshape(-1)
-        cand = np.flatnonzero(hits_b >= p.min_hits * w)
+        thr = p.min_hits * w
+        rows = np.flatnonzero(self._row_max[lo : hi + 1].reshape(-1) >= thr)  # (layer - lo) * n + ix
+        sel = np.flatnonzero(hits_b.reshape(-1, n)[rows] >= thr)  # (flat: np.nonzero in 2D is ~10× slower)
+        r_i = sel // n
+        cand = rows[r_i] * n + (sel - r_i * n)
         occ_i = cand[hits_b[cand] >= p.hit_miss_ratio * self.misses[lo : hi + 1].reshape(-1)[cand]]
         # (the obstacles are the occupied voxels but the ground ones, cleared below)
         occ = obstacle[lo : hi + 1]
         occ.reshape(-1)[occ_i] = True
         first_occ = np.full(cells, n_band, dtype=np.intp)
-        np.minimum.at(first_occ, occ_i % cells, occ_i // cells)
+        occ_k = occ_i // cells
+        occ_c = occ_i - occ_k * cells
+        np.minimum.at(first_occ, occ_c, occ_k)
         # Occupied layers lie in [lo, hi]; the lowest occupied layer of each column, and whether it has one.
         any_occ = first_occ <= hi - lo
         first_occ = np.minimum(first_occ, hi - lo)
@@ -303,11 +328,12 @@ class VoxelMap:
         k_ground = first_occ + lo
         # A free voxel below it (free: not occupied, seen through): only layers below hi can matter. Below a
         # column's lowest occupied voxel nothing is occupied, so there 'free' is just 'seen through': the ground
-        # stands when the lowest seen-through voxel is not below it.
+        # stands when the lowest seen-through voxel is not below it. Only layers below the highest ground can hold
+        # one under a ground: the layers from there up are not read.
         has_ground = any_occ.copy()
         if self._miss_layers is not None:
             mlo, mhi = self._miss_layers
-            top = min(mhi, hi)
+            top = min(mhi, hi, int(k_ground.max(where=any_occ, initial=lo)) - 1)
             if mlo <= top:
                 seen = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells) >= p.min_misses * w
                 first_seen = _first_true(seen)
@@ -337,9 +363,12 @@ class VoxelMap:
         band[first_occ[g], g] = False
         t = np.flatnonzero(thin)
         band[first_occ[t] + 1, t] = False
+        # The same obstacle voxels as a list (a few thousand of the band's million voxels; the maps read it).
+        fo = first_occ[occ_c]
+        kept = ~(has_ground[occ_c] & ((occ_k == fo) | (thin[occ_c] & (occ_k == fo + 1))))
         return Columns(
             self.origin_xy, self.res, ground_z.reshape(n, n), np.moveaxis(obstacle, 0, -1), self.z0, self.res,
-            (lo, hi),
+            (lo, hi), (occ_k[kept] + lo, occ_c[kept]),
         )  # fmt: skip
 
     def _ground_reference(
@@ -390,6 +419,7 @@ class VoxelMap:
 
 
 _CARVE_CHUNK = 32768
+_NO_VOXELS = (np.zeros(0, np.intp), np.zeros(0, np.intp))
 
 
 def _first_true(a: NDArray[np.bool_]) -> NDArray[np.intp]:
@@ -397,6 +427,10 @@ def _first_true(a: NDArray[np.bool_]) -> NDArray[np.intp]:
     rows, where it finds one). A minimum over rows of the row numbers: a whole-row operation per row, where argmax
     over the first axis goes column by column."""
     rows = a.shape[0]
+    if rows < 256:
+        # rows - row where True, 0 where not, in one byte (half the bytes of int16 to write and reduce)
+        k8 = np.multiply(a, np.arange(rows, 0, -1, dtype=np.uint8)[:, None], dtype=np.uint8)
+        return rows - np.asarray(k8.max(axis=0), dtype=np.intp)
     dtype = np.int16 if rows < 2**15 else np.int64
     # row - rows where True, 0 where not (a product: several times faster than np.where with a broadcast row index)
     k = np.multiply(a, (np.arange(rows, dtype=dtype) - rows)[:, None], dtype=dtype)

@@ -14,9 +14,11 @@ from scipy import ndimage
 from planning.terrain.maps import (
     MapParams,
     TerrainMaps,
-    _cumulative_layers,
+    _clearance,
     _disk,
     _disk_count,
+    _obstacle_voxels,
+    _remove_specks,
     build_maps,
     maps_from_grids,
     maps_from_scene,
@@ -150,30 +152,55 @@ def test_disk_count_matches_a_brute_force_correlation(mask: np.ndarray, radius_c
 @given(
     arrays(np.bool_, st.tuples(st.integers(1, 6), st.integers(1, 6), st.integers(1, 20))),
     st.booleans(),
-    st.integers(-3, 25),
+    st.integers(0, 2**31),
 )
-def test_cumulative_layers_count_obstacle_layers_up_to_each_layer(
-    obstacle: np.ndarray, give_band: bool, k_offset: int
+def test_clearance_is_the_lowest_obstacle_layer_high_enough_above_the_ground(
+    obstacle: np.ndarray, give_band: bool, seed: int
 ) -> None:
-    """The counts are kept over the band of layers that hold obstacles (given by the columns, or found); read at
-    any layer, below, in or above the band, they are the plain cumulative sum's (0 below layer 0)."""
+    """The obstacle voxels are found in the occupancy (over the band the columns give, or all layers) or taken from
+    the columns' own list; the clearance from them is, per column, the underside of the lowest obstacle layer whose
+    index is at least ceil((h + above - z0) / dz) (clipped to the grid), less the ground: a direct scan's."""
     nx, ny, nz = obstacle.shape
     band = None
     if give_band:
         k = np.flatnonzero(obstacle.any(axis=(0, 1)))
         band = (int(k[0]), int(k[-1])) if k.size else (0, -1)
-    columns = Columns((0.0, 0.0), 0.03, np.zeros((nx, ny)), obstacle, 0.0, 0.03, band)
-    cum = _cumulative_layers(columns)
-    want = np.cumsum(obstacle, axis=2)
-    rng = np.random.default_rng(k_offset + 3)
-    k = (
-        rng.integers(-2, nz + 2, size=(nx, ny))
-        if k_offset % 2
-        else np.full((nx, ny), k_offset % (nz + 2) - 1)
-    )
-    expected = np.where(k < 0, 0, np.take_along_axis(want, np.clip(k, 0, nz - 1)[..., None], 2)[..., 0])
-    np.testing.assert_array_equal(cum.at(k), expected)
-    np.testing.assert_array_equal(cum.total.reshape(nx, ny), want[..., -1])
+    rng = np.random.default_rng(seed)
+    z0, dz = float(rng.uniform(-1, 1)), 0.05
+    h = z0 + dz * rng.integers(-3, nz + 3, (nx, ny)) + rng.choice([0.0, 0.01, -0.02], (nx, ny))
+    columns = Columns((0.0, 0.0), 0.05, np.zeros((nx, ny)), obstacle, z0, dz, band)
+    vox = _obstacle_voxels(columns)
+    ii, jj, kk = np.nonzero(obstacle)
+    want_vox = sorted(zip(kk.tolist(), (ii * ny + jj).tolist(), strict=True))
+    assert sorted(zip(vox.layer.tolist(), vox.cell.tolist(), strict=True)) == want_vox
+    listed = _obstacle_voxels(dataclasses.replace(columns, obstacle_voxels=(kk, ii * ny + jj)))
+    got = _clearance(vox, z0, dz, nz, h, 0.3)
+    np.testing.assert_array_equal(_clearance(listed, z0, dz, nz, h, 0.3), got)
+    want = np.full((nx, ny), np.inf)
+    for i in range(nx):
+        for j in range(ny):
+            k_c = min(max(int(np.ceil((h[i, j] + 0.3 - z0) / dz)), 0), nz)
+            ks = [k for k in range(k_c, nz) if obstacle[i, j, k]]
+            if ks:
+                want[i, j] = z0 + ks[0] * dz - dz / 2 - h[i, j]
+    np.testing.assert_array_equal(got, want)
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    arrays(np.bool_, st.tuples(st.integers(1, 12), st.integers(1, 12)), elements=st.booleans()),
+    st.integers(1, 5),
+)
+def test_speck_removal_drops_exactly_the_small_8_connected_components(
+    mask: np.ndarray, min_cells: int
+) -> None:
+    """Components of fewer than min_cells cells (8-connected) go, the rest stay: counted from neighbours for 2 and
+    3 cells, by labelling beyond; both equal a labelling's sizes."""
+    labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    keep = sizes >= min_cells
+    keep[0] = False
+    np.testing.assert_array_equal(_remove_specks(mask, min_cells), keep[labels])
 
 
 def test_a_stone_too_high_above_its_pit_is_no_body_obstacle_when_dense_counts_high_is_off() -> None:
