@@ -273,17 +273,18 @@ class VoxelMap:
         cells = n * n
         obstacle = np.zeros((nz, n, n), dtype=bool)
         ground_z = np.full((n, n), np.nan)
+        none = Columns(
+            self.origin_xy,
+            self.res,
+            ground_z,
+            np.moveaxis(obstacle, 0, -1),
+            self.z0,
+            self.res,
+            (0, -1),
+            _NO_VOXELS,
+        )  # the columns of a map holding no occupied voxel
         if self._hit_layers is None:
-            return Columns(
-                self.origin_xy,
-                self.res,
-                ground_z,
-                np.moveaxis(obstacle, 0, -1),
-                self.z0,
-                self.res,
-                (0, -1),
-                _NO_VOXELS,
-            )
+            return none
         w = np.float32(self._weight)
         # Only the layers whose hits may reach min_hits can hold an occupied voxel (see _row_max); the band
         # trimmed to them gives the same columns (above its top no voxel is occupied, so nothing seen through
@@ -291,16 +292,7 @@ class VoxelMap:
         lo, hi = self._hit_layers
         can = np.flatnonzero(self._row_max[lo : hi + 1].max(axis=1) >= p.min_hits * w)
         if can.size == 0:
-            return Columns(
-                self.origin_xy,
-                self.res,
-                ground_z,
-                np.moveaxis(obstacle, 0, -1),
-                self.z0,
-                self.res,
-                (0, -1),
-                _NO_VOXELS,
-            )
+            return none
         lo, hi = lo + int(can[0]), lo + int(can[-1])
         n_band = hi + 1 - lo
         # Occupied: hits >= min_hits w and hits >= ratio misses. The first test picks the few voxels with enough
