@@ -55,9 +55,9 @@ class Gait:
 
 
 # Gait table. Offsets are the global phase of each leg's touchdown; stance lasts duty * cycle from there.
-# trot_fast: the trot above StepPlannerParams.fast_trot_above_mps (the planner switches to it and back by itself):
-# a longer swing (duty 0.5) for the longer steps at speed; at duty 0.6 the swing feet could not reach their
-# touchdowns in time above 1.2 m/s (measured: falls at 1.4 m/s; holds 1.8 m/s at duty 0.5). Its cycle is 0.4 s: at
+# trot_fast: the trot above StepPlannerParams.fast_trot_above_mps forward or fast_trot_lateral_above_mps sideways
+# (the planner switches to it and back by itself): a longer swing (duty 0.5) for the longer steps at speed; at duty
+# 0.6 the swing feet could not reach their touchdowns in time above 1.2 m/s (measured: falls at 1.4 m/s; holds 1.8 m/s at duty 0.5). Its cycle is 0.4 s: at
 # 0.5 s the diagonal's feet landed 0.26 m ahead of their hips at 2 m/s and the body rolled ±13-18° (±6° at 0.4 s),
 # and a 1 m radius circle at 1.5 m/s fell (holds at 0.4 s).
 # gallop: a transverse gallop, the hind pair then the front pair landing one after the other (left leads, the right
@@ -86,8 +86,10 @@ _GAIT_TABLE: tuple[tuple[str, float, float, tuple[float, float, float, float], f
 )  # fmt: skip
 
 # own sideways / turning limits (m/s, rad/s): the trots held 1.0 m/s sideways (ramped up to it) and 2.25 rad/s in
-# the speed bench; started from a stand, 1.0 m/s sideways fell once where 0.8 and 0.9 held
-_LATERAL: dict[str, tuple[float, float]] = {"trot": (0.9, 2.0), "trot_fast": (0.9, 2.0)}
+# the speed bench; from a stand, sideways above StepPlannerParams.fast_trot_lateral_above_mps walks trot_fast, which
+# held 1.0 m/s (and 1.1, 1.2) in 14 of 14 starts: left and right, turned starts, ±0.1-0.2 m/s forward, 0.1-0.2 rad/s
+# (the 0.5 s trot fell in 11 of 14 at 1.0, 3 of 14 at 0.9: docs/agility-notes.md, session 11)
+_LATERAL: dict[str, tuple[float, float]] = {"trot": (1.0, 2.0), "trot_fast": (1.0, 2.0)}
 GAITS: dict[str, Gait] = {row[0]: Gait(*row, *_LATERAL.get(row[0], (None, None))) for row in _GAIT_TABLE}
 GAIT_NAMES: tuple[str, ...] = tuple(GAITS)
 

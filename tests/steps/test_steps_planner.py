@@ -6,6 +6,7 @@ import numpy as np
 from _steps_common import robot
 
 from planning.steps import SteeringCommand, StepPlanner, WalkState, WeightPresets, standing_state
+from planning.steps.planner import StepPlannerParams, slow_trot_allowed, wants_fast_trot
 
 DT = 0.01  # s, 100 Hz replanning
 
@@ -95,3 +96,33 @@ def test_stop_at_speed_steps_on_while_the_command_ramps_down() -> None:
     for _ in range(150):
         sim.tick(planner, SteeringCommand(1.5, 0.0, 0.0))
     assert planner.clock.gait.is_stand and abs(planner.steering.command.vx) < 0.05
+
+
+def test_fast_trot_thresholds_forward_and_sideways() -> None:
+    p = StepPlannerParams()
+    assert p.fast_trot_lateral_below_mps < p.fast_trot_lateral_above_mps
+    lat = p.fast_trot_lateral_above_mps
+    assert not wants_fast_trot(SteeringCommand(0.5 * p.fast_trot_above_mps, 0.9 * lat, 0.0), p)
+    assert wants_fast_trot(SteeringCommand(p.fast_trot_above_mps + 0.1, 0.0, 0.0), p)
+    for side in (1.0, -1.0):  # sideways, either side, with or without a little forward speed
+        assert wants_fast_trot(SteeringCommand(0.0, side * (lat + 0.05), 0.0), p)
+        assert wants_fast_trot(SteeringCommand(0.2, side * (lat + 0.05), 0.2), p)
+    slow = SteeringCommand(0.0, 0.5 * p.fast_trot_lateral_below_mps, 0.0)
+    assert slow_trot_allowed(slow, slow, p)
+    # back to the trot only once both axes, commanded and filtered, are below their lower thresholds
+    between = SteeringCommand(0.0, 0.5 * (p.fast_trot_lateral_below_mps + lat), 0.0)
+    assert not slow_trot_allowed(slow, between, p) and not slow_trot_allowed(between, slow, p)
+    fwd = SteeringCommand(p.fast_trot_below_mps + 0.05, 0.0, 0.0)
+    assert not slow_trot_allowed(fwd, slow, p)
+
+
+def test_a_trot_asked_fast_sideways_walks_trot_fast_and_back() -> None:
+    planner = StepPlanner(robot(), gait="stand")
+    sim = _Kinematic()
+    for _ in range(150):
+        sim.tick(planner, SteeringCommand(0.0, -1.0, 0.0))
+    assert planner.clock.gait.name == "trot_fast"
+    assert abs(planner.steering.command.vy + 1.0) < 0.05  # the trots' own sideways limit is 1.0 m/s
+    for _ in range(200):
+        sim.tick(planner, SteeringCommand(0.0, 0.2, 0.0))
+    assert planner.clock.gait.name == "trot"
