@@ -28,11 +28,13 @@ from planning.terrain.decision import (
     climb_top_speed,
     crouch_height,
     decide,
+    follow_path,
     leg_bounds,
     leg_bounds_found,
     leg_clearance,
     lost_region,
     own_side,
+    path_holds,
     pitched_nominals,
     reach_height,
     shin_needed,
@@ -973,3 +975,37 @@ def test_a_swinging_foot_stepping_down_out_of_reach_lowers_the_body_height() -> 
     # the foot radius lifts the centre the leg reaches
     r = dataclass_replace(air, foot_radius_m=0.02)
     assert touchdown_reach_height(r, chosen, 0.0, on) == pytest.approx(h + 0.02, abs=1e-9)
+
+
+def test_following_a_path_just_replanned_turns_the_body_toward_its_heading_near_body_obstacles() -> None:
+    """A path replanned from the body's pose starts at the body's yaw (0) and turns to its heading (-30°) over its
+    first 0.3 m: pursued at its nearest point (the default) it asks no turn, so a path replanned every tick (one
+    grazing a body obstacle) leaves the body crabbing at its old yaw. With yaw_lookahead_m (off: it measured worse
+    on the clutter family) the yaw is taken that far ahead, near body obstacles only (yaw_near_m)."""
+    heading = math.radians(-30.0)
+    goal = np.array([3.0 * math.cos(heading), 3.0 * math.sin(heading)])
+    view = dataclasses.replace(_view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3]), goal=goal), yaw=0.0)
+    fresh = plan_body_path(None, (0.0, 0.0), 0.0, goal)
+    assert fresh.yaw[0] == pytest.approx(0.0, abs=1e-9)
+    near = dataclasses.replace(fresh, min_clearance_m=0.01)
+    assert P.yaw_lookahead_m == 0.0
+    old = follow_path(view, near, 0.3, P)
+    assert abs(old.yaw_rate) < 1e-6  # no turn
+    on = dataclasses.replace(P, yaw_lookahead_m=0.3)
+    turn = follow_path(view, near, 0.3, on)
+    assert -on.max_yaw_rate_rps - 1e-9 <= turn.yaw_rate < -0.3  # toward -30°, within the yaw-rate limit
+    assert (turn.vx, turn.vy) == pytest.approx((old.vx, old.vy))  # the same pursuit
+    # far from body obstacles the path is followed at its nearest point; yaw_near_m None: everywhere
+    far = dataclasses.replace(fresh, min_clearance_m=0.5)
+    assert abs(follow_path(view, far, 0.3, on).yaw_rate) < 1e-6
+    everywhere = dataclasses.replace(on, yaw_near_m=None)
+    assert follow_path(view, far, 0.3, everywhere).yaw_rate == pytest.approx(turn.yaw_rate)
+
+
+def test_a_path_is_replanned_early_only_when_its_rest_sweeps_deeper_than_when_planned() -> None:
+    # the default (path_worse_m None): any negative clearance of the rest replans at once
+    assert path_holds(0.0, -0.03, None) and not path_holds(-0.001, 0.05, None)
+    # with path_worse_m a path that grazed (-0.01) when planned holds until its rest goes 2 cm deeper
+    assert path_holds(-0.02, -0.01, 0.02) and not path_holds(-0.04, -0.01, 0.02)
+    # a path planned clear is replanned, as before, once its rest sweeps into an obstacle at all
+    assert path_holds(0.0, 0.1, 0.02) and not path_holds(-0.001, 0.1, 0.02)
