@@ -44,6 +44,19 @@ def test_body_path_falls_back_to_grid_search_in_a_trap() -> None:
     assert np.linalg.norm(path.xy[-1] - [2.8, 0.0]) < 1e-6
 
 
+def test_the_grid_search_with_the_footprint_at_each_heading_keeps_its_margin() -> None:
+    xs, ys = grid()
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    box = (X > 1.0) & (X < 1.45) & (np.abs(Y) < 0.3)  # a tall box, passed at its corner
+    maps = maps_from_grids((xs[0], ys[0]), RES, np.zeros(X.shape), box, box)
+    for heading in (False, True):
+        p = BodyPathParams(grid_heading=heading, max_iters=0)  # no field: the grid search
+        path = plan_body_path(maps, (0.2, -0.1), 0.0, (2.6, -0.2), p)
+        assert path.method == "grid" and path.valid
+        assert sweep_clearance(maps, path, p) >= (p.grid_clear_m - 0.01 if heading else 0.0)
+        assert np.linalg.norm(path.xy[-1] - [2.6, -0.2]) < 1e-6
+
+
 def test_body_path_rejects_bad_input() -> None:
     with pytest.raises(ValueError, match="finite"):
         plan_body_path(None, (np.nan, 0.0), 0.0, (1.0, 0.0))
