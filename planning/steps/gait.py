@@ -57,7 +57,8 @@ class Gait:
 # Gait table. Offsets are the global phase of each leg's touchdown; stance lasts duty * cycle from there.
 # trot_fast: the trot above StepPlannerParams.fast_trot_above_mps forward or fast_trot_lateral_above_mps sideways
 # (the planner switches to it and back by itself): a longer swing (duty 0.5) for the longer steps at speed; at duty
-# 0.6 the swing feet could not reach their touchdowns in time above 1.2 m/s (measured: falls at 1.4 m/s; holds 1.8 m/s at duty 0.5). Its cycle is 0.4 s: at
+# 0.6 the swing feet could not reach their touchdowns in time above 1.2 m/s (measured: falls at 1.4 m/s; holds
+# 1.8 m/s at duty 0.5). Its cycle is 0.4 s: at
 # 0.5 s the diagonal's feet landed 0.26 m ahead of their hips at 2 m/s and the body rolled ±13-18° (±6° at 0.4 s),
 # and a 1 m radius circle at 1.5 m/s fell (holds at 0.4 s).
 # gallop: a transverse gallop, the hind pair then the front pair landing one after the other (left leads, the right

@@ -593,9 +593,11 @@ def follow_path(view: TerrainView, path: BodyPath | None, cap: float, p: Decisio
         k = int(np.argmin(np.sum((path.xy - xy) ** 2, axis=1)))
         s_ahead = float(path.s[k]) + p.lookahead_m
         target = path.pose_at(s_ahead)[0] if s_ahead < path.length_m else view.goal
-        near = p.yaw_near_m is None or path.min_clearance_m < p.yaw_near_m
-        yaw_ahead = float(path.pose_at(float(path.s[k]) + (p.yaw_lookahead_m if near else 0.0))[1])
-        yaw_des = yaw_ahead if dist > 0.5 else view.yaw
+        yaw_des = float(path.yaw[k])
+        if p.yaw_lookahead_m > 0.0 and (p.yaw_near_m is None or path.min_clearance_m < p.yaw_near_m):
+            yaw_des = float(path.pose_at(float(path.s[k]) + p.yaw_lookahead_m)[1])
+        if dist <= 0.5:
+            yaw_des = view.yaw
     d = np.asarray(target, dtype=np.float64) - xy
     n = float(np.linalg.norm(d))
     if n < 1e-9:
