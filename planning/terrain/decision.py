@@ -101,6 +101,23 @@ class DecisionParams:
     (50 draws, main 22 clean) 0.3 m always gave 19 clean (the trunk falls 5 to 2, new rolls in the slow gaits at the
     faster turns) and 0.3 m within 0.05 m gave 16 (docs/terrain-notes.md, session 11); max_pitch_rad, max_pitch_rate_rps, pitch_gain: body pitch (the footholds' plane's
     slope × pitch_gain);
+    posture: "plane": the body's height offset and pitch from the footholds' plane (its height at the body, its
+    slope along the heading, as above); "hips": from the support's heights as the hips see them (hips_plane: the
+    support heights fitted against the hips' offsets along the body, the pitch the one at which every hip stands
+    as high above its own support as the others, on a least-squares average, the offset the fit's height at the
+    body's centre): on a descent the front feet reach ahead of their hips and the hind feet trail behind theirs,
+    so the footholds' plane is shallower than the drop between the hips' supports and the high (hind) pair's hips
+    sit lower above their treads than the low pair's; the same rule on flat ground (no slope: the same height);
+    "pairs": as "hips" with each pair's (the front hips', the hind hips') highest support instead of the
+    least-squares line (hips_pairs: the pitch at which the most folded leg of each pair stands as high above its
+    support as the other pair's; a hind foot swinging down to the next tread does not lower the hind hips while
+    the other hind foot still stands on the tread above). Off ("plane"): on the stairs quick spec (main 8 of 12
+    clean) "hips" gave 3 (the descent falls 2 to 8, hind legs) and "pairs" 2; on the mixed quick spec (main 7)
+    "hips" gave 5 (docs/terrain-notes.md, session 12);
+    plane_touchdowns: the posture's supports (the footholds' plane, hips_plane, hips_pairs) count a swinging leg's
+    chosen touchdown (False: a swinging leg's last stance height instead: the pitch and height move with the
+    touchdowns, not toward a touchdown while its foot is still in the air and the other legs carry the body). On
+    (True): False gave 6 of 12 on the stairs quick spec (main 8) and 4 of 12 on the mixed quick spec (main 7);
     max_height_offset_m: the body's offset from the footholds' plane above the mean contact height at most this;
     min_height_m, body_top_m, head_margin_m, crouch_ahead_m, ceiling_above_m: under an overhang within crouch_ahead_m
     the body height is lowered to keep body_top_m + head_margin_m under it, down to min_height_m (overhangs at
@@ -203,6 +220,8 @@ class DecisionParams:
     max_pitch_rad: float = 0.6
     max_pitch_rate_rps: float = 0.6
     pitch_gain: float = 1.0
+    posture: str = "plane"
+    plane_touchdowns: bool = True
     max_height_offset_m: float = 0.15
     min_height_m: float = 0.38
     body_top_m: float = 0.10
@@ -373,8 +392,14 @@ def decide(
     command = (
         follow_path(view, world.path, cap, p) if view.goal is not None else capped(view.operator, cap, p)
     )
-    offset, slope = footholds_plane(view, last)
-    pitch_target = float(clip_scalar(-math.atan(p.pitch_gain * slope), -p.max_pitch_rad, p.max_pitch_rad))
+    td = p.plane_touchdowns
+    if p.posture in ("hips", "pairs"):
+        offset, sin_pitch = hips_plane(view, last, td) if p.posture == "hips" else hips_pairs(view, last, td)
+        pitch_target = math.asin(float(clip_scalar(p.pitch_gain * sin_pitch, -1.0, 1.0)))
+        pitch_target = float(clip_scalar(pitch_target, -p.max_pitch_rad, p.max_pitch_rad))
+    else:
+        offset, slope = footholds_plane(view, last, td)
+        pitch_target = float(clip_scalar(-math.atan(p.pitch_gain * slope), -p.max_pitch_rad, p.max_pitch_rad))
     step = p.max_pitch_rate_rps * view.dt_s
     pitch = view.pitch_rad + float(clip_scalar(pitch_target - view.pitch_rad, -step, step))
     height = view.standing_height_m + float(
@@ -608,15 +633,13 @@ def follow_path(view: TerrainView, path: BodyPath | None, cap: float, p: Decisio
     return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
 
 
-def footholds_plane(view: TerrainView, last: FootholdDecision | None) -> tuple[float, float]:
-    """Gives the plane through the support (stance feet, and for a swinging leg its chosen touchdown): its height
-    at the body above the mean contact height (m), and its slope along the heading (m/m, positive uphill)."""
-    pts = view.p_world_foot.copy()
-    pts[:, 2] -= view.foot_radius_m
-    if last is not None:
-        chosen = last.memory.p_chosen
-        use = ~view.stance & np.all(np.isfinite(chosen), axis=1)
-        pts[use] = chosen[use]
+def footholds_plane(
+    view: TerrainView, last: FootholdDecision | None, touchdowns: bool = True
+) -> tuple[float, float]:
+    """Gives the plane through the support (support_points: stance feet, and for a swinging leg its chosen
+    touchdown, or with touchdowns False its last stance height): its height at the body above the mean contact
+    height (m), and its slope along the heading (m/m, positive uphill)."""
+    pts = support_points(view, last, touchdowns)
     A = np.column_stack([pts[:, 0], pts[:, 1], np.ones(4)])
     coef, *_ = np.linalg.lstsq(A, pts[:, 2], rcond=None)
     a, b, c = (float(v) for v in coef)
@@ -624,6 +647,62 @@ def footholds_plane(view: TerrainView, last: FootholdDecision | None) -> tuple[f
     z_plane = a * float(xy[0]) + b * float(xy[1]) + c
     slope = a * math.cos(view.yaw) + b * math.sin(view.yaw)
     return z_plane - view.z_contact, slope
+
+
+def support_points(
+    view: TerrainView, last: FootholdDecision | None, touchdowns: bool = True
+) -> NDArray[np.float64]:
+    """Gives each leg's support (4, 3): its stance foot's contact point, or for a swinging leg its chosen
+    touchdown (touchdowns; its foot's contact point where none is chosen), or (not touchdowns) its foot's place
+    at the height of its last stance foothold (FootholdMemory.z_stance, where known)."""
+    pts = view.p_world_foot.copy()
+    pts[:, 2] -= view.foot_radius_m
+    if last is not None:
+        if touchdowns:
+            chosen = last.memory.p_chosen
+            use = ~view.stance & np.all(np.isfinite(chosen), axis=1)
+            pts[use] = chosen[use]
+        else:
+            z = last.memory.z_stance
+            use = ~view.stance & np.isfinite(z)
+            pts[use, 2] = z[use]
+    return pts
+
+
+def hips_plane(
+    view: TerrainView, last: FootholdDecision | None, touchdowns: bool = True
+) -> tuple[float, float]:
+    """Gives the support's heights as the hips see them: the least-squares line z = c + g·x through each leg's
+    support height (support_points) against its hip's offset x along the body (RobotModel's p_body_hip); returns
+    c above the mean contact height (m: the height offset, the support under the body's centre) and −g (the sine
+    of the pitch, positive nose down, at which every hip stands equally high above its own support on that
+    line: a hip at x along a body pitched θ sits x·sin θ lower, so −sin θ = g)."""
+    z = support_points(view, last, touchdowns)[:, 2]
+    x = np.asarray(view.p_body_hip[:, 0], dtype=np.float64)
+    xm = float(x.mean())
+    var = float(((x - xm) ** 2).sum())
+    g = float(((x - xm) * (z - z.mean())).sum()) / var if var > 1e-12 else 0.0
+    c = float(z.mean()) - g * xm
+    return c - view.z_contact, -g
+
+
+def hips_pairs(
+    view: TerrainView, last: FootholdDecision | None, touchdowns: bool = True
+) -> tuple[float, float]:
+    """Gives hips_plane's two values from each pair's highest support: the line through (the front hips' mean
+    offset along the body, the front legs' highest support) and the same for the hind legs (the front hips: those
+    ahead of the hips' mean offset; support_points); its height at the body's centre above the mean contact height
+    (m) and the sine of its pitch (positive nose down). Every leg's hip then stands at least as high above its own
+    support as the highest-standing leg of its pair does."""
+    z = support_points(view, last, touchdowns)[:, 2]
+    x = np.asarray(view.p_body_hip[:, 0], dtype=np.float64)
+    front = x > float(x.mean())
+    if not front.any() or front.all():
+        return float(z.max()) - view.z_contact, 0.0
+    xf, xh = float(x[front].mean()), float(x[~front].mean())
+    zf, zh = float(z[front].max()), float(z[~front].max())
+    g = (zf - zh) / (xf - xh)
+    return zf - g * xf - view.z_contact, -g
 
 
 def reach_height(view: TerrainView, pitch: float, p: DecisionParams) -> float:

@@ -29,6 +29,9 @@ from planning.terrain.decision import (
     crouch_height,
     decide,
     follow_path,
+    footholds_plane,
+    hips_pairs,
+    hips_plane,
     leg_bounds,
     leg_bounds_found,
     leg_clearance,
@@ -176,7 +179,7 @@ def _view(feet_z: np.ndarray, feet_x: np.ndarray, goal: np.ndarray | None = None
 
 def test_the_decision_pitches_the_body_with_its_footholds_plane_and_slows_for_moved_footholds() -> None:
     world = _world(*_stones())
-    params = dataclass_replace(P, max_pitch_rate_rps=100.0)
+    params = dataclass_replace(P, max_pitch_rate_rps=100.0, posture="plane")
     # front feet 0.2 m higher than the hind feet, 0.6 m apart: 18° uphill
     view = _view(np.array([0.2, 0.2, 0.0, 0.0]), np.array([0.3, 0.3, -0.3, -0.3]))
     d = decide(view, world, None, params)
@@ -191,7 +194,7 @@ def test_the_decision_pitches_the_body_with_its_footholds_plane_and_slows_for_mo
     very = decide(view, world, dataclass_replace(last, max_shift_m=1.0), params)
     assert very.command.vx == pytest.approx(params.min_speed_mps)
     # the pitch moves toward its target at its rate
-    d2 = decide(view, world, None, P)
+    d2 = decide(view, world, None, dataclass_replace(P, posture="plane"))
     assert abs(d2.body_pitch_rad) == pytest.approx(P.max_pitch_rate_rps * view.dt_s)
 
 
@@ -1009,3 +1012,109 @@ def test_a_path_is_replanned_early_only_when_its_rest_sweeps_deeper_than_when_pl
     assert path_holds(-0.02, -0.01, 0.02) and not path_holds(-0.04, -0.01, 0.02)
     # a path planned clear is replanned, as before, once its rest sweeps into an obstacle at all
     assert path_holds(0.0, 0.1, 0.02) and not path_holds(-0.001, 0.1, 0.02)
+
+
+def _hip_heights_above_support(view: TerrainView, pitch: float, height: float) -> np.ndarray:
+    """Each hip's height above its foot's contact point, the body at height above the mean contact height and
+    pitched by pitch (positive nose down)."""
+    z_hip = view.z_contact + height - math.sin(pitch) * view.p_body_hip[:, 0]
+    return z_hip - (view.p_world_foot[:, 2] - view.foot_radius_m)
+
+
+def test_the_hips_plane_pitches_the_body_so_each_hip_stands_as_high_above_its_own_foot() -> None:
+    # feet under their hips on a slope, the front 0.2 m higher: the pitch whose sine is the rise over the hips' 0.6 m
+    under = _view(np.array([0.2, 0.2, 0.0, 0.0]), np.array([0.3, 0.3, -0.3, -0.3]))
+    offset, sin_pitch = hips_plane(under, None)
+    assert sin_pitch == pytest.approx(-0.2 / 0.6)
+    assert offset == pytest.approx(
+        footholds_plane(under, None)[0], abs=1e-9
+    )  # the feet under the hips: the same
+    # a descent: the front feet reach ahead of their hips onto the tread below, the hind feet trail on the tread
+    # above; the footholds' plane over the feet's 0.9 m is shallower than the drop between the hips' supports
+    down = _view(np.array([0.0, 0.0, 0.2, 0.2]), np.array([0.45, 0.45, -0.45, -0.45]))
+    _, slope = footholds_plane(down, None)
+    _, sin_pitch = hips_plane(down, None)
+    plane_pitch = -math.atan(slope)
+    hips_pitch = math.asin(sin_pitch)
+    assert hips_pitch > plane_pitch > 0.0  # nose down, more with the hips' rule
+    offset, _ = hips_plane(down, None)
+    h = down.standing_height_m + offset
+    clear = _hip_heights_above_support(down, hips_pitch, h)
+    np.testing.assert_allclose(clear, down.standing_height_m, atol=1e-9)  # every hip at the standing height
+    flat_pitch = _hip_heights_above_support(down, plane_pitch, h)
+    assert (
+        flat_pitch[2:].min() < down.standing_height_m - 0.02
+    )  # the plane's pitch folds the high (hind) pair
+    # flat ground: no pitch, the support at the contact height
+    flat = _view(np.zeros(4), np.array([0.4, 0.35, -0.2, -0.3]))
+    offset, sin_pitch = hips_plane(flat, None)
+    assert sin_pitch == pytest.approx(0.0, abs=1e-12)
+    assert offset == pytest.approx(footholds_plane(flat, None)[0], abs=1e-9)
+
+
+def test_the_hips_plane_counts_a_swinging_legs_chosen_touchdown() -> None:
+    view = _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3]))
+    view = dataclasses.replace(view, stance=np.array([False, True, True, True]))
+    mem = dataclasses.replace(
+        FootholdMemory.empty(), p_chosen=np.array([[0.5, 0.15, -0.2]] + [[np.nan] * 3] * 3)
+    )
+    last = FootholdDecision(np.zeros((0, 3)), (), None, 0.0, mem)
+    _, with_chosen = hips_plane(view, last)
+    _, without = hips_plane(view, None)
+    assert without == pytest.approx(0.0, abs=1e-12)
+    assert with_chosen > 0.0  # the front left stepping down: nose down
+
+
+def test_the_decision_with_the_hips_posture() -> None:
+    world = _world(*_stones())
+    params = dataclass_replace(P, max_pitch_rate_rps=100.0, posture="hips")
+    down = _view(np.array([0.0, 0.0, 0.2, 0.2]), np.array([0.45, 0.45, -0.45, -0.45]))
+    d = decide(down, world, None, params)
+    assert d.body_pitch_rad == pytest.approx(math.asin(0.2 / 0.6), abs=1e-6)
+    assert d.body_pitch_rad <= params.max_pitch_rad
+    # flat: the same height and pitch as the footholds' plane gives
+    flat = _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3]))
+    a = decide(flat, world, None, params)
+    b = decide(flat, world, None, dataclass_replace(params, posture="plane"))
+    assert a.body_pitch_rad == pytest.approx(b.body_pitch_rad) and a.body_height_m == pytest.approx(
+        b.body_height_m
+    )
+
+
+def test_the_hips_pairs_posture_takes_each_pairs_highest_support() -> None:
+    # a descent, the hind right foot swinging down to the tread below (its chosen touchdown), the hind left still
+    # on the tread above: the least-squares line lowers the hind hips, the pairs' rule keeps them over the high foot
+    view = _view(np.array([0.0, 0.0, 0.2, 0.2]), np.array([0.45, 0.45, -0.3, -0.3]))
+    view = dataclasses.replace(view, stance=np.array([True, True, True, False]))
+    mem = dataclasses.replace(
+        FootholdMemory.empty(), p_chosen=np.array([[np.nan] * 3] * 3 + [[0.0, -0.15, 0.1]])
+    )
+    last = FootholdDecision(np.zeros((0, 3)), (), None, 0.0, mem)
+    _, sin_ls = hips_plane(view, last)
+    offset, sin_pairs = hips_pairs(view, last)
+    assert sin_pairs == pytest.approx(0.2 / 0.6) and sin_pairs > sin_ls > 0.0
+    h = view.standing_height_m + offset
+    z_hip = view.z_contact + h - sin_pairs * view.p_body_hip[:, 0]
+    support = np.array([0.0, 0.0, 0.2, 0.1])
+    np.testing.assert_allclose((z_hip - support)[[0, 2]], view.standing_height_m, atol=1e-9)
+    assert (z_hip - support).min() >= view.standing_height_m - 1e-9  # no leg folded below the standing height
+    # flat ground: the same as the least-squares line
+    flat = _view(np.zeros(4), np.array([0.4, 0.35, -0.2, -0.3]))
+    assert hips_pairs(flat, None) == pytest.approx(hips_plane(flat, None))
+
+
+def test_the_plane_without_touchdowns_holds_a_swinging_legs_last_stance_height() -> None:
+    # the front left in the air 0.1 m up, its chosen touchdown 0.2 m lower than where it lifted off
+    view = _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3]))
+    feet = view.p_world_foot.copy()
+    feet[0, 2] += 0.1
+    view = dataclasses.replace(view, p_world_foot=feet, stance=np.array([False, True, True, True]))
+    mem = FootholdMemory(np.full(4, np.nan), np.array([[0.5, 0.15, -0.2]] + [[np.nan] * 3] * 3), np.zeros(4))
+    last = FootholdDecision(np.zeros((0, 3)), (), None, 0.0, mem)
+    _, toward = footholds_plane(view, last)
+    _, held = footholds_plane(view, last, touchdowns=False)
+    assert toward < -0.05  # the plane tips toward the touchdown below
+    assert held == pytest.approx(0.0, abs=1e-12)  # the foot counted at its last stance height, not in the air
+    params = dataclass_replace(P, max_pitch_rate_rps=100.0, posture="plane", plane_touchdowns=False)
+    d = decide(view, _world(*_stones()), last, params)
+    assert d.body_pitch_rad == pytest.approx(0.0, abs=1e-9)
