@@ -105,6 +105,15 @@ class SwingParams:
     # floor). Farther out the ground is judged as given (a box's edge beside the foothold may be under the foot
     # there). None: the ground as given everywhere.
     endpoint_zone_m: float | None = None
+    # Lift-off clearance (any swing that is not a step up, on mapped terrain): ground within the first
+    # liftoff_clear_run_m of the straight route from the lift-off place (the swing ground, already dilated by the
+    # foot) standing above the lift-off height by more than rise_first_above_m (a box beside or just ahead of the
+    # foot) makes the swing rise first, as a step up does: the foot's x and y wait where it is until it stands
+    # liftoff_clear_margin_m above the highest ground on its route, then it moves on (a foot that moved this far
+    # from its lift-off place is past the rule). 0: off (the first centimetres go sideways or forward at once, and
+    # a foot lifting off beside a low box's edge catches it; see docs/terrain-notes.md, session 12).
+    liftoff_clear_run_m: float = 0.0
+    liftoff_clear_margin_m: float = 0.03
 
     # Other legs
     keepout_radius_m: float = 0.07  # lower legs closer than this collide (foot center to segment foot→knee)

@@ -175,6 +175,30 @@ def _heading(v: np.ndarray, c: float, s: float) -> tuple[float, float]:
     return float(c * v[0] + s * v[1]), float(-s * v[0] + c * v[1])
 
 
+def liftoff_clear_height(
+    g_route: np.ndarray,
+    u: np.ndarray,
+    length_m: float,
+    travelled_m: float,
+    z_liftoff: float,
+    params: SwingParams,
+) -> float | None:
+    """The height (m) a foot that just lifted off must reach before it moves on (SwingParams.liftoff_clear_run_m):
+    the highest ground on its route plus liftoff_clear_margin_m, when ground within the first liftoff_clear_run_m
+    of the route from the lift-off place stands above the lift-off height z_liftoff by more than
+    rise_first_above_m; None when none does, or when the foot is already that far from its lift-off place.
+
+    g_route: the ground (swing ground, dilated by the foot) at the route's samples, the fractions u (from 0: the
+    foot now) of its length length_m; travelled_m: how far the foot is from its lift-off place already."""
+    left = params.liftoff_clear_run_m - travelled_m
+    if params.liftoff_clear_run_m <= 0.0 or left <= 0.0:
+        return None
+    near = u * length_m <= left
+    if not bool(np.any(g_route[near] > z_liftoff + params.rise_first_above_m)):
+        return None
+    return float(np.max(g_route)) + params.liftoff_clear_margin_m
+
+
 class SwingPlanner:
     """Plans every swing leg each tick; keeps only per-leg memory (last policy, last plan, last trip)."""
 
@@ -640,7 +664,9 @@ class SwingPlanner:
         z_agg, z_ok = vertical(agg, t_now, z0, vz0, z1, req.t_touchdown, z_ceiling, z_ref)
         hold = None
         if not isinstance(ground, FlatGround):
-            z_clear, approach = self._rise_first_height(req, ground, z_ref, self._over_box[leg])
+            z_clear, approach = self._rise_first_height(
+                req, ground, z_ref, self._over_box[leg], self._xy_liftoff[leg]
+            )
             if pr.rise_first_within_reach and z_clear is not None and z_clear > z_ceiling - 0.003:
                 # the leg cannot lift the foot rise_first_margin_m over the terrain: it waits for what it can
                 # reach, if that still clears the terrain by 5 mm (else as before: no wait)
@@ -734,7 +760,12 @@ class SwingPlanner:
         return np.array(rows)
 
     def _rise_first_height(
-        self, req: SwingRequest, ground: GroundHeightFn, z_ref: float, over_box: bool = False
+        self,
+        req: SwingRequest,
+        ground: GroundHeightFn,
+        z_ref: float,
+        over_box: bool = False,
+        anchor: np.ndarray | None = None,
     ) -> tuple[float | None, float]:
         """The height (m) the foot must reach before it moves over the terrain ahead (see
         SwingParams.rise_first_above_m), None when nothing on the route asks for it; and how far (m) the foot may
@@ -747,15 +778,21 @@ class SwingPlanner:
         first, closing in on it up to rise_first_gap_m. Replanned every tick from the measured foot, so a lagging
         leg waits longer. over_box: any other swing rises so over terrain on the route that stands above both the
         lift-off height and that line by more than rise_first_above_m (a box on the way; see
-        SwingParams.rise_over_boxes).
+        SwingParams.rise_over_boxes). anchor: the lift-off place (x, y), for the lift-off clearance of a swing that
+        is neither (SwingParams.liftoff_clear_run_m).
         """
         pr = self.params
         if not math.isfinite(pr.rise_first_above_m):
             return None, 0.0
         p0, p1 = req.p_world_foot, req.p_touchdown
         step_up = float(p1[2]) - z_ref > pr.rise_first_above_m
+        travelled = -1.0  # how far the foot is from its lift-off place, when the lift-off clearance may apply
         if not step_up and not over_box:
-            return None, 0.0  # not a step up: boxes on the way are the tiers' business
+            if pr.liftoff_clear_run_m <= 0.0 or anchor is None:
+                return None, 0.0  # not a step up: boxes on the way are the tiers' business
+            travelled = math.hypot(float(p0[0] - anchor[0]), float(p0[1] - anchor[1]))
+            if travelled >= pr.liftoff_clear_run_m:
+                return None, 0.0
         u = _ROUTE_SAMPLES
         n = len(u)
         xs = p0[0] + u * (p1[0] - p0[0])
@@ -768,6 +805,12 @@ class SwingPlanner:
             ground(np.concatenate((xs, xs + ahead[0])), np.concatenate((ys, ys + ahead[1]))), dtype=float
         )
         g = np.maximum(g2[:n], g2[n:])
+        if travelled >= 0.0:
+            # the lift-off clearance: the foot waits where it is (no approach) until it stands over its route
+            z_lift = liftoff_clear_height(g, u, length, travelled, z_ref, pr)
+            if z_lift is None or float(p0[2]) >= z_lift:
+                return None, 0.0
+            return z_lift, 0.0
         h_line = z_ref + u * (float(p1[2]) - z_ref)
         if not step_up:
             h_line = np.maximum(h_line, z_ref)  # a box, not the surface stepped down from

@@ -1790,7 +1790,10 @@ class TerrainSwing:
     floor, and the foot met the box's top edge);
     the ground within 1 cm of the lift-off and the touchdown points is judged as where the foot stands
     (endpoint_zone_m: clutter seed 190, every candidate was a terrain collision at its touchdown sample, 4 mm under
-    the dilated noisy floor, and the box on the way went unjudged)."""
+    the dilated noisy floor, and the box on the way went unjudged).
+    liftoff_clear_run_m, liftoff_clear_margin_m: a swing that lifts off beside a box (ground within its route's
+    first liftoff_clear_run_m above the lift-off height by more than rise_first_above_m) rises first, where it is,
+    to liftoff_clear_margin_m over the highest ground on its route (0: off; docs/terrain-notes.md, session 12)."""
 
     late_descent_gain_per_s: float = 5.0
     a_max_z_mps2: float = 40.0
@@ -1804,6 +1807,8 @@ class TerrainSwing:
     rise_first_within_reach: bool = True
     rise_over_boxes: bool = False
     endpoint_zone_m: float | None = None
+    liftoff_clear_run_m: float = 0.10
+    liftoff_clear_margin_m: float = 0.03
 
     def applied_to(self, sp: SwingParams) -> SwingParams:
         """Gives sp with these fields set, its gentleness family's accelerations kept at the same m/s²."""
