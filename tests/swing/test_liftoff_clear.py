@@ -36,10 +36,11 @@ def test_ground_beyond_the_first_run_is_the_tiers_business(start, h):
 
 def test_low_ground_a_foot_already_moved_on_and_the_rule_off_ask_nothing():
     g = _route(0.0, 0.1, 0.08)
-    assert liftoff_clear_height(_route(0.0, 0.1, 0.02), U, 0.4, 0.0, 0.0, ON) is None  # under rise_first_above_m
+    low = _route(0.0, 0.1, 0.02)
+    assert liftoff_clear_height(low, U, 0.4, 0.0, 0.0, ON) is None  # under rise_first_above_m
     assert liftoff_clear_height(g, U, 0.4, 0.11, 0.0, ON) is None  # past the first run
     assert liftoff_clear_height(g, U, 0.4, 0.0, 0.0, SwingParams()) is None  # off by default
-    assert liftoff_clear_height(g, U, 0.4, 0.0, 0.06, ON) is None  # standing on a surface near the box's height
+    assert liftoff_clear_height(g, U, 0.4, 0.0, 0.06, ON) is None  # standing near the box's height
 
 
 def _xy_before(plan, z: float) -> float:
@@ -56,7 +57,8 @@ def test_a_foot_beside_a_box_rises_before_it_moves_and_the_flat_swing_is_unchang
     centimetres first (2.7 cm). On flat ground both plans are the same."""
     rf = robot.foot_radius_m
     p0 = np.array([0.30, 0.165, 0.0])
-    box = BoxGround([Box(0.25, 0.45, 0.165 - 0.10, 0.165 - 0.02 + rf, 0.09)])  # the dilated box reaches the foot
+    # the box (dilated by the foot, as the swing ground is) reaches under the foot
+    box = BoxGround([Box(0.25, 0.45, 0.165 - 0.10, 0.165 - 0.02 + rf, 0.09)])
     req = SwingRequest(0, p0, np.zeros(3), np.array([0.62, 0.165, 0.0]), 0.35)
     on, off = SwingPlanner(robot, ON), SwingPlanner(robot, SwingParams())
     plan_on = on.plan(0.0, [req], box, STANCE, standing_body(0.0))[0]
