@@ -1807,8 +1807,8 @@ class TerrainSwing:
     rise_first_within_reach: bool = True
     rise_over_boxes: bool = False
     endpoint_zone_m: float | None = None
-    liftoff_clear_run_m: float = 0.10
-    liftoff_clear_margin_m: float = 0.03
+    liftoff_clear_run_m: float = 0.05
+    liftoff_clear_margin_m: float = 0.02
 
     def applied_to(self, sp: SwingParams) -> SwingParams:
         """Gives sp with these fields set, its gentleness family's accelerations kept at the same m/s²."""
