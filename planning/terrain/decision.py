@@ -1793,7 +1793,10 @@ class TerrainSwing:
     the dilated noisy floor, and the box on the way went unjudged).
     liftoff_clear_run_m, liftoff_clear_margin_m: a swing that lifts off beside a box (ground within its route's
     first liftoff_clear_run_m above the lift-off height by more than rise_first_above_m) rises first, where it is,
-    to liftoff_clear_margin_m over the highest ground on its route (0: off; docs/terrain-notes.md, session 12)."""
+    to liftoff_clear_margin_m over the highest ground on its route: the clutter family 29 of 50 clean against 22
+    without (8 gains, 1 loss; no-step touchdowns 24 -> 3), stones quick unchanged (docs/terrain-notes.md, session
+    12; 0.10 m and 0.03 m measured 22 of 50: more swings lifted, higher, and lower legs met the boxes they rose
+    beside as they came down)."""
 
     late_descent_gain_per_s: float = 5.0
     a_max_z_mps2: float = 40.0
