@@ -1983,7 +1983,8 @@ class TerrainPipeline:
                 )
             assert self._truth_maps is not None
             maps = self._truth_maps
-        regions = segment_regions(maps, self.decision_params.regions, cover=False)
+        xy0 = (float(p_world_body[0]), float(p_world_body[1]))
+        regions = segment_regions(maps, self.decision_params.regions, cover=False, view_xy=xy0)
         ground = swing_ground(
             maps, self.decision_params.regions.foot_radius_m + self.decision_params.swing_margin_m
         )

@@ -47,7 +47,10 @@ class RegionParams:
     max_polygons: convex polygons per region at most; cover_fraction: a region stops getting polygons once this
     share of its inset is covered; max_planes: half-planes grown per polygon at most (a polygon that needs more is
     shrunk about its seed until it excludes what is left); require_observed: cells the sensor never saw (filled in)
-    are not steppable.
+    are not steppable; inset_from_shadow: the inset is also measured from the sensor's shadows (see shadow_cells:
+    never-seen cells beyond seen ground as seen from the sensor, as behind a stone's far edge or a stair's nosing,
+    whose fill from the seen side reads as more of it); they stay steppable and keep their region (labels and planes
+    as without it). Needs the sensor's position (segment_regions' view_xy); without it, off.
     """
 
     foot_radius_m: float = 0.02
@@ -59,6 +62,7 @@ class RegionParams:
     cover_fraction: float = 0.9
     max_planes: int = 12
     require_observed: bool = False
+    inset_from_shadow: bool = False
 
     @staticmethod
     def from_robot(robot: object, **overrides: float | int | bool) -> RegionParams:
@@ -247,12 +251,49 @@ def steppable_cells(maps: TerrainMaps, params: RegionParams) -> NDArray[np.bool_
     return np.asarray(ok, dtype=bool)
 
 
+def shadow_cells(maps: TerrainMaps, view_xy: tuple[float, float], depth_cells: int) -> NDArray[np.bool_]:
+    """Gives the cells in the sensor's shadow, up to depth_cells deep: never-seen cells (not maps.observed) whose
+    neighbour one cell toward view_xy (the sensor, world m; the 8-neighbour nearest that direction) is seen or in the
+    shadow. A ray from view_xy passed over such a cell to hit ground beyond it, so it lies behind what was seen (the
+    pit behind a stone's far edge, the tread below a nosing); the never-seen patch under the robot itself (seen cells
+    around it, none between it and the sensor) is not a shadow."""
+    seen = np.asarray(maps.observed, dtype=bool)
+    out = np.zeros(seen.shape, dtype=bool)
+    if depth_cells <= 0 or seen.all():
+        return out
+    res = maps.resolution_m
+    xs, ys = maps.cell_centers()
+    dx = (xs - float(view_xy[0]))[:, None]
+    dy = (ys - float(view_xy[1]))[None, :]
+    r = np.sqrt(dx * dx + dy * dy)
+    far = r > 0.5 * res
+    rs = np.where(far, r, 1.0)
+    # the neighbour toward the sensor: the unit vector back to it, each component rounded to -1, 0 or 1
+    di = np.where(far, -np.rint(dx / rs), 0).astype(np.intp)
+    dj = np.where(far, -np.rint(dy / rs), 0).astype(np.intp)
+    nx, ny = seen.shape
+    ii = np.clip(np.arange(nx)[:, None] + di, 0, nx - 1)
+    jj = np.clip(np.arange(ny)[None, :] + dj, 0, ny - 1)
+    unseen = ~seen & far
+    lit = seen.copy()
+    for _ in range(depth_cells):
+        nxt = unseen & lit[ii, jj]
+        if np.array_equal(nxt, out):
+            break
+        out = nxt
+        lit = seen | out
+    return out
+
+
 def segment_regions(
-    maps: TerrainMaps, params: RegionParams | None = None, cover: bool = True
+    maps: TerrainMaps,
+    params: RegionParams | None = None,
+    cover: bool = True,
+    view_xy: tuple[float, float] | None = None,
 ) -> SteppableRegions:
     """Gives the steppable regions of the maps: labels, planes, insets and (cover: True) the convex polygons that
     cover them; the loop leaves cover off and grows a polygon where a foot goes (convex_around), which costs a
-    fraction of covering every region."""
+    fraction of covering every region. view_xy: where the sensor scanned from (world m; for inset_from_shadow)."""
     t0 = time.perf_counter()
     p = params or RegionParams()
     res = maps.resolution_m
@@ -261,8 +302,12 @@ def segment_regions(
     labels, n = ndimage.label(ok, structure=_CROSS)
     # Distance from a cell's centre to the nearest non-steppable cell's centre, less half a cell: to the edge.
     # (the map's border counts as an edge: nothing is known beyond it)
-    edt = distance_transform(pad2(ok, 1, False))[1:-1, 1:-1] if n else np.zeros(h.shape)
-    depth = np.where(ok, edt * res - 0.5 * res, 0.0)
+    # (inset_from_shadow: the shadow's cells count as edges here, not in the labels)
+    inner = ok
+    if p.inset_from_shadow and view_xy is not None and n:
+        inner = ok & ~shadow_cells(maps, view_xy, int(math.ceil(p.inset_m / res)) + 1)
+    edt = distance_transform(pad2(inner, 1, False))[1:-1, 1:-1] if n else np.zeros(h.shape)
+    depth = np.where(inner, edt * res - 0.5 * res, 0.0)
     inset = ok & (depth >= p.inset_m - 1e-9)
     # Regions with too little room for a foot are dropped; the others are numbered 1..n in label order.
     if n:

@@ -18,6 +18,7 @@ from planning.terrain.regions import (
     SteppableRegions,
     convex_around,
     segment_regions,
+    shadow_cells,
 )
 from planning.terrain.scenes import build_terrain
 
@@ -336,3 +337,58 @@ def test_projection_onto_a_polygon_matches_the_edge_by_edge_array_form(seed: int
             got = poly.project(p)
             np.testing.assert_allclose(got, ref, atol=1e-12)
             assert bool(poly.contains(got, 1e-7))
+
+
+
+def test_the_inset_from_the_shadow_keeps_footholds_off_a_stones_unseen_far_edge() -> None:
+    """A stone whose far edge the sensor never saw: its shadow filled from the stone's top reads as more stone. With
+    inset_from_shadow the polygon keeps the inset from the last seen cells (off the true edge by the foot and the
+    margin), and the shadow cells keep their label (the region and its plane as without the rule)."""
+    import dataclasses
+
+    X, Y = _grid(80, 80)
+    h = np.full(X.shape, -0.30)  # the pit
+    stone = (np.abs(X - 1.2) <= 0.15) & (np.abs(Y - 1.2) <= 0.20)
+    h[stone] = 0.02
+    # the shadow: the 3 rows of pit cells beyond the stone's far edge (x > 1.35) unseen, filled at the top's height
+    shadow = (X > 1.35 + 1e-9) & (X <= 1.35 + 3 * RES + 1e-9) & (np.abs(Y - 1.2) <= 0.20)
+    h[shadow] = 0.02
+    maps = dataclasses.replace(_maps(h), observed=~shadow)
+    view = (0.6, 1.2)  # the sensor before the stone
+    assert np.array_equal(shadow_cells(maps, view, 3), shadow)
+    for rule in (False, True):
+        params = dataclasses.replace(PARAMS, inset_from_shadow=rule)
+        regions = segment_regions(maps, params, view_xy=view)
+        lab = regions.label_at(1.2, 1.2)
+        assert lab != 0
+        # the shadow cells are on the stone's region either way (labels and plane as without the rule)
+        assert regions.label_at(1.35 + 2 * RES, 1.2) == lab
+        assert regions.z0[lab] == pytest.approx(0.02)
+        polys = regions.polygons_of(lab)
+        far = max(float(p.vertices[:, 0].max()) for p in polys)
+        # the true edge is at 1.35 + RES / 2 (the last stone cell's border)
+        if rule:
+            assert far <= 1.35 + RES / 2 - params.inset_m + 1e-6
+        else:
+            assert far > 1.35 + RES / 2 - params.foot_radius_m  # the polygon runs out over the shadow
+        # the other edges, seen, keep the same inset with or without the rule
+        assert min(float(p.vertices[:, 0].min()) for p in polys) >= 1.05 - RES / 2 + params.inset_m - 1e-6
+        assert float(X[regions.inset & (regions.labels == lab)].max()) <= (
+            1.35 + RES / 2 - params.inset_m + 1e-6 if rule else 1.35 + 3 * RES
+        )
+
+
+def test_the_unseen_patch_under_the_sensor_is_not_a_shadow() -> None:
+    """The never-seen patch under the robot (seen ground all round it, none between it and the sensor) is no shadow:
+    the floor's inset there is as without the rule, so the feet standing in it keep their region."""
+    import dataclasses
+
+    X, Y = _grid(60, 60)
+    h = np.zeros(X.shape)
+    under = (np.abs(X - 0.9) <= 0.45) & (np.abs(Y - 0.9) <= 0.25)
+    maps = dataclasses.replace(_maps(h), observed=~under)
+    for view in ((0.9, 0.9), (1.2, 0.9), (0.75, 0.95)):  # the body over the patch, moved within it
+        assert not shadow_cells(maps, view, 3).any()
+        with_rule = segment_regions(maps, dataclasses.replace(PARAMS, inset_from_shadow=True), view_xy=view)
+        without = segment_regions(maps, PARAMS, view_xy=view)
+        assert np.array_equal(with_rule.inset, without.inset)
