@@ -339,7 +339,6 @@ def test_projection_onto_a_polygon_matches_the_edge_by_edge_array_form(seed: int
             assert bool(poly.contains(got, 1e-7))
 
 
-
 def test_the_inset_from_the_shadow_keeps_footholds_off_a_stones_unseen_far_edge() -> None:
     """A stone whose far edge the sensor never saw: its shadow filled from the stone's top reads as more stone. With
     inset_from_shadow the polygon keeps the inset from the last seen cells (off the true edge by the foot and the
