@@ -50,7 +50,8 @@ class RegionParams:
     are not steppable; inset_from_shadow: the inset is also measured from the sensor's shadows (see shadow_cells:
     never-seen cells beyond seen ground as seen from the sensor, as behind a stone's far edge or a stair's nosing,
     whose fill from the seen side reads as more of it); they stay steppable and keep their region (labels and planes
-    as without it). Needs the sensor's position (segment_regions' view_xy); without it, off.
+    as without it). Needs the sensor's position (segment_regions' view_xy); without it, off. Off by default: better
+    on the stones and mixed families, worse on the clutter quick spec (terrain notes, session 12).
     """
 
     foot_radius_m: float = 0.02
