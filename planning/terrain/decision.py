@@ -26,7 +26,7 @@ import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
@@ -220,7 +220,7 @@ class DecisionParams:
     max_pitch_rad: float = 0.6
     max_pitch_rate_rps: float = 0.6
     pitch_gain: float = 1.0
-    posture: str = "plane"
+    posture: Literal["plane", "hips", "pairs"] = "plane"
     plane_touchdowns: bool = True
     max_height_offset_m: float = 0.15
     min_height_m: float = 0.38
