@@ -49,9 +49,14 @@ class RegionParams:
     shrunk about its seed until it excludes what is left); require_observed: cells the sensor never saw (filled in)
     are not steppable; inset_from_shadow: the inset is also measured from the sensor's shadows (see shadow_cells:
     never-seen cells beyond seen ground as seen from the sensor, as behind a stone's far edge or a stair's nosing,
-    whose fill from the seen side reads as more of it); they stay steppable and keep their region (labels and planes
-    as without it). Needs the sensor's position (segment_regions' view_xy); without it, off. Off by default: better
-    on the stones and mixed families, worse on the clutter quick spec (terrain notes, session 12).
+    whose fill from the seen side reads as more of it), on the occluder's side only (see shadow_depth): a cell is
+    inset from a shadow cell that lies beyond it as seen from the sensor, so a stone's or a tread's far edge is
+    inset while the floor seen beyond a box's shadow keeps its footholds (the shadow's own cells likewise: a cell
+    with more shadow beyond it is inset from it); they stay steppable and keep their region (labels and planes as without it). Needs the sensor's position
+    (segment_regions' view_xy); without it, off. shadow_cone_deg: a shadow cell counts for a cell when the
+    direction from the cell to it is within this angle of the view direction (from the sensor through the cell);
+    90 is the half-plane beyond the cell, 180 every direction (the session-12 rule, which also inset the floor
+    behind every box). Off by default (terrain notes, sessions 12-13).
     """
 
     foot_radius_m: float = 0.02
@@ -63,7 +68,8 @@ class RegionParams:
     cover_fraction: float = 0.9
     max_planes: int = 12
     require_observed: bool = False
-    inset_from_shadow: bool = False
+    inset_from_shadow: bool = True
+    shadow_cone_deg: float = 60.0
 
     @staticmethod
     def from_robot(robot: object, **overrides: float | int | bool) -> RegionParams:
@@ -286,6 +292,51 @@ def shadow_cells(maps: TerrainMaps, view_xy: tuple[float, float], depth_cells: i
     return out
 
 
+def shadow_depth(
+    shadow: NDArray[np.bool_],
+    origin_xy: tuple[float, float],
+    res: float,
+    view_xy: tuple[float, float],
+    reach_m: float,
+    cone_deg: float,
+) -> NDArray[np.float64]:
+    """Gives each cell's distance (m) to the edge of the nearest shadow cell beyond it as seen from view_xy: from
+    the cell's centre to the shadow cell's centre less half a cell (as the inset's distance transform measures
+    edges), counting only shadow cells whose direction from the cell is within cone_deg of the view direction
+    (view_xy to the cell); +inf where none lies within reach_m, and at the cell under view_xy (no direction). So the
+    seen top before a shadow (a stone's far edge, a nosing, a box top's far side: the occluder) is near it, and the
+    seen ground beyond the shadow (the floor behind a box) is not. Pure function of its inputs; arrays [ix, iy]."""
+    out = np.full(shadow.shape, np.inf)
+    if not shadow.any() or reach_m <= 0.0:
+        return out
+    nx, ny = shadow.shape
+    xs = origin_xy[0] + np.arange(nx, dtype=np.float64) * res
+    ys = origin_xy[1] + np.arange(ny, dtype=np.float64) * res
+    dx = (xs - float(view_xy[0]))[:, None]
+    dy = (ys - float(view_xy[1]))[None, :]
+    r = np.sqrt(dx * dx + dy * dy)
+    far = r > 0.5 * res
+    rs = np.where(far, r, 1.0)
+    ux = np.where(far, dx / rs, 0.0)
+    uy = np.where(far, dy / rs, 0.0)
+    cos_cone = math.cos(math.radians(min(max(cone_deg, 0.0), 180.0)))
+    k = int(math.floor(reach_m / res + 0.5))
+    for a in range(-k, k + 1):
+        for b in range(-k, k + 1):
+            norm = math.hypot(a, b)
+            d = norm * res - 0.5 * res
+            if norm == 0.0 or d > reach_m:
+                continue
+            # the shadow at cell + (a, b), within the cone about the view direction
+            sh = np.zeros(shadow.shape, dtype=bool)
+            sh[max(0, -a) : nx - max(0, a), max(0, -b) : ny - max(0, b)] = shadow[
+                max(0, a) : nx - max(0, -a), max(0, b) : ny - max(0, -b)
+            ]
+            hit = sh & far & (a * ux + b * uy >= cos_cone * norm - 1e-9)
+            out[hit] = np.minimum(out[hit], d)
+    return out
+
+
 def segment_regions(
     maps: TerrainMaps,
     params: RegionParams | None = None,
@@ -303,12 +354,15 @@ def segment_regions(
     labels, n = ndimage.label(ok, structure=_CROSS)
     # Distance from a cell's centre to the nearest non-steppable cell's centre, less half a cell: to the edge.
     # (the map's border counts as an edge: nothing is known beyond it)
-    # (inset_from_shadow: the shadow's cells count as edges here, not in the labels)
-    inner = ok
+    edt = distance_transform(pad2(ok, 1, False))[1:-1, 1:-1] if n else np.zeros(h.shape)
+    depth = np.where(ok, edt * res - 0.5 * res, 0.0)
+    # (inset_from_shadow: the distance to the shadow beyond a cell counts too, the shadow's own cells included;
+    # the labels as without it)
     if p.inset_from_shadow and view_xy is not None and n:
-        inner = ok & ~shadow_cells(maps, view_xy, int(math.ceil(p.inset_m / res)) + 1)
-    edt = distance_transform(pad2(inner, 1, False))[1:-1, 1:-1] if n else np.zeros(h.shape)
-    depth = np.where(inner, edt * res - 0.5 * res, 0.0)
+        shadow = shadow_cells(maps, view_xy, int(math.ceil(p.inset_m / res)) + 1)
+        if shadow.any():
+            beyond = shadow_depth(shadow, maps.origin_xy, res, view_xy, p.inset_m + res, p.shadow_cone_deg)
+            depth = np.where(ok, np.minimum(depth, beyond), 0.0)
     inset = ok & (depth >= p.inset_m - 1e-9)
     # Regions with too little room for a foot are dropped; the others are numbered 1..n in label order.
     if n:

@@ -19,6 +19,7 @@ from planning.terrain.regions import (
     convex_around,
     segment_regions,
     shadow_cells,
+    shadow_depth,
 )
 from planning.terrain.scenes import build_terrain
 
@@ -391,3 +392,53 @@ def test_the_unseen_patch_under_the_sensor_is_not_a_shadow() -> None:
         with_rule = segment_regions(maps, dataclasses.replace(PARAMS, inset_from_shadow=True), view_xy=view)
         without = segment_regions(maps, PARAMS, view_xy=view)
         assert np.array_equal(with_rule.inset, without.inset)
+
+
+def test_the_shadow_counts_only_beyond_a_cell_as_seen_from_the_sensor() -> None:
+    """shadow_depth: a cell is near a shadow cell that lies beyond it (the occluder's side), not one behind it or
+    beside it; with a cone of 180 degrees every direction counts (the session-12 rule)."""
+    shadow = np.zeros((11, 11), bool)
+    shadow[6, 5] = True
+    view = (0.0, 5 * RES)  # the sensor on the row's axis, before the shadow (x grows away from it)
+    d = shadow_depth(shadow, (0.0, 0.0), RES, view, 0.1, 60.0)
+    assert d[5, 5] == pytest.approx(0.5 * RES)  # the seen cell before it: its edge half a cell away
+    assert d[4, 5] == pytest.approx(1.5 * RES)
+    assert np.isinf(d[7, 5]) and np.isinf(d[8, 5])  # the ground beyond the shadow does not see it as an edge
+    assert np.isinf(d[6, 4]) and np.isinf(d[6, 6])  # nor the ground beside it
+    assert np.isinf(d[1, 5])  # nor ground beyond reach
+    every = shadow_depth(shadow, (0.0, 0.0), RES, view, 0.1, 180.0)
+    assert every[7, 5] == pytest.approx(0.5 * RES) and every[6, 4] == pytest.approx(0.5 * RES)
+    assert np.isinf(shadow_depth(np.zeros((5, 5), bool), (0.0, 0.0), RES, view, 0.1, 60.0)).all()
+
+
+def test_the_floor_seen_beyond_a_boxs_shadow_keeps_its_footholds() -> None:
+    """A box on the floor before the sensor: the floor just behind it is never seen (its shadow, filled at the
+    floor's height). With inset_from_shadow the floor seen beyond the shadow keeps the inset it has without the
+    rule (the shadow lies between it and the sensor), and so do the box top's far side (inset from the box's edge
+    as before) and the shadow's own cells (those near the box are within its foot's inset anyway). Inset from the shadow in every direction (cone 180),
+    the floor beyond loses a band."""
+    import dataclasses
+
+    X, Y = _grid(80, 80)
+    h = np.zeros(X.shape)
+    box = (X >= 1.0 - 1e-9) & (X <= 1.3 + 1e-9) & (np.abs(Y - 1.2) <= 0.3 + 1e-9)
+    h[box] = 0.2
+    shadow = (X > 1.3 + 1e-9) & (X <= 1.3 + 3 * RES + 1e-9) & (np.abs(Y - 1.2) <= 0.3 + 1e-9)
+    maps = dataclasses.replace(_maps(h), observed=~shadow)
+    view = (0.4, 1.2)
+    assert np.array_equal(shadow_cells(maps, view, 3), shadow)
+    without = segment_regions(maps, PARAMS, view_xy=view)
+    rule = dataclasses.replace(PARAMS, inset_from_shadow=True)
+    with_rule = segment_regions(maps, rule, view_xy=view)
+    assert np.array_equal(with_rule.labels, without.labels)
+    assert np.array_equal(with_rule.inset, without.inset)
+    floor_beyond = (X > 1.3 + 3 * RES + 1e-9) & (np.abs(Y - 1.2) <= 0.3)
+    every = segment_regions(maps, dataclasses.replace(rule, shadow_cone_deg=180.0), view_xy=view)
+    assert (without.inset & floor_beyond & ~every.inset).any()
+    # the floor beyond: polygons grown there reach as close to the box as without the rule
+    lab = with_rule.label_at(1.6, 1.2)
+    assert lab == without.label_at(1.6, 1.2) != 0
+    a = convex_around(with_rule, lab, (1.45, 1.2))
+    b = convex_around(without, lab, (1.45, 1.2))
+    assert a is not None and b is not None
+    assert float(a.vertices[:, 0].min()) == pytest.approx(float(b.vertices[:, 0].min()), abs=1e-9)
