@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, distance_transform, pad2
+from planning.terrain.gridops import disk_filter, distance_transform, pad2, square_filter
 from planning.terrain.maps import TerrainMaps
 
 _CROSS = ndimage.generate_binary_structure(2, 1)
@@ -56,7 +56,10 @@ class RegionParams:
     (segment_regions' view_xy); without it, off. shadow_cone_deg: a shadow cell counts for a cell when the
     direction from the cell to it is within this angle of the view direction (from the sensor through the cell);
     90 is the half-plane beyond the cell, 180 every direction (the session-12 rule, which also inset the floor
-    behind every box). Off by default (terrain notes, sessions 12-13).
+    behind every box); shadow_drop_m, shadow_drop_radius_m: a shadow starts only behind a seen cell higher by more
+    than shadow_drop_m than the lowest seen ground within shadow_drop_radius_m (a drop edge: a stone's top, a
+    nosing, a box top), not behind level ground beside a patch the cameras missed (None: behind any seen cell, the
+    session-12 rule). Off by default (terrain notes, sessions 12-13).
     """
 
     foot_radius_m: float = 0.02
@@ -70,6 +73,8 @@ class RegionParams:
     require_observed: bool = False
     inset_from_shadow: bool = True
     shadow_cone_deg: float = 60.0
+    shadow_drop_m: float | None = 0.04
+    shadow_drop_radius_m: float = 0.3
 
     @staticmethod
     def from_robot(robot: object, **overrides: float | int | bool) -> RegionParams:
@@ -258,17 +263,34 @@ def steppable_cells(maps: TerrainMaps, params: RegionParams) -> NDArray[np.bool_
     return np.asarray(ok, dtype=bool)
 
 
-def shadow_cells(maps: TerrainMaps, view_xy: tuple[float, float], depth_cells: int) -> NDArray[np.bool_]:
+def shadow_cells(
+    maps: TerrainMaps,
+    view_xy: tuple[float, float],
+    depth_cells: int,
+    drop_m: float | None = None,
+    drop_radius_m: float = 0.3,
+) -> NDArray[np.bool_]:
     """Gives the cells in the sensor's shadow, up to depth_cells deep: never-seen cells (not maps.observed) whose
-    neighbour one cell toward view_xy (the sensor, world m; the 8-neighbour nearest that direction) is seen or in the
-    shadow. A ray from view_xy passed over such a cell to hit ground beyond it, so it lies behind what was seen (the
-    pit behind a stone's far edge, the tread below a nosing); the never-seen patch under the robot itself (seen cells
-    around it, none between it and the sensor) is not a shadow."""
+    neighbour one cell toward view_xy (the sensor, world m; the 8-neighbour nearest that direction) is an occluder
+    or in the shadow. A ray from view_xy passed over such a cell to hit ground beyond it, so it lies behind what was
+    seen (the pit behind a stone's far edge, the tread below a nosing); the never-seen patch under the robot itself
+    (seen cells around it, none between it and the sensor) is not a shadow. An occluder: a seen cell (drop_m None),
+    or a seen cell higher by more than drop_m than the lowest seen ground within drop_radius_m (square window): a
+    drop edge, as a stone's top, a nosing or a box top is, not level ground beside a patch the cameras missed (the
+    ragged never-seen patch under and behind the moving body)."""
     seen = np.asarray(maps.observed, dtype=bool)
     out = np.zeros(seen.shape, dtype=bool)
     if depth_cells <= 0 or seen.all():
         return out
     res = maps.resolution_m
+    occluder = seen
+    if drop_m is not None:
+        low = square_filter(
+            np.where(seen, maps.ground_height, np.inf), 2 * int(round(drop_radius_m / res)) + 1, np.minimum
+        )
+        occluder = seen & (maps.ground_height > low + drop_m)
+        if not occluder.any():
+            return out
     xs, ys = maps.cell_centers()
     dx = (xs - float(view_xy[0]))[:, None]
     dy = (ys - float(view_xy[1]))[None, :]
@@ -282,13 +304,13 @@ def shadow_cells(maps: TerrainMaps, view_xy: tuple[float, float], depth_cells: i
     ii = np.clip(np.arange(nx)[:, None] + di, 0, nx - 1)
     jj = np.clip(np.arange(ny)[None, :] + dj, 0, ny - 1)
     unseen = ~seen & far
-    lit = seen.copy()
+    lit = occluder.copy()
     for _ in range(depth_cells):
         nxt = unseen & lit[ii, jj]
         if np.array_equal(nxt, out):
             break
         out = nxt
-        lit = seen | out
+        lit = occluder | out
     return out
 
 
@@ -359,7 +381,9 @@ def segment_regions(
     # (inset_from_shadow: the distance to the shadow beyond a cell counts too, the shadow's own cells included;
     # the labels as without it)
     if p.inset_from_shadow and view_xy is not None and n:
-        shadow = shadow_cells(maps, view_xy, int(math.ceil(p.inset_m / res)) + 1)
+        shadow = shadow_cells(
+            maps, view_xy, int(math.ceil(p.inset_m / res)) + 1, p.shadow_drop_m, p.shadow_drop_radius_m
+        )
         if shadow.any():
             beyond = shadow_depth(shadow, maps.origin_xy, res, view_xy, p.inset_m + res, p.shadow_cone_deg)
             depth = np.where(ok, np.minimum(depth, beyond), 0.0)
