@@ -442,3 +442,30 @@ def test_the_floor_seen_beyond_a_boxs_shadow_keeps_its_footholds() -> None:
     b = convex_around(without, lab, (1.45, 1.2))
     assert a is not None and b is not None
     assert float(a.vertices[:, 0].min()) == pytest.approx(float(b.vertices[:, 0].min()), abs=1e-9)
+
+
+def test_a_shadow_starts_only_behind_a_drop_edge() -> None:
+    """shadow_cells with drop_m: never-seen cells on level ground (a patch the cameras missed, beside or behind the
+    moving body) are no shadow, while the cells behind a stone's top (higher than the seen pit around it) are; with
+    the region parameters' defaults the floor's inset beside such a patch is as without the rule."""
+    import dataclasses
+
+    X, Y = _grid(60, 60)
+    h = np.zeros(X.shape)
+    missed = (np.abs(X - 1.2) <= 0.1) & (np.abs(Y - 0.9) <= 0.2)  # level floor, never seen, ahead of the sensor
+    maps = dataclasses.replace(_maps(h), observed=~missed)
+    view = (0.6, 0.9)
+    assert shadow_cells(maps, view, 3).any()  # any seen cell occludes: the patch's far part reads as a shadow
+    assert not shadow_cells(maps, view, 3, drop_m=0.04, drop_radius_m=0.3).any()
+    rule = RegionParams(foot_radius_m=0.02, edge_margin_m=0.02, inset_from_shadow=True)
+    assert rule.shadow_drop_m is not None
+    with_rule = segment_regions(maps, rule, view_xy=view)
+    without = segment_regions(maps, dataclasses.replace(rule, inset_from_shadow=False), view_xy=view)
+    assert np.array_equal(with_rule.inset, without.inset)
+    # a stone 0.3 m above the seen pit, its far edge's shadow beyond it: a shadow with the drop rule too
+    h2 = np.full(X.shape, -0.30)
+    stone = (np.abs(X - 1.2) <= 0.15) & (np.abs(Y - 0.9) <= 0.2)
+    shadow = (X > 1.35 + 1e-9) & (X <= 1.35 + 2 * RES + 1e-9) & (np.abs(Y - 0.9) <= 0.2)
+    h2[stone | shadow] = 0.02
+    maps2 = dataclasses.replace(_maps(h2), observed=~shadow)
+    assert np.array_equal(shadow_cells(maps2, view, 3, drop_m=0.04, drop_radius_m=0.3), shadow)
