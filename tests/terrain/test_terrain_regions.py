@@ -452,7 +452,8 @@ def test_a_shadow_starts_only_behind_a_drop_edge() -> None:
 
     X, Y = _grid(60, 60)
     h = np.zeros(X.shape)
-    missed = (np.abs(X - 1.2) <= 0.1) & (np.abs(Y - 0.9) <= 0.2)  # level floor, never seen, ahead of the sensor
+    # level floor, never seen, ahead of the sensor
+    missed = (np.abs(X - 1.2) <= 0.1) & (np.abs(Y - 0.9) <= 0.2)
     maps = dataclasses.replace(_maps(h), observed=~missed)
     view = (0.6, 0.9)
     assert shadow_cells(maps, view, 3).any()  # any seen cell occludes: the patch's far part reads as a shadow
