@@ -52,14 +52,16 @@ class RegionParams:
     whose fill from the seen side reads as more of it), on the occluder's side only (see shadow_depth): a cell is
     inset from a shadow cell that lies beyond it as seen from the sensor, so a stone's or a tread's far edge is
     inset while the floor seen beyond a box's shadow keeps its footholds (the shadow's own cells likewise: a cell
-    with more shadow beyond it is inset from it); they stay steppable and keep their region (labels and planes as without it). Needs the sensor's position
-    (segment_regions' view_xy); without it, off. shadow_cone_deg: a shadow cell counts for a cell when the
-    direction from the cell to it is within this angle of the view direction (from the sensor through the cell);
-    90 is the half-plane beyond the cell, 180 every direction (the session-12 rule, which also inset the floor
-    behind every box); shadow_drop_m, shadow_drop_radius_m: a shadow starts only behind a seen cell higher by more
-    than shadow_drop_m than the lowest seen ground within shadow_drop_radius_m (a drop edge: a stone's top, a
-    nosing, a box top), not behind level ground beside a patch the cameras missed (None: behind any seen cell, the
-    session-12 rule). Off by default (terrain notes, sessions 12-13).
+    with more shadow beyond it is inset from it); they stay steppable and keep their region (labels and planes as
+    without it). Needs the sensor's position (segment_regions' view_xy); without it, off. shadow_cone_deg: a
+    shadow cell counts for a cell when the direction from the cell to it is within this angle of the view
+    direction (from the sensor through the cell); 90 is the half-plane beyond the cell, 180 every direction (the
+    session-12 rule, which also inset the floor behind every box); shadow_drop_m, shadow_drop_radius_m: a shadow
+    starts only behind a seen cell higher by more than shadow_drop_m than the lowest seen ground within
+    shadow_drop_radius_m (a square window; a drop edge: a stone's top, a nosing, a box top), not behind level
+    ground beside a patch the cameras missed, as the ragged never-seen patch under and behind the moving body
+    (None: behind any seen cell, the session-12 rule). Off by default: the clutter quick spec 6 of 12 against
+    main's 10 (terrain notes, session 13).
     """
 
     foot_radius_m: float = 0.02
@@ -71,7 +73,7 @@ class RegionParams:
     cover_fraction: float = 0.9
     max_planes: int = 12
     require_observed: bool = False
-    inset_from_shadow: bool = True
+    inset_from_shadow: bool = False
     shadow_cone_deg: float = 60.0
     shadow_drop_m: float | None = 0.04
     shadow_drop_radius_m: float = 0.3
