@@ -920,8 +920,30 @@ def test_the_shin_segment_meets_a_box_corner_beside_the_foot_that_the_heading_li
     assert len(behind) == 1 and -behind[0] > 1.03
 
 
+def test_the_shin_segment_flags_a_box_corner_behind_a_long_step_that_the_heading_line_misses() -> None:
+    """Clutter draw 889 (session 13): a front right foot landing 10 cm past a low box's far end (8 cm tall), the
+    box's near side 3 cm outside the heading line through the foot, the foot 12-18 cm ahead of its hip (a long
+    step: the shin flat). The line along the heading passes beside the box and sees nothing; the segment rule
+    ("segment", and "both": the line and the segment) flags it, and clears a foot far enough past the box."""
+    world = _box_world(0.70, 0.92, -0.35, -0.03, 0.08)
+    view = _spot_leg_view(0.7)
+    foot = np.array([[1.02, 0.0]])
+    far = np.array([[1.30, 0.0]])
+    for rule in ("segment", "both"):
+        p_rule = dataclasses.replace(P, shin_rule=rule)
+        for back in (0.12, 0.15, 0.18):
+            hip = np.array([1.02 - back, 0.11])
+            line, _ = leg_clearance(view, world.maps, 1, hip, foot, P_LINE)
+            clear, within = leg_clearance(view, world.maps, 1, hip, foot, p_rule)
+            assert line[0] == np.inf, back
+            assert within[0] and clear[0] < shin_needed(p_rule), (rule, back, clear)
+        clear, _ = leg_clearance(view, world.maps, 1, np.array([1.30 - 0.12, 0.11]), far, p_rule)
+        assert clear[0] >= shin_needed(p_rule), rule
+
+
+@pytest.mark.parametrize("rule", ["segment", "both"])
 @pytest.mark.parametrize("seed", range(4))
-def test_the_shin_segment_never_flags_flat_or_sloped_ground(seed: int) -> None:
+def test_the_shin_segment_never_flags_flat_or_sloped_ground(seed: int, rule: str) -> None:
     """On a flat floor or a plain slope (up to 20°, any direction; the body pitched with it along its heading, as
     the decisions pitch it), footholds within 0.12 m of their nominal place under the hip: the shin always clears
     the ground by the margin (the ground's own plane at the foot is no edge)."""
@@ -932,7 +954,7 @@ def test_the_shin_segment_never_flags_flat_or_sloped_ground(seed: int) -> None:
     slope = math.tan(math.radians(rng.uniform(5.0, 20.0))) if seed else 0.0
     a = rng.uniform(-math.pi, math.pi)
     world = _world(xs, ys, slope * (math.cos(a) * (X - 1.2) + math.sin(a) * Y))
-    p_seg = dataclasses.replace(P, shin_rule="segment")
+    p_seg = dataclasses.replace(P, shin_rule=rule)
     pitch = -math.atan(slope * math.cos(a))  # nose down (+) where the ground falls along +x
     view = dataclass_replace(_spot_leg_view(1.2), pitch_rad=pitch)
     for leg in range(4):
