@@ -64,6 +64,25 @@ class ContactPlan(Protocol):
     def swing_at(self, leg: int, t: float) -> PlannedSwing | None: ...
 
 
+def too_few_supports(stance: np.ndarray, contact: np.ndarray, lifting: np.ndarray, min_legs: int) -> bool:
+    """Whether lifting the legs in ``lifting`` (4,) would leave fewer than ``min_legs`` feet that are both in stance
+    (the plan's phase, (4,)) and measured in contact ((4,)): the feet that would carry the body."""
+    carry = (
+        np.asarray(stance, dtype=bool) & np.asarray(contact, dtype=bool) & ~np.asarray(lifting, dtype=bool)
+    )
+    return int(carry.sum()) < min_legs
+
+
+def stepping_down(z_from: np.ndarray, z_to: np.ndarray, moving: np.ndarray, drop_m: float) -> bool:
+    """Whether the legs in ``moving`` (4,) step down: one of them lands at least drop_m below its last foothold
+    (z_from, (4,), m) and none lands drop_m or more above it (z_to, (4,), m: each moving leg's touchdown). A step
+    down a riser or off a box, not a climb nor level ground."""
+    m = np.asarray(moving, dtype=bool)
+    dz = (np.asarray(z_to, dtype=np.float64) - np.asarray(z_from, dtype=np.float64))[m]
+    dz = dz[np.isfinite(dz)]
+    return bool(dz.size) and bool((dz <= -drop_m).any()) and not bool((dz >= drop_m).any())
+
+
 @dataclass(frozen=True)
 class HandlerParams:
     """Joint gains of swing legs and the contact rules."""
@@ -76,6 +95,17 @@ class HandlerParams:
     landing_wait_s: float = 0.04  # a foot due down within this counts as late for other legs' liftoffs
     min_stance_s: float = 0.08  # a foot that just landed stays down at least this long
     min_stance_legs: int = 2  # liftoffs wait (max_liftoff_delay_s at most) rather than leave fewer feet down
+    # None: off. On a descent, a liftoff that would leave fewer than min_stance_legs feet down *and measured in
+    # contact* (a foot in stance that bounced or lost its ground does not count; too_few_supports) waits up to this
+    # long (s, from when it fell due) instead of max_liftoff_delay_s; past its planned touchdown the step is skipped
+    # (the foot stays down for the gait's next cycle). Off: 0.25 s measured the stairs family 27 of 50 clean as
+    # main (21 falls to 16, five of them crossing with a no-step touchdown instead; docs/terrain-notes.md, session
+    # 13: the descent's late-touchdown cascade)
+    support_wait_s: float | None = None
+    # m: ... only while the legs in the air or lifting step down (one lands at least this far below its last
+    # foothold, none this far above; stepping_down): on a climb or level ground a longer wait only squeezes the
+    # waiting swing (its touchdown time stays), and a climbing swing squeezed meets the riser
+    support_wait_drop_m: float = 0.05
     self_collision_m: float = (
         0.05  # a swing foot center this close to another leg's shin is a self-collision trip
     )
@@ -223,9 +253,22 @@ class Handler:
             landing = (self.phase == _SWING) & (self.t_touchdown - t <= self.params.landing_wait_s)
             late = bool(((self.phase == _LATE) | landing).any())
             few = int((self.phase == _STANCE).sum()) - len(due) < self.params.min_stance_legs
+            wait_s = self.params.max_liftoff_delay_s
+            if self.params.support_wait_s is not None:
+                lifting = np.zeros(4, dtype=bool)
+                lifting[[leg for leg, _ in due]] = True
+                moving = lifting | (self.phase != _STANCE)
+                z_to = self.p_touchdown[:, 2].copy()
+                for leg, sw in due:
+                    z_to[leg] = sw.p_touchdown[2]
+                if too_few_supports(
+                    self.phase == _STANCE, s.contact, lifting, self.params.min_stance_legs
+                ) and stepping_down(self.p_contact[:, 2], z_to, moving, self.params.support_wait_drop_m):
+                    few = True
+                    wait_s = max(wait_s, self.params.support_wait_s)
             for leg, sw in due:
                 # the wait counts from when the liftoff fell due (the plan may have moved its liftoff time since)
-                if not (late or few) or t - self._due_since[leg] > self.params.max_liftoff_delay_s:
+                if not (late or few) or t - self._due_since[leg] > wait_s:
                     if self._support_holds(leg, s):
                         self.waiting = True
                         continue

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planning.handler import Handler, HandlerParams, Phase
+from planning.handler import Handler, HandlerParams, Phase, stepping_down, too_few_supports
 from planning.robot import load_robot
 from planning.sim.world import RobotState
 from planning.swing import TripKind
@@ -177,3 +177,89 @@ def test_the_swing_legs_track_with_the_swing_planners_own_parameters() -> None:
     assert np.max(np.abs(heavy - light)) > 0.5
     same = swing_torque(SwingParams(foot_effective_mass_kg=0.5))
     np.testing.assert_allclose(same, light, atol=1e-9)
+
+
+def test_too_few_supports_counts_the_feet_in_stance_and_in_contact_that_stay_down() -> None:
+    stance = np.array([True, True, True, True])
+    lifting = np.array([True, False, False, True])  # a diagonal pair lifts
+    assert not too_few_supports(stance, np.array([True] * 4), lifting, 2)
+    # the other diagonal in stance but one of its feet measured off the ground: one foot would carry the body
+    assert too_few_supports(stance, np.array([True, False, True, True]), lifting, 2)
+    # a late foot (not in stance) does not carry, even when its contact flickers on
+    late = np.array([True, False, True, True])
+    assert too_few_supports(late, np.array([True] * 4), lifting, 2)
+    # nothing lifting, or a lower minimum
+    assert not too_few_supports(late, np.array([True] * 4), np.zeros(4, dtype=bool), 2)
+    assert not too_few_supports(late, np.array([True] * 4), lifting, 1)
+
+
+class _PairPlan:
+    """A trot down a step: FL+RR swing 0.1-0.4 s, FR+RL 0.4-0.7 s, each foot landing dz_m below where it stood."""
+
+    def __init__(self, dz_m: float = -0.15) -> None:
+        self.dz_m = dz_m
+
+    def swing_at(self, leg: int, t: float) -> _Swing | None:
+        y = 0.165 if leg in (0, 2) else -0.165
+        x = 0.35 if leg < 2 else -0.25
+        if leg in (0, 3) and 0.1 <= t < 0.4:
+            return _Swing(leg, 0.1, 0.4, np.array([x, y, self.dz_m]))
+        if leg in (1, 2) and 0.4 <= t < 0.7:
+            return _Swing(leg, 0.4, 0.7, np.array([x, y, self.dz_m]))
+        return None
+
+
+def _pair_walk(params: HandlerParams, fl_lands_s: float, dz_m: float = -0.15) -> list[tuple[float, bool]]:
+    """FL lands late (at fl_lands_s); RR lands on time. Returns (t, FR swinging) at each 10 ms tick from 0.4 s."""
+    h = Handler(ROBOT, params=params)
+    plan = _PairPlan(dz_m)
+    h.update_phases(_state(0.0, (True,) * 4), plan)
+    h.update_phases(_state(0.12, (False, True, True, False)), plan)
+    assert h.phase[0] == Phase.SWING and h.phase[3] == Phase.SWING
+    h.update_phases(_state(0.39, (False, True, True, True)), plan)  # RR lands
+    out = []
+    for k in range(40, 70):
+        t = k / 100.0
+        h.update_phases(_state(t, (t >= fl_lands_s, True, True, True)), plan)
+        out.append((t, bool(h.phase[1] == Phase.SWING)))
+    return out
+
+
+def test_a_pair_liftoff_waits_for_a_late_foot_up_to_support_wait_s() -> None:
+    # off: the pair lifts once max_liftoff_delay_s has passed, leaving RR alone with FL still in the air
+    off = _pair_walk(HandlerParams(support_wait_s=None), fl_lands_s=0.6)
+    lift_off = next(t for t, sw in off if sw)
+    assert lift_off <= 0.4 + HandlerParams().max_liftoff_delay_s + 0.015
+    # on: it waits for FL to land (0.6 s), then lifts
+    on = _pair_walk(HandlerParams(support_wait_s=0.25), fl_lands_s=0.6)
+    lift_on = next(t for t, sw in on if sw)
+    assert 0.6 <= lift_on <= 0.62
+    # ... but never longer than support_wait_s
+    never = _pair_walk(HandlerParams(support_wait_s=0.25), fl_lands_s=1.0)
+    assert next(t for t, sw in never if sw) <= 0.4 + 0.25 + 0.015
+    # ... and on level ground or a climb the wait stays max_liftoff_delay_s (a longer one squeezes the swing)
+    for dz in (0.0, 0.15):
+        flat = _pair_walk(HandlerParams(support_wait_s=0.25), fl_lands_s=0.6, dz_m=dz)
+        assert next(t for t, sw in flat if sw) <= 0.4 + HandlerParams().max_liftoff_delay_s + 0.015
+
+
+def test_stepping_down_is_a_descent_of_the_moving_legs_only() -> None:
+    z_from = np.array([0.3, 0.3, 0.5, 0.5])
+    moving = np.array([True, False, False, True])
+    assert stepping_down(z_from, np.array([0.1, 0.3, 0.5, 0.3]), moving, 0.05)  # both step down a riser
+    assert stepping_down(z_from, np.array([0.1, 9.0, 9.0, 0.5]), moving, 0.05)  # one down, one level
+    assert not stepping_down(z_from, np.array([0.28, 0.0, 0.0, 0.48]), moving, 0.05)  # level (2 cm)
+    assert not stepping_down(z_from, np.array([0.1, 0.3, 0.5, 0.7]), moving, 0.05)  # one climbs
+    assert not stepping_down(z_from, z_from - 0.2, np.zeros(4, dtype=bool), 0.05)  # nothing moves
+
+
+def test_a_liftoff_waits_while_a_stance_foot_that_would_stay_has_lost_its_contact() -> None:
+    plan = _PairPlan(-0.15)
+    for wait, expect_waiting in ((0.25, True), (None, False)):
+        h = Handler(ROBOT, params=HandlerParams(support_wait_s=wait))
+        h.update_phases(_state(0.0, (True,) * 4), plan)
+        # FL+RR due; FR in stance but off the ground: RL alone would carry the body
+        h.update_phases(_state(0.12, (True, False, True, True)), plan)
+        assert (h.phase[0] == Phase.STANCE) == expect_waiting
+        h.update_phases(_state(0.14, (True, True, True, True)), plan)  # FR's contact back: the pair lifts
+        assert h.phase[0] == Phase.SWING and h.phase[3] == Phase.SWING
