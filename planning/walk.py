@@ -166,9 +166,9 @@ class WalkParams:
     # from ~2.31 to ~2.35-2.37 m/s (within 5 %: 3 walks off, 4-11 with it), but it fell 6, 0 and 3 times (0.25,
     # 0.3, 0.35; 3 off) and speed-flight's gallop held 9 of 10 pushes (10 of 10 off) (docs/agility-notes.md, session 10)
     gait_stance_damping_ref: tuple[tuple[str, float], ...] = ()
-    # the slow gaits (duty >= support.min_duty: three feet down while one swings): the body target moved into the
-    # coming support triangle before each liftoff and kept in the triangle of the feet down while one swings
-    # (planning.steps.support; docs/terrain-notes.md, session 9: crawl balance)
+    # static balance in the slow gaits (duty >= support.min_duty: the crawl): a liftoff waits for the centre of mass
+    # inside the three feet that stay down, the body target shifted into that triangle (both off)
+    # (planning.steps.support; docs/terrain-notes.md, sessions 9 and 13: crawl balance)
     support: SupportShiftParams = field(default_factory=SupportShiftParams)
     steps: StepPlannerParams = field(default_factory=StepPlannerParams)
     balance: BalanceParams = field(default_factory=BalanceParams)

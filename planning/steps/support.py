@@ -22,22 +22,25 @@ from planning.steps.state import F64, N_LEGS, B
 
 @dataclass(frozen=True)
 class SupportShiftParams:
-    """shift: the body shift on (in the gaits below). min_duty: -, the gaits with at least this duty factor (three
-    feet down while one swings) get it. margin_fraction: -, the target triangle is the support triangle shrunk toward
-    its incentre by this fraction (the margin from each edge is this times the inradius). ramp_s: s, the target moves
-    into the coming triangle over this long before its liftoff (linearly, fully there at the liftoff).
+    """Static balance in the slow gaits: the gaits with a duty factor of at least min_duty (-; 0.8: the crawl, not
+    the walk at 0.75) get the liftoff hold and the body shift when they are on. Both are off.
 
-    Both the shift and the hold are off: measured worse (docs/terrain-notes.md, session 9: crawl balance). The shift
-    rolled the flat crawl more (its four-foot phases, 0.08 s, are too short to cross a diagonal); the hold lowered
-    clutter-quick from 8 to 7 of 12 clean (6 of 12 with the load check alone)."""
+    hold (off): a due liftoff waits, at most max_hold_s (s) from when it fell due, while the centre of mass is not
+    inside the triangle of the three feet that stay down (shrunk by hold_margin_fraction, -) or while one of those
+    feet is not loaded (the ground does not push it: a foot just landed on nothing, or unloaded). Without it the
+    stones family's crawl falls when a front foot lifts with the centre of mass on its side of the diagonal: the
+    hind foot opposite unloads and slides off its stone. On, the stones family crossed clean 42 of 50 against 38
+    (falls 7 -> 3), but clutter quick 7 of 12 against 10: a held liftoff keeps its touchdown time, so the swing
+    over a box is shorter (docs/terrain-notes.md, sessions 9 and 13).
+    shift (off): the body target moves into the support triangle (shrunk toward its incentre by margin_fraction, -:
+    the margin from each edge is this times the inradius), ramped over ramp_s (s) before each liftoff. It rolled the
+    flat crawl more (session 9: its four-foot phases, 0.08 s, are too short to cross a diagonal), and with longer
+    four-foot phases at the crossings the stones family lost 7 draws for 3 gained in its first 29 (session 13)."""
 
     shift: bool = False
-    min_duty: float = 0.75
+    min_duty: float = 0.8
     margin_fraction: float = 0.3
     ramp_s: float = 0.2
-    # the liftoff hold: a liftoff in these gaits waits (at most max_hold_s, s) while the centre of mass is not inside
-    # the triangle of the three feet that stay down, shrunk by hold_margin_fraction (-), or while one of those feet
-    # is not loaded (the ground does not push it: a foot just landed on nothing, or unloaded)
     hold: bool = False
     hold_com: bool = (
         True  # the hold also waits for the centre of mass (False: only for the three feet's load)

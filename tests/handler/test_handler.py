@@ -263,3 +263,40 @@ def test_a_liftoff_waits_while_a_stance_foot_that_would_stay_has_lost_its_contac
         assert (h.phase[0] == Phase.STANCE) == expect_waiting
         h.update_phases(_state(0.14, (True, True, True, True)), plan)  # FR's contact back: the pair lifts
         assert h.phase[0] == Phase.SWING and h.phase[3] == Phase.SWING
+
+
+def test_a_crawl_liftoff_waits_for_the_centre_of_mass_inside_the_other_three_feet() -> None:
+    """The crawl's liftoff hold (SupportShiftParams.hold, off by default; for gaits of the crawl's duty): FL's liftoff, due at 0.1 s,
+    waits while the centre of mass lies outside the triangle of FR, RL and RR (here on FL's side of the FR-RL
+    diagonal), lifts as soon as it is inside, and never waits longer than max_hold_s."""
+    from planning.steps import GAITS
+    from planning.steps.support import SupportShiftParams
+
+    sp = SupportShiftParams(hold=True)
+    assert GAITS["crawl"].duty >= sp.min_duty > GAITS["walk"].duty > GAITS["trot"].duty
+
+    def state(t: float, com_xy: tuple[float, float]) -> RobotState:
+        s = _state(t, (True,) * 4)
+        s.p_world_com[:2] = com_xy
+        s.loaded[:] = True
+        return s
+
+    front_left = tuple(0.5 * ROBOT.fk_leg(0, ROBOT.q_nominal[0])[:2])  # halfway to FL's foot: outside
+    plan = _Plan()
+    h = Handler(ROBOT)
+    h.support_hold = sp
+    h.update_phases(state(0.0, front_left), plan)
+    h.update_phases(state(0.1, front_left), plan)
+    assert h.phase[0] == Phase.STANCE and h.waiting
+    h.update_phases(state(0.12, (-0.05, -0.02)), plan)  # behind and right of the centre: inside FR-RL-RR
+    assert h.phase[0] == Phase.SWING
+    h2 = Handler(ROBOT)
+    h2.support_hold = sp
+    h2.update_phases(state(0.0, front_left), plan)
+    h2.update_phases(state(0.1, front_left), plan)
+    h2.update_phases(state(0.1 + sp.max_hold_s + 0.01, front_left), plan)
+    assert h2.phase[0] == Phase.SWING
+    h3 = Handler(ROBOT)  # without the hold (the trot, the walk): lifts on time
+    h3.update_phases(state(0.0, front_left), plan)
+    h3.update_phases(state(0.1, front_left), plan)
+    assert h3.phase[0] == Phase.SWING
