@@ -216,6 +216,10 @@ class Handler:
         # the slow gaits' liftoff hold (planning.steps.support), set by the walk controller in the gaits that use
         # it: a due liftoff waits while the other three feet would not hold the centre of mass (None: off)
         self.support_hold: SupportShiftParams | None = None
+        self.support_held = False  # a liftoff waited for static balance at the last phase update
+        self.support_hold_spent = (
+            False  # the walk controller's hold of the gait clock is used up (no more waits)
+        )
         # the body velocity (world, m/s) about whose sweep the stance legs are damped (stance_damping_torques; None:
         # about zero joint rates); the walk controller sets it in the gaits of WalkParams.gait_stance_damping_ref
         self.stance_damping_v_ref: np.ndarray | None = None
@@ -236,6 +240,7 @@ class Handler:
         swings = [plan.swing_at(leg, t) for leg in range(4)]
         due = []
         self.waiting = False
+        self.support_held = False
         for leg in range(4):
             sw = swings[leg]
             if self.phase[leg] != _STANCE or sw is None or t >= sw.t_touchdown:
@@ -396,10 +401,10 @@ class Handler:
         """Whether the liftoff of ``leg``, due now, waits for static balance (support_hold; at most its
         max_hold_s from when the liftoff fell due)."""
         sh = self.support_hold
-        if sh is None or not sh.hold or s.t - self._due_since[leg] > sh.max_hold_s:
+        if sh is None or not sh.hold or s.t - self._due_since[leg] > sh.max_hold_s or self.support_hold_spent:
             return False
         stance = self.phase == _STANCE
-        return not liftoff_ready(
+        held = not liftoff_ready(
             s.p_world_com[:2],
             self.p_contact[:, :2],
             stance,
@@ -408,6 +413,9 @@ class Handler:
             sh.hold_margin_fraction,
             sh.hold_com,
         )
+        if held:
+            self.support_held = True
+        return held
 
     def _lift(self, leg: int, sw: PlannedSwing, s: RobotState) -> None:
         self.phase[leg] = Phase.SWING

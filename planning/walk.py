@@ -167,7 +167,8 @@ class WalkParams:
     # 0.3, 0.35; 3 off) and speed-flight's gallop held 9 of 10 pushes (10 of 10 off) (docs/agility-notes.md, session 10)
     gait_stance_damping_ref: tuple[tuple[str, float], ...] = ()
     # static balance in the slow gaits (duty >= support.min_duty: the crawl): a liftoff waits for the centre of mass
-    # inside the three feet that stay down, the body target shifted into that triangle (both off)
+    # inside the three feet that stay down, with the gait clock or without, the body target shifted into that
+    # triangle (all off)
     # (planning.steps.support; docs/terrain-notes.md, sessions 9 and 13: crawl balance)
     support: SupportShiftParams = field(default_factory=SupportShiftParams)
     steps: StepPlannerParams = field(default_factory=StepPlannerParams)
@@ -197,6 +198,9 @@ class WalkController:
         self.balance = BalanceController(robot, p.balance)
         self.command = SteeringCommand()
         self._then_gait: str | None = None
+        self._clock_held_s = 0.0  # how long the gait clock has waited for the coming liftoff's balance (s)
+        self._t_last_lift = -np.inf
+        self._t_last_hold_tick = 0.0
         self._via_gait: str | None = None  # the gait walked for one cycle on the way to _then_gait
         self._trot_since: float | None = None
         self.goal: np.ndarray | None = None
@@ -452,6 +456,7 @@ class WalkController:
 
     def _balance(self, s: RobotState) -> None:
         self.handler.update_phases(s, self.plan)
+        self._hold_clock_for_support(s)
         self._update_target(s)
         stance = self.handler.stance
         if self.driver is not None and self.driver.forces(s.t, stance, self.f_des):
@@ -461,6 +466,28 @@ class WalkController:
             # the friction assumed, lowered after foot slips (Handler.friction_scale)
             mu = self.balance.params.mu * self.handler.friction_scale
             self.f_des[:] = self.balance.contact_forces(s, self.target, stance, mu=mu)
+
+    def _hold_clock_for_support(self, s: RobotState) -> None:
+        """While a liftoff waits for static balance (SupportShiftParams.hold with hold_clock), the gait clock waits
+        with it: every later planned event moves by the wait, so the held swing keeps its duration and the legs
+        after it their four-foot phases; at most max_hold_s per liftoff."""
+        h = self.handler
+        sp = h.support_hold
+        t_lift = float(np.max(h.t_liftoff))
+        if t_lift != self._t_last_lift:
+            self._t_last_lift = t_lift
+            self._clock_held_s = 0.0
+            h.support_hold_spent = False
+        dt = s.t - self._t_last_hold_tick
+        self._t_last_hold_tick = s.t
+        if sp is None or not sp.hold_clock or not h.support_held or not 0.0 < dt < 0.05:
+            return
+        step = min(dt, sp.max_hold_s - self._clock_held_s)
+        if step > 0.0:
+            self.planner.clock.hold(step)
+            self._clock_held_s += step
+        if self._clock_held_s >= sp.max_hold_s:
+            h.support_hold_spent = True
 
     def _update_target(self, s: RobotState) -> None:
         dt = s.t - self._t_last

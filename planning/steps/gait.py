@@ -282,6 +282,18 @@ class GaitClock:
         self._switch(g, t, anchor=best)
         return True
 
+    def hold(self, dt: float) -> None:
+        """Holds the gait's phase for dt (s): every planned event from now on, the gait's and the per-leg holds',
+        moves dt later, as if the clock had stood still. The walk controller holds it while a liftoff waits for
+        static balance (planning.steps.support.SupportShiftParams.hold_clock), so that the held swing keeps its
+        duration and the legs after it keep theirs."""
+        if dt <= 0.0 or self.gait.is_stand:
+            return
+        self._t_ref += dt
+        for h in self._holds:
+            for i, (t_end, c) in enumerate(h):
+                h[i] = (t_end + dt, c)
+
     def _t_ref_for(self, g: Gait, t: float, anchor: tuple[int, float] | None) -> float:
         if g.is_stand:
             t_ref1 = t

@@ -287,9 +287,17 @@ def test_a_crawl_liftoff_waits_for_the_centre_of_mass_inside_the_other_three_fee
     h.support_hold = sp
     h.update_phases(state(0.0, front_left), plan)
     h.update_phases(state(0.1, front_left), plan)
-    assert h.phase[0] == Phase.STANCE and h.waiting
+    assert (
+        h.phase[0] == Phase.STANCE and h.waiting and h.support_held
+    )  # the walk holds its gait clock with it
     h.update_phases(state(0.12, (-0.05, -0.02)), plan)  # behind and right of the centre: inside FR-RL-RR
-    assert h.phase[0] == Phase.SWING
+    assert h.phase[0] == Phase.SWING and not h.support_held
+    h4 = Handler(ROBOT)  # the walk's clock hold used up: no more waiting
+    h4.support_hold = sp
+    h4.update_phases(state(0.0, front_left), plan)
+    h4.support_hold_spent = True
+    h4.update_phases(state(0.1, front_left), plan)
+    assert h4.phase[0] == Phase.SWING
     h2 = Handler(ROBOT)
     h2.support_hold = sp
     h2.update_phases(state(0.0, front_left), plan)

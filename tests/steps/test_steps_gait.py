@@ -138,3 +138,35 @@ def test_a_switch_from_the_walk_keeps_two_feet_down(b: str) -> None:
         assert clock.gait.name == b
         worst = min(worst, int(c.sum(axis=1).min()))
     assert worst >= 2
+
+
+@pytest.mark.parametrize("name", ["trot", "crawl", "walk"])
+def test_a_held_clock_moves_every_later_event_by_the_hold(name: str) -> None:
+    clock, ref = GaitClock(name), GaitClock(name)
+    t, dt = 0.93, 0.137
+    before = ref.schedule(t)
+    clock.hold(dt)
+    after = clock.schedule(t + dt)
+    assert np.array_equal(after.leg, before.leg)
+    assert np.allclose(after.t_touchdown, before.t_touchdown + dt)
+    assert np.allclose(after.t_liftoff, before.t_liftoff + dt)
+    for s in np.arange(t, t + 2.0, 0.01):
+        assert np.array_equal(clock.contact(float(s) + dt), ref.contact(float(s)))
+
+
+def test_a_hold_moves_a_switchs_per_leg_holds_with_the_gait() -> None:
+    clock, ref = GaitClock("trot"), GaitClock("trot")
+    for c in (clock, ref):
+        _run(c, 0.0, 1.13)
+        c.request("crawl")
+        _run(c, 1.13, 1.6)
+    assert any(clock._holds), "the switch left per-leg holds to move"
+    clock.hold(0.05)
+    for s in np.arange(1.6, 3.0, 0.01):
+        assert np.array_equal(clock.contact(float(s) + 0.05), ref.contact(float(s)))
+
+
+def test_a_stand_is_not_held() -> None:
+    clock = GaitClock("stand")
+    clock.hold(0.3)
+    assert clock.contact(0.1).all() and clock.phase(0.5) == GaitClock("stand").phase(0.5)
