@@ -34,8 +34,8 @@ class SupportShiftParams:
     over a box is shorter (docs/terrain-notes.md, sessions 9 and 13).
     hold_clock (off; with hold): the walk controller holds the gait clock while a liftoff waits (GaitClock.hold,
     at most max_hold_s per liftoff), so the held swing keeps its duration and the legs after it their four-foot
-    phases. With both on, the clutter family crossed clean 28 of 50 against 29 (falls 21 -> 18, walks with no-step
-    landings 3 -> 8); left off until the stones, clutter and mixed families are measured together.
+    phases. With both on, the clutter family crossed clean 28 of 50 against 29 (falls 21 -> 18), but the stones
+    family's first 29 draws 19 against 23 (the body target moves on while the clock waits: 3 bodies dropped).
     shift (off): the body target moves into the support triangle (shrunk toward its incentre by margin_fraction, -:
     the margin from each edge is this times the inradius), ramped over ramp_s (s) before each liftoff. It rolled the
     flat crawl more (session 9: its four-foot phases, 0.08 s, are too short to cross a diagonal), and with longer
