@@ -217,9 +217,8 @@ class Handler:
         # it: a due liftoff waits while the other three feet would not hold the centre of mass (None: off)
         self.support_hold: SupportShiftParams | None = None
         self.support_held = False  # a liftoff waited for static balance at the last phase update
-        self.support_hold_spent = (
-            False  # the walk controller's hold of the gait clock is used up (no more waits)
-        )
+        # the walk controller's hold of the gait clock is used up for this liftoff (no more waits)
+        self.support_hold_spent = False
         # the body velocity (world, m/s) about whose sweep the stance legs are damped (stance_damping_torques; None:
         # about zero joint rates); the walk controller sets it in the gaits of WalkParams.gait_stance_damping_ref
         self.stance_damping_v_ref: np.ndarray | None = None

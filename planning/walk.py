@@ -200,7 +200,6 @@ class WalkController:
         self._then_gait: str | None = None
         self._clock_held_s = 0.0  # how long the gait clock has waited for the coming liftoff's balance (s)
         self._t_last_lift = -np.inf
-        self._t_last_hold_tick = 0.0
         self._via_gait: str | None = None  # the gait walked for one cycle on the way to _then_gait
         self._trot_since: float | None = None
         self.goal: np.ndarray | None = None
@@ -473,14 +472,15 @@ class WalkController:
         after it their four-foot phases; at most max_hold_s per liftoff."""
         h = self.handler
         sp = h.support_hold
+        if sp is None or not sp.hold_clock:
+            return
         t_lift = float(np.max(h.t_liftoff))
         if t_lift != self._t_last_lift:
             self._t_last_lift = t_lift
             self._clock_held_s = 0.0
             h.support_hold_spent = False
-        dt = s.t - self._t_last_hold_tick
-        self._t_last_hold_tick = s.t
-        if sp is None or not sp.hold_clock or not h.support_held or not 0.0 < dt < 0.05:
+        dt = s.t - self._t_last  # the balance tick's step (_update_target moves _t_last after this)
+        if not h.support_held or not 0.0 < dt < 0.05:
             return
         step = min(dt, sp.max_hold_s - self._clock_held_s)
         if step > 0.0:
