@@ -184,7 +184,20 @@ class DecisionParams:
     tried in all (shin_region: the landing above a tread, the floor before a box); when none of them has a
     clearing place the first region stands and its place of most clearance is taken (the behaviour with 0). The
     filter acts while the foot is in stance: in the air the foot keeps the region it lifted off for (a region
-    switched late in a swing sends a foot already past a nosing back onto it)."""
+    switched late in a swing sends a foot already past a nosing back onto it);
+    shin_region_cost_m: the shin test in the region cost (None: off): when no place of a next touchdown's chosen
+    polygon along the heading clears the shin (leg_bounds_found), the foothold's region is chosen again over every
+    inset cell within shin_region_search_m of the nominal foothold and within reach (the height and side rules of
+    choose_region), each costing its distance + w_height × height change, plus this (m) where the leg's shin
+    would not clear (leg_clearance with the hip at touchdown; shin_cell_cost); when the cell of least cost clears
+    and lies outside the chosen polygon, the polygon is grown around it instead (the same region or another;
+    shin_choice): a low box's or the platform's top, or the floor before the box, behind a nominal past the box
+    whose long step puts the shin on the box's edge. The choice made before (keep_xy) is kept while it clears and
+    costs at most keep_m more. The rule acts while the foot is in stance (up to its liftoff; in the air it keeps
+    its choice while it clears); where the chosen polygon has a clearing place (flat ground, most footholds)
+    nothing more is evaluated and nothing changes;
+    shin_region_search_m: shin_region_cost_m's search radius around the nominal foothold (m; the floor before a
+    box lies up to ~0.42 m behind a nominal past it)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
@@ -240,6 +253,8 @@ class DecisionParams:
     shin_margin_m: float = 0.04
     shin_hold: bool = False
     shin_regions: int = 0
+    shin_region_cost_m: float | None = None
+    shin_region_search_m: float = 0.45
     reach_frac: float = 0.9
     trail_reach_frac: float = 0.95
     height_reach_frac: float = 0.9
@@ -1374,6 +1389,144 @@ def shin_region(
     return label, poly
 
 
+def shin_cell_cost(
+    clear: NDArray[np.float64], within: NDArray[np.bool_], needed: float, cost_m: float
+) -> NDArray[np.float64]:
+    """Gives the region cost's shin term (m) of footholds whose shin clearances are clear (C,) (leg_clearance's
+    first value) and reach flags within (C,): 0 where the shin clears (at least needed, shin_needed) within reach,
+    cost_m elsewhere (DecisionParams.shin_region_cost_m)."""
+    return np.where((clear >= needed) & within, 0.0, float(cost_m))
+
+
+def shin_choice(
+    base_cost: NDArray[np.float64],
+    shin_cost: NDArray[np.float64],
+    keep: int | None,
+    keep_m: float,
+    flying: bool = False,
+    kept_ok: bool = False,
+) -> int:
+    """Gives the cell (an index) a foothold's polygon is grown around under DecisionParams.shin_region_cost_m,
+    given each candidate cell's cost (base_cost (N,): distance + height term) and shin term (shin_cost (N,),
+    shin_cell_cost): the cell of least total cost when its shin clears (shin term 0), the kept cell (keep: an
+    index, the choice made before) instead while it clears and costs at most keep_m more; -1: no cell, or the
+    cell of least cost does not clear (no reachable place clears within the shin term's reach: no change). A foot
+    in the air (flying) only keeps its choice: the kept cell while it clears, or while kept_ok (it cleared when it
+    was chosen: a clearance that moves by a few millimetres with the hip's estimate late in a swing does not send
+    the foot back past the box), else -1."""
+    if base_cost.size == 0:
+        return -1
+    if flying:
+        if keep is not None and 0 <= keep < base_cost.size and (shin_cost[keep] <= 0.0 or kept_ok):
+            return keep
+        return -1
+    total = base_cost + shin_cost
+    best = int(np.argmin(total))
+    if not math.isfinite(float(total[best])) or shin_cost[best] > 0.0:
+        return -1
+    if keep is not None and 0 <= keep < total.size and shin_cost[keep] <= 0.0:
+        if float(total[keep]) <= float(total[best]) + keep_m:
+            return keep
+    return best
+
+
+def _shin_cells(
+    regions: SteppableRegions,
+    maps: TerrainMaps,
+    xy: NDArray[np.float64],
+    z_ref: float,
+    p: DecisionParams,
+    hip: NDArray[np.float64],
+    reach_m: float,
+    side: NDArray[np.float64] | None,
+) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.float64]]:
+    """Gives the inset cells (world xy (N, 2), labels (N,), cost (N,): distance + w_height × height change) within
+    shin_region_search_m of xy (2,) that choose_region would take (within max_rise_m of z_ref, reach_m of hip (2,),
+    own side)."""
+    res = regions.resolution_m
+    ox, oy = regions.origin_xy
+    w = int(math.ceil(p.shin_region_search_m / res))
+    nx, ny = regions.labels.shape
+    x, y = float(xy[0]), float(xy[1])
+    cx, cy = int(round((x - ox) / res)), int(round((y - oy) / res))
+    i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
+    if i0 >= i1 or j0 >= j1:
+        return np.zeros((0, 2)), np.zeros(0, dtype=np.int32), np.zeros(0)
+    lab = regions.inset_labels[i0:i1, j0:j1]
+    ci, cj = lab.nonzero()
+    px = ox + (i0 + ci) * res
+    py = oy + (j0 + cj) * res
+    dist = np.hypot(px - x, py - y)
+    dz = np.abs(maps.ground_height[i0:i1, j0:j1][ci, cj] - z_ref)
+    ok = (dist <= p.shin_region_search_m) & (dz <= p.max_rise_m)
+    if np.isfinite(reach_m):
+        ok &= np.hypot(px - float(hip[0]), py - float(hip[1])) <= reach_m
+    if side is not None and p.own_side_m is not None:
+        bx, by, sx, sy = (float(v) for v in side)
+        ok &= (px - bx) * sx + (py - by) * sy >= own_side(p)
+    cells = np.column_stack([px[ok], py[ok]])
+    return cells, np.asarray(lab[ci, cj][ok], dtype=np.int32), (dist + p.w_height * dz)[ok]
+
+
+def shin_cost_region(
+    view: TerrainView,
+    world: TerrainWorld,
+    leg: int,
+    hip_xy: NDArray[np.float64],
+    nom: NDArray[np.float64],
+    z_ref: float,
+    keep_xy: NDArray[np.float64] | None,
+    flying: bool,
+    side: NDArray[np.float64] | None,
+    label: int,
+    poly: ConvexRegion,
+    p: DecisionParams,
+    cache: dict[tuple[int, int, int], ConvexRegion | None] | None = None,
+    kept_ok: bool = False,
+) -> tuple[int, ConvexRegion, NDArray[np.float64] | None]:
+    """The shin test in the region cost (DecisionParams.shin_region_cost_m): gives the region, polygon and held
+    place (3,) of a next touchdown of leg `leg` (hip at hip_xy (2,) at touchdown, nominal foothold nom (2,)), given
+    the region and polygon chosen for it (label, poly): those and no held place when a place of the polygon along
+    the heading clears the shin (leg_bounds_found) or none of the cells _shin_cells gives (the height reference
+    z_ref, the reach, the side (4,) as the first choice) is shin_choice's (its shin term shin_cell_cost; keep_xy
+    (2,): the choice made before, kept_ok: its shin cleared; flying: the foot in the air, which only keeps that
+    choice); else that cell's
+    region, its polygon grown around the cell, and the cell (its ground height), where the foothold is held."""
+    if p.shin_region_cost_m is None or view.l_upper_m <= 0.0 or view.l_lower_m <= 0.0:
+        return label, poly, None
+    maps, regions = world.maps, world.regions
+    if leg_bounds_found(view, maps, leg, hip_xy, nom, poly, p)[1]:
+        return label, poly, None
+    if flying and kept_ok and keep_xy is not None:
+        # in the air, a choice made where the shin cleared stands while it lies on a region (its reach and side
+        # as choose_region's kept region in the air)
+        kept = regions.label_at(float(keep_xy[0]), float(keep_xy[1]))
+        if kept:
+            q = _polygon(regions, kept, keep_xy, p, {} if cache is None else cache)
+            if q is not None:
+                z = float(maps.height_at(float(keep_xy[0]), float(keep_xy[1])))
+                return kept, q, np.array([float(keep_xy[0]), float(keep_xy[1]), z])
+    cells, labs, base = _shin_cells(regions, maps, nom, z_ref, p, hip_xy, reach_xy(view, p), side)
+    if cells.shape[0] == 0:
+        return label, poly, None
+    clear, within = leg_clearance(view, maps, leg, hip_xy, cells, p)
+    shin = shin_cell_cost(clear, within, shin_needed(p), float(p.shin_region_cost_m))
+    keep = None
+    if keep_xy is not None:
+        near = np.hypot(cells[:, 0] - float(keep_xy[0]), cells[:, 1] - float(keep_xy[1]))
+        k = int(np.argmin(near))
+        keep = k if float(near[k]) <= 0.75 * regions.resolution_m else None
+    i = shin_choice(base, shin, keep, p.keep_m, flying, kept_ok)
+    if i < 0:
+        return label, poly, None
+    cell = cells[i]
+    hold = np.array([cell[0], cell[1], float(maps.height_at(float(cell[0]), float(cell[1])))])
+    if int(labs[i]) == label and bool(poly.contains(cell[None, :], 1e-6)[0]):
+        return label, poly, hold
+    q = _polygon(regions, int(labs[i]), cell, p, {} if cache is None else cache)
+    return (int(labs[i]), q, hold) if q is not None else (label, poly, hold)
+
+
 HOLD_HALF_M = 0.005  # a held touchdown's square in the step QP (half side, m): it stays where it is held
 
 
@@ -1511,6 +1664,7 @@ def choose_footholds(
     reach = reach_xy(view, p)
     lost = np.zeros(K, dtype=bool)
     held_at: dict[int, NDArray[np.float64]] = {}
+    shin_held: set[int] = set()  # slots held where their shin clears (DecisionParams.shin_region_cost_m)
     # per leg, as Python bools: the remembered choice is of this touchdown (same) and complete (finite)
     held_l = (same & np.all(np.isfinite(memory.p_chosen), axis=1)).tolist()
     stance_l = view.stance.tolist()
@@ -1580,6 +1734,29 @@ def choose_footholds(
                         p,
                         cache,
                     )
+                if poly is not None and j < 4 and p.shin_region_cost_m is not None:
+                    # no place of the polygon clears the shin: the reachable cell of least cost with the shin in
+                    # it, and a polygon around it (a low box's top or the floor before it, behind a nominal past
+                    # it), where the foothold is held; in the air, the choice made so
+                    label, poly, shin_at = shin_cost_region(
+                        view,
+                        world,
+                        leg,
+                        hips[j],
+                        nom,
+                        float(z_ref[leg]),
+                        keep,
+                        flying,
+                        sides[j],
+                        label,
+                        poly,
+                        p,
+                        cache,
+                        memory.shin_ok is not None and bool(memory.shin_ok[leg]),
+                    )
+                    if shin_at is not None:
+                        held_at[j] = shin_at
+                        shin_held.add(j)
                 if poly is None and j < 4:
                     # no region at all: a foot in stance steps in place, one in the air keeps its choice made on a
                     # region, not its nominal place over a gap or a pit
@@ -1591,7 +1768,9 @@ def choose_footholds(
                         held_at[j] = hold
                         z_ref[leg] = float(hold[2])
                 polys[j] = poly
-                if poly is not None:
+                if j in shin_held:
+                    z_ref[legs_l[j]] = float(held_at[j][2])
+                elif poly is not None:
                     z_ref[legs_l[j]] = float(poly.height_at(poly.project(nom)))
     # Each polygon of the next touchdowns with its bounds along the heading (the shin clear of edges behind the
     # foot, the hip in reach).
@@ -1609,7 +1788,7 @@ def choose_footholds(
     rows: list[tuple[NDArray[np.float64], NDArray[np.float64]] | None] = []
     # each leg's next foothold chosen where its shin clears (FootholdMemory.shin_ok)
     shin_ok = np.zeros(4, dtype=bool)
-    for j in passed:
+    for j in passed | shin_held:
         shin_ok[legs_l[j]] = True
     for j, (q, k) in enumerate(zip(polys, order, strict=True)):
         if j in held_at:
