@@ -40,6 +40,9 @@ from planning.terrain.decision import (
     path_holds,
     pitched_nominals,
     reach_height,
+    shin_cell_cost,
+    shin_choice,
+    shin_cost_region,
     shin_needed,
     shin_region,
     stride_m,
@@ -1140,3 +1143,133 @@ def test_the_plane_without_touchdowns_holds_a_swinging_legs_last_stance_height()
     params = dataclass_replace(P, max_pitch_rate_rps=100.0, posture="plane", plane_touchdowns=False)
     d = decide(view, _world(*_stones()), last, params)
     assert d.body_pitch_rad == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_shin_term_of_the_region_cost_and_the_cell_it_chooses() -> None:
+    """shin_cell_cost: 0 where the shin clears within reach, the cost elsewhere; shin_choice: the cell of least
+    cost with it when that one clears, none when the cell of least cost does not clear, the kept cell while it
+    clears and costs at most keep_m more, and in the air only the kept cell (while it clears or cleared)."""
+    clear = np.array([0.2, 0.05, np.inf, -np.inf, 0.1])
+    within = np.array([True, True, True, True, False])
+    np.testing.assert_array_equal(shin_cell_cost(clear, within, 0.1, 0.5), [0.0, 0.5, 0.0, 0.5, 0.5])
+    base = np.array([0.0, 0.1, 0.3])
+    assert shin_choice(base, np.array([0.5, 0.5, 0.0]), None, 0.05) == 2
+    # the shin term smaller than the way to the clearing cell: no change
+    assert shin_choice(base, np.array([0.2, 0.2, 0.0]), None, 0.05) == -1
+    assert shin_choice(np.zeros(0), np.zeros(0), None, 0.05) == -1
+    # the kept cell: while it clears and costs at most keep_m more
+    near = np.array([0.1, 0.12, 0.5])
+    assert shin_choice(near, np.zeros(3), 1, 0.05) == 1
+    assert shin_choice(near, np.zeros(3), 2, 0.05) == 0
+    assert shin_choice(near, np.array([0.0, 0.5, 0.0]), 1, 0.05) == 0
+    # in the air: the kept cell or nothing
+    assert shin_choice(near, np.zeros(3), 2, 0.05, flying=True) == 2
+    assert shin_choice(near, np.array([0.0, 0.0, 0.5]), 2, 0.05, flying=True) == -1
+    assert shin_choice(near, np.array([0.0, 0.0, 0.5]), 2, 0.05, flying=True, kept_ok=True) == 2
+    assert shin_choice(near, np.zeros(3), None, 0.05, flying=True) == -1
+
+
+def test_a_foothold_past_a_low_box_whose_shin_meets_its_edge_is_held_on_the_boxs_top() -> None:
+    """shin_cost_region (DecisionParams.shin_region_cost_m): a front foot's nominal 10-15 cm past a low box (9 cm
+    tall, 15 cm along the heading), its hip over the box's near half (a long step: clutter draws 544, 617): no
+    place of the floor past the box clears the shin within reach, so the foothold is held on the box's top,
+    where it clears; off, or with the hip over the floor past the box, or on flat ground, nothing changes; with
+    a shin term too small to pay the way back to the box, nothing changes either."""
+    world = _box_world(0.70, 0.85, -0.7, 0.7, 0.09)
+    regions, maps = world.regions, world.maps
+    box = regions.label_at(0.78, 0.1)
+    past = regions.label_at(1.0, 0.1)
+    assert box and past and box != past != regions.label_at(0.5, 0.1)
+    view = _spot_leg_view(0.45)
+    on = dataclasses.replace(P_LINE, shin_region_cost_m=0.5)
+    for hip_x, nom_x in ((0.70, 0.95), (0.72, 0.98), (0.75, 1.0)):
+        hip, nom = np.array([hip_x, 0.1]), np.array([nom_x, 0.1])
+        poly = convex_around(regions, past, nom, P.window_m)
+        assert poly is not None
+        assert not leg_bounds_found(view, maps, 0, hip, nom, poly, on)[1]
+        label, q, hold = shin_cost_region(view, world, 0, hip, nom, 0.0, None, False, None, past, poly, on)
+        assert label == box and hold is not None and q is not poly
+        assert 0.70 < hold[0] < 0.85 and hold[2] == pytest.approx(0.09, abs=0.01)
+        clear, within = leg_clearance(view, maps, 0, hip, hold[None, :2], on)
+        assert within[0] and clear[0] >= shin_needed(on)
+        # off: the floor past the box, no hold
+        assert shin_cost_region(view, world, 0, hip, nom, 0.0, None, False, None, past, poly, P_LINE) == (
+            past,
+            poly,
+            None,
+        )
+        # a shin term smaller than the way back onto the box: no change
+        small = dataclasses.replace(on, shin_region_cost_m=0.05)
+        assert (
+            shin_cost_region(view, world, 0, hip, nom, 0.0, None, False, None, past, poly, small)[2] is None
+        )
+        # in the air with no choice that cleared: no change; with the box's top chosen before: kept
+        assert shin_cost_region(view, world, 0, hip, nom, 0.0, None, True, None, past, poly, on)[2] is None
+        kept = shin_cost_region(
+            view, world, 0, hip, nom, 0.0, hold[:2], True, None, past, poly, on, None, True
+        )
+        assert kept[0] == box and kept[2] is not None
+        np.testing.assert_allclose(kept[2][:2], hold[:2])
+    # the hip over the floor past the box: a place there clears, nothing changes
+    nom = np.array([1.0, 0.1])
+    poly = convex_around(regions, past, nom, P.window_m)
+    assert poly is not None
+    out = shin_cost_region(view, world, 0, np.array([0.9, 0.1]), nom, 0.0, None, False, None, past, poly, on)
+    assert out == (past, poly, None)
+    # flat ground: nothing changes
+    flat = _box_world(5.0, 5.1, 5.0, 5.1, 0.09)
+    for hip_x, nom_x in ((0.7, 1.0), (0.9, 1.0), (1.1, 1.0)):
+        nom = np.array([nom_x, 0.1])
+        label = flat.regions.label_at(*nom)
+        poly = convex_around(flat.regions, label, nom, P.window_m)
+        assert poly is not None
+        out = shin_cost_region(
+            view, flat, 0, np.array([hip_x, 0.1]), nom, 0.0, None, False, None, label, poly, on
+        )
+        assert out == (label, poly, None)
+
+
+def test_the_shin_region_cost_holds_a_foot_stepping_down_on_the_landing_and_leaves_flat_footholds() -> None:
+    """On a descent (the landing, then treads 0.15 m lower) a front foot's nominal on the tread below with its hip
+    well behind the nosing: no place of the tread clears, and the rule holds the foot on the landing, where it
+    clears (the stairs are where the rule acts besides the boxes); with the hip over the tread nothing changes.
+    choose_footholds on flat ground: the same footholds with the rule on as off."""
+    world = _steps_down()
+    maps, regions = world.maps, world.regions
+    nom = np.array([1.08, 0.1])
+    on = dataclasses.replace(P_LINE, shin_region_cost_m=0.5)
+    tread = regions.label_at(1.15, 0.1)
+    landing = regions.label_at(0.6, 0.1)
+    poly = convex_around(regions, tread, nom, P.window_m)
+    assert poly is not None
+    behind = _leg_view(0.5, 0.6)
+    hip_behind = np.array([0.8, 0.1])
+    label, _, hold = shin_cost_region(
+        behind, world, 0, hip_behind, nom, 0.6, None, False, None, tread, poly, on
+    )
+    assert label == landing and hold is not None and hold[0] < 1.0
+    clear, within = leg_clearance(behind, maps, 0, hip_behind, hold[None, :2], on)
+    assert within[0] and clear[0] >= shin_needed(on)
+    over = _leg_view(0.85, 0.6)
+    out = shin_cost_region(
+        over, world, 0, np.array([1.15, 0.1]), nom, 0.6, None, False, None, tread, poly, on
+    )
+    assert out == (tread, poly, None)
+    # flat ground, the whole decision: the same footholds
+    flat = _world(*_flat_grid())
+    feet_x = np.array([0.45, 0.45, -0.15, -0.15])
+    view = dataclass_replace(
+        _view(np.zeros(4), feet_x), l_upper_m=0.32, l_lower_m=0.34, stance=np.array([False, True, True, True])
+    )
+    path = _trot_path(feet_x, np.array([0.55, 0.5, -0.1, -0.05]))
+    qp_off = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
+    qp_on = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
+    d_off = choose_footholds(view, path, flat, FootholdMemory.empty(), qp_off, P_LINE)
+    d_on = choose_footholds(view, path, flat, FootholdMemory.empty(), qp_on, on)
+    np.testing.assert_array_equal(d_on.p_world_touchdown, d_off.p_world_touchdown)
+
+
+def _flat_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    xs = -0.6 + np.arange(80) * RES
+    ys = -0.9 + np.arange(60) * RES
+    return xs, ys, np.zeros((80, 60))
