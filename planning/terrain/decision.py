@@ -186,16 +186,16 @@ class DecisionParams:
     filter acts while the foot is in stance: in the air the foot keeps the region it lifted off for (a region
     switched late in a swing sends a foot already past a nosing back onto it);
     shin_region_cost_m: the shin test in the region cost (None: off): when no place of a next touchdown's chosen
-    polygon along the heading clears the shin (leg_bounds_found), the foothold's region is chosen again over every
-    inset cell within shin_region_search_m of the nominal foothold and within reach (the height and side rules of
-    choose_region), each costing its distance + w_height × height change, plus this (m) where the leg's shin
-    would not clear (leg_clearance with the hip at touchdown; shin_cell_cost); when the cell of least cost clears
-    and lies outside the chosen polygon, the polygon is grown around it instead (the same region or another;
-    shin_choice): a low box's or the platform's top, or the floor before the box, behind a nominal past the box
-    whose long step puts the shin on the box's edge. The choice made before (keep_xy) is kept while it clears and
-    costs at most keep_m more. The rule acts while the foot is in stance (up to its liftoff; in the air it keeps
-    its choice while it clears); where the chosen polygon has a clearing place (flat ground, most footholds)
-    nothing more is evaluated and nothing changes;
+    polygon along the heading clears the shin (leg_bounds_found), the foothold is chosen again over every inset
+    cell (of any region) within shin_region_search_m of the nominal foothold and within reach (the height and
+    side rules of choose_region), each costing its distance + w_height × height change, plus this (m) where the
+    leg's shin would not clear (leg_clearance with the hip at touchdown; shin_cell_cost): when the cell of least
+    cost clears, the foothold is held there (shin_choice, shin_cost_region): a low box's or the platform's top, or
+    the floor before the box (or beside it), for a nominal past the box whose long step puts the shin on the
+    box's edge; none clearing within this cost, nothing changes. The choice made before is kept while it clears
+    and costs at most keep_m more; in the air a choice made where the shin cleared stands (no new choice late in
+    a swing). Where the chosen polygon has a clearing place (flat ground, most footholds) nothing more is
+    evaluated and nothing changes;
     shin_region_search_m: shin_region_cost_m's search radius around the nominal foothold (m; the floor before a
     box lies up to ~0.42 m behind a nominal past it)."""
 
