@@ -1514,15 +1514,15 @@ def shin_cost_region(
                 z = float(maps.height_at(float(keep_xy[0]), float(keep_xy[1])))
                 return kept, q, np.array([float(keep_xy[0]), float(keep_xy[1]), z])
     cells, labs, base = _shin_cells(regions, maps, nom, z_ref, p, hip_xy, reach_xy(view, p), side)
-    if not p.shin_region_same:
-        # another region's cells only (the chosen region's other places: leg_bounds' search along the heading)
-        other = labs != label
-        cells, labs, base = cells[other], labs[other], base[other]
     if cells.shape[0] == 0:
         return label, poly, None
     p_cells = dataclasses.replace(p, shin_rule=p.shin_region_rule)
     clear, within = leg_clearance(view, maps, leg, hip_xy, cells, p_cells)
     shin = shin_cell_cost(clear, within, shin_needed(p_cells), float(p.shin_region_cost_m))
+    if not p.shin_region_same:
+        # the chosen region's places do not clear (leg_bounds_found): its cells pay the shin term, the choice is
+        # another region's (a box's or the platform's top) or none
+        shin[labs == label] = float(p.shin_region_cost_m)
     keep = None
     if keep_xy is not None:
         near = np.hypot(cells[:, 0] - float(keep_xy[0]), cells[:, 1] - float(keep_xy[1]))
