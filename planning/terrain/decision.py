@@ -187,22 +187,25 @@ class DecisionParams:
     switched late in a swing sends a foot already past a nosing back onto it);
     shin_region_cost_m: the shin test in the region cost (None: off): when no place of a next touchdown's chosen
     polygon along the heading clears the shin (leg_bounds_found), the foothold is chosen again over every inset
-    cell (of any region) within shin_region_search_m of the nominal foothold and within reach (the height and
-    side rules of choose_region), each costing its distance + w_height × height change, plus this (m) where the
-    leg's shin would not clear (leg_clearance with the hip at touchdown; shin_cell_cost): when the cell of least
-    cost clears, the foothold is held there (shin_choice, shin_cost_region): a low box's or the platform's top, or
-    the floor before the box (or beside it), for a nominal past the box whose long step puts the shin on the
-    box's edge; none clearing within this cost, nothing changes. The choice made before is kept while it clears
-    and costs at most keep_m more; in the air a choice made where the shin cleared stands (no new choice late in
-    a swing). Where the chosen polygon has a clearing place (flat ground, most footholds) nothing more is
-    evaluated and nothing changes;
+    cell within shin_region_search_m of the nominal foothold and within reach (the height and side rules of
+    choose_region), each costing its distance + w_height × height change, plus this (m) where the leg's shin
+    would not clear (leg_clearance with the hip at touchdown, the cells read with shin_region_rule;
+    shin_cell_cost) and on every cell of the chosen region (its places do not clear; shin_region_same False):
+    when the cell of least cost clears, the foothold is held there (shin_choice, shin_cost_region): a low box's or
+    the platform's top behind a nominal past it, whose long step puts the shin on the edge; none clearing within
+    this cost, nothing changes. The choice made before is kept while it clears and costs at most keep_m more; in
+    the air a choice made where the shin cleared stands (no new choice late in a swing). Where the chosen polygon
+    has a clearing place (flat ground, most footholds) nothing more is evaluated and nothing changes; active
+    also on a descent (a front foot held on the landing while its hip is behind the nosing). Off: at 0.5 the
+    clutter family measured 29 of 50 clean as main (3 gains: the platform draws 697, 999 and 699; 3 losses) and
+    the stairs quick spec 1 of 12 against 7 (a descending foot held a tread back or two treads down;
+    docs/terrain-notes.md, session 14);
     shin_region_search_m: shin_region_cost_m's search radius around the nominal foothold (m; the floor before a
     box lies up to ~0.42 m behind a nominal past it); shin_region_rule: the shin rule (shin_rule's values) the
-    cells are tested with: "both" (line and segment), as the search over cells finds the line rule's blind spot,
-    a place beside a box whose heading line just misses its corner (clutter draw 762 with "line": a front foot
-    held 6 cm beside a box, the walk fell); shin_region_same: the chosen region's own cells count too (the floor
-    before or beside a box: False, only another region's, a box's or the platform's top, as "line" cells of every
-    region measured 25 of the clutter family's 50 clean against main's 29)."""
+    cells are read with: "both" (line and segment), as a search over cells finds the line rule's blind spot, a
+    place beside a box whose heading line just misses its corner (clutter draw 762 with "line": a front foot
+    held 6 cm beside a box); shin_region_same: the chosen region's own clearing cells count too (the floor
+    before or beside a box; with "line" cells this measured 25 of the clutter family's 50 against main's 29)."""
 
     regions: RegionParams = field(default_factory=lambda: RegionParams(max_planes=8))
     search_m: float = 0.30
