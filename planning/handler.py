@@ -217,6 +217,7 @@ class Handler:
         # it: a due liftoff waits while the other three feet would not hold the centre of mass (None: off)
         self.support_hold: SupportShiftParams | None = None
         self.support_held = False  # a liftoff waited for static balance at the last phase update
+        self.support_held_for_load = False  # ... and one of the feet staying down was not loaded then
         # the walk controller's hold of the gait clock is used up for this liftoff (no more waits)
         self.support_hold_spent = False
         # the body velocity (world, m/s) about whose sweep the stance legs are damped (stance_damping_torques; None:
@@ -240,6 +241,7 @@ class Handler:
         due = []
         self.waiting = False
         self.support_held = False
+        self.support_held_for_load = False
         for leg in range(4):
             sw = swings[leg]
             if self.phase[leg] != _STANCE or sw is None or t >= sw.t_touchdown:
@@ -414,6 +416,10 @@ class Handler:
         )
         if held:
             self.support_held = True
+            keep = stance.copy()
+            keep[leg] = False
+            if not bool(np.all(s.loaded[keep])):
+                self.support_held_for_load = True
         return held
 
     def _lift(self, leg: int, sw: PlannedSwing, s: RobotState) -> None:

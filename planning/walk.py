@@ -200,6 +200,7 @@ class WalkController:
         self._then_gait: str | None = None
         self._clock_held_s = 0.0  # how long the gait clock has waited for the coming liftoff's balance (s)
         self._t_last_lift = -np.inf
+        self._clock_held_now = False  # the gait clock was held at this balance tick (SupportShiftParams.hold_clock)
         self._via_gait: str | None = None  # the gait walked for one cycle on the way to _then_gait
         self._trot_since: float | None = None
         self.goal: np.ndarray | None = None
@@ -472,6 +473,7 @@ class WalkController:
         after it their four-foot phases; at most max_hold_s per liftoff."""
         h = self.handler
         sp = h.support_hold
+        self._clock_held_now = False
         if sp is None or not sp.hold_clock:
             return
         t_lift = float(np.max(h.t_liftoff))
@@ -486,6 +488,7 @@ class WalkController:
         if step > 0.0:
             self.planner.clock.hold(step)
             self._clock_held_s += step
+            self._clock_held_now = True
         if self._clock_held_s >= sp.max_hold_s:
             h.support_hold_spent = True
 
@@ -496,8 +499,17 @@ class WalkController:
         if self._p_des is None:
             self._p_des = s.p_world_body.copy()
             self._yaw_des = s.yaw
-        self._yaw_des += cmd.yaw_rate * dt
-        v = yaw_R(self._yaw_des) @ np.array([cmd.vx, cmd.vy, 0.0])
+        # the body waits for its feet while the gait clock waits for a liftoff (SupportShiftParams.hold_body)
+        sp = self.handler.support_hold
+        wait = (
+            self._clock_held_now
+            and sp is not None
+            and sp.hold_body
+            and (sp.hold_body_for_com or self.handler.support_held_for_load)
+        )
+        yaw_rate = 0.0 if wait else cmd.yaw_rate
+        self._yaw_des += yaw_rate * dt
+        v = yaw_R(self._yaw_des) @ (np.zeros(3) if wait else np.array([cmd.vx, cmd.vy, 0.0]))
         R = rpy_to_R(np.array([0.0, self.pitch, self._yaw_des])) if self.pitch else yaw_R(self._yaw_des)
         self._p_des += v * dt
         # the target leads the body by a bounded amount: it tracks velocity, not an absolute path
@@ -515,10 +527,12 @@ class WalkController:
         self._support_shift(s, t.p_world_body)
         t.v_world_body = v
         t.R_world_body = R
-        t.omega_world = np.array([0.0, 0.0, cmd.yaw_rate])
+        t.omega_world = np.array([0.0, 0.0, yaw_rate])
         # turning while moving: the velocity turns with the yaw rate, so the body needs the centripetal
         # acceleration ω × v (2.25 m/s² on a 1 m radius at 1.5 m/s; without it the body slid out of the circle)
-        t.a_world_body = np.array([-cmd.yaw_rate * v[1], cmd.yaw_rate * v[0], 0.0])
+        t.a_world_body = np.array([-yaw_rate * v[1], yaw_rate * v[0], 0.0])
+        if wait:
+            return  # the speed integral neither integrates nor pushes while the body waits
         self._speed_integral(s, v, np.array([cmd.vx, cmd.vy]), dt)
         t.a_world_body[:2] += self._a_ff
 

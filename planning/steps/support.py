@@ -36,6 +36,14 @@ class SupportShiftParams:
     at most max_hold_s per liftoff), so the held swing keeps its duration and the legs after it their four-foot
     phases. With both on, the clutter family crossed clean 28 of 50 against 29 (falls 21 -> 18), but the stones
     family's first 29 draws 19 against 23 (the body target moves on while the clock waits: 3 bodies dropped).
+    hold_body (off; with hold_clock): the body waits for its feet: while the gait clock is held for a waiting
+    liftoff because one of the feet staying down is not loaded, the body target does not advance along the
+    command (its position and heading stand still, its velocity and yaw rate targets are zero), so the legs are
+    not left stretched behind a body that went on. With hold and hold_clock, the stones family crossed clean 38 of
+    50 against main's 38 (9 gains, 9 losses; the plain hold: 42). hold_body_for_com (off): the body waits also
+    while the liftoff waits only for the centre of mass; that stops the very motion that carries the centre of
+    mass into the triangle, so the holds ran out and the leg lifted with the centre of mass still outside (stones
+    family 26 of 50 against 38; docs/terrain-notes.md, session 14).
     shift (off): the body target moves into the support triangle (shrunk toward its incentre by margin_fraction, -:
     the margin from each edge is this times the inradius), ramped over ramp_s (s) before each liftoff. It rolled the
     flat crawl more (session 9: its four-foot phases, 0.08 s, are too short to cross a diagonal), and with longer
@@ -47,6 +55,8 @@ class SupportShiftParams:
     ramp_s: float = 0.2
     hold: bool = False
     hold_clock: bool = False
+    hold_body: bool = False
+    hold_body_for_com: bool = False
     hold_com: bool = (
         True  # the hold also waits for the centre of mass (False: only for the three feet's load)
     )

@@ -308,3 +308,28 @@ def test_a_crawl_liftoff_waits_for_the_centre_of_mass_inside_the_other_three_fee
     h3.update_phases(state(0.0, front_left), plan)
     h3.update_phases(state(0.1, front_left), plan)
     assert h3.phase[0] == Phase.SWING
+
+
+def test_a_crawl_liftoff_held_for_an_unloaded_foot_says_so() -> None:
+    """Handler.support_held_for_load (the walk controller's body waits on it, SupportShiftParams.hold_body): set
+    while the liftoff waits because a foot staying down is not loaded, not while it waits only for the centre of
+    mass."""
+    from planning.steps.support import SupportShiftParams
+
+    def state(t: float, com_xy: tuple[float, float], rr_loaded: bool) -> RobotState:
+        s = _state(t, (True,) * 4)
+        s.p_world_com[:2] = com_xy
+        s.loaded[:] = (True, True, True, rr_loaded)
+        return s
+
+    front_left = tuple(0.5 * ROBOT.fk_leg(0, ROBOT.q_nominal[0])[:2])  # outside FR-RL-RR
+    for com, rr_loaded, held, for_load in (
+        (front_left, True, True, False),
+        ((-0.05, -0.02), False, True, True),
+        ((-0.05, -0.02), True, False, False),
+    ):
+        h = Handler(ROBOT)
+        h.support_hold = SupportShiftParams(hold=True)
+        h.update_phases(state(0.0, com, rr_loaded), _Plan())
+        h.update_phases(state(0.1, com, rr_loaded), _Plan())
+        assert h.support_held == held and h.support_held_for_load == for_load
