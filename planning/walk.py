@@ -200,7 +200,7 @@ class WalkController:
         self._then_gait: str | None = None
         self._clock_held_s = 0.0  # how long the gait clock has waited for the coming liftoff's balance (s)
         self._t_last_lift = -np.inf
-        self._clock_held_now = False  # the gait clock was held at this balance tick (SupportShiftParams.hold_clock)
+        self._clock_held_now = False  # the gait clock was held at this tick (SupportShiftParams.hold_clock)
         self._via_gait: str | None = None  # the gait walked for one cycle on the way to _then_gait
         self._trot_since: float | None = None
         self.goal: np.ndarray | None = None
