@@ -200,6 +200,10 @@ class WalkController:
         self._then_gait: str | None = None
         self._clock_held_s = 0.0  # how long the gait clock has waited for the coming liftoff's balance (s)
         self._t_last_lift = -np.inf
+        self._held_support: tuple[SupportShiftParams | None, SupportShiftParams | None] = (None, None)
+        self._terrain_hold = (
+            False  # the terrain asks the slow gait's liftoff hold (TerrainDecision.support_hold)
+        )
         self._clock_held_now = False  # the gait clock was held at this tick (SupportShiftParams.hold_clock)
         self._via_gait: str | None = None  # the gait walked for one cycle on the way to _then_gait
         self._trot_since: float | None = None
@@ -373,6 +377,7 @@ class WalkController:
                 self._gait_since = s.t
             self.height = decision.body_height_m
             self.pitch = decision.body_pitch_rad
+            self._terrain_hold = decision.support_hold
             self.handler.ground = decision.swing_ground
             cmd = decision.command
         elif self.goal is not None:
@@ -545,7 +550,12 @@ class WalkController:
         if gait.is_stand or gait.duty < sp.min_duty:
             h.support_hold = None
             return
-        h.support_hold = sp
+        if sp.hold or not self._terrain_hold:
+            h.support_hold = sp
+        else:
+            if self._held_support[0] is not sp:  # made once per parameter set, not every tick
+                self._held_support = (sp, replace(sp, hold=True))
+            h.support_hold = self._held_support[1]
         if not sp.shift:
             return
         stance = h.stance

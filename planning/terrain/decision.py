@@ -150,6 +150,11 @@ class DecisionParams:
     segmentation lost the cell for a moment: a re-segmentation, a cell seen anew) while the ground there is within
     this of the foothold's height keeps that foothold: the ground did not move, and a foot committed to a tread is
     not sent to the floor beside it;
+    hold_region_m2: the slow gait's liftoffs wait for static balance (TerrainDecision.support_hold, the controller's
+    SupportShiftParams.hold for the tick) while a foot in stance stands on a region smaller than this (stepping
+    stones: a stance foot near a stone's edge unloads and slides off when a liftoff leaves the centre of mass
+    outside the other three feet), and not on broad ground (the floor among boxes, where a held liftoff shortens
+    the swing over a box) (None: off);
     gap_dip_m: a run without a region counts as a gap (gap_ahead) unless it only goes from one height to
     another (its two ends differ by more than this and its ground stays within this of the range between them: a
     riser's edge band), or, at the line's end, its ground stays above this below its one end (None: every run
@@ -259,6 +264,7 @@ class DecisionParams:
     shin_edge_m: float = 0.03
     shin_rule: str = "line"
     shin_margin_m: float = 0.04
+    hold_region_m2: float | None = None
     shin_hold: bool = False
     shin_regions: int = 0
     shin_region_cost_m: float | None = None
@@ -386,8 +392,9 @@ class FootholdDecision:
 @dataclass(frozen=True, eq=False)
 class TerrainDecision:
     """What the controller applies this tick: the body command (body frame), the gait, the body height above the
-    mean contact height and the pitch target (positive nose down), the ground the swings clear, and the speed cap
-    it came from."""
+    mean contact height and the pitch target (positive nose down), the ground the swings clear, the speed cap it
+    came from, and whether the slow gait's liftoffs wait for static balance (support_hold: the controller's
+    SupportShiftParams.hold for this tick, see DecisionParams.hold_region_m2)."""
 
     command: SteeringCommand
     gait: str
@@ -395,6 +402,7 @@ class TerrainDecision:
     body_pitch_rad: float
     swing_ground: HeightGrid
     speed_cap_mps: float
+    support_hold: bool = False
 
 
 # ---- the decisions ---------------------------------------------------------------------------------------------
@@ -434,7 +442,24 @@ def decide(
     height = min(height, crouch_height(view, world.maps, p, world.overhangs), reach_height(view, pitch, p))
     if p.touchdown_reach_frac is not None and last is not None:
         height = min(height, touchdown_reach_height(view, last.memory.p_chosen, pitch, p))
-    return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap)
+    hold = p.hold_region_m2 is not None and on_small_regions(view, world, p.hold_region_m2)
+    return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap, hold)
+
+
+def on_small_regions(view: TerrainView, world: TerrainWorld, area_m2: float) -> bool:
+    """Whether a foot in stance stands on a steppable region smaller than area_m2 (a stepping stone, not the floor
+    or a tread; a cell of no region counts nothing)."""
+    regions = world.regions
+    res = regions.resolution_m
+    nx, ny = regions.labels.shape
+    for leg in np.flatnonzero(view.stance).tolist():
+        ix = int(round((float(view.p_world_foot[leg, 0]) - regions.origin_xy[0]) / res))
+        iy = int(round((float(view.p_world_foot[leg, 1]) - regions.origin_xy[1]) / res))
+        if 0 <= ix < nx and 0 <= iy < ny:
+            label = int(regions.labels[ix, iy])
+            if label > 0 and float(regions.area_m2[label]) < area_m2:
+                return True
+    return False
 
 
 def stride_m(view: TerrainView, gait: str, p: DecisionParams) -> float:
