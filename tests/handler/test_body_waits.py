@@ -89,3 +89,27 @@ def test_a_hold_for_the_centre_of_mass_only_lets_the_body_go_on_unless_asked() -
         before = _ticks(ctl, s, 5, held=False)
         held = _ticks(ctl, s, 10, held=True, for_load=False)
         assert np.allclose(held[-1][0], before[-1][0]) == stands
+
+
+def test_the_terrain_asks_the_crawls_liftoff_hold_for_the_tick() -> None:
+    """TerrainDecision.support_hold (DecisionParams.hold_region_m2): with the controller's own hold off, the crawl's
+    liftoffs get the hold while the terrain asks it and lose it when it does not; the walk gait never."""
+    ctl = WalkController(load_robot("spot"), WalkParams(), gait="crawl")
+    ctl.planner.clock = GaitClock("crawl")
+    s = _state()
+    p = np.zeros(3)
+    ctl._support_shift(s, p)
+    assert ctl.handler.support_hold is not None and not ctl.handler.support_hold.hold
+    ctl._terrain_hold = True
+    ctl._support_shift(s, p)
+    first = ctl.handler.support_hold
+    assert first is not None and first.hold and not ctl.params.support.hold
+    ctl._support_shift(s, p)
+    assert ctl.handler.support_hold is first  # made once, not every tick
+    ctl._terrain_hold = False
+    ctl._support_shift(s, p)
+    assert ctl.handler.support_hold is not None and not ctl.handler.support_hold.hold
+    ctl.planner.clock = GaitClock("walk")
+    ctl._terrain_hold = True
+    ctl._support_shift(s, p)
+    assert ctl.handler.support_hold is None

@@ -22,6 +22,7 @@ from planning.terrain.decision import (
     cadence,
     gap_ahead,
     is_flight,
+    on_small_regions,
     step_rise,
     swing_ground,
 )
@@ -187,3 +188,22 @@ def test_only_a_flight_makes_a_step_between_two_heights_no_gap() -> None:
     one = np.where(np.arange(60) * RES > 0.8, 0.18, 0.0)
     assert not is_flight(one, 0.05, 2) and is_flight(one, 0.05, 1)
     assert not is_flight(np.concatenate([down[::-1], down]), 0.05, 2)
+
+
+def test_the_liftoff_hold_is_asked_on_a_stone_not_on_the_floor() -> None:
+    """on_small_regions (DecisionParams.hold_region_m2): a stance foot on a 0.3 m square stone (0.09 m²) asks the
+    slow gait's liftoff hold at 0.3 m²; the same feet all on the floor around it do not, nor the foot over the stone
+    in the air, nor a threshold below the stone's area."""
+    X = np.broadcast_to((-0.6 + np.arange(110) * RES)[:, None], (110, 60))
+    Y = np.broadcast_to((-0.9 + np.arange(60) * RES)[None, :], (110, 60))
+    stone = (X > 0.3) & (X < 0.6) & (np.abs(Y) < 0.15)
+    world = _world(np.asarray(np.where(stone, 0.2, 0.0), dtype=np.float64))
+    floor_feet = np.array([[0.9, 0.4, 0.02], [0.9, -0.4, 0.02], [-0.3, 0.4, 0.02], [-0.3, -0.4, 0.02]])
+    on_stone = floor_feet.copy()
+    on_stone[0] = [0.45, 0.0, 0.22]
+    view = _going_view(on_stone)
+    assert on_small_regions(view, world, 0.3)
+    assert not on_small_regions(view, world, 0.05)
+    assert not on_small_regions(_going_view(floor_feet), world, 0.3)
+    flying = dataclasses.replace(view, stance=np.array([False, True, True, True]))
+    assert not on_small_regions(flying, world, 0.3)
