@@ -52,7 +52,7 @@ from planning.terrain.regions import (
     segment_regions,
 )
 from planning.terrain.scenes import TerrainScene
-from planning.terrain.steering import StopParams, stop_short
+from planning.terrain.steering import BarrierParams, StopParams, barrier_command, stop_short
 from planning.terrain.stepqp import StepPlan, StepQP, StepQPParams, StepRequest
 
 
@@ -1926,7 +1926,9 @@ class PipelineParams:
     terrain (see TerrainSwing); maps: what the pipeline changes in perception.maps (MapParams fields, the same on
     every terrain, see _regions_maps); replan_height_from_plan_m: HandlerParams.replan_height_from_plan_m while walking
     on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m); stop: a steered
-    walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint);
+    walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint); barrier: a
+    walk to a goal keeps its footprint with the legs (robot_footprint's circles, no margin) off body obstacles by
+    its command (planning.terrain.steering.barrier_command; off by default);
     footprint_from_robot, footprint_circles, footprint_margin_m: the body path's footprint is footprint_circles
     circles along the body covering the robot's planform with its legs, grown by footprint_margin_m (m), in place
     of path's footprint_x_m and footprint_r_m (robot_footprint); swing_rate_hz: see below. Footprint off: on the
@@ -1946,6 +1948,7 @@ class PipelineParams:
     swing: TerrainSwing = field(default_factory=lambda: TerrainSwing())
     replan_height_from_plan_m: float = 0.03
     stop: StopParams = field(default_factory=StopParams)
+    barrier: BarrierParams = field(default_factory=BarrierParams)
     footprint_from_robot: bool = False
     footprint_circles: int = 8
     footprint_margin_m: float = 0.0
@@ -2110,6 +2113,7 @@ class PipelineStats:
     regions_ms: list[float] = field(default_factory=list)
     footholds_ms: list[float] = field(default_factory=list)
     gait_switches: int = 0
+    barrier_ticks: int = 0
     min_height_m: float = np.inf
 
     def summary(self) -> dict[str, Any]:
@@ -2128,6 +2132,7 @@ class PipelineStats:
             "footholds_ms_p50": _p(self.footholds_ms, 50),
             "footholds_ms_p99": _p(self.footholds_ms, 99),
             "gait_switches": self.gait_switches,
+            "barrier_ticks": self.barrier_ticks,
             "min_body_height_target_m": None
             if not np.isfinite(self.min_height_m)
             else round(self.min_height_m, 3),
@@ -2170,6 +2175,9 @@ class TerrainPipeline:
         self.perception = Perception(model, body, perception) if p.use_sensor else None
         self.qp = StepQP(p.step_qp)
         self.path_params = robot_footprint(robot, p, p.path)
+        self.barrier_footprint = robot_footprint(
+            robot, dataclasses.replace(p, footprint_from_robot=True, footprint_margin_m=0.0), p.path
+        )
         self.overhangs = OverhangMemory()
         self.world: TerrainWorld | None = None
         self.path: BodyPath | None = None
@@ -2248,6 +2256,12 @@ class TerrainPipeline:
         if view.goal is None:
             xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
             d = dataclasses.replace(d, command=stop_short(maps, xy, view.yaw, d.command, p.path, p.stop))
+        elif self.params.barrier.margin_m is not None:
+            xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
+            kept = barrier_command(maps, xy, view.yaw, d.command, self.barrier_footprint, p.barrier)
+            if kept is not d.command:
+                self.stats.barrier_ticks += 1
+                d = dataclasses.replace(d, command=kept)
         if d.gait != view.gait:
             self.stats.gait_switches += 1
         self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)

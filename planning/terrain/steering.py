@@ -4,10 +4,17 @@ A walk to a goal follows a body path planned around the body obstacles; a steere
 pipeline scales the operator's command down where the body's footprint, swept over the next horizon_s at that
 velocity, would come closer than margin_m to a body obstacle (a wall, a table leg, a tall box) than it is now.
 A pure function of the maps, the body pose and the command; the pipeline applies it to its steered decision.
+
+A walk to a goal may also keep a barrier (BarrierParams, barrier_command): the least change of the path's command
+with which no circle of the body's footprint (the trunk and the legs) approaches a body obstacle faster than a rate
+times its clearance beyond a margin, a control-barrier rule on (vx, vy, yaw rate) solved exactly (at most four
+rules, three unknowns).
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,3 +75,103 @@ def stop_short(
         if swept_clearance(maps, xy, yaw, scaled, footprint, p) >= need - 1e-3:
             return scaled
     return SteeringCommand(0.0, 0.0, cmd.yaw_rate)
+
+
+@dataclass(frozen=True)
+class BarrierParams:
+    """A walk to a goal keeps its body off body obstacles by its command, whatever its path (a path may graze a tall
+    box: the body path's search keeps the footprint clear with no margin, and the body lags its path's yaw).
+
+    margin_m: the clearance (m) each circle of the barrier's footprint keeps from body obstacles; None: off (the
+    command as the path asks); rate_hz: a circle may approach an obstacle at rate_hz × its clearance beyond the
+    margin (m/s), and not at all within it (it may slide along it or move away); yaw_weight_m2: what a rad/s of yaw
+    rate changed costs against a m/s of velocity in the least change of the command that keeps every circle's rule;
+    near_m: circles farther than this beyond the margin are left out (no rule can bind at the walk's speeds);
+    max_rules: at most this many of the nearest circles' rules are kept."""
+
+    margin_m: float | None = None
+    rate_hz: float = 2.0
+    yaw_weight_m2: float = 0.1
+    near_m: float = 0.4
+    max_rules: int = 4
+
+
+def barrier_rules(
+    maps: TerrainMaps,
+    xy: NDArray[np.float64],
+    yaw: float,
+    footprint: BodyPathParams,
+    p: BarrierParams,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Gives the barrier's rules on the body-frame command u = (vx, vy, yaw rate) as G u >= h (rows (k, 3), (k,)):
+    each footprint circle within near_m beyond the margin approaches the body obstacles (along the body SDF's
+    gradient at its centre) at most rate_hz × its clearance beyond margin_m, and not at all inside it."""
+    assert p.margin_m is not None
+    off = np.asarray(footprint.footprint_x_m, dtype=np.float64)
+    c, s = math.cos(yaw), math.sin(yaw)
+    cx = float(xy[0]) + c * off
+    cy = float(xy[1]) + s * off
+    on = np.asarray(maps.in_map(cx, cy), dtype=bool)
+    d = np.where(on, np.asarray(maps.sdf_body(cx, cy), dtype=np.float64), np.inf) - footprint.footprint_r_m
+    excess = d - p.margin_m
+    near = np.flatnonzero(excess < p.near_m)
+    if near.size == 0:
+        return np.zeros((0, 3)), np.zeros(0)
+    near = near[np.argsort(excess[near], kind="stable")[: p.max_rules]]
+    g = np.asarray(maps.sdf_body_grad(cx[near], cy[near]), dtype=np.float64).reshape(-1, 2)
+    norm = np.linalg.norm(g, axis=1)
+    keep = norm > 1e-6
+    near, g = near[keep], g[keep] / norm[keep, None]
+    # The circle's world velocity: R(yaw) (vx, vy) + yaw rate × off (−sin, cos); its approach rate along g.
+    gb = np.stack([c * g[:, 0] + s * g[:, 1], -s * g[:, 0] + c * g[:, 1]], axis=1)
+    G = np.column_stack([gb, off[near] * (-s * g[:, 0] + c * g[:, 1])])
+    h = -p.rate_hz * np.maximum(excess[near], 0.0)
+    return G, h
+
+
+def barrier_command(
+    maps: TerrainMaps | None,
+    xy: NDArray[np.float64],
+    yaw: float,
+    cmd: SteeringCommand,
+    footprint: BodyPathParams,
+    p: BarrierParams,
+) -> SteeringCommand:
+    """Gives the command nearest (velocity and weighted yaw rate) to cmd that keeps the barrier's rules
+    (barrier_rules); unchanged with the barrier off, without maps, or where no rule binds. The command standing
+    still always keeps them, and the change never makes the command faster in that weighted norm."""
+    if maps is None or p.margin_m is None:
+        return cmd
+    G, h = barrier_rules(maps, xy, yaw, footprint, p)
+    u0 = np.array([cmd.vx, cmd.vy, cmd.yaw_rate], dtype=np.float64)
+    if G.shape[0] == 0 or bool(np.all(G @ u0 >= h - 1e-12)):
+        return cmd
+    u = _nearest_kept(u0, G, h, np.array([1.0, 1.0, p.yaw_weight_m2]))
+    return SteeringCommand(float(u[0]), float(u[1]), float(u[2]))
+
+
+def _nearest_kept(
+    u0: NDArray[np.float64], G: NDArray[np.float64], h: NDArray[np.float64], w: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Gives argmin (u − u0)ᵀ W (u − u0) subject to G u >= h (W = diag(w)): every set of at most three rules taken
+    as active (equalities), the best point that keeps all of them; zero if none does (zero keeps rules with h <= 0)."""
+    k = G.shape[0]
+    Winv = 1.0 / w
+    best, best_cost = np.zeros(3), float(np.sum(w * u0 * u0))
+    for size in (1, 2, 3):
+        for act in itertools.combinations(range(k), size):
+            A = G[list(act)]
+            r = h[list(act)] - A @ u0
+            M = (A * Winv) @ A.T
+            try:
+                lam = np.linalg.solve(M, r)
+            except np.linalg.LinAlgError:
+                continue
+            if np.any(lam < -1e-12):
+                continue
+            u = u0 + Winv * (A.T @ lam)
+            if np.all(G @ u >= h - 1e-9):
+                cost = float(np.sum(w * (u - u0) ** 2))
+                if cost < best_cost:
+                    best, best_cost = u, cost
+    return best

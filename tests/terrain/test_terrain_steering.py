@@ -7,7 +7,7 @@ import numpy as np
 from planning.steps import SteeringCommand
 from planning.terrain.bodypath import BodyPathParams
 from planning.terrain.maps import TerrainMaps, maps_from_grids
-from planning.terrain.steering import StopParams, stop_short
+from planning.terrain.steering import BarrierParams, StopParams, barrier_command, barrier_rules, stop_short
 
 RES = 0.03
 
@@ -43,3 +43,39 @@ def test_steering_slows_and_stops_short_of_a_body_obstacle() -> None:
         stop_short(None, np.zeros(2), 0.0, SteeringCommand(0.5, 0.0, 0.0), BodyPathParams(), StopParams()).vx
         == 0.5
     )
+
+
+def _barrier(x_wall: float, cmd: SteeringCommand, yaw: float = 0.0, **kw: float) -> SteeringCommand:
+    p = BarrierParams(**{"margin_m": 0.05, **kw})  # type: ignore[arg-type]
+    return barrier_command(_wall_maps(x_wall), np.zeros(2), yaw, cmd, BodyPathParams(), p)
+
+
+def test_the_barrier_keeps_the_body_off_a_body_obstacle_by_the_least_change_of_its_command() -> None:
+    """A walk to a goal with the barrier on: far from a wall the command passes unchanged; near it the speed toward
+    it is at most rate × the clearance beyond the margin, and nil within the margin, while the speed along the wall
+    is kept (the body slides along, as it would along a path that grazes a tall box); backing away passes; a body
+    turned toward the wall is not let turn its nose into it; off, or without maps, the command is the path's."""
+    fwd = SteeringCommand(0.5, 0.0, 0.0)
+    assert _barrier(2.5, fwd) == fwd  # the front circle 2.03 m from the wall
+    # The front circle's centre at 0.3 m, radius 0.17: 0.83 - 0.47 = 0.36 m clear, 0.31 beyond the margin: it may
+    # close in at 0.62 m/s, more than asked.
+    assert _barrier(0.83, fwd) == fwd
+    nearer = _barrier(0.62, fwd)  # 0.15 m clear: 0.10 beyond the margin, 0.2 m/s
+    assert 0.12 < nearer.vx < 0.28 and abs(nearer.vy) < 1e-9
+    inside = _barrier(0.50, SteeringCommand(0.4, 0.3, 0.0))  # 0.03 m clear, within the margin
+    assert abs(inside.vx) < 1e-6 and np.isclose(inside.vy, 0.3)
+    back = SteeringCommand(-0.3, 0.0, 0.0)
+    assert _barrier(0.50, back) == back
+    # Turned 0.3 rad and asked to turn right, its nose (within the margin of a wall across x) toward the wall:
+    # the least change keeps the nose circle from closing in (here by backing off a little: a m/s costs more
+    # than a rad/s, but the nose moves 0.3 m per rad).
+    ask = SteeringCommand(0.0, 0.0, -0.8)
+    turned = _barrier(0.50, ask, yaw=0.3)
+    G, h = barrier_rules(_wall_maps(0.50), np.zeros(2), 0.3, BodyPathParams(), BarrierParams(margin_m=0.05))
+    u = np.array([turned.vx, turned.vy, turned.yaw_rate])
+    assert turned != ask and np.all(G @ u >= h - 1e-9)
+    c, s = np.cos(0.3), np.sin(0.3)
+    nose_vx = c * turned.vx - s * turned.vy - 0.3 * s * turned.yaw_rate
+    assert nose_vx <= 1e-9
+    assert _barrier(0.50, fwd, margin_m=None) == fwd  # type: ignore[arg-type]
+    assert barrier_command(None, np.zeros(2), 0.0, fwd, BodyPathParams(), BarrierParams(margin_m=0.05)) == fwd
