@@ -1928,7 +1928,7 @@ class PipelineParams:
     on the pipeline (a swing within this of its plan's height is replanned from the plan's height, m); stop: a steered
     walk (no goal) stops short of body obstacles (planning.terrain.steering, the body path's footprint); barrier: a
     walk to a goal keeps its footprint with the legs (robot_footprint's circles, no margin) off body obstacles by
-    its command (planning.terrain.steering.barrier_command; off by default);
+    its command (planning.terrain.steering.barrier_command; on by default, BarrierParams.margin_m);
     footprint_from_robot, footprint_circles, footprint_margin_m: the body path's footprint is footprint_circles
     circles along the body covering the robot's planform with its legs, grown by footprint_margin_m (m), in place
     of path's footprint_x_m and footprint_r_m (robot_footprint); swing_rate_hz: see below. Footprint off: on the
