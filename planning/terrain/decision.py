@@ -2253,11 +2253,10 @@ class TerrainPipeline:
         if self.world is None:
             return None
         d = decide(view, self.world, self.last, self.decision_params)
+        xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
         if view.goal is None:
-            xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
             d = dataclasses.replace(d, command=stop_short(maps, xy, view.yaw, d.command, p.path, p.stop))
-        elif self.params.barrier.margin_m is not None:
-            xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
+        elif p.barrier.margin_m is not None:
             kept = barrier_command(maps, xy, view.yaw, d.command, self.barrier_footprint, p.barrier)
             if kept is not d.command:
                 self.stats.barrier_ticks += 1

@@ -84,8 +84,9 @@ class BarrierParams:
 
     margin_m: the clearance (m) each circle of the barrier's footprint keeps from body obstacles; None: off (the
     command as the path asks; on, the clutter family crossed 26 of 50 clean against 19 off, its trunk falls 5 to 0,
-    and the stairs 27 either way; 0.08 crossed clutter 24: docs/terrain-notes.md, session 15); rate_hz: a circle may approach an obstacle at rate_hz × its clearance beyond the
-    margin (m/s), and not at all within it (it may slide along it or move away); yaw_weight_m2: what a rad/s of yaw
+    and the stairs 27 either way; 0.08 crossed clutter 24: docs/terrain-notes.md, session 15); rate_hz: a circle
+    may approach an obstacle at rate_hz × its clearance beyond the margin (m/s), and not at all within it (it may
+    slide along it or move away); yaw_weight_m2: what a rad/s of yaw
     rate changed costs against a m/s of velocity in the least change of the command that keeps every circle's rule;
     near_m: circles farther than this beyond the margin are left out (no rule can bind at the walk's speeds);
     max_rules: at most this many of the nearest circles' rules are kept."""
