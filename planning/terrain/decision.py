@@ -67,7 +67,10 @@ class DecisionParams:
     previous region of a touchdown is kept unless another costs this much less; inside_margin_m: when every
     nominal foothold lies this deep inside its polygon the step QP is not solved (its region rows would be
     inactive); freeze_s: a touchdown closer than
-    this keeps its last foothold; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
+    this keeps its last foothold; late_jump_s, late_jump_m: a touchdown closer than late_jump_s keeps its last
+    foothold when the new answer lies more than late_jump_m from it (a step QP answer that flips a foot across
+    the body late in its swing, which the swing cannot follow) and still lies on the slot's polygon (None: off);
+    max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
     max to min as the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a
     move forward along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it
     steps down over, asks the body to keep up, not to lag behind it); pace_m: and as the next
@@ -223,6 +226,8 @@ class DecisionParams:
     keep_m: float = 0.05
     inside_margin_m: float = 0.02
     freeze_s: float = 0.04
+    late_jump_s: float | None = 0.2
+    late_jump_m: float = 0.1
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
     shift_slow_m: float = 0.15
@@ -381,7 +386,8 @@ class FootholdDecision:
     of each QP slot (None: free); plan: the step QP's answer (None: not solved); max_shift_m: the largest move of a
     next touchdown off its nominal; memory: what the next decision keeps; back_m: how far the next touchdowns
     were moved back against the heading off their nominal places, on average over the legs (moves forward count
-    0); t_liftoff (4,): each stance leg's planned liftoff (s; nan: in the air or none planned)."""
+    0); t_liftoff (4,): each stance leg's planned liftoff (s; nan: in the air or none planned); late_holds: next
+    touchdowns that kept their foothold against a late jump of the step QP's answer (DecisionParams.late_jump_s)."""
 
     p_world_touchdown: NDArray[np.float64]
     regions: tuple[ConvexRegion | None, ...]
@@ -390,6 +396,7 @@ class FootholdDecision:
     memory: FootholdMemory
     back_m: float = 0.0
     t_liftoff: NDArray[np.float64] | None = None
+    late_holds: int = 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -1879,11 +1886,22 @@ def choose_footholds(
     t_rel = (path.t_touchdown[order] - view.t_s).tolist()
     shift = 0.0
     back = 0.0
+    late_holds = 0
     ux, uy = math.cos(view.yaw), math.sin(view.yaw)
     for j, k in enumerate(order):
         leg = legs_l[j]
         held = j < 4 and held_l[leg]
-        if (t_rel[j] < p.freeze_s and held) or lost[j]:
+        late = held and p.late_jump_s is not None and t_rel[j] < p.late_jump_s
+        if late and j not in held_at and plan is not None:
+            dx, dy = (plan.footholds[j, :2] - memory.p_chosen[leg, :2]).tolist()
+            late = dx * dx + dy * dy > p.late_jump_m * p.late_jump_m
+            # (only while the kept foothold is still on this slot's polygon: a place the new maps reject moves)
+            q = polys[j]
+            late = late and q is not None and bool(q.contains(memory.p_chosen[leg, :2], 1e-3))
+        else:
+            late = False
+        late_holds += int(late and not (t_rel[j] < p.freeze_s or lost[j]))
+        if (t_rel[j] < p.freeze_s and held) or lost[j] or late:
             p_new[k] = memory.p_chosen[leg]
             if j < 4:
                 shin_ok[leg] = memory.shin_ok is not None and bool(memory.shin_ok[leg])
@@ -1912,6 +1930,7 @@ def choose_footholds(
         FootholdMemory(mem_t, mem_p, z_stance, mem_on, shin_ok),
         back,
         path.t_liftoff_now.copy(),
+        late_holds,
     )
 
 
@@ -2114,6 +2133,7 @@ class PipelineStats:
     footholds_ms: list[float] = field(default_factory=list)
     gait_switches: int = 0
     barrier_ticks: int = 0
+    late_holds: int = 0
     min_height_m: float = np.inf
 
     def summary(self) -> dict[str, Any]:
@@ -2133,6 +2153,7 @@ class PipelineStats:
             "footholds_ms_p99": _p(self.footholds_ms, 99),
             "gait_switches": self.gait_switches,
             "barrier_ticks": self.barrier_ticks,
+            "late_jump_holds": self.late_holds,
             "min_body_height_target_m": None
             if not np.isfinite(self.min_height_m)
             else round(self.min_height_m, 3),
@@ -2278,6 +2299,7 @@ class TerrainPipeline:
         )
         self.memory = d.memory
         self.last = d
+        self.stats.late_holds += d.late_holds
         if d.plan is not None or self.qp.last_bare_ms:
             self.stats.qp_solves += 1
         if d.plan is not None:

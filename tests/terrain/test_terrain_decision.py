@@ -1273,3 +1273,64 @@ def _flat_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     xs = -0.6 + np.arange(80) * RES
     ys = -0.9 + np.arange(60) * RES
     return xs, ys, np.zeros((80, 60))
+
+
+class _FlipQP:
+    """A step QP whose answer moves one leg's first slot sideways by dy (m): a late flip, as an answer with a hard
+    family softened or cut short at its iteration limit gives."""
+
+    def __init__(self, qp: StepQP, leg: int, dy: float) -> None:
+        self.qp, self.leg, self.dy = qp, leg, dy
+        self.K = qp.K
+
+    def solve(self, req, maps, rows):  # type: ignore[no-untyped-def]
+        plan = self.qp.solve(req, maps, rows)
+        feet = plan.footholds.copy()
+        feet[int(np.flatnonzero(plan.legs == self.leg)[0]), 1] += self.dy
+        return dataclasses.replace(plan, footholds=feet)
+
+
+def test_a_late_jump_of_the_step_qps_answer_keeps_the_foothold_chosen_before() -> None:
+    """The pit world (x 0.6-1.6; FR's nominal mid-pit, so the step QP is solved): a step QP answer that moves a
+    touchdown due within late_jump_s by more than late_jump_m keeps the foothold chosen before (the swing could not
+    follow it); a small move, a touchdown due later and one whose kept foothold lies on no polygon take the new
+    answer, and so does every touchdown with the rule off."""
+    xs = -0.6 + np.arange(110) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (110, 60))
+    world = _world(xs, ys, np.asarray(np.where((X < 0.6) | (X > 1.6), 0.0, -0.3), dtype=np.float64))
+    feet_x = np.array([0.45, 0.45, -0.15, -0.15])
+    view = dataclass_replace(_view(np.zeros(4), feet_x), stance=np.array([False, True, True, True]))
+    path = _trot_path(feet_x, np.array([0.5, 1.1, -0.1, -0.1]))
+    qp = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
+    assert P.late_jump_s is not None and P.late_jump_s > 0.1  # FL's touchdown, 0.1 s ahead, is a late one
+
+    def memory(leg: int, xy: tuple[float, float]) -> FootholdMemory:
+        k = int(np.flatnonzero(path.leg == leg)[0])
+        chosen = np.full((4, 3), np.nan)
+        chosen[leg] = [xy[0], xy[1], 0.0]
+        t_mem = np.full(4, np.nan)
+        t_mem[leg] = float(path.t_touchdown[k])
+        return FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool))
+
+    k_fl = int(np.flatnonzero(path.leg == 0)[0])
+    fresh = choose_footholds(view, path, world, memory(0, (0.5, 0.15)), qp, P)
+    assert fresh.plan is not None and abs(fresh.p_world_touchdown[k_fl, 1] - 0.15) < 0.02
+    # FL (due in 0.1 s) flipped 0.4 m across: held where it was chosen, and counted
+    flip = _FlipQP(qp, 0, -0.4)
+    held = choose_footholds(view, path, world, memory(0, (0.5, 0.15)), flip, P)
+    np.testing.assert_allclose(held.p_world_touchdown[k_fl, :2], [0.5, 0.15], atol=1e-9)
+    assert held.late_holds == 1
+    # the rule off: the flipped answer is taken
+    off = choose_footholds(view, path, world, memory(0, (0.5, 0.15)), flip, dataclasses.replace(P, late_jump_s=None))
+    assert off.p_world_touchdown[k_fl, 1] < -0.2 and off.late_holds == 0
+    # a small move (below late_jump_m) is taken
+    small = choose_footholds(view, path, world, memory(0, (0.5, 0.15)), _FlipQP(qp, 0, -0.05), P)
+    assert small.p_world_touchdown[k_fl, 1] < 0.12 and small.late_holds == 0
+    # a kept foothold on no polygon (on the platform's edge, inside no inset): the new answer is taken
+    moved = choose_footholds(view, path, world, memory(0, (0.6, 0.15)), flip, P)
+    assert moved.p_world_touchdown[k_fl, 1] < -0.2 and moved.late_holds == 0
+    # RL's touchdown is 0.3 s ahead, beyond late_jump_s: its flip is taken
+    k_rl = int(np.flatnonzero(path.leg == 2)[0])
+    later = choose_footholds(view, path, world, memory(2, (-0.1, 0.15)), _FlipQP(qp, 2, -0.4), P)
+    assert later.p_world_touchdown[k_rl, 1] < -0.2 and later.late_holds == 0
