@@ -66,12 +66,12 @@ class DecisionParams:
     max_rise_m: a region higher or lower than the leg's last foothold by more than this is out of reach; keep_m: the
     previous region of a touchdown is kept unless another costs this much less; inside_margin_m: when every
     nominal foothold lies this deep inside its polygon the step QP is not solved (its region rows would be
-    inactive); freeze_s: a touchdown closer than
-    this keeps its last foothold; late_jump_s, late_jump_m: a touchdown closer than late_jump_s keeps its last
-    foothold when the new answer lies more than late_jump_m from it (a step QP answer that flips a foot across
-    the body late in its swing, which the swing cannot follow) and still lies on the slot's polygon (None: off);
-    max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from
-    max to min as the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a
+    inactive); freeze_s: a touchdown closer than this keeps its last foothold; late_jump_s, late_jump_m: a
+    touchdown closer than late_jump_s keeps its last foothold when the step QP's new answer lies more than
+    late_jump_m from it and the kept one still lies on the slot's polygon (an answer with the reach box softened,
+    or cut at OSQP's iteration limit, flipped a foot 0.3 m across the body 0.04 s before its touchdown, and back
+    the next tick; the swing follows such a flip; None: off); max_speed_mps, min_speed_mps: the speed range;
+    shift_slow_m: the speed falls from max to min as the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a
     move forward along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it
     steps down over, asks the body to keep up, not to lag behind it); pace_m: and as the next
     touchdowns are moved back against the heading off their nominal places by this on average (the body is

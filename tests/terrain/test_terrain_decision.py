@@ -1322,7 +1322,9 @@ def test_a_late_jump_of_the_step_qps_answer_keeps_the_foothold_chosen_before() -
     np.testing.assert_allclose(held.p_world_touchdown[k_fl, :2], [0.5, 0.15], atol=1e-9)
     assert held.late_holds == 1
     # the rule off: the flipped answer is taken
-    off = choose_footholds(view, path, world, memory(0, (0.5, 0.15)), flip, dataclasses.replace(P, late_jump_s=None))
+    off = choose_footholds(
+        view, path, world, memory(0, (0.5, 0.15)), flip, dataclasses.replace(P, late_jump_s=None)
+    )
     assert off.p_world_touchdown[k_fl, 1] < -0.2 and off.late_holds == 0
     # a small move (below late_jump_m) is taken
     small = choose_footholds(view, path, world, memory(0, (0.5, 0.15)), _FlipQP(qp, 0, -0.05), P)
