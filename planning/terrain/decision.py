@@ -73,8 +73,8 @@ class DecisionParams:
     the body 0.04 s before its touchdown, and back the next tick; the swing follows such a flip; None: off);
     max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as the largest
     move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward along the
-    heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down over, asks the body to keep up, not to lag behind it); pace_m: and as the next
-    touchdowns are moved back against the heading off their nominal places by this on average (the body is
+    heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down over, asks
+    the body to keep up, not to lag behind it); pace_m: and as the next touchdowns are moved back against the heading off their nominal places by this on average (the body is
     paced by its footholds: a stance pair held back by its regions is not overrun by the body, which would leave
     the body off the line between them and roll it over); hump_above_start: the swing time the gait must give
     (cadence) counts only ground that rises above the foot's own height as well as above its straight path (a
