@@ -67,10 +67,11 @@ class DecisionParams:
     previous region of a touchdown is kept unless another costs this much less; inside_margin_m: when every
     nominal foothold lies this deep inside its polygon the step QP is not solved (its region rows would be
     inactive); freeze_s: a touchdown closer than this keeps its last foothold; late_jump_s, late_jump_m: a
-    touchdown closer than late_jump_s keeps its last foothold when the step QP's new answer lies more than
-    late_jump_m from it, farther from the nominal than the kept one, and the kept one still lies on the slot's
-    polygon (an answer with the reach box softened, or cut at OSQP's iteration limit, flipped a foot 0.3 m across
-    the body 0.04 s before its touchdown, and back the next tick; the swing follows such a flip; None: off);
+    touchdown closer than late_jump_s keeps its last foothold when the step QP's new answer is not sound (a hard
+    family softened, or not solved to tolerance), lies more than late_jump_m from it, and the kept one still lies
+    on the slot's polygon (an answer with the reach box softened, or cut at OSQP's iteration limit, flipped a
+    foot 0.3 m across the body 0.04 s before its touchdown, and back the next tick; the swing follows such a flip;
+    None: off);
     max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as the largest
     move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward along the
     heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down over, asks
@@ -1887,20 +1888,17 @@ def choose_footholds(
     shift = 0.0
     back = 0.0
     late_holds = 0
+    # an answer with a hard family softened, or one OSQP did not solve to its tolerance, is no sound plan
+    plan_sound = plan is not None and not plan.hard_softened and plan.status == "solved"
     ux, uy = math.cos(view.yaw), math.sin(view.yaw)
     for j, k in enumerate(order):
         leg = legs_l[j]
         held = j < 4 and held_l[leg]
         late = held and p.late_jump_s is not None and t_rel[j] < p.late_jump_s
-        if late and j not in held_at and plan is not None:
+        if late and j not in held_at and plan is not None and not plan_sound:
             dx, dy = (plan.footholds[j, :2] - memory.p_chosen[leg, :2]).tolist()
             late = dx * dx + dy * dy > p.late_jump_m * p.late_jump_m
-            # (only away from the nominal: a move back toward it is taken, so a kept outlier does not stick; and
-            # only while the kept foothold is still on this slot's polygon: a place the new maps reject moves)
-            nx, ny = path.p_world_touchdown[k, :2].tolist()
-            kx, ky = memory.p_chosen[leg, :2].tolist()
-            fx, fy = plan.footholds[j, :2].tolist()
-            late = late and (fx - nx) ** 2 + (fy - ny) ** 2 > (kx - nx) ** 2 + (ky - ny) ** 2
+            # (only while the kept foothold is still on this slot's polygon: a place the new maps reject moves)
             q = polys[j]
             late = late and q is not None and bool(q.contains(memory.p_chosen[leg, :2], 1e-3))
         else:

@@ -1277,24 +1277,25 @@ def _flat_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 class _FlipQP:
     """A step QP whose answer moves one leg's first slot sideways by dy (m): a late flip, as an answer with a hard
-    family softened or cut short at its iteration limit gives."""
+    family softened gives (sound: the answer reports itself solved with nothing softened)."""
 
-    def __init__(self, qp: StepQP, leg: int, dy: float) -> None:
-        self.qp, self.leg, self.dy = qp, leg, dy
+    def __init__(self, qp: StepQP, leg: int, dy: float, sound: bool = False) -> None:
+        self.qp, self.leg, self.dy, self.sound = qp, leg, dy, sound
         self.K = qp.K
 
     def solve(self, req, maps, rows):  # type: ignore[no-untyped-def]
         plan = self.qp.solve(req, maps, rows)
         feet = plan.footholds.copy()
         feet[int(np.flatnonzero(plan.legs == self.leg)[0]), 1] += self.dy
-        return dataclasses.replace(plan, footholds=feet)
+        soft = () if self.sound else ("reach_rect",)
+        return dataclasses.replace(plan, footholds=feet, hard_softened=soft, softened=soft)
 
 
 def test_a_late_jump_of_the_step_qps_answer_keeps_the_foothold_chosen_before() -> None:
-    """The pit world (x 0.6-1.6; FR's nominal mid-pit, so the step QP is solved): a step QP answer that moves a
-    touchdown due within late_jump_s by more than late_jump_m keeps the foothold chosen before (the swing could not
-    follow it); a move back toward the nominal, a small move, a touchdown due later and one whose kept foothold
-    lies on no polygon take the new answer, and so does every touchdown with the rule off."""
+    """The pit world (x 0.6-1.6; FR's nominal mid-pit, so the step QP is solved): an unsound step QP answer (a hard
+    family softened) that moves a touchdown due within late_jump_s by more than late_jump_m keeps the foothold
+    chosen before (the swing could not follow it); a sound answer, a small move, a touchdown due later and one
+    whose kept foothold lies on no polygon take the new answer, and so does every touchdown with the rule off."""
     xs = -0.6 + np.arange(110) * RES
     ys = -0.9 + np.arange(60) * RES
     X = np.broadcast_to(xs[:, None], (110, 60))
@@ -1326,9 +1327,9 @@ def test_a_late_jump_of_the_step_qps_answer_keeps_the_foothold_chosen_before() -
         view, path, world, memory(0, (0.5, 0.15)), flip, dataclasses.replace(P, late_jump_s=None)
     )
     assert off.p_world_touchdown[k_fl, 1] < -0.2 and off.late_holds == 0
-    # a kept outlier (FL chosen 0.4 m across, off its nominal): the answer back toward the nominal is taken
-    back = choose_footholds(view, path, world, memory(0, (0.5, -0.25)), qp, P)
-    assert abs(back.p_world_touchdown[k_fl, 1] - 0.15) < 0.02 and back.late_holds == 0
+    # a sound answer is taken however far it moves (a region switch late in a swing)
+    sound = choose_footholds(view, path, world, memory(0, (0.5, 0.15)), _FlipQP(qp, 0, -0.4, sound=True), P)
+    assert sound.p_world_touchdown[k_fl, 1] < -0.2 and sound.late_holds == 0
     # a small move (below late_jump_m) is taken
     small = choose_footholds(view, path, world, memory(0, (0.5, 0.15)), _FlipQP(qp, 0, -0.05), P)
     assert small.p_world_touchdown[k_fl, 1] < 0.12 and small.late_holds == 0
