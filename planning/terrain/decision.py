@@ -71,12 +71,11 @@ class DecisionParams:
     family softened, or not solved to tolerance), lies more than late_jump_m from it, and the kept one still lies
     on the slot's polygon (an answer with the reach box softened, or cut at OSQP's iteration limit, flipped a
     foot 0.3 m across the body 0.04 s before its touchdown, and back the next tick; the swing follows such a flip;
-    None: off);
-    max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as the largest
-    move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward along the
-    heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down over, asks
-    the body to keep up, not to lag behind it); pace_m: and as the next touchdowns are moved back against the heading off their nominal places by this on average (the body is
-    paced by its footholds: a stance pair held back by its regions is not overrun by the body, which would leave
+    None: off); max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
+    the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward
+    along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down
+    over, asks the body to keep up, not to lag behind it); pace_m: and as the next touchdowns are moved back
+    against the heading off their nominal places by this on average (the body is paced by its footholds: a stance pair held back by its regions is not overrun by the body, which would leave
     the body off the line between them and roll it over); hump_above_start: the swing time the gait must give
     (cadence) counts only ground that rises above the foot's own height as well as above its straight path (a
     foot stepping down past an edge at its own height needs no rise, and keeps the walk's short swings);
@@ -1894,15 +1893,16 @@ def choose_footholds(
     for j, k in enumerate(order):
         leg = legs_l[j]
         held = j < 4 and held_l[leg]
-        late = held and p.late_jump_s is not None and t_rel[j] < p.late_jump_s
-        if late and j not in held_at and plan is not None and not plan_sound:
+        # an unsound answer due soon (see DecisionParams.late_jump_s)
+        late = held and not plan_sound and plan is not None and j not in held_at
+        late = late and p.late_jump_s is not None and t_rel[j] < p.late_jump_s
+        if late:
+            assert plan is not None
             dx, dy = (plan.footholds[j, :2] - memory.p_chosen[leg, :2]).tolist()
-            late = dx * dx + dy * dy > p.late_jump_m * p.late_jump_m
-            # (only while the kept foothold is still on this slot's polygon: a place the new maps reject moves)
+            # (held only while the kept foothold is still on this slot's polygon: a place the new maps reject moves)
             q = polys[j]
-            late = late and q is not None and bool(q.contains(memory.p_chosen[leg, :2], 1e-3))
-        else:
-            late = False
+            far = dx * dx + dy * dy > p.late_jump_m * p.late_jump_m
+            late = far and q is not None and bool(q.contains(memory.p_chosen[leg, :2], 1e-3))
         late_holds += int(late and not (t_rel[j] < p.freeze_s or lost[j]))
         if (t_rel[j] < p.freeze_s and held) or lost[j] or late:
             p_new[k] = memory.p_chosen[leg]
