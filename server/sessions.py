@@ -210,6 +210,29 @@ class LiveSession:
         self.plot: deque[PlotSample] = deque(maxlen=PLOT_SAMPLES)
         self.plot_n = 0  # plot samples taken in all
         self._seq = 0
+        self._snap_cond = threading.Condition(threading.Lock())  # notified at each new snapshot
+        self.poses = 0  # snapshots published with the bodies moved (what a viewer can draw), in all
+
+    @property
+    def snapshot(self) -> Snapshot:
+        """The latest published state (immutable; replaced whole at each publish)."""
+        return self._snapshot
+
+    @snapshot.setter
+    def snapshot(self, snap: Snapshot) -> None:
+        with self._snap_cond:
+            old = self.__dict__.get("_snapshot")
+            if old is None or old.xpos.shape != snap.xpos.shape or not np.array_equal(old.xpos, snap.xpos):
+                self.poses += 1  # a snapshot with the bodies somewhere new (not a status-only update)
+            self._snapshot = snap
+            self._snap_cond.notify_all()
+
+    def wait_snapshot(self, seq: int, timeout_s: float) -> None:
+        """Returns once the snapshot's seq differs from `seq`, or after timeout_s (a reader's pacing: it wakes at
+        each publish instead of polling)."""
+        with self._snap_cond:
+            if self._snapshot.seq == seq:
+                self._snap_cond.wait(timeout_s)
 
     # ---- lifecycle ----------------------------------------------------------------------------------------------
     def start(self) -> None:

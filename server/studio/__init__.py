@@ -65,6 +65,8 @@ class Studio:
             "port": self.port,
             "clients": len(clients),
             "fps": {str(cid): round(c.fps, 1) for cid, c in clients},
+            # the snapshots each tab's session published a second: fps / published is the share the tab passed on
+            "published_fps": {str(cid): round(c.published_fps, 1) for cid, c in clients},
             "sessions": {str(cid): (c.session.id if c.session is not None else None) for cid, c in clients},
             # what each tab shows: its camera (m, world frame) and its steering sliders (m/s, m/s, rad/s)
             "cameras": {str(cid): c.camera_info() for cid, c in clients},

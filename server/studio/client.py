@@ -32,7 +32,10 @@ FRAME_HZ = 75.0  # at most this many robot pose updates per second to the browse
 # sent: a robot standing still costs the browser no redraws (its GPU is often a software one).
 STILL_M = 2e-4
 FPS_WINDOW_S = 2.0  # the frame rate shown (and in GET /studio) counts the poses sent over this many seconds
-POLL_S = 0.004  # the render loop looks for a new snapshot this often: a pose goes out within 4 ms of its publishing
+# The render loop wakes at each snapshot its session publishes (a pose goes out as soon as the loop runs), and at
+# least every IDLE_WAIT_S for the overlays, plots and status line (or every POLL_S without a session).
+IDLE_WAIT_S = 0.02
+POLL_S = 0.004
 OVERLAY_HZ = 10.0
 PLOT_HZ = 4.0
 STATUS_HZ = 4.0
@@ -63,6 +66,7 @@ class StudioClient:
         self.token = ""
         self._stop = threading.Event()
         self._frames: deque[float] = deque(maxlen=200)
+        self._seen: deque[tuple[float, int]] = deque(maxlen=1000)  # (time, session's pose count) the loop saw
         self._sent_pose: tuple[np.ndarray, np.ndarray] | None = None  # the robot's pose the browser last got
         self._last_note = 0.0
         self.steer_cmd = {"vx": 0.0, "vy": 0.0, "yaw_rate": 0.0}
@@ -106,6 +110,16 @@ class StudioClient:
         now = time.perf_counter()
         f = [t for t in list(self._frames) if now - t <= FPS_WINDOW_S]
         return len(f) / FPS_WINDOW_S
+
+    @property
+    def published_fps(self) -> float:
+        """Poses the tab's session published per second over the last FPS_WINDOW_S (from its count of them, so
+        the ones the render loop skipped count too): what `fps` could be on this machine now."""
+        now = time.perf_counter()
+        seen = [(t, q) for t, q in list(self._seen) if now - t <= FPS_WINDOW_S]
+        if len(seen) < 2 or seen[-1][0] <= seen[0][0]:
+            return 0.0
+        return (seen[-1][1] - seen[0][1]) / (seen[-1][0] - seen[0][0])
 
     def _open_session(self, terrain: str = "flat") -> None:
         try:
@@ -571,6 +585,9 @@ class StudioClient:
         next_overlay = next_plot = next_status = 0.0
         while not self._stop.is_set():
             t0 = time.perf_counter()
+            s = None
+            seen_seq = -1
+            deferred = False  # a new pose held back only because the last one went out less than min_gap ago
             try:
                 s = self.session
                 if s is not None:
@@ -578,8 +595,15 @@ class StudioClient:
                     if s.generation != self.generation or self.view is None:
                         self._rebuild_scene(s)
                     snap = s.snapshot
+                    seen_seq = snap.seq
+                    poses = s.poses
+                    if self._seen and poses < self._seen[-1][1]:  # another session
+                        self._seen.clear()
+                    if not self._seen or self._seen[-1][1] != poses:
+                        self._seen.append((t0, poses))
                     replaying = bool(self.editor.cb_replay.value)
                     view = self.view  # read once: a closing tab or a rebuild may clear it meanwhile
+                    deferred = snap.seq != last_seq and t0 - last_sent < min_gap and not replaying
                     if (
                         view is not None
                         and snap.seq != last_seq
@@ -611,7 +635,15 @@ class StudioClient:
                     return
                 log.exception("studio render loop")
                 time.sleep(0.5)
-            time.sleep(POLL_S)
+            if s is None:
+                time.sleep(POLL_S)
+                continue
+            now = time.perf_counter()
+            wait = min(IDLE_WAIT_S, next_overlay - now, next_plot - now, next_status - now)
+            if deferred:
+                wait = min(wait, last_sent + min_gap - now)
+            if wait > 0.0:
+                s.wait_snapshot(seen_seq, wait)
 
     def _moved(self, xpos: np.ndarray, xquat: np.ndarray) -> bool:
         """Whether any body moved by at least STILL_M since the pose last sent (and remembers this one if so)."""

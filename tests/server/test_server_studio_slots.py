@@ -7,8 +7,9 @@ from pathlib import Path
 
 from fastapi.testclient import TestClient
 from server_fakes import FakeSim, fake_runner
-from test_server_studio import FakeBrowser, wait_for
+from test_server_studio import wait_for
 
+from benchmarks.studio_stream import FakeBrowser
 from server.app import create_app
 from server.settings import Settings
 
