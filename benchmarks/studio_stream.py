@@ -18,6 +18,7 @@ import json
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -58,7 +59,8 @@ class FakeBrowser:
         self._t.join(2.0)
 
 
-def _until(pred: Any, timeout_s: float) -> bool:
+def wait_for(pred: Callable[[], bool], timeout_s: float = 10.0) -> bool:
+    """Whether pred() came true within timeout_s (checked every 50 ms)."""
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
         if pred():
@@ -80,10 +82,10 @@ def measure(duration_s: float = 20.0, settle_s: float = 4.0) -> dict[str, Any]:
             studio = app.state.services.studio
             browser = FakeBrowser(studio.port)
             try:
-                if not _until(lambda: len(studio.clients) == 1, 30.0):
+                if not wait_for(lambda: len(studio.clients) == 1, 30.0):
                     raise RuntimeError("the studio did not register the tab")
                 tab = next(iter(studio.clients.values()))
-                if not _until(lambda: tab.session is not None and getattr(tab, "ready", False), 120.0):
+                if not wait_for(lambda: tab.session is not None and getattr(tab, "ready", False), 120.0):
                     raise RuntimeError("the tab got no live robot")
                 cid = str(tab.client.client_id)
                 body = {"vx": 0.3, "vy": 0.0, "yaw_rate": 0.0, "gait": "trot"}

@@ -1,10 +1,11 @@
-"""The studio without a browser: a raw viser websocket client connects, gets a live robot at ≥ 30 fps, and the
-authoring panel's logic (open, edit, validate on items, drag, preview, save as, export) runs on the real stack."""
+"""The studio without a browser: a raw viser websocket client connects, gets a live robot that passes on the poses
+its session publishes, and the authoring panel's logic (open, edit, validate on items, drag, preview, save as,
+export) runs on the real stack."""
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -13,21 +14,12 @@ import pytest
 import viser
 from fastapi.testclient import TestClient
 
-from benchmarks.studio_stream import FakeBrowser
+from benchmarks.studio_stream import FakeBrowser, wait_for
 from server.app import create_app
 from server.settings import Settings
 from server.studio.overlays import _point_size, default_on, overlay_geometry
 from server.studio.robot_view import capsule_mesh, hfield_mesh
 from server.studio.timeline import Bar, Mark, timeline_svg
-
-
-def wait_for(pred: Callable[[], bool], timeout_s: float = 10.0) -> bool:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(0.05)
-    return False
 
 
 @pytest.fixture(scope="module")
