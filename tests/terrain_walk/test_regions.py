@@ -8,6 +8,7 @@ goal reached), so a last-bit floating-point difference between machines cannot f
 from __future__ import annotations
 
 import pytest
+from terrain_rates import until_decided
 
 from planning.sim.run import RunOptions, WalkCommand, run_walk
 
@@ -17,12 +18,14 @@ VARIANTS = [
     ("rough", 1, (4.5, 0.0)),
     ("rough", 2, (4.5, 0.0)),
 ]
+MIN_CLEAN = 3
+MIN_TABLES = 2  # of the three clearances below
 
 
 @pytest.mark.sim
 def test_regions_pipeline_crosses_slopes_and_rough_ground_at_a_rate() -> None:
     clean = []
-    for terrain, seed, goal in VARIANTS:
+    for (terrain, seed, goal), record in until_decided(VARIANTS, MIN_CLEAN):
         cmd = WalkCommand(goal=goal, terrain_aware=True, terrain_sensor=False, stop_at_goal=True)
         r = run_walk(cmd, RunOptions(terrain=terrain, seed=seed, duration_s=14.0))
         nav = r["navigator"]
@@ -32,7 +35,8 @@ def test_regions_pipeline_crosses_slopes_and_rough_ground_at_a_rate() -> None:
                 r["success"] and not r["fell"] and r["body_collisions"] == 0 and r["no_step_touchdowns"] == 0
             )
         )
-    assert sum(clean) >= 3, list(zip(VARIANTS, clean, strict=True))
+        record(clean[-1])
+    assert sum(clean) >= MIN_CLEAN, list(zip(VARIANTS, clean, strict=False))
 
 
 def test_the_removed_modes_are_refused_by_name_and_regions_still_accepted() -> None:
@@ -58,9 +62,10 @@ def test_regions_pipeline_crouches_under_tables_it_no_longer_sees_at_a_rate() ->
     # undersides it saw (OverhangMemory); before, every clearance below 0.61 m stood the body up into the table
     clearances = [0.56, 0.58, 0.60]
     clean = []
-    for c in clearances:
+    for c, record in until_decided(clearances, MIN_TABLES):
         cmd = WalkCommand(goal=(6.0, 0.0), terrain_aware=True, stop_at_goal=True)
         r = run_walk(cmd, RunOptions(terrain=f"under-table:clearance_m={c}", duration_s=16.0))
         assert r["navigator"]["pipeline"] == "regions"
         clean.append(bool(r["success"] and not r["fell"] and r["body_collisions"] == 0))
-    assert sum(clean) >= 2, list(zip(clearances, clean, strict=True))
+        record(clean[-1])
+    assert sum(clean) >= MIN_TABLES, list(zip(clearances, clean, strict=False))

@@ -11,6 +11,7 @@ between machines cannot flip it. The stairs family (50 random staircases up and 
 from __future__ import annotations
 
 import pytest
+from terrain_rates import until_decided
 
 from planning.sim.run import RunOptions, WalkCommand, run_walk
 from planning.terrain.spec import load_terrain
@@ -23,12 +24,13 @@ CLIMBS = [
     (0.16, 0.38, True, 0.0),
 ]
 N_STEPS = 3
+MIN_CLEAN = 2
 
 
 @pytest.mark.sim
 def test_regions_pipeline_climbs_staircases_at_a_rate() -> None:
     clean = []
-    for riser, tread, rails, gy in CLIMBS:
+    for (riser, tread, rails, gy), record in until_decided(CLIMBS, MIN_CLEAN):
         terrain = (
             f"stairs:riser_m={riser},tread_m={tread},n_steps={N_STEPS},railings={str(rails).lower()},"
             "x_start_m=0.6,landing_m=2.0"
@@ -42,4 +44,5 @@ def test_regions_pipeline_climbs_staircases_at_a_rate() -> None:
                 r["success"] and not r["fell"] and r["body_collisions"] == 0 and r["no_step_touchdowns"] == 0
             )
         )
-    assert sum(clean) >= 2, list(zip(CLIMBS, clean, strict=True))
+        record(clean[-1])
+    assert sum(clean) >= MIN_CLEAN, list(zip(CLIMBS, clean, strict=False))

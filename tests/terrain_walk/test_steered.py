@@ -6,6 +6,7 @@ tests/terrain/test_terrain_steering.py."""
 from __future__ import annotations
 
 import pytest
+from terrain_rates import until_decided
 
 from planning.sim.run import RunOptions, WalkCommand, run_walk
 from planning.terrain.decision import DecisionParams
@@ -21,7 +22,7 @@ def test_steered_under_tables_with_the_sensor_at_a_rate() -> None:
     fall and no body collision. Measured 4 of 4 (2026-11-27, crossed at 8.4 s each); the bound leaves one."""
     q = DecisionParams()
     ok = {}
-    for c in TABLE_CLEARANCES:
+    for c, record in until_decided(TABLE_CLEARANCES, MIN_TABLES):
         r = run_walk(
             WalkCommand(vx=0.5, terrain_sensor=True),
             RunOptions(terrain=f"under-table:clearance_m={c}", duration_s=11.0),
@@ -36,6 +37,7 @@ def test_steered_under_tables_with_the_sensor_at_a_rate() -> None:
             else (r["failure_reason"] or f"crossed {r['crossed']}, {r['body_collisions']}, {nav}")
         )
         print(f"steered under a {c} m table: {ok[c]}")
+        record(ok[c] is True)
     assert sum(v is True for v in ok.values()) >= MIN_TABLES, ok
 
 
@@ -51,7 +53,7 @@ def test_steered_over_the_stairs_with_the_sensor_at_a_rate() -> None:
     2026-11-27 on this project's 2-core machine: 3 of 4 (0.4, 0.45, 0.5 m/s crossed at 12.8-14.1 s, mean 0.37-0.42
     m/s; 0.3 m/s fell going down at 14.4 s, a hind lower leg on a nosing); about 16 s of CPU each."""
     ok = {}
-    for vx in STEERED_STAIRS_SPEEDS:
+    for vx, record in until_decided(STEERED_STAIRS_SPEEDS, MIN_STEERED_STAIRS):
         r = run_walk(WalkCommand(vx=vx, terrain_sensor=True), RunOptions(terrain="stairs", duration_s=16.0))
         good = (
             not r["fell"]
@@ -64,4 +66,5 @@ def test_steered_over_the_stairs_with_the_sensor_at_a_rate() -> None:
             True if good else (r["failure_reason"] or f"crossed {r['crossed']}, {r['no_step_touchdowns']}")
         )
         print(f"steered stairs at {vx} m/s: {ok[vx]}")
+        record(ok[vx] is True)
     assert sum(v is True for v in ok.values()) >= MIN_STEERED_STAIRS, ok
