@@ -258,6 +258,8 @@ class DecisionParams:
     posture: Literal["plane", "hips", "pairs"] = "plane"
     plane_touchdowns: bool = True
     max_height_offset_m: float = 0.15
+    level_extension_frac: float | None = 0.81
+    level_span_m: float = 0.10
     min_height_m: float = 0.38
     body_top_m: float = 0.10
     head_margin_m: float = 0.04
@@ -446,7 +448,7 @@ def decide(
         pitch_target = float(clip_scalar(-math.atan(p.pitch_gain * slope), -p.max_pitch_rad, p.max_pitch_rad))
     step = p.max_pitch_rate_rps * view.dt_s
     pitch = view.pitch_rad + float(clip_scalar(pitch_target - view.pitch_rad, -step, step))
-    height = view.standing_height_m + float(
+    height = level_height(view, last, p) + float(
         clip_scalar(offset, -p.max_height_offset_m, p.max_height_offset_m)
     )
     height = min(height, crouch_height(view, world.maps, p, world.overhangs), reach_height(view, pitch, p))
@@ -454,6 +456,27 @@ def decide(
         height = min(height, touchdown_reach_height(view, last.memory.p_chosen, pitch, p))
     hold = p.hold_region_m2 is not None and on_small_regions(view, world, p.hold_region_m2)
     return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap, hold)
+
+
+def level_height(view: TerrainView, last: FootholdDecision | None, p: DecisionParams) -> float:
+    """Gives the body height (m, above the mean contact height) before the footholds' plane, the ceilings and
+    the reach bound it: on level ground, the height at which the hips stand level_extension_frac of the leg's full
+    length above the feet's centres (the shins steeper, clearing a low box's edge or a stone's behind the foot by
+    more), never below the standing height; the more the feet in stance and the chosen touchdowns differ in height
+    (a step, a riser, the platform), the nearer the standing height, reached at level_span_m (the reach rules of a
+    climb and a descent assume it)."""
+    if p.level_extension_frac is None or view.l_upper_m <= 0.0:
+        return view.standing_height_m
+    tall = view.foot_radius_m + p.level_extension_frac * (view.l_upper_m + view.l_lower_m)
+    if tall <= view.standing_height_m:
+        return view.standing_height_m
+    z = view.p_world_foot[view.stance, 2] - view.foot_radius_m
+    if last is not None:
+        chosen = last.memory.p_chosen[~view.stance, 2]
+        z = np.concatenate([z, chosen[np.isfinite(chosen)]])
+    span = float(np.ptp(z)) if z.size else 0.0
+    share = float(clip_scalar(1.0 - span / max(p.level_span_m, 1e-9), 0.0, 1.0))
+    return view.standing_height_m + share * (tall - view.standing_height_m)
 
 
 def on_small_regions(view: TerrainView, world: TerrainWorld, area_m2: float) -> bool:
@@ -823,7 +846,7 @@ def crouch_height(
     view: TerrainView, maps: TerrainMaps, p: DecisionParams, overhangs: HeightGrid | None = None
 ) -> float:
     """Gives the highest body height (m) that keeps the body's top under the overhangs around and ahead of the
-    body (the clearance map, and the remembered overhang undersides if given; none: the standing height)."""
+    body (the clearance map, and the remembered overhang undersides if given; none: inf, no bound)."""
     xy = view.p_world_body[:2] + rotate_yaw(view.yaw, _crouch_offsets(p.crouch_ahead_m))
     xy = xy.reshape(-1, 2)
     # the clearance and the body obstacles of the nearest cells (as maps.clearance_at and maps.no_body: inf and
@@ -844,8 +867,8 @@ def crouch_height(
     rel = np.where(wall, np.inf, z_ceiling) - np.maximum(h_cell, z_feet)
     clear = float(np.min(np.where(rel >= p.ceiling_above_m, rel, np.inf)))
     if not np.isfinite(clear):
-        return view.standing_height_m
-    return float(clip_scalar(clear - p.body_top_m - p.head_margin_m, p.min_height_m, view.standing_height_m))
+        return np.inf
+    return max(clear - p.body_top_m - p.head_margin_m, p.min_height_m)
 
 
 def swing_ground(maps: TerrainMaps, radius_m: float) -> HeightGrid:

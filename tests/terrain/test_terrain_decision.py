@@ -35,6 +35,7 @@ from planning.terrain.decision import (
     leg_bounds,
     leg_bounds_found,
     leg_clearance,
+    level_height,
     lost_region,
     own_side,
     path_holds,
@@ -554,7 +555,7 @@ def test_a_table_top_out_of_the_sensors_sight_is_remembered_and_keeps_the_body_c
 
     maps = maps_from_grids(origin, RES, np.zeros((60, 30)), np.zeros((60, 30), bool))
     view = _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3]))
-    assert crouch_height(view, maps, P) == pytest.approx(view.standing_height_m)
+    assert crouch_height(view, maps, P) == np.inf  # no overhang: no bound
     crouched = crouch_height(view, maps, P, HeightGrid(origin, RES, remembered))
     assert P.min_height_m <= crouched <= 0.58 - P.body_top_m - P.head_margin_m + 1e-9
 
@@ -1340,3 +1341,34 @@ def test_a_late_jump_of_the_step_qps_answer_keeps_the_foothold_chosen_before() -
     k_rl = int(np.flatnonzero(path.leg == 2)[0])
     later = choose_footholds(view, path, world, memory(2, (-0.1, 0.15)), _FlipQP(qp, 2, -0.4), P)
     assert later.p_world_touchdown[k_rl, 1] < -0.2 and later.late_holds == 0
+
+
+def test_the_body_walks_tall_on_level_ground_and_at_its_standing_height_across_a_step() -> None:
+    view = dataclass_replace(
+        _view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3])), l_upper_m=0.32, l_lower_m=0.34
+    )
+    p = dataclass_replace(P, level_extension_frac=0.81, level_span_m=0.10)
+    tall = view.foot_radius_m + 0.81 * 0.66
+    assert level_height(view, None, p) == pytest.approx(tall)
+    # the feet 5 cm apart in height: halfway; 10 cm or more (a riser, the platform): the standing height
+    for dz, want in ((0.05, (tall + 0.52) / 2), (0.10, 0.52), (0.30, 0.52)):
+        v = dataclass_replace(view, p_world_foot=view.p_world_foot + np.array([[0, 0, dz], [0, 0, 0]] * 2))
+        assert level_height(v, None, p) == pytest.approx(want), dz
+    # a chosen touchdown a riser up counts as a foot there
+    swing = dataclass_replace(view, stance=np.array([False, True, True, True]))
+    chosen = np.full((4, 3), np.nan)
+    chosen[0] = (0.6, 0.15, 0.15)
+    last = FootholdDecision(
+        np.zeros((0, 3)), (), None, 0.0, FootholdMemory(np.full(4, np.nan), chosen, np.full(4, np.nan))
+    )
+    assert level_height(swing, last, p) == pytest.approx(0.52)
+    assert level_height(swing, None, p) == pytest.approx(tall)
+    # never below the standing height; off: the standing height
+    assert level_height(view, None, dataclass_replace(p, level_extension_frac=0.5)) == pytest.approx(0.52)
+    assert level_height(view, None, dataclass_replace(p, level_extension_frac=None)) == pytest.approx(0.52)
+    # the decision's height on level ground is the tall one, with no ceiling to bound it
+    world = _world(*_stones())
+    d = decide(view, world, None, dataclass_replace(p, max_pitch_rate_rps=100.0, posture="plane"))
+    assert d.body_height_m == pytest.approx(
+        tall - view.z_contact, abs=1e-6
+    )  # as the standing height: the plane at 0
