@@ -85,6 +85,10 @@ class SwingParams:
     rise_first_top_m: float = 0.0  # the swing's top stays this far above the clearance height after a rise
     rise_first_gap_m: float = 0.02  # while rising, the foot's front closes in on the terrain up to this gap
     rise_first_v_up_mps: float = 2.0  # a rise-first swing rises at most this fast
+    # a foot within this of the height it rises to has risen: its plan's top is that height, which it nears from
+    # below, and a box read a millimetre higher on a later tick held the foot in place until its swing had no time
+    # left to cross (clutter draw 899: 0.2 s held 0.3 mm under its clearance height, then the foot cut the box's edge)
+    rise_first_done_m: float = 0.003
     # the foot waits at a place fixed from its lift-off place (True), not re-derived from the measured foot every
     # tick (False: a foot the leg carries past the wait point waits further on, closer to the riser)
     rise_first_anchored: bool = False

@@ -808,7 +808,7 @@ class SwingPlanner:
         if travelled >= 0.0:
             # the lift-off clearance: the foot waits where it is (no approach) until it stands over its route
             z_lift = liftoff_clear_height(g, u, length, travelled, z_ref, pr)
-            if z_lift is None or float(p0[2]) >= z_lift:
+            if z_lift is None or float(p0[2]) >= z_lift - pr.rise_first_done_m:
                 return None, 0.0
             return z_lift, 0.0
         h_line = z_ref + u * (float(p1[2]) - z_ref)
@@ -818,7 +818,7 @@ class SwingPlanner:
         if above.size == 0:
             return None, 0.0
         z_clear = float(np.max(g)) + pr.rise_first_margin_m
-        if float(p0[2]) >= z_clear:
+        if float(p0[2]) >= z_clear - pr.rise_first_done_m:
             return None, 0.0
         approach = length * float(u[max(int(above[0]) - 1, 0)]) - pr.rise_first_gap_m
         return z_clear, approach

@@ -70,3 +70,31 @@ def test_a_foot_beside_a_box_rises_before_it_moves_and_the_flat_swing_is_unchang
     flat_off = SwingPlanner(robot, SwingParams()).plan(0.0, [req], flat_ground, STANCE, standing_body(0.0))[0]
     ts = np.linspace(0.0, 0.35, 50)
     assert np.allclose(flat_on.positions(ts), flat_off.positions(ts))
+
+
+def test_a_foot_whose_box_reads_higher_each_tick_still_moves_on(robot, standing_body):
+    """The same foot, replanned every 10 ms from its plan, the box read 0.2 mm higher each tick (the sensor's map
+    of its top moving): the foot rises to the box's top + the margin, then moves on (a foot within
+    rise_first_done_m of that height has risen). Without the tolerance it stayed where it was for most of its swing,
+    its clearance height always a hair above it, as in clutter draw 899, then cut the box's edge as it hurried on."""
+    rf = robot.foot_radius_m
+    params = dataclasses.replace(ON, rise_first_within_reach=True, rise_first_anchored=True)
+    p0, target = np.array([0.30, 0.165, 0.0]), np.array([0.62, 0.165, 0.0])
+    x_at = {}
+    for done in (params.rise_first_done_m, 0.0):
+        planner = SwingPlanner(robot, dataclasses.replace(params, rise_first_done_m=done))
+        h = 0.09
+        box = BoxGround([Box(0.25, 0.45, 0.165 - 0.10, 0.165 - 0.02 + rf, h)])
+        plan = planner.plan(
+            0.0, [SwingRequest(0, p0, np.zeros(3), target, 0.35)], box, STANCE, standing_body(0.0)
+        )[0]
+        for k in range(1, 21):
+            t = 0.01 * k
+            h += 0.0002
+            box = BoxGround([Box(0.25, 0.45, 0.165 - 0.10, 0.165 - 0.02 + rf, h)])
+            p, v, _ = plan.sample(t)
+            plan = planner.plan(t, [SwingRequest(0, p, v, target, 0.35)], box, STANCE, standing_body(t))[0]
+        x_at[done] = float(plan.sample(0.2)[0][0]) - p0[0]
+    assert params.rise_first_done_m > 0.0
+    assert x_at[params.rise_first_done_m] > 0.08, x_at  # on its way at 0.2 s (a third of the way and more)
+    assert x_at[0.0] < 0.02, x_at  # still waiting
