@@ -71,7 +71,18 @@ class DecisionParams:
     family softened, or not solved to tolerance), lies more than late_jump_m from it, and the kept one still lies
     on the slot's polygon (an answer with the reach box softened, or cut at OSQP's iteration limit, flipped a
     foot 0.3 m across the body 0.04 s before its touchdown, and back the next tick; the swing follows such a flip;
-    None: off); max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
+    None: off); back_drop_frac: a walk to a goal goes down a descent backward (None: off). A descent edge is a
+    fall in the ground along the body path of at least this share of the leg's length (thigh + shank) within
+    back_edge_m (a riser, not a slope), the ground staying that much lower for back_beyond_m past it (a flight
+    down, not the pit between two stones). A descent edge within back_ahead_m ahead of the body's centre turns the
+    body round in place to face against its path, and it walks backward until its centre is back_behind_m past the
+    last descent edge; then it turns to face its path again. Why: the knees point back, so a leg stepping down
+    forward puts its shank over the nosing it steps off (the stairs family's tall risers fell on the descents);
+    backward, the shank leans away from it. The turn is made only where no body obstacle (other than the foot of a
+    drop) lies within turn_radius_m + turn_margin_m of the body's centre (turn_radius_m: the planform's
+    half-diagonal, set from the RobotModel by the pipeline; turn_room): between railings the body goes down
+    forward as before. turn_rad: while a turn round
+    is this far from its yaw, the body turns in place; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
     the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward
     along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down
     over, asks the body to keep up, not to lag behind it); pace_m: and as the next touchdowns are moved back
@@ -237,6 +248,14 @@ class DecisionParams:
     freeze_s: float = 0.04
     late_jump_s: float | None = 0.2
     late_jump_m: float = 0.1
+    back_drop_frac: float | None = 0.18
+    back_edge_m: float = 0.09
+    back_beyond_m: float = 0.4
+    back_ahead_m: float = 0.7
+    back_behind_m: float = 0.6
+    turn_rad: float = 0.4
+    turn_radius_m: float = 0.6
+    turn_margin_m: float = 0.0
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
     shift_slow_m: float = 0.15
@@ -443,9 +462,10 @@ def decide(
     share = lo + (1.0 - lo) * frac
     cap = p.max_speed_mps * share
     gait = cadence(view, world, last, p)
-    cap = min(cap, stride_m(view, gait, p) / get_gait(gait).cycle_s, trail_speed(view, last, p))
+    back = view.goal is not None and p.back_drop_frac is not None and facing_back(view, world.path, p)
+    cap = min(cap, stride_m(view, gait, p) / get_gait(gait).cycle_s, trail_speed(view, last, p, back))
     command = (
-        follow_path(view, world.path, cap, p) if view.goal is not None else capped(view.operator, cap, p)
+        follow_path(view, world.path, cap, p, world.maps) if view.goal is not None else capped(view.operator, cap, p)
     )
     td = p.plane_touchdowns
     if p.posture in ("hips", "pairs"):
@@ -518,16 +538,19 @@ def climb_top_speed(view: TerrainView, p: DecisionParams) -> float:
     return max((stride_m(view, g, p) / get_gait(g).cycle_s for g in p.climb_gaits), default=0.0)
 
 
-def trail_speed(view: TerrainView, last: FootholdDecision | None, p: DecisionParams) -> float:
+def trail_speed(
+    view: TerrainView, last: FootholdDecision | None, p: DecisionParams, back: bool = False
+) -> float:
     """Gives the highest body speed (m/s) at which every stance foot still lies within trail_reach_frac of the
-    leg's full length of its hip at the foot's planned liftoff, the hip moving on along the heading at the body's
-    height and pitch targets (inf: no leg lengths or no liftoff planned)."""
+    leg's full length of its hip at the foot's planned liftoff, the hip moving on along the heading (back: against
+    it) at the body's height and pitch targets (inf: no leg lengths or no liftoff planned)."""
     if last is None or last.t_liftoff is None or view.l_upper_m <= 0.0:
         return np.inf
     length = p.trail_reach_frac * (view.l_upper_m + view.l_lower_m)
-    u = np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    sign = -1.0 if back else 1.0  # along the way the body goes: backward down a descent (back_drop_frac)
+    u = sign * np.array([math.cos(view.yaw), math.sin(view.yaw)])
     x_hip = view.p_body_hip[:, 0]
-    s_hip = float(view.p_world_body[:2] @ u) + x_hip * math.cos(view.pitch_rad)
+    s_hip = float(view.p_world_body[:2] @ u) + sign * x_hip * math.cos(view.pitch_rad)
     z_hip = view.z_contact + view.height_m - math.sin(view.pitch_rad) * x_hip
     trail = s_hip - view.p_world_foot[:, :2] @ u
     dz = z_hip - view.p_world_foot[:, 2]
@@ -696,7 +719,94 @@ def capped(cmd: SteeringCommand, cap: float, p: DecisionParams) -> SteeringComma
     )
 
 
-def follow_path(view: TerrainView, path: BodyPath | None, cap: float, p: DecisionParams) -> SteeringCommand:
+def travel_yaw(view: TerrainView, path: BodyPath, p: DecisionParams) -> float:
+    """Gives the direction (rad) from the body's centre to the point lookahead_m on along its path from its nearest
+    point (the goal past the path's end): the way the body goes. (Not the path's yaw: a path is planned from the
+    body's pose, its yaw blended from the body's over its first metres.)"""
+    xy = view.p_world_body[:2]
+    k = int(np.argmin(np.sum((path.xy - xy) ** 2, axis=1)))
+    s_ahead = float(path.s[k]) + max(p.lookahead_m, 0.1)
+    target = path.pose_at(s_ahead)[0] if s_ahead < path.length_m or view.goal is None else view.goal
+    d = np.asarray(target, dtype=np.float64) - xy
+    if float(np.hypot(d[0], d[1])) < 1e-6:
+        return float(path.yaw[k])
+    return math.atan2(float(d[1]), float(d[0]))
+
+
+def facing_back(view: TerrainView, path: BodyPath | None, p: DecisionParams) -> bool:
+    """Tells whether the body faces against the way it goes along its path (its yaw more than 90° off travel_yaw):
+    it walks backward down a descent (DecisionParams.back_drop_frac)."""
+    if path is None or path.length_m < 1e-6:
+        return False
+    return math.cos(view.yaw - travel_yaw(view, path, p)) < 0.0
+
+
+def descent_edges(maps: TerrainMaps, path: BodyPath, s0: float, s1: float, p: DecisionParams, leg_m: float) -> bool:
+    """Tells whether a descent edge (see DecisionParams.back_drop_frac) lies on the body path between arc lengths
+    s0 and s1 (m): sampled at the map's resolution, an edge at sample i when the ground falls by back_drop_frac ×
+    leg_m or more within back_edge_m after it and stays that much lower over the back_beyond_m after that."""
+    assert p.back_drop_frac is not None
+    res = maps.resolution_m
+    ke = max(int(math.ceil(p.back_edge_m / res)), 1)
+    kb = max(int(math.ceil(p.back_beyond_m / res)), 1)
+    lo = max(s0, 0.0)
+    hi = min(s1, path.length_m)
+    if hi <= lo:
+        return False
+    s = np.arange(lo, hi + (ke + kb) * res, res)
+    xy, _ = path.pose_at(s)
+    h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+    n = int(np.searchsorted(s, hi, side="right"))  # the edges' samples: within [s0, s1]
+    if n == 0 or h.size < n + ke + kb:
+        return False
+    drop = p.back_drop_frac * leg_m
+    # the highest ground from ke samples after each sample on, over the kb after that (a running max, windowed)
+    win = np.lib.stride_tricks.sliding_window_view(h[ke:], kb)[:n].max(axis=1)
+    return bool(np.any(h[:n] - win >= drop))
+
+
+def wants_back(view: TerrainView, maps: TerrainMaps, path: BodyPath, back: bool, p: DecisionParams) -> bool:
+    """Tells whether the body should face against its path (walk backward) now (see DecisionParams.back_drop_frac):
+    facing forward, a descent edge within back_ahead_m ahead and room to turn (or a turn round under way, more than
+    turn_rad from the path's yaw); facing back, a descent edge within
+    back_behind_m behind its centre or back_ahead_m ahead."""
+    leg_m = view.l_upper_m + view.l_lower_m
+    if p.back_drop_frac is None or leg_m <= 0.0:
+        return False
+    k = int(np.argmin(np.sum((path.xy - view.p_world_body[:2]) ** 2, axis=1)))
+    s = float(path.s[k])
+    if back:
+        return descent_edges(maps, path, s - p.back_behind_m, s + p.back_ahead_m, p, leg_m)
+    if not descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m):
+        return False
+    if abs(math.remainder(view.yaw - travel_yaw(view, path, p), 2.0 * math.pi)) > p.turn_rad:
+        return True  # a turn round under way: room was found when it began
+    return turn_room(view, maps, p.turn_radius_m + p.turn_margin_m, p.back_drop_frac * leg_m)
+
+
+def turn_room(view: TerrainView, maps: TerrainMaps, radius_m: float, drop_m: float) -> bool:
+    """Tells whether the body can turn round in place: no body-obstacle cell within radius_m of its centre whose
+    ground is not more than drop_m below the feet's mean contact height. (A cell at the foot of a wall is a body
+    obstacle; beside a landing that is the floor far below it, which a turning body passes over, not into.)"""
+    res = maps.resolution_m
+    ox, oy = maps.origin_xy
+    x, y = (float(v) for v in view.p_world_body[:2])
+    w = int(math.ceil(radius_m / res))
+    cx, cy = int(round((x - ox) / res)), int(round((y - oy) / res))
+    nx, ny = maps.body_obstacle.shape
+    i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
+    if i0 >= i1 or j0 >= j1:
+        return False
+    xs = ox + np.arange(i0, i1) * res - x
+    ys = oy + np.arange(j0, j1) * res - y
+    near = xs[:, None] ** 2 + ys[None, :] ** 2 <= radius_m * radius_m
+    wall = maps.body_obstacle[i0:i1, j0:j1] & (maps.ground_height[i0:i1, j0:j1] > view.z_contact - drop_m)
+    return not bool(np.any(near & wall))
+
+
+def follow_path(
+    view: TerrainView, path: BodyPath | None, cap: float, p: DecisionParams, maps: TerrainMaps | None = None
+) -> SteeringCommand:
     """Gives the body command (body frame) that pursues the point lookahead_m ahead on the body path (the goal at
     its end), at the speed cap (slower near the goal), turning toward the path's yaw."""
     assert view.goal is not None
@@ -705,6 +815,7 @@ def follow_path(view: TerrainView, path: BodyPath | None, cap: float, p: Decisio
     if dist < p.goal_tolerance_m:
         return SteeringCommand()
     speed = min(cap, p.goal_gain * dist)
+    turning = False
     if path is None or path.length_m < 1e-6:
         target, yaw_des = view.goal, view.yaw
     else:
@@ -714,14 +825,23 @@ def follow_path(view: TerrainView, path: BodyPath | None, cap: float, p: Decisio
         yaw_des = float(path.yaw[k])
         if p.yaw_lookahead_m > 0.0 and (p.yaw_near_m is None or path.min_clearance_m < p.yaw_near_m):
             yaw_des = float(path.pose_at(float(path.s[k]) + p.yaw_lookahead_m)[1])
+        if maps is not None and p.back_drop_frac is not None:
+            back = facing_back(view, path, p)
+            want = wants_back(view, maps, path, back, p)
+            if want:
+                yaw_des = travel_yaw(view, path, p) + math.pi
+            turning = want or back  # facing back, or to be: turns round in place
         if dist <= 0.5:
             yaw_des = view.yaw
+            turning = False
     d = np.asarray(target, dtype=np.float64) - xy
     n = float(np.linalg.norm(d))
     if n < 1e-9:
         return SteeringCommand()
-    v_body = rotate_yaw(-view.yaw, d / n * speed)
     dyaw = float((yaw_des - view.yaw + np.pi) % (2 * np.pi) - np.pi)
+    if turning and abs(dyaw) > p.turn_rad:
+        speed = 0.0  # a turn round (or a backward walk off its yaw): in place
+    v_body = rotate_yaw(-view.yaw, d / n * speed)
     wz = float(clip_scalar(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
     return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)
 
@@ -2218,9 +2338,11 @@ class TerrainPipeline:
         self.data = data
         self.scene = scene
         self.goal = None if goal_xy is None else np.asarray(goal_xy, dtype=np.float64).reshape(2)
+        x_lo, x_hi, half_w = robot_planform(robot)
         self.decision_params = dataclasses.replace(
             p.decision,
             regions=dataclasses.replace(p.decision.regions, foot_radius_m=float(robot.foot_radius_m)),
+            turn_radius_m=float(math.hypot(max(-x_lo, x_hi), half_w)),
         )
         if self.decision_params.regions.max_planes + 6 > p.step_qp.keep_planes:
             raise ValueError(
