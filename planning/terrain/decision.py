@@ -465,7 +465,9 @@ def decide(
     back = view.goal is not None and p.back_drop_frac is not None and facing_back(view, world.path, p)
     cap = min(cap, stride_m(view, gait, p) / get_gait(gait).cycle_s, trail_speed(view, last, p, back))
     command = (
-        follow_path(view, world.path, cap, p, world.maps) if view.goal is not None else capped(view.operator, cap, p)
+        follow_path(view, world.path, cap, p, world.maps)
+        if view.goal is not None
+        else capped(view.operator, cap, p)
     )
     td = p.plane_touchdowns
     if p.posture in ("hips", "pairs"):
@@ -741,7 +743,9 @@ def facing_back(view: TerrainView, path: BodyPath | None, p: DecisionParams) -> 
     return math.cos(view.yaw - travel_yaw(view, path, p)) < 0.0
 
 
-def descent_edges(maps: TerrainMaps, path: BodyPath, s0: float, s1: float, p: DecisionParams, leg_m: float) -> bool:
+def descent_edges(
+    maps: TerrainMaps, path: BodyPath, s0: float, s1: float, p: DecisionParams, leg_m: float
+) -> bool:
     """Tells whether a descent edge (see DecisionParams.back_drop_frac) lies on the body path between arc lengths
     s0 and s1 (m): sampled at the map's resolution, an edge at sample i when the ground falls by back_drop_frac ×
     leg_m or more within back_edge_m after it and stays that much lower over the back_beyond_m after that."""

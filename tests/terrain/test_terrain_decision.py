@@ -11,7 +11,7 @@ import pytest
 
 from planning.steps import SteeringCommand
 from planning.steps.state import BodyMotion, StepPath
-from planning.terrain.bodypath import plan_body_path
+from planning.terrain.bodypath import BodyPath, plan_body_path
 from planning.terrain.cadence import CADENCES, CadenceParams, make_request
 from planning.terrain.decision import (
     DecisionParams,
@@ -28,6 +28,7 @@ from planning.terrain.decision import (
     climb_top_speed,
     crouch_height,
     decide,
+    descent_edges,
     follow_path,
     footholds_plane,
     hips_pairs,
@@ -51,6 +52,8 @@ from planning.terrain.decision import (
     swing_hump,
     touchdown_reach_height,
     trail_speed,
+    turn_room,
+    wants_back,
 )
 from planning.terrain.maps import maps_from_grids
 from planning.terrain.memory import OverhangMemory
@@ -1372,3 +1375,85 @@ def test_the_body_walks_tall_on_level_ground_and_at_its_standing_height_across_a
     assert d.body_height_m == pytest.approx(
         tall - view.z_contact, abs=1e-6
     )  # as the standing height: the plane at 0
+
+
+def _line_path(x0: float, x1: float) -> BodyPath:
+    x = np.arange(x0, x1 + 1e-9, 0.05)
+    return BodyPath(np.column_stack([x, np.zeros_like(x)]), np.zeros_like(x), x - x0, "straight", True, 1.0)
+
+
+def _ground(f) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+    xs = -0.6 + np.arange(160) * RES
+    ys = -0.9 + np.arange(60) * RES
+    return xs, ys, np.asarray(f(np.broadcast_to(xs[:, None], (160, 60))), dtype=np.float64)
+
+
+LEG = 0.66  # thigh + shank (m); a descent edge falls 0.18 of it, 0.119 m
+
+
+def test_a_descent_edge_is_a_riser_down_with_lower_ground_past_it_not_a_pit_a_slope_or_a_low_step() -> None:
+    """Along a straight path from x 0: stairs down from x 1.0 (0.15 m risers, 0.30 m treads) have descent edges; the
+    gap between two stones (0.3 m deep, 0.25 m wide: the ground comes back up), a 20° slope down and a 6 cm step
+    down have none; the window [s0, s1] bounds where an edge may lie."""
+    path = _line_path(0.0, 3.5)
+    stairs = _world(*_ground(lambda X: -0.15 * np.clip(np.floor((X - 1.0) / 0.3) + 1, 0, 5)))
+    assert descent_edges(stairs.maps, path, 0.4, 1.1, P, LEG)
+    assert not descent_edges(stairs.maps, path, 0.0, 0.8, P, LEG)  # the first edge is at 1.0
+    pit = _world(*_ground(lambda X: np.where((X > 1.0) & (X < 1.25), -0.3, 0.0)))
+    assert not descent_edges(pit.maps, path, 0.0, 2.0, P, LEG)
+    slope = _world(*_ground(lambda X: -math.tan(math.radians(20.0)) * np.maximum(X - 1.0, 0.0)))
+    assert not descent_edges(slope.maps, path, 0.0, 2.0, P, LEG)
+    low = _world(*_ground(lambda X: np.where(X > 1.0, -0.06, 0.0)))
+    assert not descent_edges(low.maps, path, 0.0, 2.0, P, LEG)
+    assert descent_edges(low.maps, path, 0.0, 2.0, dataclasses.replace(P, back_drop_frac=0.05), LEG)
+
+
+def test_a_turn_round_needs_room_from_walls_not_from_the_foot_of_a_drop() -> None:
+    xs, ys, h = _ground(lambda X: np.zeros_like(X))
+    view = dataclass_replace(_view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3])), z_contact=0.0)
+    Y = np.broadcast_to(ys[None, :], h.shape)
+    side = Y > 0.5  # cells 0.5 m beside the body's centre
+    open_floor = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
+    assert turn_room(view, open_floor, 0.6, 0.12)
+    wall = maps_from_grids((xs[0], ys[0]), RES, np.where(side, 0.9, h), side, side)
+    assert not turn_room(view, wall, 0.6, 0.12)
+    assert turn_room(view, wall, 0.45, 0.12)  # farther than the radius
+    drop = maps_from_grids(
+        (xs[0], ys[0]), RES, np.where(side, -0.9, h), side, side
+    )  # the floor below a landing
+    assert turn_room(view, drop, 0.6, 0.12)
+
+
+def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_backward() -> None:
+    """Stairs down from x 1.0 (0.15 m risers) on the way to a goal at x 3.2: 0.5 m before the first edge the body
+    turns in place (no speed, a yaw rate); facing back it walks backward along its path; 0.7 m past the last edge
+    it turns to face its path again; with the rule off, or with a wall beside it, it walks on forward."""
+    xs, ys, h = _ground(lambda X: -0.15 * np.clip(np.floor((X - 1.0) / 0.3) + 1, 0, 4))
+    world = _world(xs, ys, h)
+    legs = {"l_upper_m": 0.32, "l_lower_m": 0.34}
+    path = _line_path(0.0, 3.2)
+
+    def view_at(x: float, yaw: float) -> TerrainView:
+        z = float(world.maps.height_at(x, 0.0))
+        v = _view(np.full(4, z), x + np.array([0.3, 0.3, -0.3, -0.3]), goal=np.array([3.2, 0.0]))
+        return dataclass_replace(
+            v, p_world_body=np.array([x, 0.0, z + 0.55]), yaw=yaw, z_contact=z + 0.02, **legs
+        )
+
+    p = dataclasses.replace(P, turn_radius_m=0.6)
+    turn = follow_path(view_at(0.5, 0.0), path, 0.5, p, world.maps)
+    assert turn.vx == 0.0 and turn.vy == 0.0 and abs(turn.yaw_rate) > 0.0
+    assert wants_back(view_at(0.5, 0.0), world.maps, path, False, p)
+    down = follow_path(view_at(1.4, math.pi), path, 0.5, p, world.maps)
+    assert down.vx < -0.1 and abs(down.yaw_rate) < 1e-6
+    # past the last edge (x 1.9) by more than back_behind_m: turn to face the path again
+    assert not wants_back(view_at(1.9 + p.back_behind_m + 0.05, math.pi), world.maps, path, True, p)
+    assert wants_back(view_at(1.9 + p.back_behind_m - 0.1, math.pi), world.maps, path, True, p)
+    off = follow_path(view_at(0.5, 0.0), path, 0.5, dataclasses.replace(p, back_drop_frac=None), world.maps)
+    assert off.vx > 0.1
+    Y = np.broadcast_to(ys[None, :], h.shape)
+    side = (Y > 0.45) & (np.broadcast_to(xs[:, None], h.shape) < 1.0)
+    walled = _world(xs, ys, h)
+    walled_maps = maps_from_grids((xs[0], ys[0]), RES, np.where(side, 0.9, h), side, side)
+    walled = dataclasses.replace(walled, maps=walled_maps)
+    assert follow_path(view_at(0.5, 0.0), path, 0.5, p, walled.maps).vx > 0.1
