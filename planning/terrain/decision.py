@@ -71,7 +71,10 @@ class DecisionParams:
     family softened, or not solved to tolerance), lies more than late_jump_m from it, and the kept one still lies
     on the slot's polygon (an answer with the reach box softened, or cut at OSQP's iteration limit, flipped a
     foot 0.3 m across the body 0.04 s before its touchdown, and back the next tick; the swing follows such a flip;
-    None: off); max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
+    None: off); flight_piece: a foot in the air that keeps its region keeps the convex piece of it it was headed
+    for too: its polygon is grown around its kept foothold, not the nominal one (see _piece_centre; False: around
+    the nominal, whose flicker across a box between two pieces of the floor moved a swing's target 0.4 m back and
+    forth); max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
     the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward
     along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down
     over, asks the body to keep up, not to lag behind it); pace_m: and as the next touchdowns are moved back
@@ -152,7 +155,9 @@ class DecisionParams:
     late swing elsewhere) or a tread below is not left trailing on a straight leg (the speed may fall to 0 until
     it lifts); height_reach_frac: the body height is at most the one at which every stance foot lies within this
     share of the leg's full length of its hip (along the heading and up, the hips placed by the pitch target): a
-    hind foot a tread below keeps the body down instead of hanging from a straight leg; touchdown_reach_frac: the
+    hind foot a tread below keeps the body down instead of hanging from a straight leg (not below min_height_m: a
+    stance foot left far behind or ahead bounded the height to the ground, and the body sank onto the boxes,
+    clutter draw 202); touchdown_reach_frac: the
     body height is also at most the one at which every swinging leg's chosen touchdown lies within this share of
     the leg's full length of its hip (the same geometry; not below min_height_m): a front foot stepping down a
     riser is not sent to a tread its straight leg only reaches after the body has come down (steep stairs: the
@@ -237,6 +242,7 @@ class DecisionParams:
     freeze_s: float = 0.04
     late_jump_s: float | None = 0.2
     late_jump_m: float = 0.1
+    flight_piece: bool = True
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
     shift_slow_m: float = 0.15
@@ -802,7 +808,7 @@ def reach_height(view: TerrainView, pitch: float, p: DecisionParams) -> float:
     """Gives the highest body height (m, above the mean contact height) at which every stance foot lies within
     height_reach_frac of the leg's full length of its hip along the heading and up, the hips placed by the pitch
     (positive nose down) (inf: no leg lengths, or no foot bounds it)."""
-    return _reach_bound(view, view.p_world_foot, view.stance, pitch, p.height_reach_frac)
+    return max(_reach_bound(view, view.p_world_foot, view.stance, pitch, p.height_reach_frac), p.min_height_m)
 
 
 def touchdown_reach_height(
@@ -1408,6 +1414,26 @@ def leg_bounds_found(
     return out, found
 
 
+def _piece_centre(
+    regions: SteppableRegions,
+    label: int,
+    nom: NDArray[np.float64],
+    keep: NDArray[np.float64] | None,
+    flying: bool,
+    p: DecisionParams,
+) -> NDArray[np.float64]:
+    """Gives the place a foothold's polygon is grown around: the nominal foothold nom (2,), or, for a foot in the air
+    (flying) whose kept foothold keep (2,) lies on this same region (label) and p.flight_piece is on, the kept
+    foothold: a swing commits to the convex piece of its region it was headed for, not only to the region. (The
+    floor between boxes is one region of many convex pieces; a nominal flickering across a box sent the target
+    0.4 m back and forth in a swing's last 0.2 s, the foot cut the box: clutter draw 240.)"""
+    if not (flying and p.flight_piece and keep is not None):
+        return nom
+    if regions.label_at(float(keep[0]), float(keep[1])) != label:
+        return nom
+    return keep
+
+
 def _polygon(
     regions: SteppableRegions,
     label: int,
@@ -1797,7 +1823,7 @@ def choose_footholds(
                     )
                 poly = None
                 if label:
-                    poly = _polygon(regions, label, nom, p, cache)
+                    poly = _polygon(regions, label, _piece_centre(regions, label, nom, keep, flying, p), p, cache)
                 if poly is not None and j < 4 and p.shin_regions > 1 and not flying:
                     # a region none of whose places clears the shin: the next region that has one (a foot in
                     # stance; in the air it keeps the region it lifted off for: no switch late in a swing)
