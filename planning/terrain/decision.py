@@ -71,10 +71,11 @@ class DecisionParams:
     family softened, or not solved to tolerance), lies more than late_jump_m from it, and the kept one still lies
     on the slot's polygon (an answer with the reach box softened, or cut at OSQP's iteration limit, flipped a
     foot 0.3 m across the body 0.04 s before its touchdown, and back the next tick; the swing follows such a flip;
-    None: off); flight_piece: a foot in the air that keeps its region keeps the convex piece of it it was headed
-    for too: its polygon is grown around its kept foothold, not the nominal one (see _piece_centre; False: around
-    the nominal, whose flicker across a box between two pieces of the floor moved a swing's target 0.4 m back and
-    forth); max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
+    None: off); flight_piece_s: a foot in the air due within this that keeps its region keeps the convex piece of
+    it it was headed for too: its polygon is grown around its kept foothold, not the nominal one (see
+    _piece_centre; 0: around the nominal, whose flicker across a box between two pieces of the floor moved a
+    swing's target 0.4 m back and forth; for the whole swing, inf, the clutter family's no-step walks went 9 to 3
+    of 50 but its falls 11 to 18); max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
     the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward
     along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down
     over, asks the body to keep up, not to lag behind it); pace_m: and as the next touchdowns are moved back
@@ -242,7 +243,7 @@ class DecisionParams:
     freeze_s: float = 0.04
     late_jump_s: float | None = 0.2
     late_jump_m: float = 0.1
-    flight_piece: bool = True
+    flight_piece_s: float = 0.2
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
     shift_slow_m: float = 0.15
@@ -1423,11 +1424,11 @@ def _piece_centre(
     p: DecisionParams,
 ) -> NDArray[np.float64]:
     """Gives the place a foothold's polygon is grown around: the nominal foothold nom (2,), or, for a foot in the air
-    (flying) whose kept foothold keep (2,) lies on this same region (label) and p.flight_piece is on, the kept
-    foothold: a swing commits to the convex piece of its region it was headed for, not only to the region. (The
+    due within flight_piece_s (flying) whose kept foothold keep (2,) lies on this same region (label), the kept
+    foothold: a swing's end commits to the convex piece of its region it was headed for, not only to the region. (The
     floor between boxes is one region of many convex pieces; a nominal flickering across a box sent the target
     0.4 m back and forth in a swing's last 0.2 s, the foot cut the box: clutter draw 240.)"""
-    if not (flying and p.flight_piece and keep is not None):
+    if not (flying and keep is not None):
         return nom
     if regions.label_at(float(keep[0]), float(keep[1])) != label:
         return nom
@@ -1823,7 +1824,8 @@ def choose_footholds(
                     )
                 poly = None
                 if label:
-                    poly = _polygon(regions, label, _piece_centre(regions, label, nom, keep, flying, p), p, cache)
+                    late = flying and float(path.t_touchdown[order_l[j]]) - view.t_s < p.flight_piece_s
+                    poly = _polygon(regions, label, _piece_centre(regions, label, nom, keep, late, p), p, cache)
                 if poly is not None and j < 4 and p.shin_regions > 1 and not flying:
                     # a region none of whose places clears the shin: the next region that has one (a foot in
                     # stance; in the air it keeps the region it lifted off for: no switch late in a swing)

@@ -363,7 +363,7 @@ def test_a_foot_in_the_air_keeps_its_clearing_choice_when_its_new_polygon_has_no
     t_mem = np.full(4, np.nan)
     t_mem[0] = float(path.t_touchdown[k_fl])
     qp = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
-    params = dataclasses.replace(P_LINE, shin_hold=True, flight_piece=False)  # (the piece rule alone would keep it too)
+    params = dataclasses.replace(P_LINE, shin_hold=True, flight_piece_s=0.0)  # (the piece rule alone would keep it too)
     kept = FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool), np.ones(4, dtype=bool))
     d = choose_footholds(view, path, world, kept, qp, params)
     np.testing.assert_allclose(d.p_world_touchdown[k_fl, :2], [0.3, 0.15], atol=0.011)
@@ -1393,8 +1393,8 @@ def test_a_foot_in_the_air_keeps_the_piece_of_the_floor_it_was_headed_for() -> N
     """The floor with a box on it (x 0.40-0.55, y -0.05-0.45, 0.2 m high) across FL's line: one floor region (it goes
     round the box's ends) of convex pieces before and past the box. FL in the air was headed for the piece before it (kept at x 0.35); its
     nominal now lies past the box (x 0.68, as a selection flickering across the box gives): it keeps the piece
-    before the box and lands by its far edge, not 0.3 m on. In stance, or with flight_piece off, the nominal's piece
-    is taken."""
+    before the box and lands by its far edge, not 0.3 m on. In stance, or due later than flight_piece_s, the nominal's
+    piece is taken."""
     xs = -0.6 + np.arange(80) * RES
     ys = -0.9 + np.arange(60) * RES
     X = np.broadcast_to(xs[:, None], (80, 60))
@@ -1422,7 +1422,8 @@ def test_a_foot_in_the_air_keeps_the_piece_of_the_floor_it_was_headed_for() -> N
     # in the air, headed for the piece before the box: by its far edge (the box at 0.40, the inset 4 cm)
     assert 0.3 < fl_x(air, kept(0.35), P) < 0.37
     # the nominal's piece past the box: with the rule off, in stance, and headed past the box already
-    assert fl_x(air, kept(0.35), dataclasses.replace(P, flight_piece=False)) > 0.58
+    assert P.flight_piece_s > 0.1  # FL is due in 0.1 s
+    assert fl_x(air, kept(0.35), dataclasses.replace(P, flight_piece_s=0.05)) > 0.58
     assert fl_x(dataclass_replace(air, stance=np.ones(4, bool)), kept(0.35), P) > 0.58
     assert fl_x(air, kept(0.7), P) > 0.58
 
