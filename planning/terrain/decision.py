@@ -1825,7 +1825,9 @@ def choose_footholds(
                 poly = None
                 if label:
                     late = flying and float(path.t_touchdown[order_l[j]]) - view.t_s < p.flight_piece_s
-                    poly = _polygon(regions, label, _piece_centre(regions, label, nom, keep, late, p), p, cache)
+                    poly = _polygon(
+                        regions, label, _piece_centre(regions, label, nom, keep, late, p), p, cache
+                    )
                 if poly is not None and j < 4 and p.shin_regions > 1 and not flying:
                     # a region none of whose places clears the shin: the next region that has one (a foot in
                     # stance; in the air it keeps the region it lifted off for: no switch late in a swing)

@@ -363,7 +363,9 @@ def test_a_foot_in_the_air_keeps_its_clearing_choice_when_its_new_polygon_has_no
     t_mem = np.full(4, np.nan)
     t_mem[0] = float(path.t_touchdown[k_fl])
     qp = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
-    params = dataclasses.replace(P_LINE, shin_hold=True, flight_piece_s=0.0)  # (the piece rule alone would keep it too)
+    params = dataclasses.replace(
+        P_LINE, shin_hold=True, flight_piece_s=0.0
+    )  # (the piece rule alone would keep it too)
     kept = FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool), np.ones(4, dtype=bool))
     d = choose_footholds(view, path, world, kept, qp, params)
     np.testing.assert_allclose(d.p_world_touchdown[k_fl, :2], [0.3, 0.15], atol=0.011)
@@ -1426,4 +1428,3 @@ def test_a_foot_in_the_air_keeps_the_piece_of_the_floor_it_was_headed_for() -> N
     assert fl_x(air, kept(0.35), dataclasses.replace(P, flight_piece_s=0.05)) > 0.58
     assert fl_x(dataclass_replace(air, stance=np.ones(4, bool)), kept(0.35), P) > 0.58
     assert fl_x(air, kept(0.7), P) > 0.58
-
