@@ -71,7 +71,11 @@ class DecisionParams:
     family softened, or not solved to tolerance), lies more than late_jump_m from it, and the kept one still lies
     on the slot's polygon (an answer with the reach box softened, or cut at OSQP's iteration limit, flipped a
     foot 0.3 m across the body 0.04 s before its touchdown, and back the next tick; the swing follows such a flip;
-    None: off); back_drop_frac: a walk to a goal goes down a descent backward (None: off). A descent edge is a
+    None: off); flight_piece_s: a foot in the air due within this that keeps its region keeps the convex piece of
+    it it was headed for too: its polygon is grown around its kept foothold, not the nominal one (see
+    _piece_centre; 0: around the nominal, whose flicker across a box between two pieces of the floor moved a
+    swing's target 0.4 m back and forth; for the whole swing, inf, the clutter family's no-step walks went 9 to 3
+    of 50 but its falls 11 to 18); back_drop_frac: a walk to a goal goes down a descent backward (None: off). A descent edge is a
     fall in the ground along the body path of at least this share of the leg's length (thigh + shank) within
     back_edge_m (a riser, not a slope), the ground staying that much lower for back_beyond_m past it (a flight
     down, not the pit between two stones). A descent edge within back_ahead_m ahead of the body's centre turns the
@@ -163,7 +167,9 @@ class DecisionParams:
     late swing elsewhere) or a tread below is not left trailing on a straight leg (the speed may fall to 0 until
     it lifts); height_reach_frac: the body height is at most the one at which every stance foot lies within this
     share of the leg's full length of its hip (along the heading and up, the hips placed by the pitch target): a
-    hind foot a tread below keeps the body down instead of hanging from a straight leg; touchdown_reach_frac: the
+    hind foot a tread below keeps the body down instead of hanging from a straight leg (not below min_height_m: a
+    stance foot left far behind or ahead bounded the height to the ground, and the body sank onto the boxes,
+    clutter draw 202); touchdown_reach_frac: the
     body height is also at most the one at which every swinging leg's chosen touchdown lies within this share of
     the leg's full length of its hip (the same geometry; not below min_height_m): a front foot stepping down a
     riser is not sent to a tread its straight leg only reaches after the body has come down (steep stairs: the
@@ -256,6 +262,7 @@ class DecisionParams:
     turn_rad: float = 0.4
     turn_radius_m: float = 0.6
     turn_margin_m: float = 0.0
+    flight_piece_s: float = 0.2
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
     shift_slow_m: float = 0.15
@@ -926,7 +933,7 @@ def reach_height(view: TerrainView, pitch: float, p: DecisionParams) -> float:
     """Gives the highest body height (m, above the mean contact height) at which every stance foot lies within
     height_reach_frac of the leg's full length of its hip along the heading and up, the hips placed by the pitch
     (positive nose down) (inf: no leg lengths, or no foot bounds it)."""
-    return _reach_bound(view, view.p_world_foot, view.stance, pitch, p.height_reach_frac)
+    return max(_reach_bound(view, view.p_world_foot, view.stance, pitch, p.height_reach_frac), p.min_height_m)
 
 
 def touchdown_reach_height(
@@ -1532,6 +1539,26 @@ def leg_bounds_found(
     return out, found
 
 
+def _piece_centre(
+    regions: SteppableRegions,
+    label: int,
+    nom: NDArray[np.float64],
+    keep: NDArray[np.float64] | None,
+    flying: bool,
+    p: DecisionParams,
+) -> NDArray[np.float64]:
+    """Gives the place a foothold's polygon is grown around: the nominal foothold nom (2,), or, for a foot in the air
+    due within flight_piece_s (flying) whose kept foothold keep (2,) lies on this same region (label), the kept
+    foothold: a swing's end commits to the convex piece of its region it was headed for, not only to the region. (The
+    floor between boxes is one region of many convex pieces; a nominal flickering across a box sent the target
+    0.4 m back and forth in a swing's last 0.2 s, the foot cut the box: clutter draw 240.)"""
+    if not (flying and keep is not None):
+        return nom
+    if regions.label_at(float(keep[0]), float(keep[1])) != label:
+        return nom
+    return keep
+
+
 def _polygon(
     regions: SteppableRegions,
     label: int,
@@ -1921,7 +1948,10 @@ def choose_footholds(
                     )
                 poly = None
                 if label:
-                    poly = _polygon(regions, label, nom, p, cache)
+                    late = flying and float(path.t_touchdown[order_l[j]]) - view.t_s < p.flight_piece_s
+                    poly = _polygon(
+                        regions, label, _piece_centre(regions, label, nom, keep, late, p), p, cache
+                    )
                 if poly is not None and j < 4 and p.shin_regions > 1 and not flying:
                     # a region none of whose places clears the shin: the next region that has one (a foot in
                     # stance; in the air it keeps the region it lifted off for: no switch late in a swing)

@@ -366,7 +366,9 @@ def test_a_foot_in_the_air_keeps_its_clearing_choice_when_its_new_polygon_has_no
     t_mem = np.full(4, np.nan)
     t_mem[0] = float(path.t_touchdown[k_fl])
     qp = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
-    params = dataclasses.replace(P_LINE, shin_hold=True)
+    params = dataclasses.replace(
+        P_LINE, shin_hold=True, flight_piece_s=0.0
+    )  # (the piece rule alone would keep it too)
     kept = FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool), np.ones(4, dtype=bool))
     d = choose_footholds(view, path, world, kept, qp, params)
     np.testing.assert_allclose(d.p_world_touchdown[k_fl, :2], [0.3, 0.15], atol=0.011)
@@ -508,6 +510,12 @@ def test_a_trailing_stance_foot_paces_the_body_and_holds_its_height_within_the_l
     air = dataclass_replace(low, stance=np.array([True, True, False, True]))
     assert trail_speed(air, last, P) > P.max_speed_mps
     assert reach_height(air, 0.0, P) > view.standing_height_m
+    # a hind foot left 0.58 m behind its hip (near the leg's reach): not below min_height_m, never to the ground
+    far = feet.copy()
+    far[2] = [-0.88, 0.15, 0.0]
+    stuck = dataclass_replace(view, p_world_foot=far)
+    assert _reach_bound_unfloored(stuck, P) < P.min_height_m
+    assert reach_height(stuck, 0.0, P) == pytest.approx(P.min_height_m)
     # the decision applies both: the body height and the speed come down
     world = _world(*_stones())
     d = decide(low, world, last, P)
@@ -561,6 +569,15 @@ def test_a_table_top_out_of_the_sensors_sight_is_remembered_and_keeps_the_body_c
     assert crouch_height(view, maps, P) == np.inf  # no overhang: no bound
     crouched = crouch_height(view, maps, P, HeightGrid(origin, RES, remembered))
     assert P.min_height_m <= crouched <= 0.58 - P.body_top_m - P.head_margin_m + 1e-9
+
+
+def _reach_bound_unfloored(view: TerrainView, p: DecisionParams) -> float:
+    """reach_height's geometry by hand, without its floor: the highest hip height (pitch 0) at which every stance foot
+    lies within height_reach_frac of the leg's length of its hip along x."""
+    length = p.height_reach_frac * (view.l_upper_m + view.l_lower_m)
+    dx = view.p_world_foot[:, 0] - (view.p_world_body[0] + view.p_body_hip[:, 0])
+    use = view.stance & (np.abs(dx) < length)
+    return float(np.min(view.p_world_foot[use, 2] + np.sqrt(length**2 - dx[use] ** 2) - view.z_contact))
 
 
 def _trot_path(x_feet: np.ndarray, nominal_x: np.ndarray, t_now: float = 1.0) -> StepPath:
@@ -1457,3 +1474,42 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
     walled_maps = maps_from_grids((xs[0], ys[0]), RES, np.where(side, 0.9, h), side, side)
     walled = dataclasses.replace(walled, maps=walled_maps)
     assert follow_path(view_at(0.5, 0.0), path, 0.5, p, walled.maps).vx > 0.1
+
+
+def test_a_foot_in_the_air_keeps_the_piece_of_the_floor_it_was_headed_for() -> None:
+    """The floor with a box on it (x 0.40-0.55, y -0.05-0.45, 0.2 m high) across FL's line: one floor region (it goes
+    round the box's ends) of convex pieces before and past the box. FL in the air was headed for the piece before it (kept at x 0.35); its
+    nominal now lies past the box (x 0.68, as a selection flickering across the box gives): it keeps the piece
+    before the box and lands by its far edge, not 0.3 m on. In stance, or due later than flight_piece_s, the nominal's
+    piece is taken."""
+    xs = -0.6 + np.arange(80) * RES
+    ys = -0.9 + np.arange(60) * RES
+    X = np.broadcast_to(xs[:, None], (80, 60))
+    Y = np.broadcast_to(ys[None, :], (80, 60))
+    box = (X > 0.40) & (X < 0.55) & (Y > -0.05) & (Y < 0.45)
+    world = _world(xs, ys, np.asarray(np.where(box, 0.2, 0.0), dtype=np.float64))
+    floor = world.regions.label_at(0.3, 0.15)
+    assert floor and world.regions.label_at(0.7, 0.15) == floor and world.regions.label_at(0.5, 0.15) != floor
+    feet_x = np.array([0.2, 0.3, -0.15, -0.15])
+    air = dataclass_replace(_view(np.zeros(4), feet_x), stance=np.array([False, True, True, True]))
+    path = _trot_path(feet_x, np.array([0.68, 0.3, -0.1, -0.1]))
+    k_fl = int(np.flatnonzero(path.leg == 0)[0])
+
+    def kept(x: float, z: float = 0.0) -> FootholdMemory:
+        chosen = np.full((4, 3), np.nan)
+        chosen[0] = [x, 0.15, z]
+        t_mem = np.full(4, np.nan)
+        t_mem[0] = float(path.t_touchdown[k_fl])
+        return FootholdMemory(t_mem, chosen, np.zeros(4), np.ones(4, dtype=bool))
+
+    def fl_x(view: TerrainView, memory: FootholdMemory, p: DecisionParams) -> float:
+        qp = StepQP(dataclass_replace(StepQPParams(), keep_planes=14, max_iter=400))
+        return float(choose_footholds(view, path, world, memory, qp, p).p_world_touchdown[k_fl, 0])
+
+    # in the air, headed for the piece before the box: by its far edge (the box at 0.40, the inset 4 cm)
+    assert 0.3 < fl_x(air, kept(0.35), P) < 0.37
+    # the nominal's piece past the box: with the rule off, in stance, and headed past the box already
+    assert P.flight_piece_s > 0.1  # FL is due in 0.1 s
+    assert fl_x(air, kept(0.35), dataclasses.replace(P, flight_piece_s=0.05)) > 0.58
+    assert fl_x(dataclass_replace(air, stance=np.ones(4, bool)), kept(0.35), P) > 0.58
+    assert fl_x(air, kept(0.7), P) > 0.58
