@@ -254,7 +254,7 @@ class DecisionParams:
     freeze_s: float = 0.04
     late_jump_s: float | None = 0.2
     late_jump_m: float = 0.1
-    back_drop_frac: float | None = 0.18
+    back_drop_frac: float | None = 0.2
     back_edge_m: float = 0.09
     back_beyond_m: float = 0.4
     back_ahead_m: float = 0.7

@@ -1405,7 +1405,7 @@ def _ground(f) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # type: ignore[no-
     return xs, ys, np.asarray(f(np.broadcast_to(xs[:, None], (160, 60))), dtype=np.float64)
 
 
-LEG = 0.66  # thigh + shank (m); a descent edge falls 0.18 of it, 0.119 m
+LEG = 0.66  # thigh + shank (m); a descent edge falls 0.2 of it, 0.132 m
 
 
 def test_a_descent_edge_is_a_riser_down_with_lower_ground_past_it_not_a_pit_a_slope_or_a_low_step() -> None:
