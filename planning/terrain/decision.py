@@ -2324,6 +2324,7 @@ class PipelineStats:
     barrier_ticks: int = 0
     late_holds: int = 0
     min_height_m: float = np.inf
+    backward_s: float = 0.0
 
     def summary(self) -> dict[str, Any]:
         return {
@@ -2343,6 +2344,7 @@ class PipelineStats:
             "gait_switches": self.gait_switches,
             "barrier_ticks": self.barrier_ticks,
             "late_jump_holds": self.late_holds,
+            "backward_s": round(self.backward_s, 2),
             "min_body_height_target_m": None
             if not np.isfinite(self.min_height_m)
             else round(self.min_height_m, 3),
@@ -2475,6 +2477,8 @@ class TerrainPipeline:
                 d = dataclasses.replace(d, command=kept)
         if d.gait != view.gait:
             self.stats.gait_switches += 1
+        if view.goal is not None and facing_back(view, self.world.path, self.decision_params):
+            self.stats.backward_s += view.dt_s
         self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)
         return d
 
