@@ -436,12 +436,16 @@ class FootholdDecision:
     late_holds: int = 0
 
 
+Facing = Literal["forward", "back", "round"]
+
+
 @dataclass(frozen=True, eq=False)
 class TerrainDecision:
     """What the controller applies this tick: the body command (body frame), the gait, the body height above the
     mean contact height and the pitch target (positive nose down), the ground the swings clear, the speed cap it
     came from, and whether the slow gait's liftoffs wait for static balance (support_hold: the controller's
-    SupportShiftParams.hold for this tick, see DecisionParams.hold_region_m2)."""
+    SupportShiftParams.hold for this tick, see DecisionParams.hold_region_m2), and how the body faces along its path
+    (next_facing: "back" walking down a descent backward, "round" turning to face its path again)."""
 
     command: SteeringCommand
     gait: str
@@ -450,16 +454,26 @@ class TerrainDecision:
     swing_ground: HeightGrid
     speed_cap_mps: float
     support_hold: bool = False
+    facing: Facing = "forward"
 
 
 # ---- the decisions ---------------------------------------------------------------------------------------------
 
 
 def decide(
-    view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, params: DecisionParams
+    view: TerrainView,
+    world: TerrainWorld,
+    last: FootholdDecision | None,
+    params: DecisionParams,
+    facing: Facing = "forward",
 ) -> TerrainDecision:
-    """Gives the body command, gait, body height and pitch and the swing ground (see the module docstring)."""
+    """Gives the body command, gait, body height and pitch and the swing ground (see the module docstring); facing:
+    how the body faced along its path on the tick before (TerrainDecision.facing; see next_facing)."""
     p = params
+    if view.goal is not None and world.path is not None and world.path.length_m > 1e-6:
+        facing = next_facing(view, world.maps, world.path, facing, p)
+    else:
+        facing = "forward"
     shift = 0.0 if last is None else last.max_shift_m
     back = 0.0 if last is None else last.back_m
     frac = float(
@@ -469,10 +483,10 @@ def decide(
     share = lo + (1.0 - lo) * frac
     cap = p.max_speed_mps * share
     gait = cadence(view, world, last, p)
-    back = view.goal is not None and p.back_drop_frac is not None and facing_back(view, world.path, p)
+    back = facing == "back"
     cap = min(cap, stride_m(view, gait, p) / get_gait(gait).cycle_s, trail_speed(view, last, p, back))
     command = (
-        follow_path(view, world.path, cap, p, world.maps)
+        follow_path(view, world.path, cap, p, facing)
         if view.goal is not None
         else capped(view.operator, cap, p)
     )
@@ -493,7 +507,7 @@ def decide(
     if p.touchdown_reach_frac is not None and last is not None:
         height = min(height, touchdown_reach_height(view, last.memory.p_chosen, pitch, p))
     hold = p.hold_region_m2 is not None and on_small_regions(view, world, p.hold_region_m2)
-    return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap, hold)
+    return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap, hold, facing)
 
 
 def level_height(view: TerrainView, last: FootholdDecision | None, p: DecisionParams) -> float:
@@ -742,14 +756,6 @@ def travel_yaw(view: TerrainView, path: BodyPath, p: DecisionParams) -> float:
     return math.atan2(float(d[1]), float(d[0]))
 
 
-def facing_back(view: TerrainView, path: BodyPath | None, p: DecisionParams) -> bool:
-    """Tells whether the body faces against the way it goes along its path (its yaw more than 90° off travel_yaw):
-    it walks backward down a descent (DecisionParams.back_drop_frac)."""
-    if path is None or path.length_m < 1e-6:
-        return False
-    return math.cos(view.yaw - travel_yaw(view, path, p)) < 0.0
-
-
 def descent_edges(
     maps: TerrainMaps, path: BodyPath, s0: float, s1: float, p: DecisionParams, leg_m: float
 ) -> bool:
@@ -776,23 +782,34 @@ def descent_edges(
     return bool(np.any(h[:n] - win >= drop))
 
 
-def wants_back(view: TerrainView, maps: TerrainMaps, path: BodyPath, back: bool, p: DecisionParams) -> bool:
-    """Tells whether the body should face against its path (walk backward) now (see DecisionParams.back_drop_frac):
-    facing forward, a descent edge within back_ahead_m ahead and room to turn (or a turn round under way, more than
-    turn_rad from the path's yaw); facing back, a descent edge within
-    back_behind_m behind its centre or back_ahead_m ahead."""
+def next_facing(
+    view: TerrainView, maps: TerrainMaps, path: BodyPath, facing: Facing, p: DecisionParams
+) -> Facing:
+    """Gives how the body faces along its path from now (see DecisionParams.back_drop_frac), from how it faced:
+    "forward" turns "back" (round in place, then backward) at a descent edge within back_ahead_m ahead where there
+    is room to turn (turn_room); "back" stays while a descent edge lies within back_behind_m behind its centre or
+    back_ahead_m ahead, then turns "round" (in place, to face its path); "round" is "forward" again once the body
+    is within turn_rad of the way it goes (or "back" at a descent edge ahead)."""
     leg_m = view.l_upper_m + view.l_lower_m
     if p.back_drop_frac is None or leg_m <= 0.0:
-        return False
+        return "forward"
     k = int(np.argmin(np.sum((path.xy - view.p_world_body[:2]) ** 2, axis=1)))
     s = float(path.s[k])
-    if back:
-        return descent_edges(maps, path, s - p.back_behind_m, s + p.back_ahead_m, p, leg_m)
-    if not descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m):
-        return False
-    if abs(math.remainder(view.yaw - travel_yaw(view, path, p), 2.0 * math.pi)) > p.turn_rad:
-        return True  # a turn round under way: room was found when it began
-    return turn_room(view, maps, p.turn_radius_m + p.turn_margin_m, p.back_drop_frac * leg_m)
+    if facing == "back":
+        return (
+            "back"
+            if descent_edges(maps, path, s - p.back_behind_m, s + p.back_ahead_m, p, leg_m)
+            else "round"
+        )
+    ahead = descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m)
+    if ahead and turn_room(view, maps, p.turn_radius_m + p.turn_margin_m, p.back_drop_frac * leg_m):
+        return "back"
+    if (
+        facing == "round"
+        and abs(math.remainder(view.yaw - travel_yaw(view, path, p), 2.0 * math.pi)) > p.turn_rad
+    ):
+        return "round"
+    return "forward"
 
 
 def turn_room(view: TerrainView, maps: TerrainMaps, radius_m: float, drop_m: float) -> bool:
@@ -816,10 +833,12 @@ def turn_room(view: TerrainView, maps: TerrainMaps, radius_m: float, drop_m: flo
 
 
 def follow_path(
-    view: TerrainView, path: BodyPath | None, cap: float, p: DecisionParams, maps: TerrainMaps | None = None
+    view: TerrainView, path: BodyPath | None, cap: float, p: DecisionParams, facing: Facing = "forward"
 ) -> SteeringCommand:
     """Gives the body command (body frame) that pursues the point lookahead_m ahead on the body path (the goal at
-    its end), at the speed cap (slower near the goal), turning toward the path's yaw."""
+    its end), at the speed cap (slower near the goal), turning toward the path's yaw; facing "back", against the
+    way it goes (a descent walked backward), and, "back" or "round", turning in place while more than turn_rad
+    off its yaw (see next_facing)."""
     assert view.goal is not None
     xy = view.p_world_body[:2]
     dist = float(np.linalg.norm(view.goal - xy))
@@ -836,12 +855,9 @@ def follow_path(
         yaw_des = float(path.yaw[k])
         if p.yaw_lookahead_m > 0.0 and (p.yaw_near_m is None or path.min_clearance_m < p.yaw_near_m):
             yaw_des = float(path.pose_at(float(path.s[k]) + p.yaw_lookahead_m)[1])
-        if maps is not None and p.back_drop_frac is not None:
-            back = facing_back(view, path, p)
-            want = wants_back(view, maps, path, back, p)
-            if want:
-                yaw_des = travel_yaw(view, path, p) + math.pi
-            turning = want or back  # facing back, or to be: turns round in place
+        if facing == "back":
+            yaw_des = travel_yaw(view, path, p) + math.pi
+        turning = facing != "forward"  # a turn round, either way: in place
         if dist <= 0.5:
             yaw_des = view.yaw
             turning = False
@@ -2397,6 +2413,7 @@ class TerrainPipeline:
         self.path: BodyPath | None = None
         self.memory = FootholdMemory.empty()
         self.last: FootholdDecision | None = None
+        self.facing: Facing = "forward"
         self.stats = PipelineStats()
         self._polygons: dict[tuple[int, int, int], ConvexRegion | None] = {}
         self._truth_center: NDArray[np.float64] | None = None
@@ -2466,7 +2483,8 @@ class TerrainPipeline:
         """Gives this tick's decision (None before the first maps)."""
         if self.world is None:
             return None
-        d = decide(view, self.world, self.last, self.decision_params)
+        d = decide(view, self.world, self.last, self.decision_params, self.facing)
+        self.facing = d.facing
         xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
         if view.goal is None:
             d = dataclasses.replace(d, command=stop_short(maps, xy, view.yaw, d.command, p.path, p.stop))
@@ -2477,7 +2495,7 @@ class TerrainPipeline:
                 d = dataclasses.replace(d, command=kept)
         if d.gait != view.gait:
             self.stats.gait_switches += 1
-        if view.goal is not None and facing_back(view, self.world.path, self.decision_params):
+        if d.facing == "back":
             self.stats.backward_s += view.dt_s
         self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)
         return d

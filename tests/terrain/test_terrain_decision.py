@@ -38,6 +38,7 @@ from planning.terrain.decision import (
     leg_clearance,
     level_height,
     lost_region,
+    next_facing,
     own_side,
     path_holds,
     pitched_nominals,
@@ -53,7 +54,6 @@ from planning.terrain.decision import (
     touchdown_reach_height,
     trail_speed,
     turn_room,
-    wants_back,
 )
 from planning.terrain.maps import maps_from_grids
 from planning.terrain.memory import OverhangMemory
@@ -1442,9 +1442,10 @@ def test_a_turn_round_needs_room_from_walls_not_from_the_foot_of_a_drop() -> Non
 
 
 def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_backward() -> None:
-    """Stairs down from x 1.0 (0.15 m risers) on the way to a goal at x 3.2: 0.5 m before the first edge the body
-    turns in place (no speed, a yaw rate); facing back it walks backward along its path; 0.7 m past the last edge
-    it turns to face its path again; with the rule off, or with a wall beside it, it walks on forward."""
+    """Stairs down from x 1.0 (0.15 m risers, edges at 1.0-1.9) on the way to a goal at x 3.2: 0.5 m before the first
+    edge the body, facing forward, turns "back": in place (no speed, a yaw rate); facing back it walks backward
+    along its path; back_behind_m past the last edge it turns "round" (in place), and "forward" once within turn_rad
+    of its way; with the rule off, with a wall beside it, or on the flat before the stairs, it walks on forward."""
     xs, ys, h = _ground(lambda X: -0.15 * np.clip(np.floor((X - 1.0) / 0.3) + 1, 0, 4))
     world = _world(xs, ys, h)
     legs = {"l_upper_m": 0.32, "l_lower_m": 0.34}
@@ -1458,22 +1459,29 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
         )
 
     p = dataclasses.replace(P, turn_radius_m=0.6)
-    turn = follow_path(view_at(0.5, 0.0), path, 0.5, p, world.maps)
+    maps = world.maps
+    assert next_facing(view_at(0.1, 0.0), maps, path, "forward", p) == "forward"  # the edge 0.9 m ahead
+    assert next_facing(view_at(0.5, 0.0), maps, path, "forward", p) == "back"
+    turn = follow_path(view_at(0.5, 0.0), path, 0.5, p, "back")
     assert turn.vx == 0.0 and turn.vy == 0.0 and abs(turn.yaw_rate) > 0.0
-    assert wants_back(view_at(0.5, 0.0), world.maps, path, False, p)
-    down = follow_path(view_at(1.4, math.pi), path, 0.5, p, world.maps)
+    down = follow_path(view_at(1.4, math.pi), path, 0.5, p, "back")
     assert down.vx < -0.1 and abs(down.yaw_rate) < 1e-6
-    # past the last edge (x 1.9) by more than back_behind_m: turn to face the path again
-    assert not wants_back(view_at(1.9 + p.back_behind_m + 0.05, math.pi), world.maps, path, True, p)
-    assert wants_back(view_at(1.9 + p.back_behind_m - 0.1, math.pi), world.maps, path, True, p)
-    off = follow_path(view_at(0.5, 0.0), path, 0.5, dataclasses.replace(p, back_drop_frac=None), world.maps)
-    assert off.vx > 0.1
+    # past the last edge (x 1.9) by more than back_behind_m: round, in place, until it faces its way again
+    after = 1.9 + p.back_behind_m
+    assert next_facing(view_at(after - 0.1, math.pi), maps, path, "back", p) == "back"
+    assert next_facing(view_at(after + 0.05, math.pi), maps, path, "back", p) == "round"
+    assert follow_path(view_at(after + 0.05, math.pi), path, 0.5, p, "round").vx == 0.0
+    assert next_facing(view_at(after + 0.05, math.pi), maps, path, "round", p) == "round"
+    assert next_facing(view_at(after + 0.05, 0.1), maps, path, "round", p) == "forward"
+    # facing forward, the way the body goes backward (a path that turns back) is no descent walked backward
+    assert next_facing(view_at(after + 0.05, math.pi), maps, path, "forward", p) == "forward"
+    off = dataclasses.replace(p, back_drop_frac=None)
+    assert next_facing(view_at(0.5, 0.0), maps, path, "forward", off) == "forward"
+    assert follow_path(view_at(0.5, 0.0), path, 0.5, off).vx > 0.1
     Y = np.broadcast_to(ys[None, :], h.shape)
     side = (Y > 0.45) & (np.broadcast_to(xs[:, None], h.shape) < 1.0)
-    walled = _world(xs, ys, h)
-    walled_maps = maps_from_grids((xs[0], ys[0]), RES, np.where(side, 0.9, h), side, side)
-    walled = dataclasses.replace(walled, maps=walled_maps)
-    assert follow_path(view_at(0.5, 0.0), path, 0.5, p, walled.maps).vx > 0.1
+    walled = maps_from_grids((xs[0], ys[0]), RES, np.where(side, 0.9, h), side, side)
+    assert next_facing(view_at(0.5, 0.0), walled, path, "forward", p) == "forward"
 
 
 def test_a_foot_in_the_air_keeps_the_piece_of_the_floor_it_was_headed_for() -> None:
