@@ -82,10 +82,11 @@ class DecisionParams:
     body round in place to face against its path, and it walks backward until its centre is back_behind_m past the
     last descent edge; then it turns to face its path again. Why: the knees point back, so a leg stepping down
     forward puts its shank over the nosing it steps off (the stairs family's tall risers fell on the descents);
-    backward, the shank leans away from it. The turn is made only where no body obstacle (other than the foot of a
-    drop) lies within turn_radius_m + turn_margin_m of the body's centre (turn_radius_m: the planform's
-    half-diagonal, set from the RobotModel by the pipeline; turn_room): between railings the body goes down
-    forward as before. turn_rad: while a turn round
+    backward, the shank leans away from it. The turn is made only where the body can turn round in place: every circle of
+    the footprint (turn_circles_x_m along the body, radius turn_circle_r_m: set by the pipeline to the barrier's
+    footprint from the RobotModel) keeps turn_margin_m (the barrier's margin + 1 cm: it would stop the turn
+    otherwise) from body obstacles at every heading (turn_room): between railings the body goes down forward as
+    before. turn_rad: while a turn round
     is this far from its yaw, the body turns in place; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
     the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward
     along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down
@@ -260,8 +261,9 @@ class DecisionParams:
     back_ahead_m: float = 0.7
     back_behind_m: float = 0.6
     turn_rad: float = 0.4
-    turn_radius_m: float = 0.6
-    turn_margin_m: float = 0.0
+    turn_circles_x_m: tuple[float, ...] = (-0.3, 0.0, 0.3)
+    turn_circle_r_m: float = 0.17
+    turn_margin_m: float = 0.06
     flight_piece_s: float = 0.2
     max_speed_mps: float = 0.5
     min_speed_mps: float = 0.2
@@ -802,7 +804,7 @@ def next_facing(
             else "round"
         )
     ahead = descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m)
-    if ahead and turn_room(view, maps, p.turn_radius_m + p.turn_margin_m, p.back_drop_frac * leg_m):
+    if ahead and turn_room(view, maps, p.turn_circles_x_m, p.turn_circle_r_m, p.turn_margin_m):
         return "back"
     if (
         facing == "round"
@@ -812,24 +814,17 @@ def next_facing(
     return "forward"
 
 
-def turn_room(view: TerrainView, maps: TerrainMaps, radius_m: float, drop_m: float) -> bool:
-    """Tells whether the body can turn round in place: no body-obstacle cell within radius_m of its centre whose
-    ground is not more than drop_m below the feet's mean contact height. (A cell at the foot of a wall is a body
-    obstacle; beside a landing that is the floor far below it, which a turning body passes over, not into.)"""
-    res = maps.resolution_m
-    ox, oy = maps.origin_xy
+def turn_room(
+    view: TerrainView, maps: TerrainMaps, circles_x_m: tuple[float, ...], radius_m: float, margin_m: float
+) -> bool:
+    """Tells whether the body can turn round in place: at every heading (15° apart), every footprint circle
+    (centres circles_x_m along the body's axis, radius radius_m) keeps margin_m from body obstacles (the body SDF)."""
+    th = np.arange(24) * (math.pi / 12.0)
+    xs = np.asarray(circles_x_m, dtype=np.float64)
     x, y = (float(v) for v in view.p_world_body[:2])
-    w = int(math.ceil(radius_m / res))
-    cx, cy = int(round((x - ox) / res)), int(round((y - oy) / res))
-    nx, ny = maps.body_obstacle.shape
-    i0, i1, j0, j1 = max(cx - w, 0), min(cx + w + 1, nx), max(cy - w, 0), min(cy + w + 1, ny)
-    if i0 >= i1 or j0 >= j1:
-        return False
-    xs = ox + np.arange(i0, i1) * res - x
-    ys = oy + np.arange(j0, j1) * res - y
-    near = xs[:, None] ** 2 + ys[None, :] ** 2 <= radius_m * radius_m
-    wall = maps.body_obstacle[i0:i1, j0:j1] & (maps.ground_height[i0:i1, j0:j1] > view.z_contact - drop_m)
-    return not bool(np.any(near & wall))
+    cx = x + np.outer(np.cos(th), xs).ravel()
+    cy = y + np.outer(np.sin(th), xs).ravel()
+    return bool(np.all(np.asarray(maps.sdf_body(cx, cy), dtype=np.float64) - radius_m >= margin_m))
 
 
 def follow_path(
@@ -2390,11 +2385,9 @@ class TerrainPipeline:
         self.data = data
         self.scene = scene
         self.goal = None if goal_xy is None else np.asarray(goal_xy, dtype=np.float64).reshape(2)
-        x_lo, x_hi, half_w = robot_planform(robot)
         self.decision_params = dataclasses.replace(
             p.decision,
             regions=dataclasses.replace(p.decision.regions, foot_radius_m=float(robot.foot_radius_m)),
-            turn_radius_m=float(math.hypot(max(-x_lo, x_hi), half_w)),
         )
         if self.decision_params.regions.max_planes + 6 > p.step_qp.keep_planes:
             raise ValueError(
@@ -2407,6 +2400,13 @@ class TerrainPipeline:
         self.path_params = robot_footprint(robot, p, p.path)
         self.barrier_footprint = robot_footprint(
             robot, dataclasses.replace(p, footprint_from_robot=True, footprint_margin_m=0.0), p.path
+        )
+        # a turn round needs room by the barrier's own footprint and margin (+1 cm), or the barrier stops it midway
+        self.decision_params = dataclasses.replace(
+            self.decision_params,
+            turn_circles_x_m=tuple(self.barrier_footprint.footprint_x_m),
+            turn_circle_r_m=float(self.barrier_footprint.footprint_r_m),
+            turn_margin_m=(p.barrier.margin_m or 0.0) + 0.01,
         )
         self.overhangs = OverhangMemory()
         self.world: TerrainWorld | None = None

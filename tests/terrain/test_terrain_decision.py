@@ -1425,20 +1425,20 @@ def test_a_descent_edge_is_a_riser_down_with_lower_ground_past_it_not_a_pit_a_sl
     assert descent_edges(low.maps, path, 0.0, 2.0, dataclasses.replace(P, back_drop_frac=0.05), LEG)
 
 
-def test_a_turn_round_needs_room_from_walls_not_from_the_foot_of_a_drop() -> None:
+def test_a_turn_round_needs_room_for_the_footprint_at_every_heading() -> None:
+    """Three circles of 0.17 m at -0.3, 0 and 0.3 m along the body, 0.06 m margin: on open floor the body can turn
+    round; a wall 0.5 m to its side (within 0.3 + 0.17 + 0.06 of the centre) stops it, at 0.6 m it does not."""
     xs, ys, h = _ground(lambda X: np.zeros_like(X))
     view = dataclass_replace(_view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3])), z_contact=0.0)
     Y = np.broadcast_to(ys[None, :], h.shape)
-    side = Y > 0.5  # cells 0.5 m beside the body's centre
+    circles = (-0.3, 0.0, 0.3)
     open_floor = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
-    assert turn_room(view, open_floor, 0.6, 0.12)
-    wall = maps_from_grids((xs[0], ys[0]), RES, np.where(side, 0.9, h), side, side)
-    assert not turn_room(view, wall, 0.6, 0.12)
-    assert turn_room(view, wall, 0.45, 0.12)  # farther than the radius
-    drop = maps_from_grids(
-        (xs[0], ys[0]), RES, np.where(side, -0.9, h), side, side
-    )  # the floor below a landing
-    assert turn_room(view, drop, 0.6, 0.12)
+    assert turn_room(view, open_floor, circles, 0.17, 0.06)
+    near = maps_from_grids((xs[0], ys[0]), RES, h, Y > 0.5, Y > 0.5)
+    assert not turn_room(view, near, circles, 0.17, 0.06)
+    assert turn_room(view, near, circles[1:2], 0.17, 0.06)  # one circle at the centre: room
+    far = maps_from_grids((xs[0], ys[0]), RES, h, Y > 0.6, Y > 0.6)
+    assert turn_room(view, far, circles, 0.17, 0.06)
 
 
 def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_backward() -> None:
@@ -1458,7 +1458,7 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
             v, p_world_body=np.array([x, 0.0, z + 0.55]), yaw=yaw, z_contact=z + 0.02, **legs
         )
 
-    p = dataclasses.replace(P, turn_radius_m=0.6)
+    p = P
     maps = world.maps
     assert next_facing(view_at(0.1, 0.0), maps, path, "forward", p) == "forward"  # the edge 0.9 m ahead
     assert next_facing(view_at(0.5, 0.0), maps, path, "forward", p) == "back"
