@@ -85,8 +85,8 @@ class DecisionParams:
     backward, the shank leans away from it. The turn is made only where the body can turn round in place: every circle of
     the footprint (turn_circles_x_m along the body, radius turn_circle_r_m: set by the pipeline to the barrier's
     footprint from the RobotModel) keeps turn_margin_m (the barrier's margin + 1 cm: it would stop the turn
-    otherwise) from body obstacles at every heading (turn_room): between railings the body goes down forward as
-    before. turn_rad: while a turn round
+    otherwise) from body obstacles at every heading on one of the two ways round (turn_room; the turn goes that
+    way): between railings the body goes down forward as before. turn_rad: while a turn round
     is this far from its yaw, the body turns in place; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
     the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward
     along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down
@@ -488,7 +488,7 @@ def decide(
     back = facing == "back"
     cap = min(cap, stride_m(view, gait, p) / get_gait(gait).cycle_s, trail_speed(view, last, p, back))
     command = (
-        follow_path(view, world.path, cap, p, facing)
+        follow_path(view, world.path, cap, p, facing, world.maps)
         if view.goal is not None
         else capped(view.operator, cap, p)
     )
@@ -804,7 +804,7 @@ def next_facing(
             else "round"
         )
     ahead = descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m)
-    if ahead and turn_room(view, maps, p.turn_circles_x_m, p.turn_circle_r_m, p.turn_margin_m):
+    if ahead and turn_way(view, maps, travel_yaw(view, path, p) + math.pi, p):
         return "back"
     if (
         facing == "round"
@@ -814,21 +814,47 @@ def next_facing(
     return "forward"
 
 
+def turn_way(view: TerrainView, maps: TerrainMaps, yaw_to: float, p: DecisionParams) -> int:
+    """turn_room with the footprint and margin of p (DecisionParams.turn_circles_x_m, turn_circle_r_m,
+    turn_margin_m)."""
+    return turn_room(view, maps, yaw_to, p.turn_circles_x_m, p.turn_circle_r_m, p.turn_margin_m)
+
+
 def turn_room(
-    view: TerrainView, maps: TerrainMaps, circles_x_m: tuple[float, ...], radius_m: float, margin_m: float
-) -> bool:
-    """Tells whether the body can turn round in place: at every heading (15° apart), every footprint circle
-    (centres circles_x_m along the body's axis, radius radius_m) keeps margin_m from body obstacles (the body SDF)."""
-    th = np.arange(24) * (math.pi / 12.0)
+    view: TerrainView,
+    maps: TerrainMaps,
+    yaw_to: float,
+    circles_x_m: tuple[float, ...],
+    radius_m: float,
+    margin_m: float,
+) -> int:
+    """Gives the way the body can turn in place from its yaw to yaw_to (rad): +1 (counterclockwise) or -1 where every
+    footprint circle (centres circles_x_m along the body's axis, radius radius_m) keeps margin_m from body obstacles
+    (the body SDF) at every heading on the way (15° apart or closer), the way of more clearance where both can;
+    0: neither can."""
+    d = math.remainder(yaw_to - view.yaw, 2.0 * math.pi)
+    n = max(int(math.ceil(abs(d) / (math.pi / 12.0))), 1) + 1
     xs = np.asarray(circles_x_m, dtype=np.float64)
     x, y = (float(v) for v in view.p_world_body[:2])
-    cx = x + np.outer(np.cos(th), xs).ravel()
-    cy = y + np.outer(np.sin(th), xs).ravel()
-    return bool(np.all(np.asarray(maps.sdf_body(cx, cy), dtype=np.float64) - radius_m >= margin_m))
+    best, best_clear = 0, -np.inf
+    for sign in (1, -1):
+        arc = abs(d) if (d >= 0.0) == (sign > 0) else 2.0 * math.pi - abs(d)
+        th = view.yaw + sign * np.linspace(0.0, arc, max(n, int(math.ceil(arc / (math.pi / 12.0))) + 1))
+        cx = x + np.outer(np.cos(th), xs).ravel()
+        cy = y + np.outer(np.sin(th), xs).ravel()
+        clear = float(np.min(np.asarray(maps.sdf_body(cx, cy), dtype=np.float64))) - radius_m
+        if clear >= margin_m and clear > best_clear:
+            best, best_clear = sign, clear
+    return best
 
 
 def follow_path(
-    view: TerrainView, path: BodyPath | None, cap: float, p: DecisionParams, facing: Facing = "forward"
+    view: TerrainView,
+    path: BodyPath | None,
+    cap: float,
+    p: DecisionParams,
+    facing: Facing = "forward",
+    maps: TerrainMaps | None = None,
 ) -> SteeringCommand:
     """Gives the body command (body frame) that pursues the point lookahead_m ahead on the body path (the goal at
     its end), at the speed cap (slower near the goal), turning toward the path's yaw; facing "back", against the
@@ -863,6 +889,10 @@ def follow_path(
     dyaw = float((yaw_des - view.yaw + np.pi) % (2 * np.pi) - np.pi)
     if turning and abs(dyaw) > p.turn_rad:
         speed = 0.0  # a turn round (or a backward walk off its yaw): in place
+        if abs(dyaw) > 0.5 * math.pi and maps is not None:
+            way = turn_way(view, maps, yaw_des, p)  # the way round with room for the footprint
+            if way != 0 and (dyaw > 0.0) != (way > 0):
+                dyaw = dyaw - math.copysign(2.0 * math.pi, dyaw)
     v_body = rotate_yaw(-view.yaw, d / n * speed)
     wz = float(clip_scalar(p.yaw_gain * dyaw, -p.max_yaw_rate_rps, p.max_yaw_rate_rps))
     return SteeringCommand(float(v_body[0]), float(v_body[1]), wz)

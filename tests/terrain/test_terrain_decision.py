@@ -1425,20 +1425,23 @@ def test_a_descent_edge_is_a_riser_down_with_lower_ground_past_it_not_a_pit_a_sl
     assert descent_edges(low.maps, path, 0.0, 2.0, dataclasses.replace(P, back_drop_frac=0.05), LEG)
 
 
-def test_a_turn_round_needs_room_for_the_footprint_at_every_heading() -> None:
-    """Three circles of 0.17 m at -0.3, 0 and 0.3 m along the body, 0.06 m margin: on open floor the body can turn
-    round; a wall 0.5 m to its side (within 0.3 + 0.17 + 0.06 of the centre) stops it, at 0.6 m it does not."""
+def test_a_turn_round_needs_room_for_the_footprint_on_one_way_round() -> None:
+    """Circles of 0.17 m at -0.5, 0 and 0.3 m along the body (a rear that reaches farther), 0.06 m margin, a turn from
+    yaw 0 to pi: on open floor either way (+1 or -1); a wall 0.62 m to the left lets the rear pass only turning
+    counterclockwise (the rear swings right); walls 0.62 m on both sides: no way round; at 1 m: room."""
     xs, ys, h = _ground(lambda X: np.zeros_like(X))
     view = dataclass_replace(_view(np.zeros(4), np.array([0.3, 0.3, -0.3, -0.3])), z_contact=0.0)
     Y = np.broadcast_to(ys[None, :], h.shape)
-    circles = (-0.3, 0.0, 0.3)
-    open_floor = maps_from_grids((xs[0], ys[0]), RES, h, np.zeros(h.shape, bool))
-    assert turn_room(view, open_floor, circles, 0.17, 0.06)
-    near = maps_from_grids((xs[0], ys[0]), RES, h, Y > 0.5, Y > 0.5)
-    assert not turn_room(view, near, circles, 0.17, 0.06)
-    assert turn_room(view, near, circles[1:2], 0.17, 0.06)  # one circle at the centre: room
-    far = maps_from_grids((xs[0], ys[0]), RES, h, Y > 0.6, Y > 0.6)
-    assert turn_room(view, far, circles, 0.17, 0.06)
+    circles = (-0.5, 0.0, 0.3)
+
+    def maps_with(wall: np.ndarray):  # type: ignore[no-untyped-def]
+        return maps_from_grids((xs[0], ys[0]), RES, h, wall, wall)
+
+    assert turn_room(view, maps_with(np.zeros(h.shape, bool)), math.pi, circles, 0.17, 0.06) in (1, -1)
+    assert turn_room(view, maps_with(Y > 0.62), math.pi, circles, 0.17, 0.06) == 1
+    assert turn_room(view, maps_with(Y < -0.62), math.pi, circles, 0.17, 0.06) == -1
+    assert turn_room(view, maps_with(np.abs(Y) > 0.62), math.pi, circles, 0.17, 0.06) == 0
+    assert turn_room(view, maps_with(np.abs(Y) > 1.0), math.pi, circles, 0.17, 0.06) != 0
 
 
 def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_backward() -> None:
@@ -1462,7 +1465,7 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
     maps = world.maps
     assert next_facing(view_at(0.1, 0.0), maps, path, "forward", p) == "forward"  # the edge 0.9 m ahead
     assert next_facing(view_at(0.5, 0.0), maps, path, "forward", p) == "back"
-    turn = follow_path(view_at(0.5, 0.0), path, 0.5, p, "back")
+    turn = follow_path(view_at(0.5, 0.0), path, 0.5, p, "back", maps)
     assert turn.vx == 0.0 and turn.vy == 0.0 and abs(turn.yaw_rate) > 0.0
     down = follow_path(view_at(1.4, math.pi), path, 0.5, p, "back")
     assert down.vx < -0.1 and abs(down.yaw_rate) < 1e-6
