@@ -80,13 +80,17 @@ class DecisionParams:
     back_edge_m (a riser, not a slope), the ground staying that much lower for back_beyond_m past it (a flight
     down, not the pit between two stones). A descent edge within back_ahead_m ahead of the body's centre turns the
     body round in place to face against its path, and it walks backward until its centre is back_behind_m past the
-    last descent edge; then it turns to face its path again. Why: the knees point back, so a leg stepping down
+    last descent edge (while walking backward an edge counts down to back_keep_frac of the fall and back_keep_m
+    farther ahead: a fall measured at the threshold, or a path replanned during the turn, does not end it); then it
+    turns to face its path again. Why: the knees point back, so a leg stepping down
     forward puts its shank over the nosing it steps off (the stairs family's tall risers fell on the descents);
     backward, the shank leans away from it. The turn is made only where the body can turn round in place: every circle of
     the footprint (turn_circles_x_m along the body, radius turn_circle_r_m: set by the pipeline to the barrier's
     footprint from the RobotModel) keeps turn_margin_m (the barrier's margin + 1 cm: it would stop the turn
     otherwise) from body obstacles at every heading on one of the two ways round (turn_room; the turn goes that
-    way): between railings the body goes down forward as before. turn_rad: while a turn round
+    way): between railings the body goes down forward as before. turn_timeout_s: a turn round not within turn_rad of its yaw by then is given up (the
+    barrier, keeping the footprint off a body obstacle, can stop a turn midway), and the walk goes on forward with
+    no other turn round (TerrainPipeline.may_turn); turn_rad: while a turn round
     is this far from its yaw, the body turns in place; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
     the largest move of a next foothold off its nominal grows to this (shift_counts_ahead False: a move forward
     along the heading does not count: a foot sent ahead of its nominal place, e.g. past a nosing it steps down
@@ -260,6 +264,9 @@ class DecisionParams:
     back_beyond_m: float = 0.4
     back_ahead_m: float = 0.7
     back_behind_m: float = 0.6
+    back_keep_frac: float = 0.75
+    turn_timeout_s: float = 20.0
+    back_keep_m: float = 0.3
     turn_rad: float = 0.4
     turn_circles_x_m: tuple[float, ...] = (-0.3, 0.0, 0.3)
     turn_circle_r_m: float = 0.17
@@ -468,11 +475,13 @@ def decide(
     last: FootholdDecision | None,
     params: DecisionParams,
     facing: Facing = "forward",
+    may_turn: bool = True,
 ) -> TerrainDecision:
     """Gives the body command, gait, body height and pitch and the swing ground (see the module docstring); facing:
-    how the body faced along its path on the tick before (TerrainDecision.facing; see next_facing)."""
+    how the body faced along its path on the tick before (TerrainDecision.facing; see next_facing); may_turn False:
+    forward (a turn round given up, DecisionParams.turn_timeout_s)."""
     p = params
-    if view.goal is not None and world.path is not None and world.path.length_m > 1e-6:
+    if may_turn and view.goal is not None and world.path is not None and world.path.length_m > 1e-6:
         facing = next_facing(view, world.maps, world.path, facing, p)
     else:
         facing = "forward"
@@ -798,11 +807,11 @@ def next_facing(
     k = int(np.argmin(np.sum((path.xy - view.p_world_body[:2]) ** 2, axis=1)))
     s = float(path.s[k])
     if facing == "back":
-        return (
-            "back"
-            if descent_edges(maps, path, s - p.back_behind_m, s + p.back_ahead_m, p, leg_m)
-            else "round"
-        )
+        # kept with some slack (a lower edge, a little farther ahead), so that an edge measured at the threshold or
+        # a path replanned while turning does not end a turn just begun
+        keep = dataclasses.replace(p, back_drop_frac=p.back_drop_frac * p.back_keep_frac)
+        window = (s - p.back_behind_m, s + p.back_ahead_m + p.back_keep_m)
+        return "back" if descent_edges(maps, path, *window, keep, leg_m) else "round"
     ahead = descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m)
     if ahead and turn_way(view, maps, travel_yaw(view, path, p) + math.pi, p):
         return "back"
@@ -2366,6 +2375,7 @@ class PipelineStats:
     late_holds: int = 0
     min_height_m: float = np.inf
     backward_s: float = 0.0
+    turns_given_up: int = 0
 
     def summary(self) -> dict[str, Any]:
         return {
@@ -2386,6 +2396,7 @@ class PipelineStats:
             "barrier_ticks": self.barrier_ticks,
             "late_jump_holds": self.late_holds,
             "backward_s": round(self.backward_s, 2),
+            "turns_given_up": self.turns_given_up,
             "min_body_height_target_m": None
             if not np.isfinite(self.min_height_m)
             else round(self.min_height_m, 3),
@@ -2444,6 +2455,8 @@ class TerrainPipeline:
         self.memory = FootholdMemory.empty()
         self.last: FootholdDecision | None = None
         self.facing: Facing = "forward"
+        self.may_turn = True  # False once a turn round was given up (DecisionParams.turn_timeout_s)
+        self._turn_t0: float | None = None  # when the turn round under way began (None: none, or done)
         self.stats = PipelineStats()
         self._polygons: dict[tuple[int, int, int], ConvexRegion | None] = {}
         self._truth_center: NDArray[np.float64] | None = None
@@ -2513,7 +2526,8 @@ class TerrainPipeline:
         """Gives this tick's decision (None before the first maps)."""
         if self.world is None:
             return None
-        d = decide(view, self.world, self.last, self.decision_params, self.facing)
+        d = decide(view, self.world, self.last, self.decision_params, self.facing, self.may_turn)
+        self._watch_turn(view, d.facing)
         self.facing = d.facing
         xy, maps, p = view.p_world_body[:2], self.world.maps, self.params
         if view.goal is None:
@@ -2529,6 +2543,24 @@ class TerrainPipeline:
             self.stats.backward_s += view.dt_s
         self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)
         return d
+
+    def _watch_turn(self, view: TerrainView, facing: Facing) -> None:
+        """Gives up a turn round that has not come within turn_rad of its yaw in turn_timeout_s: forward from the
+        next tick, and no other turn round in this walk."""
+        p = self.decision_params
+        if facing != "back" or self.world is None or self.world.path is None:
+            self._turn_t0 = None
+            return
+        if self.facing != "back":
+            self._turn_t0 = view.t_s
+        if self._turn_t0 is None:
+            return
+        off = abs(math.remainder(view.yaw - travel_yaw(view, self.world.path, p) - math.pi, 2.0 * math.pi))
+        if off <= p.turn_rad:
+            self._turn_t0 = None  # turned
+        elif view.t_s - self._turn_t0 > p.turn_timeout_s:
+            self.may_turn = False
+            self.stats.turns_given_up += 1
 
     def footholds(self, view: TerrainView, sel: Selection) -> Selection:
         """Gives the selection with its touchdowns on the regions (see choose_footholds)."""

@@ -1,7 +1,8 @@
 """Closed loop in MuJoCo: down a flight of tall risers backward (DecisionParams.back_drop_frac).
 
-Three staircases without railings, 3 steps of 0.17-0.19 m up and down, walked to 1 m past their end with the depth
-sensor: on the top landing the body turns round in place and goes down facing up the stairs (its knees point
+Three staircases 2 m wide without railings, 3 steps of 0.17-0.19 m up and down with a 1.5 m top landing, walked to
+1 m past their end with the depth sensor: on the top landing the body turns round in place (there is room for its
+footprint) and goes down facing up the stairs (its knees point
 back, so a leg stepping down backward leans its shank away from the nosing it steps off). Each walk must cross
 clean (no fall, no body collision, no no-step touchdown, the goal reached) having walked backward for a while
 (`navigator.backward_s`). The claim is a rate (≥ 2 of 3), so that a last-bit floating-point difference between
@@ -30,7 +31,9 @@ MIN_CLEAN = 2
 def test_a_flight_of_tall_risers_is_walked_down_backward_at_a_rate() -> None:
     clean = []
     for (riser, tread, gy), record in until_decided(FLIGHTS, MIN_CLEAN):
-        terrain = f"stairs:riser_m={riser},tread_m={tread},n_steps={N_STEPS},railings=false"
+        terrain = (
+            f"stairs:riser_m={riser},tread_m={tread},n_steps={N_STEPS},railings=false,width_m=2.0,landing_m=1.5"
+        )
         x_goal = load_terrain(terrain).span_x[1] + 1.0
         cmd = WalkCommand(goal=(x_goal, gy), terrain_aware=True, stop_at_goal=True)
         r = run_walk(cmd, RunOptions(terrain=terrain, duration_s=45.0))
