@@ -65,3 +65,44 @@ def test_the_swing_replanning_runs_at_the_pipeline_s_rate_on_a_terrain_and_at_th
     controller.use_terrain(pipeline)
     assert {st.name: st.rate_hz for st in controller.stages}["swing"] == pytest.approx(250.0)
     assert controller.params.swing_rate_hz == pytest.approx(250.0)
+
+
+def test_a_turn_round_that_does_not_come_round_in_time_is_given_up_for_the_walk() -> None:
+    """The pipeline's turn watch (DecisionParams.turn_timeout_s): facing "back" with the body still facing its way
+    (the barrier holding it) past the timeout: no other turn round in this walk, counted in the report; a turn that
+    came round in time is not given up. The turn's footprint is the barrier's, from the robot."""
+    import dataclasses
+
+    from planning.steps import SteeringCommand
+    from planning.terrain.bodypath import BodyPath
+    from planning.terrain.decision import TerrainView, TerrainWorld
+    from planning.terrain.maps import maps_from_grids
+
+    session = WalkSession(WalkCommand(goal=(3.0, 0.0)), RunOptions(terrain="flat", duration_s=1.0))
+    pipe = TerrainPipeline(session.robot, session.world.model, session.world.data, (3.0, 0.0), session.scene)
+    assert pipe.decision_params.turn_circles_x_m == tuple(pipe.barrier_footprint.footprint_x_m)
+    assert pipe.decision_params.turn_margin_m > PipelineParams().barrier.margin_m
+    x = np.arange(0.0, 3.0, 0.05)
+    path = BodyPath(np.column_stack([x, 0 * x]), 0 * x, x, "straight", True, 1.0)
+    h = np.zeros((20, 20))
+    pipe.world = TerrainWorld(maps_from_grids((0.0, -0.3), 0.03, h, h > 1), None, None, path)  # type: ignore[arg-type]
+    view = TerrainView(
+        t_s=0.0, p_world_body=np.array([0.0, 0.0, 0.5]), yaw=0.0, p_world_foot=np.zeros((4, 3)),
+        v_world_foot=np.zeros((4, 3)), stance=np.ones(4, bool), z_contact=0.0, gait="trot", gait_since_s=0.0,
+        fast_gait="trot", operator=SteeringCommand(), goal=np.array([3.0, 0.0]), pitch_rad=0.0, height_m=0.5,
+        foot_radius_m=0.02, standing_height_m=0.52, p_body_hip=np.zeros((4, 2)), dt_s=0.01,
+    )  # fmt: skip
+    limit = pipe.decision_params.turn_timeout_s
+    pipe._watch_turn(view, "back")  # the turn begins (the tick before faced forward)
+    pipe.facing = "back"
+    pipe._watch_turn(dataclasses.replace(view, t_s=limit - 1.0), "back")
+    assert pipe.may_turn
+    pipe._watch_turn(dataclasses.replace(view, t_s=limit + 0.5), "back")
+    assert not pipe.may_turn and pipe.stats.summary()["turns_given_up"] == 1
+    # a turn that came round (facing against its way) in time stands
+    pipe.may_turn, pipe.facing = True, "forward"
+    pipe._watch_turn(view, "back")
+    pipe.facing = "back"
+    pipe._watch_turn(dataclasses.replace(view, t_s=5.0, yaw=np.pi), "back")
+    pipe._watch_turn(dataclasses.replace(view, t_s=limit + 5.0, yaw=np.pi - 0.8), "back")
+    assert pipe.may_turn
