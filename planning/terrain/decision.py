@@ -798,7 +798,7 @@ def next_facing(
 ) -> Facing:
     """Gives how the body faces along its path from now (see DecisionParams.back_drop_frac), from how it faced:
     "forward" turns "back" (round in place, then backward) at a descent edge within back_ahead_m ahead where there
-    is room to turn (turn_room); "back" stays while a descent edge lies within back_behind_m behind its centre or
+    is room to turn (turn_room) and none within back_behind_m behind (not on a flight already); "back" stays while a descent edge lies within back_behind_m behind its centre or
     back_ahead_m ahead, then turns "round" (in place, to face its path); "round" is "forward" again once the body
     is within turn_rad of the way it goes (or "back" at a descent edge ahead)."""
     leg_m = view.l_upper_m + view.l_lower_m
@@ -813,6 +813,8 @@ def next_facing(
         window = (s - p.back_behind_m, s + p.back_ahead_m + p.back_keep_m)
         return "back" if descent_edges(maps, path, *window, keep, leg_m) else "round"
     ahead = descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m)
+    # not once the feet are going down already (an edge behind the body's centre): no turning on a flight
+    ahead = ahead and not descent_edges(maps, path, s - p.back_behind_m, s, p, leg_m)
     if ahead and turn_way(view, maps, travel_yaw(view, path, p) + math.pi, p):
         return "back"
     if (

@@ -1476,6 +1476,8 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
     assert follow_path(view_at(after + 0.05, math.pi), path, 0.5, p, "round").vx == 0.0
     assert next_facing(view_at(after + 0.05, math.pi), maps, path, "round", p) == "round"
     assert next_facing(view_at(after + 0.05, 0.1), maps, path, "round", p) == "forward"
+    # already on the flight (an edge behind its centre), it does not turn there
+    assert next_facing(view_at(1.2, 0.0), maps, path, "forward", p) == "forward"
     # facing forward, the way the body goes backward (a path that turns back) is no descent walked backward
     assert next_facing(view_at(after + 0.05, math.pi), maps, path, "forward", p) == "forward"
     off = dataclasses.replace(p, back_drop_frac=None)
