@@ -771,18 +771,26 @@ def descent_edges(
     maps: TerrainMaps, path: BodyPath, s0: float, s1: float, p: DecisionParams, leg_m: float
 ) -> bool:
     """Tells whether a descent edge (see DecisionParams.back_drop_frac) lies on the body path between arc lengths
-    s0 and s1 (m): sampled at the map's resolution, an edge at sample i when the ground falls by back_drop_frac ×
-    leg_m or more within back_edge_m after it and stays that much lower over the back_beyond_m after that."""
+    s0 and s1 (m; below 0: on the line back from the path's start): sampled at the map's resolution, an edge at
+    sample i when the ground falls by back_drop_frac × leg_m or more within back_edge_m after it and stays that much
+    lower over the back_beyond_m after that."""
     assert p.back_drop_frac is not None
     res = maps.resolution_m
     ke = max(int(math.ceil(p.back_edge_m / res)), 1)
     kb = max(int(math.ceil(p.back_beyond_m / res)), 1)
-    lo = max(s0, 0.0)
+    lo = s0
     hi = min(s1, path.length_m)
     if hi <= lo:
         return False
     s = np.arange(lo, hi + (ke + kb) * res, res)
     xy, _ = path.pose_at(s)
+    # before the path's start (a path is planned from the body, so what lies behind the body is not on it): the
+    # line back from its start along its first direction
+    before = s < 0.0
+    if before.any() and path.xy.shape[0] > 1:
+        d = path.xy[1] - path.xy[0]
+        d = d / max(float(np.hypot(d[0], d[1])), 1e-9)
+        xy[before] = path.xy[0] + s[before, None] * d
     h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
     n = int(np.searchsorted(s, hi, side="right"))  # the edges' samples: within [s0, s1]
     if n == 0 or h.size < n + ke + kb:

@@ -1476,8 +1476,11 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
     assert follow_path(view_at(after + 0.05, math.pi), path, 0.5, p, "round").vx == 0.0
     assert next_facing(view_at(after + 0.05, math.pi), maps, path, "round", p) == "round"
     assert next_facing(view_at(after + 0.05, 0.1), maps, path, "round", p) == "forward"
-    # already on the flight (an edge behind its centre), it does not turn there
+    # already on the flight (an edge behind its centre), it does not turn there, also on a path planned from the
+    # body (what lies behind it is not on the path); walking backward, it keeps backward until well past the edge
     assert next_facing(view_at(1.2, 0.0), maps, path, "forward", p) == "forward"
+    assert next_facing(view_at(1.2, 0.0), maps, _line_path(1.2, 3.2), "forward", p) == "forward"
+    assert next_facing(view_at(2.1, math.pi), maps, _line_path(2.1, 3.2), "back", p) == "back"
     # facing forward, the way the body goes backward (a path that turns back) is no descent walked backward
     assert next_facing(view_at(after + 0.05, math.pi), maps, path, "forward", p) == "forward"
     off = dataclasses.replace(p, back_drop_frac=None)
