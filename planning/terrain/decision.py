@@ -782,7 +782,8 @@ def descent_edges(
     hi = min(s1, path.length_m)
     if hi <= lo:
         return False
-    s = np.arange(lo, hi + (ke + kb) * res, res)
+    n = int(math.floor((hi - lo) / res)) + 1  # the edges' samples: within [s0, s1]
+    s = lo + res * np.arange(n + ke + kb)
     xy, _ = path.pose_at(s)
     # before the path's start (a path is planned from the body, so what lies behind the body is not on it): the
     # line back from its start along its first direction
@@ -792,9 +793,6 @@ def descent_edges(
         d = d / max(float(np.hypot(d[0], d[1])), 1e-9)
         xy[before] = path.xy[0] + s[before, None] * d
     h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
-    n = int(np.searchsorted(s, hi, side="right"))  # the edges' samples: within [s0, s1]
-    if n == 0 or h.size < n + ke + kb:
-        return False
     drop = p.back_drop_frac * leg_m
     # the highest ground from ke samples after each sample on, over the kb after that (a running max, windowed)
     win = np.lib.stride_tricks.sliding_window_view(h[ke:], kb)[:n].max(axis=1)

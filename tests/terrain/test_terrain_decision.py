@@ -1416,6 +1416,10 @@ def test_a_descent_edge_is_a_riser_down_with_lower_ground_past_it_not_a_pit_a_sl
     stairs = _world(*_ground(lambda X: -0.15 * np.clip(np.floor((X - 1.0) / 0.3) + 1, 0, 5)))
     assert descent_edges(stairs.maps, path, 0.4, 1.1, P, LEG)
     assert not descent_edges(stairs.maps, path, 0.0, 0.8, P, LEG)  # the first edge is at 1.0
+    # an edge inside the window is found wherever the window's ends fall between the map's cells (a window's
+    # samples once fell one short of the fall's far side, and the edge flipped in and out with a millimetre)
+    for shift in np.linspace(0.0, 0.03, 31):
+        assert descent_edges(stairs.maps, path, 0.7 + shift, 1.05 + shift, P, LEG), shift
     pit = _world(*_ground(lambda X: np.where((X > 1.0) & (X < 1.25), -0.3, 0.0)))
     assert not descent_edges(pit.maps, path, 0.0, 2.0, P, LEG)
     slope = _world(*_ground(lambda X: -math.tan(math.radians(20.0)) * np.maximum(X - 1.0, 0.0)))
