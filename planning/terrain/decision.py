@@ -767,6 +767,19 @@ def travel_yaw(view: TerrainView, path: BodyPath, p: DecisionParams) -> float:
     return math.atan2(float(d[1]), float(d[0]))
 
 
+def path_heights(maps: TerrainMaps, path: BodyPath, s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Gives the ground height (m) at arc lengths s (m) along the body path; below 0 on the line back from the path's
+    start along its first direction (a path is planned from the body, so what lies behind the body is not on it),
+    past its end at its end."""
+    xy, _ = path.pose_at(s)
+    before = s < 0.0
+    if before.any() and path.xy.shape[0] > 1:
+        d = path.xy[1] - path.xy[0]
+        d = d / max(float(np.hypot(d[0], d[1])), 1e-9)
+        xy[before] = path.xy[0] + s[before, None] * d
+    return np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+
+
 def descent_edges(
     maps: TerrainMaps, path: BodyPath, s0: float, s1: float, p: DecisionParams, leg_m: float
 ) -> bool:
@@ -783,16 +796,7 @@ def descent_edges(
     if hi <= lo:
         return False
     n = int(math.floor((hi - lo) / res)) + 1  # the edges' samples: within [s0, s1]
-    s = lo + res * np.arange(n + ke + kb)
-    xy, _ = path.pose_at(s)
-    # before the path's start (a path is planned from the body, so what lies behind the body is not on it): the
-    # line back from its start along its first direction
-    before = s < 0.0
-    if before.any() and path.xy.shape[0] > 1:
-        d = path.xy[1] - path.xy[0]
-        d = d / max(float(np.hypot(d[0], d[1])), 1e-9)
-        xy[before] = path.xy[0] + s[before, None] * d
-    h = np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
+    h = path_heights(maps, path, lo + res * np.arange(n + ke + kb))
     drop = p.back_drop_frac * leg_m
     # the highest ground from ke samples after each sample on, over the kb after that (a running max, windowed)
     win = np.lib.stride_tricks.sliding_window_view(h[ke:], kb)[:n].max(axis=1)
@@ -804,7 +808,8 @@ def next_facing(
 ) -> Facing:
     """Gives how the body faces along its path from now (see DecisionParams.back_drop_frac), from how it faced:
     "forward" turns "back" (round in place, then backward) at a descent edge within back_ahead_m ahead where there
-    is room to turn (turn_room) and none within back_behind_m behind (not on a flight already); "back" stays while a descent edge lies within back_behind_m behind its centre or
+    is room to turn (turn_room) and the ground over back_behind_m behind the body's centre is level (within half
+    the fall: not on a flight, up or down); "back" stays while a descent edge lies within back_behind_m behind its centre or
     back_ahead_m ahead, then turns "round" (in place, to face its path); "round" is "forward" again once the body
     is within turn_rad of the way it goes (or "back" at a descent edge ahead)."""
     leg_m = view.l_upper_m + view.l_lower_m
@@ -819,8 +824,15 @@ def next_facing(
         window = (s - p.back_behind_m, s + p.back_ahead_m + p.back_keep_m)
         return "back" if descent_edges(maps, path, *window, keep, leg_m) else "round"
     ahead = descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m)
-    # not once the feet are going down already (an edge behind the body's centre): no turning on a flight
-    ahead = ahead and not descent_edges(maps, path, s - p.back_behind_m, s, p, leg_m)
+    # only on level ground: the ground from back_behind_m behind the body's centre to it spans less than half the
+    # fall (not on a flight, up or down: a landing shorter than the body, a tread)
+    if ahead:
+        under = path_heights(
+            maps,
+            path,
+            s - p.back_behind_m + maps.resolution_m * np.arange(int(p.back_behind_m / maps.resolution_m) + 1),
+        )
+        ahead = float(np.ptp(under)) < 0.5 * p.back_drop_frac * leg_m
     if ahead and turn_way(view, maps, travel_yaw(view, path, p) + math.pi, p):
         return "back"
     if (

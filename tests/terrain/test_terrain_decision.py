@@ -1485,6 +1485,12 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
     assert next_facing(view_at(1.2, 0.0), maps, path, "forward", p) == "forward"
     assert next_facing(view_at(1.2, 0.0), maps, _line_path(1.2, 3.2), "forward", p) == "forward"
     assert next_facing(view_at(2.1, math.pi), maps, _line_path(2.1, 3.2), "back", p) == "back"
+    # climbing a tread up to a short landing: the far edge ahead, but the body not on level ground
+    up = _world(*_ground(lambda X: np.where(X < 0.0, -0.15, np.where(X < 0.5, 0.0, -0.15))))
+    assert (
+        next_facing(dataclass_replace(view_at(0.1, 0.0), z_contact=-0.05), up.maps, path, "forward", p)
+        == "forward"
+    )
     # facing forward, the way the body goes backward (a path that turns back) is no descent walked backward
     assert next_facing(view_at(after + 0.05, math.pi), maps, path, "forward", p) == "forward"
     off = dataclasses.replace(p, back_drop_frac=None)
