@@ -88,7 +88,8 @@ class DecisionParams:
     the footprint (turn_circles_x_m along the body, radius turn_circle_r_m: set by the pipeline to the barrier's
     footprint from the RobotModel) keeps turn_margin_m (the barrier's margin + 1 cm: it would stop the turn
     otherwise) from body obstacles at every heading on one of the two ways round (turn_room; the turn goes that
-    way): between railings the body goes down forward as before. turn_timeout_s: a turn round not within turn_rad of its yaw by then is given up (the
+    way): between railings the body goes down forward as before. turn_clear_m: a turn round begins only with the descent edge at least this far ahead (the feet, turning,
+    stay off it); turn_timeout_s: a turn round not within turn_rad of its yaw by then is given up (the
     barrier, keeping the footprint off a body obstacle, can stop a turn midway), and the walk goes on forward with
     no other turn round (TerrainPipeline.may_turn); turn_rad: while a turn round
     is this far from its yaw, the body turns in place; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
@@ -265,6 +266,7 @@ class DecisionParams:
     back_ahead_m: float = 0.7
     back_behind_m: float = 0.6
     back_keep_frac: float = 0.75
+    turn_clear_m: float = 0.45
     turn_timeout_s: float = 20.0
     back_keep_m: float = 0.3
     turn_rad: float = 0.4
@@ -807,8 +809,8 @@ def next_facing(
     view: TerrainView, maps: TerrainMaps, path: BodyPath, facing: Facing, p: DecisionParams
 ) -> Facing:
     """Gives how the body faces along its path from now (see DecisionParams.back_drop_frac), from how it faced:
-    "forward" turns "back" (round in place, then backward) at a descent edge within back_ahead_m ahead where there
-    is room to turn (turn_room) and the ground over back_behind_m behind the body's centre is level (within half
+    "forward" turns "back" (round in place, then backward) at a descent edge between turn_clear_m and back_ahead_m
+    ahead (none nearer: the feet would step off it turning) where there is room to turn (turn_room) and the ground over back_behind_m behind the body's centre is level (within half
     the fall: not on a flight, up or down); "back" stays while a descent edge lies within back_behind_m behind its centre or
     back_ahead_m ahead, then turns "round" (in place, to face its path); "round" is "forward" again once the body
     is within turn_rad of the way it goes (or "back" at a descent edge ahead)."""
@@ -823,7 +825,8 @@ def next_facing(
         keep = dataclasses.replace(p, back_drop_frac=p.back_drop_frac * p.back_keep_frac)
         window = (s - p.back_behind_m, s + p.back_ahead_m + p.back_keep_m)
         return "back" if descent_edges(maps, path, *window, keep, leg_m) else "round"
-    ahead = descent_edges(maps, path, s, s + p.back_ahead_m, p, leg_m)
+    ahead = descent_edges(maps, path, s + p.turn_clear_m, s + p.back_ahead_m, p, leg_m)
+    ahead = ahead and not descent_edges(maps, path, s, s + p.turn_clear_m, p, leg_m)  # (too near to turn)
     # only on level ground: the ground from back_behind_m behind the body's centre to it spans less than half the
     # fall (not on a flight, up or down: a landing shorter than the body, a tread)
     if ahead:

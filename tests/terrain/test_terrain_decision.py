@@ -1469,6 +1469,9 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
     maps = world.maps
     assert next_facing(view_at(0.1, 0.0), maps, path, "forward", p) == "forward"  # the edge 0.9 m ahead
     assert next_facing(view_at(0.5, 0.0), maps, path, "forward", p) == "back"
+    assert (
+        next_facing(view_at(0.7, 0.0), maps, path, "forward", p) == "forward"
+    )  # 0.3 m from the edge: too near
     turn = follow_path(view_at(0.5, 0.0), path, 0.5, p, "back", maps)
     assert turn.vx == 0.0 and turn.vy == 0.0 and abs(turn.yaw_rate) > 0.0
     down = follow_path(view_at(1.4, math.pi), path, 0.5, p, "back")
