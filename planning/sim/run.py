@@ -23,7 +23,7 @@ from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
 from planning.sim.world import Push, RobotState, World
 from planning.swing.types import TripKind
-from planning.terrain.decision import PipelineParams, TerrainPipeline
+from planning.terrain.decision import BACK_DROP_FRAC, PipelineParams, TerrainPipeline
 from planning.terrain.spec import load_terrain
 
 POSITION_TOLERANCE_M = 0.15  # CONTRACT.md: final pose within 0.15 m and 0.2 rad
@@ -429,6 +429,9 @@ class WalkCommand:
     # on a terrain: the speed to a goal and the cap on a steered command (m/s; None: TERRAIN_SPEED_DEFAULT_MPS; at
     # most terrain_speed_limit(terrain))
     terrain_speed_mps: float | None = None
+    # a walk to a goal goes down descents backward where it has room to turn round (DecisionParams.back_drop_frac;
+    # off by default: the stairs family measured 30 of 50 clean against 29 and the mixed family 21 against 23)
+    descend_backward: bool = False
 
 
 def pipeline_params(command: WalkCommand, terrain: str) -> PipelineParams:
@@ -442,6 +445,10 @@ def pipeline_params(command: WalkCommand, terrain: str) -> PipelineParams:
             raise ValueError(f"WalkCommand.terrain_speed_mps: {why}")
         params = dataclasses.replace(
             params, decision=dataclasses.replace(params.decision, max_speed_mps=speed)
+        )
+    if command.descend_backward:
+        params = dataclasses.replace(
+            params, decision=dataclasses.replace(params.decision, back_drop_frac=BACK_DROP_FRAC)
         )
     if command.sensor_noise_m is not None:
         perception = params.perception

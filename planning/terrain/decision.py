@@ -75,7 +75,8 @@ class DecisionParams:
     it it was headed for too: its polygon is grown around its kept foothold, not the nominal one (see
     _piece_centre; 0: around the nominal, whose flicker across a box between two pieces of the floor moved a
     swing's target 0.4 m back and forth; for the whole swing, inf, the clutter family's no-step walks went 9 to 3
-    of 50 but its falls 11 to 18); back_drop_frac: a walk to a goal goes down a descent backward (None: off). A descent edge is a
+    of 50 but its falls 11 to 18); back_drop_frac: a walk to a goal goes down a descent backward (None: off, the
+    default; BACK_DROP_FRAC, 0.2, is the value measured, WalkCommand.descend_backward turns it on). A descent edge is a
     fall in the ground along the body path of at least this share of the leg's length (thigh + shank) within
     back_edge_m (a riser, not a slope), the ground staying that much lower for back_beyond_m past it (a flight
     down, not the pit between two stones). A descent edge within back_ahead_m ahead of the body's centre turns the
@@ -260,7 +261,7 @@ class DecisionParams:
     freeze_s: float = 0.04
     late_jump_s: float | None = 0.2
     late_jump_m: float = 0.1
-    back_drop_frac: float | None = 0.2
+    back_drop_frac: float | None = None
     back_edge_m: float = 0.09
     back_beyond_m: float = 0.4
     back_ahead_m: float = 0.7
@@ -2351,6 +2352,11 @@ def _regions_maps() -> dict[str, Any]:
         "min_support_m": 0.0,
         "band_from_support": True,
     }
+
+
+# DecisionParams.back_drop_frac when a walk goes down descents backward (WalkCommand.descend_backward): a fall of
+# 0.2 of the leg's length (Spot 0.13 m; the clutter family's 0.12 m platform is stepped off forward)
+BACK_DROP_FRAC = 0.2
 
 
 def _regions_qp() -> StepQPParams:

@@ -14,6 +14,7 @@ from planning.steps.state import BodyMotion, StepPath
 from planning.terrain.bodypath import BodyPath, plan_body_path
 from planning.terrain.cadence import CADENCES, CadenceParams, make_request
 from planning.terrain.decision import (
+    BACK_DROP_FRAC,
     DecisionParams,
     FootholdDecision,
     FootholdMemory,
@@ -1413,20 +1414,21 @@ def test_a_descent_edge_is_a_riser_down_with_lower_ground_past_it_not_a_pit_a_sl
     gap between two stones (0.3 m deep, 0.25 m wide: the ground comes back up), a 20° slope down and a 6 cm step
     down have none; the window [s0, s1] bounds where an edge may lie."""
     path = _line_path(0.0, 3.5)
+    pb = dataclasses.replace(P, back_drop_frac=BACK_DROP_FRAC)
     stairs = _world(*_ground(lambda X: -0.15 * np.clip(np.floor((X - 1.0) / 0.3) + 1, 0, 5)))
-    assert descent_edges(stairs.maps, path, 0.4, 1.1, P, LEG)
-    assert not descent_edges(stairs.maps, path, 0.0, 0.8, P, LEG)  # the first edge is at 1.0
+    assert descent_edges(stairs.maps, path, 0.4, 1.1, pb, LEG)
+    assert not descent_edges(stairs.maps, path, 0.0, 0.8, pb, LEG)  # the first edge is at 1.0
     # an edge inside the window is found wherever the window's ends fall between the map's cells (a window's
     # samples once fell one short of the fall's far side, and the edge flipped in and out with a millimetre)
     for shift in np.linspace(0.0, 0.03, 31):
-        assert descent_edges(stairs.maps, path, 0.7 + shift, 1.05 + shift, P, LEG), shift
+        assert descent_edges(stairs.maps, path, 0.7 + shift, 1.05 + shift, pb, LEG), shift
     pit = _world(*_ground(lambda X: np.where((X > 1.0) & (X < 1.25), -0.3, 0.0)))
-    assert not descent_edges(pit.maps, path, 0.0, 2.0, P, LEG)
+    assert not descent_edges(pit.maps, path, 0.0, 2.0, pb, LEG)
     slope = _world(*_ground(lambda X: -math.tan(math.radians(20.0)) * np.maximum(X - 1.0, 0.0)))
-    assert not descent_edges(slope.maps, path, 0.0, 2.0, P, LEG)
+    assert not descent_edges(slope.maps, path, 0.0, 2.0, pb, LEG)
     low = _world(*_ground(lambda X: np.where(X > 1.0, -0.06, 0.0)))
-    assert not descent_edges(low.maps, path, 0.0, 2.0, P, LEG)
-    assert descent_edges(low.maps, path, 0.0, 2.0, dataclasses.replace(P, back_drop_frac=0.05), LEG)
+    assert not descent_edges(low.maps, path, 0.0, 2.0, pb, LEG)
+    assert descent_edges(low.maps, path, 0.0, 2.0, dataclasses.replace(pb, back_drop_frac=0.05), LEG)
 
 
 def test_a_turn_round_needs_room_for_the_footprint_on_one_way_round() -> None:
@@ -1465,7 +1467,7 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
             v, p_world_body=np.array([x, 0.0, z + 0.55]), yaw=yaw, z_contact=z + 0.02, **legs
         )
 
-    p = P
+    p = dataclasses.replace(P, back_drop_frac=BACK_DROP_FRAC)
     maps = world.maps
     assert next_facing(view_at(0.1, 0.0), maps, path, "forward", p) == "forward"  # the edge 0.9 m ahead
     assert next_facing(view_at(0.5, 0.0), maps, path, "forward", p) == "back"

@@ -1,4 +1,4 @@
-"""Closed loop in MuJoCo: down a flight of tall risers backward (DecisionParams.back_drop_frac).
+"""Closed loop in MuJoCo: down a flight of tall risers backward (WalkCommand.descend_backward, off by default).
 
 Three staircases 2 m wide without railings, 3 steps of 0.17-0.19 m up and down with a 1.5 m top landing, walked to
 1 m past their end with the depth sensor: on the top landing the body turns round in place (there is room for its
@@ -31,11 +31,9 @@ MIN_CLEAN = 2
 def test_a_flight_of_tall_risers_is_walked_down_backward_at_a_rate() -> None:
     clean = []
     for (riser, tread, gy), record in until_decided(FLIGHTS, MIN_CLEAN):
-        terrain = (
-            f"stairs:riser_m={riser},tread_m={tread},n_steps={N_STEPS},railings=false,width_m=2.0,landing_m=1.5"
-        )
+        terrain = f"stairs:riser_m={riser},tread_m={tread},n_steps={N_STEPS},railings=false,width_m=2.0,landing_m=1.5"
         x_goal = load_terrain(terrain).span_x[1] + 1.0
-        cmd = WalkCommand(goal=(x_goal, gy), terrain_aware=True, stop_at_goal=True)
+        cmd = WalkCommand(goal=(x_goal, gy), terrain_aware=True, stop_at_goal=True, descend_backward=True)
         r = run_walk(cmd, RunOptions(terrain=terrain, duration_s=45.0))
         ok = r["success"] and not r["fell"] and r["body_collisions"] == 0 and r["no_step_touchdowns"] == 0
         clean.append(bool(ok and r["navigator"]["backward_s"] > 2.0))
