@@ -770,7 +770,7 @@ def travel_yaw(view: TerrainView, path: BodyPath, p: DecisionParams) -> float:
     return math.atan2(float(d[1]), float(d[0]))
 
 
-def path_heights(maps: TerrainMaps, path: BodyPath, s: NDArray[np.float64]) -> NDArray[np.float64]:
+def path_heights(maps: TerrainMaps, path: BodyPath, s: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
     """Gives the ground height (m) at arc lengths s (m) along the body path; below 0 on the line back from the path's
     start along its first direction (a path is planned from the body, so what lies behind the body is not on it),
     past its end at its end."""
