@@ -242,6 +242,8 @@ def cmd_walk(a: argparse.Namespace) -> int:
         why = check_terrain_speed(a.speed, scene)
         if why is not None:
             raise UsageError(f"--speed {why}")
+    if getattr(a, "descend_backward", False) and (goal is None or scene == "flat"):
+        raise UsageError("--descend-backward: only walking to a --goal on a terrain")
     _robot(a.robot)
     cmd = WalkCommand(
         a.vx,
@@ -255,6 +257,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
         terrain_aware=False if a.maps == "off" else None,
         terrain_sensor=a.maps == "sensor",
         terrain_speed_mps=a.speed,
+        descend_backward=bool(getattr(a, "descend_backward", False)),
     )
     opts = RunOptions(
         terrain=a.terrain,
@@ -432,6 +435,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="V",
         help="on a terrain: the speed to the goal and the cap on --vx/--vy, m/s (default 0.5; up to 1.0 on slope "
         "and rough, 0.5 elsewhere; the terrain's own caps still apply)",
+    )
+    w.add_argument(
+        "--descend-backward",
+        action="store_true",
+        help="on a terrain, to a goal: go down descents (a fall of 0.2 of the leg's length or more) backward where "
+        "there is room to turn round (off by default; README, Terrain)",
     )
     w.add_argument(
         "--maps",

@@ -29,6 +29,10 @@ def test_terrains_lists_names(capsys) -> None:
         (["walk", "--terrain", "stairs", "--speed", "1.0"], "--speed 1.0 m/s is outside [0.2, 0.5] m/s"),
         (["walk", "--vx", "1.0", "--speed", "1.0"], "--speed: only on a terrain"),
         (
+            ["walk", "--terrain", "stairs", "--descend-backward"],
+            "--descend-backward: only walking to a --goal",
+        ),
+        (
             ["walk", "--terrain", "stairs", "--terrain-pipeline", "modes"],
             "--terrain-pipeline 'modes': removed",
         ),
