@@ -90,7 +90,8 @@ class DecisionParams:
     footprint from the RobotModel) keeps turn_margin_m (the barrier's margin + 1 cm: it would stop the turn
     otherwise) from body obstacles at every heading on one of the two ways round (turn_room; the turn goes that
     way): between railings the body goes down forward as before. turn_clear_m: a turn round begins only with the descent edge at least this far ahead (the feet, turning,
-    stay off it); turn_timeout_s: a turn round not within turn_rad of its yaw by then is given up (the
+    stay off it); back_level_frac: and only where the ground over back_behind_m behind the body's centre spans
+    less than this share of the fall (level ground, not a flight); turn_timeout_s: a turn round not within turn_rad of its yaw by then is given up (the
     barrier, keeping the footprint off a body obstacle, can stop a turn midway), and the walk goes on forward with
     no other turn round (TerrainPipeline.may_turn); turn_rad: while a turn round
     is this far from its yaw, the body turns in place; max_speed_mps, min_speed_mps: the speed range; shift_slow_m: the speed falls from max to min as
@@ -268,6 +269,7 @@ class DecisionParams:
     back_behind_m: float = 0.6
     back_keep_frac: float = 0.75
     turn_clear_m: float = 0.45
+    back_level_frac: float = 0.5
     turn_timeout_s: float = 20.0
     back_keep_m: float = 0.3
     turn_rad: float = 0.4
@@ -828,15 +830,15 @@ def next_facing(
         return "back" if descent_edges(maps, path, *window, keep, leg_m) else "round"
     ahead = descent_edges(maps, path, s + p.turn_clear_m, s + p.back_ahead_m, p, leg_m)
     ahead = ahead and not descent_edges(maps, path, s, s + p.turn_clear_m, p, leg_m)  # (too near to turn)
-    # only on level ground: the ground from back_behind_m behind the body's centre to it spans less than half the
-    # fall (not on a flight, up or down: a landing shorter than the body, a tread)
+    # only on level ground: the ground from back_behind_m behind the body's centre to it spans less than
+    # back_level_frac of the fall (not on a flight, up or down: a landing shorter than the body, a tread)
     if ahead:
         under = path_heights(
             maps,
             path,
             s - p.back_behind_m + maps.resolution_m * np.arange(int(p.back_behind_m / maps.resolution_m) + 1),
         )
-        ahead = float(np.ptp(under)) < 0.5 * p.back_drop_frac * leg_m
+        ahead = float(np.ptp(under)) < p.back_level_frac * p.back_drop_frac * leg_m
     if ahead and turn_way(view, maps, travel_yaw(view, path, p) + math.pi, p):
         return "back"
     if (
@@ -866,13 +868,13 @@ def turn_room(
     (the body SDF) at every heading on the way (15° apart or closer), the way of more clearance where both can;
     0: neither can."""
     d = math.remainder(yaw_to - view.yaw, 2.0 * math.pi)
-    n = max(int(math.ceil(abs(d) / (math.pi / 12.0))), 1) + 1
+    step = math.pi / 12.0
     xs = np.asarray(circles_x_m, dtype=np.float64)
     x, y = (float(v) for v in view.p_world_body[:2])
     best, best_clear = 0, -np.inf
     for sign in (1, -1):
         arc = abs(d) if (d >= 0.0) == (sign > 0) else 2.0 * math.pi - abs(d)
-        th = view.yaw + sign * np.linspace(0.0, arc, max(n, int(math.ceil(arc / (math.pi / 12.0))) + 1))
+        th = view.yaw + sign * np.linspace(0.0, arc, int(math.ceil(arc / step)) + 1)
         cx = x + np.outer(np.cos(th), xs).ravel()
         cy = y + np.outer(np.sin(th), xs).ravel()
         clear = float(np.min(np.asarray(maps.sdf_body(cx, cy), dtype=np.float64))) - radius_m
@@ -1619,7 +1621,6 @@ def _piece_centre(
     nom: NDArray[np.float64],
     keep: NDArray[np.float64] | None,
     flying: bool,
-    p: DecisionParams,
 ) -> NDArray[np.float64]:
     """Gives the place a foothold's polygon is grown around: the nominal foothold nom (2,), or, for a foot in the air
     due within flight_piece_s (flying) whose kept foothold keep (2,) lies on this same region (label), the kept
@@ -2023,9 +2024,7 @@ def choose_footholds(
                 poly = None
                 if label:
                     late = flying and float(path.t_touchdown[order_l[j]]) - view.t_s < p.flight_piece_s
-                    poly = _polygon(
-                        regions, label, _piece_centre(regions, label, nom, keep, late, p), p, cache
-                    )
+                    poly = _polygon(regions, label, _piece_centre(regions, label, nom, keep, late), p, cache)
                 if poly is not None and j < 4 and p.shin_regions > 1 and not flying:
                     # a region none of whose places clears the shin: the next region that has one (a foot in
                     # stance; in the air it keeps the region it lifted off for: no switch late in a swing)
