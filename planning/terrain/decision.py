@@ -79,7 +79,9 @@ class DecisionParams:
     default; BACK_DROP_FRAC, 0.2, is the value measured, WalkCommand.descend_backward turns it on). A descent edge is a
     fall in the ground along the body path of at least this share of the leg's length (thigh + shank) within
     back_edge_m (a riser, not a slope), the ground staying that much lower for back_beyond_m past it (a flight
-    down, not the pit between two stones). A descent edge within back_ahead_m ahead of the body's centre turns the
+    down, not the pit between two stones), on both of the feet's lines beside the path (read on the centre line,
+    the slot between the mixed family's two columns of stones was an edge, and the body turned round before the
+    stones). A descent edge within back_ahead_m ahead of the body's centre turns the
     body round in place to face against its path, and it walks backward until its centre is back_behind_m past the
     last descent edge (while walking backward an edge counts down to back_keep_frac of the fall and back_keep_m
     farther ahead: a fall measured at the threshold, or a path replanned during the turn, does not end it); then it
@@ -772,26 +774,39 @@ def travel_yaw(view: TerrainView, path: BodyPath, p: DecisionParams) -> float:
     return math.atan2(float(d[1]), float(d[0]))
 
 
-def path_heights(maps: TerrainMaps, path: BodyPath, s: NDArray[np.floating[Any]]) -> NDArray[np.float64]:
-    """Gives the ground height (m) at arc lengths s (m) along the body path; below 0 on the line back from the path's
-    start along its first direction (a path is planned from the body, so what lies behind the body is not on it),
-    past its end at its end."""
-    xy, _ = path.pose_at(s)
+def path_heights(
+    maps: TerrainMaps, path: BodyPath, s: NDArray[np.floating[Any]], lateral_m: float = 0.0
+) -> NDArray[np.float64]:
+    """Gives the ground height (m) at arc lengths s (m) along the body path, lateral_m to its left (its right:
+    below 0); below 0 on the line back from the path's start along its first direction (a path is planned from the
+    body, so what lies behind the body is not on it), past its end at its end."""
+    xy, yaw = path.pose_at(s)
     before = s < 0.0
     if before.any() and path.xy.shape[0] > 1:
         d = path.xy[1] - path.xy[0]
         d = d / max(float(np.hypot(d[0], d[1])), 1e-9)
         xy[before] = path.xy[0] + s[before, None] * d
+        yaw = np.where(before, math.atan2(float(d[1]), float(d[0])), yaw)
+    if lateral_m != 0.0:
+        xy = xy + lateral_m * np.stack([-np.sin(yaw), np.cos(yaw)], axis=-1)
     return np.asarray(maps.height_at(xy[:, 0], xy[:, 1]), dtype=np.float64)
 
 
 def descent_edges(
-    maps: TerrainMaps, path: BodyPath, s0: float, s1: float, p: DecisionParams, leg_m: float
+    maps: TerrainMaps,
+    path: BodyPath,
+    s0: float,
+    s1: float,
+    p: DecisionParams,
+    leg_m: float,
+    feet_half_width_m: float = 0.0,
 ) -> bool:
     """Tells whether a descent edge (see DecisionParams.back_drop_frac) lies on the body path between arc lengths
     s0 and s1 (m; below 0: on the line back from the path's start): sampled at the map's resolution, an edge at
     sample i when the ground falls by back_drop_frac × leg_m or more within back_edge_m after it and stays that much
-    lower over the back_beyond_m after that."""
+    lower over the back_beyond_m after that. The ground is read on the feet's two lines, feet_half_width_m to
+    either side of the path, and the higher of the two counts (a pit under the body's centre line between two
+    stones the feet stand on is no descent)."""
     assert p.back_drop_frac is not None
     res = maps.resolution_m
     ke = max(int(math.ceil(p.back_edge_m / res)), 1)
@@ -801,7 +816,10 @@ def descent_edges(
     if hi <= lo:
         return False
     n = int(math.floor((hi - lo) / res)) + 1  # the edges' samples: within [s0, s1]
-    h = path_heights(maps, path, lo + res * np.arange(n + ke + kb))
+    s = lo + res * np.arange(n + ke + kb)
+    h = path_heights(maps, path, s, feet_half_width_m)
+    if feet_half_width_m != 0.0:
+        h = np.maximum(h, path_heights(maps, path, s, -feet_half_width_m))
     drop = p.back_drop_frac * leg_m
     # the highest ground from ke samples after each sample on, over the kb after that (a running max, windowed)
     win = np.lib.stride_tricks.sliding_window_view(h[ke:], kb)[:n].max(axis=1)
@@ -822,14 +840,15 @@ def next_facing(
         return "forward"
     k = int(np.argmin(np.sum((path.xy - view.p_world_body[:2]) ** 2, axis=1)))
     s = float(path.s[k])
+    w = feet_half_width(view)
     if facing == "back":
         # kept with some slack (a lower edge, a little farther ahead), so that an edge measured at the threshold or
         # a path replanned while turning does not end a turn just begun
         keep = dataclasses.replace(p, back_drop_frac=p.back_drop_frac * p.back_keep_frac)
         window = (s - p.back_behind_m, s + p.back_ahead_m + p.back_keep_m)
-        return "back" if descent_edges(maps, path, *window, keep, leg_m) else "round"
-    ahead = descent_edges(maps, path, s + p.turn_clear_m, s + p.back_ahead_m, p, leg_m)
-    ahead = ahead and not descent_edges(maps, path, s, s + p.turn_clear_m, p, leg_m)  # (too near to turn)
+        return "back" if descent_edges(maps, path, *window, keep, leg_m, w) else "round"
+    ahead = descent_edges(maps, path, s + p.turn_clear_m, s + p.back_ahead_m, p, leg_m, w)
+    ahead = ahead and not descent_edges(maps, path, s, s + p.turn_clear_m, p, leg_m, w)  # (too near to turn)
     # only on level ground: the ground from back_behind_m behind the body's centre to it spans less than
     # back_level_frac of the fall (not on a flight, up or down: a landing shorter than the body, a tread)
     if ahead:
@@ -847,6 +866,13 @@ def next_facing(
     ):
         return "round"
     return "forward"
+
+
+def feet_half_width(view: TerrainView) -> float:
+    """Gives the feet's lines' half width (m): the mean lateral offset of the legs' planes from the body's axis
+    (the hips' offsets plus each leg's plane's offset from its abduction axis, RobotModel)."""
+    y = view.p_body_hip[:, 1] + (0.0 if view.abd_offset_m is None else view.abd_offset_m)
+    return float(np.mean(np.abs(y)))
 
 
 def turn_way(view: TerrainView, maps: TerrainMaps, yaw_to: float, p: DecisionParams) -> int:

@@ -127,3 +127,22 @@ def test_a_walks_speed_reaches_the_case_and_is_checked_against_the_terrain() -> 
     assert expand(parse_spec(spec(0.9, "slope")))[0]["params"]["walk"]["speed_mps"] == 0.9
     with pytest.raises(SweepSpecError, match="run.walk.speed_mps"):
         expand(parse_spec(spec(0.9)))  # faster than the stairs' 0.5 m/s
+
+
+def test_a_walks_backward_descent_reaches_the_case_and_needs_a_goal_and_a_terrain() -> None:
+    from planning.sweep.cases import expand
+    from planning.sweep.spec import SweepSpecError, parse_spec
+
+    def spec(walk: dict[str, Any], terrain: str = "stairs") -> dict[str, Any]:
+        return {"format": "footfall/sweep@1", "name": "s", "run": {"walk": {"maps": "sensor", **walk}},
+                "defaults": {"terrain": terrain}, "axes": {"seed": [0, 1]}}  # fmt: skip
+
+    back = expand(parse_spec(spec({"goal": "terrain", "descend_backward": True})))
+    assert [c["params"]["walk"]["descend_backward"] for c in back] == [True, True]
+    plain = expand(parse_spec(spec({"goal": "terrain"})))
+    assert "descend_backward" not in plain[0]["params"]["walk"]  # the default keeps the case's key
+    assert plain[0]["key"] != back[0]["key"]
+    with pytest.raises(SweepSpecError, match="run.walk.descend_backward"):
+        expand(parse_spec(spec({"vx": 0.3, "descend_backward": True})))  # no goal
+    with pytest.raises(SweepSpecError, match="run.walk.descend_backward"):
+        expand(parse_spec(spec({"goal": [3.0, 0.0], "descend_backward": True}, "flat")))

@@ -1412,7 +1412,8 @@ LEG = 0.66  # thigh + shank (m); a descent edge falls 0.2 of it, 0.132 m
 def test_a_descent_edge_is_a_riser_down_with_lower_ground_past_it_not_a_pit_a_slope_or_a_low_step() -> None:
     """Along a straight path from x 0: stairs down from x 1.0 (0.15 m risers, 0.30 m treads) have descent edges; the
     gap between two stones (0.3 m deep, 0.25 m wide: the ground comes back up), a 20° slope down and a 6 cm step
-    down have none; the window [s0, s1] bounds where an edge may lie."""
+    down have none; the window [s0, s1] bounds where an edge may lie; on the feet's lines, a slot under the centre
+    line between stones is none."""
     path = _line_path(0.0, 3.5)
     pb = dataclasses.replace(P, back_drop_frac=BACK_DROP_FRAC)
     stairs = _world(*_ground(lambda X: -0.15 * np.clip(np.floor((X - 1.0) / 0.3) + 1, 0, 5)))
@@ -1429,6 +1430,16 @@ def test_a_descent_edge_is_a_riser_down_with_lower_ground_past_it_not_a_pit_a_sl
     low = _world(*_ground(lambda X: np.where(X > 1.0, -0.06, 0.0)))
     assert not descent_edges(low.maps, path, 0.0, 2.0, pb, LEG)
     assert descent_edges(low.maps, path, 0.0, 2.0, dataclasses.replace(pb, back_drop_frac=0.05), LEG)
+    # read on the feet's lines (0.165 m either side): stepping stones in a pit from x 1.0 with a slot 8 cm wide
+    # down to the pit's floor under the path's centre line (the mixed family's stone field) have none; the stairs
+    # still do
+    xs, ys, flat = _ground(lambda X: np.zeros_like(X))
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    slot = _world(xs, ys, np.where((X > 1.0) & (np.abs(Y) < 0.04), -0.3, flat))
+    assert descent_edges(slot.maps, path, 0.0, 2.0, pb, LEG)  # on the centre line alone
+    assert not descent_edges(slot.maps, path, 0.0, 2.0, pb, LEG, 0.165)
+    assert descent_edges(stairs.maps, path, 0.4, 1.1, pb, LEG, 0.165)
+    assert not descent_edges(stairs.maps, path, 0.0, 0.8, pb, LEG, 0.165)
 
 
 def test_a_turn_round_needs_room_for_the_footprint_on_one_way_round() -> None:
