@@ -244,6 +244,8 @@ def cmd_walk(a: argparse.Namespace) -> int:
             raise UsageError(f"--speed {why}")
     if getattr(a, "descend_backward", False) and (goal is None or scene == "flat"):
         raise UsageError("--descend-backward: only walking to a --goal on a terrain")
+    if getattr(a, "descend_backward", False) and getattr(a, "descend_forward", False):
+        raise UsageError("--descend-forward: not with --descend-backward (one way down)")
     _robot(a.robot)
     cmd = WalkCommand(
         a.vx,
@@ -257,7 +259,7 @@ def cmd_walk(a: argparse.Namespace) -> int:
         terrain_aware=False if a.maps == "off" else None,
         terrain_sensor=a.maps == "sensor",
         terrain_speed_mps=a.speed,
-        descend_backward=bool(getattr(a, "descend_backward", False)),
+        descend_backward=not getattr(a, "descend_forward", False),
     )
     opts = RunOptions(
         terrain=a.terrain,
@@ -440,7 +442,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--descend-backward",
         action="store_true",
         help="on a terrain, to a goal: go down descents (a fall of 0.2 of the leg's length or more) backward where "
-        "there is room to turn round (off by default; README, Terrain)",
+        "there is room to turn round (the default; README, Terrain)",
+    )
+    w.add_argument(
+        "--descend-forward",
+        action="store_true",
+        help="on a terrain, to a goal: go down descents facing the way the walk goes (no turn round)",
     )
     w.add_argument(
         "--maps",

@@ -119,6 +119,11 @@ class WalkIn(_In):
         description="removed: there is one terrain pipeline; 'regions' (its name) is still accepted, any other "
         "value is refused",
     )
+    descend_backward: bool = Field(
+        True,
+        description="on a terrain, walking to a goal: go down descents (stairs) backward where there is room to "
+        "turn round (false: facing the way the walk goes)",
+    )
 
 
 # a library name: documented with its pattern, checked by the library (its message says what a name is)

@@ -280,9 +280,9 @@ def _params(spec: SweepSpec, coords: dict[str, Any], index: int, maneuvers: Mane
             why = check_terrain_speed(float(w["speed_mps"]), terrain)
             if why is not None:
                 raise SweepSpecError([f"run.walk.speed_mps: {why}"])
-        if not w["descend_backward"]:
+        if w["descend_backward"] is None:
             del w["descend_backward"]  # (as speed_mps: the cases of specs without it keep their keys)
-        elif w["goal"] is None or terrain == "flat":
+        elif w["descend_backward"] and (w["goal"] is None or terrain == "flat"):
             raise SweepSpecError(["run.walk.descend_backward: needs a goal (run.walk.goal) and a terrain"])
         if w["gait"] not in GAIT_NAMES or w["gait"] == "stand":
             raise SweepSpecError([f"run.walk.gait: unknown gait {w['gait']!r}"])
@@ -384,6 +384,7 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
         stop_at_goal=w["stop_at_goal"],
         sensor_noise_m=params["sensor_noise_m"],
         terrain_speed_mps=w.get("speed_mps"),
-        descend_backward=bool(w.get("descend_backward", False)),
     )
+    if w.get("descend_backward") is not None:  # (absent: WalkCommand's default)
+        cmd = dataclasses.replace(cmd, descend_backward=bool(w["descend_backward"]))
     return run_walk(cmd, opts)

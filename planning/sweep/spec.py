@@ -88,10 +88,11 @@ class Walk(_Model):
         description="a terrain walk's speed to its goal and cap on a steered command (m/s; `footfall walk --speed`); "
         "None: the terrain pipeline's own (0.5); within each terrain's range (0.2 to 0.5, 1.0 on slope and rough)",
     )
-    descend_backward: bool = Field(
-        False,
+    descend_backward: bool | None = Field(
+        None,
         description="a walk to a goal on a terrain goes down stairs backward where it has room to turn round "
-        "(`footfall walk --descend-backward`); needs a goal and a terrain",
+        "(true; needs a goal and a terrain) or forward (false, `footfall walk --descend-forward`); None: the "
+        "product's default (backward)",
     )
 
 

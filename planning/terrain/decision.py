@@ -832,7 +832,8 @@ def next_facing(
     """Gives how the body faces along its path from now (see DecisionParams.back_drop_frac), from how it faced:
     "forward" turns "back" (round in place, then backward) at a descent edge between turn_clear_m and back_ahead_m
     ahead (none nearer: the feet would step off it turning) where there is room to turn (turn_room) and the ground over back_behind_m behind the body's centre is level (within half
-    the fall: not on a flight, up or down); "back" stays while a descent edge lies within back_behind_m behind its centre or
+    the fall: not on a flight, up or down), as are the feet (measured) and the circle they turn on
+    (feet_turn_level); "back" stays while a descent edge lies within back_behind_m behind its centre or
     back_ahead_m ahead, then turns "round" (in place, to face its path); "round" is "forward" again once the body
     is within turn_rad of the way it goes (or "back" at a descent edge ahead)."""
     leg_m = view.l_upper_m + view.l_lower_m
@@ -857,7 +858,15 @@ def next_facing(
             path,
             s - p.back_behind_m + maps.resolution_m * np.arange(int(p.back_behind_m / maps.resolution_m) + 1),
         )
-        ahead = float(np.ptp(under)) < p.back_level_frac * p.back_drop_frac * leg_m
+        level = p.back_level_frac * p.back_drop_frac * leg_m
+        # ... the feet measured level too (the map behind a body that has just climbed is filled from its feet,
+        # not seen: the mixed family's 0.6 m top read level with the hind feet a tread below), and the ground the
+        # feet turn on level (feet_turn_level: a landing shorter than the feet's circle is no place to turn)
+        ahead = (
+            float(np.ptp(under)) < level
+            and float(np.ptp(view.p_world_foot[:, 2])) < level
+            and feet_turn_level(view, maps, level)
+        )
     if ahead and turn_way(view, maps, travel_yaw(view, path, p) + math.pi, p):
         return "back"
     if (
@@ -866,6 +875,18 @@ def next_facing(
     ):
         return "round"
     return "forward"
+
+
+def feet_turn_level(view: TerrainView, maps: TerrainMaps, level_m: float, n: int = 16) -> bool:
+    """Tells whether the ground the feet stand on while the body turns in place is level: at n points on the circle
+    the feet sweep (the farthest leg plane's distance from the body's centre at its hip, RobotModel, plus the foot's
+    radius) and at the centre, the heights span less than level_m."""
+    y = np.abs(view.p_body_hip[:, 1] + (0.0 if view.abd_offset_m is None else view.abd_offset_m))
+    r = float(np.max(np.hypot(view.p_body_hip[:, 0], y))) + view.foot_radius_m
+    a = 2.0 * math.pi * np.arange(n) / n
+    x = float(view.p_world_body[0]) + np.concatenate([[0.0], r * np.cos(a)])
+    yy = float(view.p_world_body[1]) + np.concatenate([[0.0], r * np.sin(a)])
+    return float(np.ptp(np.asarray(maps.height_at(x, yy), dtype=np.float64))) < level_m
 
 
 def feet_half_width(view: TerrainView) -> float:

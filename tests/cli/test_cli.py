@@ -33,6 +33,10 @@ def test_terrains_lists_names(capsys) -> None:
             "--descend-backward: only walking to a --goal",
         ),
         (
+            ["walk", "--terrain", "stairs", "--goal", "6,0", "--descend-backward", "--descend-forward"],
+            "--descend-forward: not with --descend-backward",
+        ),
+        (
             ["walk", "--terrain", "stairs", "--terrain-pipeline", "modes"],
             "--terrain-pipeline 'modes': removed",
         ),

@@ -65,6 +65,9 @@ def test_headless_walk_maps_reach_the_terrain_pipeline() -> None:
     assert truth["command"]["terrain_speed_mps"] == 1.0
     blind = run_headless({**job, "walk": {"vx": 0.3, "maps": "off"}})
     assert "navigator" not in blind
+    assert truth["command"]["descend_backward"] is True  # the default
+    fwd = run_headless({**job, "walk": {"goal": [3.0, 0.0], "maps": "truth", "descend_backward": False}})
+    assert fwd["command"]["descend_backward"] is False
 
 
 def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
@@ -90,6 +93,11 @@ def test_inline_maneuver(client: TestClient, bow: dict[str, Any]) -> None:
         ({"maneuver": "bow", "walk": {"vx": 0.3}}, 422, ""),
         ({"walk": {"vx": 0.3, "gait": "moonwalk"}}, 422, "body.walk.gait"),
         ({"walk": {"vx": 9.0}}, 422, "body.walk.vx"),
+        (
+            {"walk": {"goal": [6, 0], "descend_backward": "sideways"}, "terrain": "stairs"},
+            422,
+            "body.walk.descend_backward",
+        ),
         ({"walk": {"vx": 1.0, "terrain_speed": 1.0}, "terrain": "stairs"}, 422, "body.walk.terrain_speed"),
         ({"walk": {"vx": 1.0, "terrain_speed": 3.0}, "terrain": "slope"}, 422, "body.walk.terrain_speed"),
         (

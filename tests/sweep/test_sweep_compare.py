@@ -129,7 +129,7 @@ def test_a_walks_speed_reaches_the_case_and_is_checked_against_the_terrain() -> 
         expand(parse_spec(spec(0.9)))  # faster than the stairs' 0.5 m/s
 
 
-def test_a_walks_backward_descent_reaches_the_case_and_needs_a_goal_and_a_terrain() -> None:
+def test_a_walks_descent_way_reaches_the_case_and_backward_needs_a_goal_and_a_terrain() -> None:
     from planning.sweep.cases import expand
     from planning.sweep.spec import SweepSpecError, parse_spec
 
@@ -142,6 +142,14 @@ def test_a_walks_backward_descent_reaches_the_case_and_needs_a_goal_and_a_terrai
     plain = expand(parse_spec(spec({"goal": "terrain"})))
     assert "descend_backward" not in plain[0]["params"]["walk"]  # the default keeps the case's key
     assert plain[0]["key"] != back[0]["key"]
+    fwd = expand(parse_spec(spec({"goal": "terrain", "descend_backward": False})))
+    assert fwd[0]["params"]["walk"]["descend_backward"] is False and fwd[0]["key"] not in (
+        back[0]["key"],
+        plain[0]["key"],
+    )
+    assert expand(
+        parse_spec(spec({"vx": 0.3, "descend_backward": False}))
+    )  # forward asks nothing of the walk
     with pytest.raises(SweepSpecError, match="run.walk.descend_backward"):
         expand(parse_spec(spec({"vx": 0.3, "descend_backward": True})))  # no goal
     with pytest.raises(SweepSpecError, match="run.walk.descend_backward"):

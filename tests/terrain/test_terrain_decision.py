@@ -30,6 +30,7 @@ from planning.terrain.decision import (
     crouch_height,
     decide,
     descent_edges,
+    feet_turn_level,
     follow_path,
     footholds_plane,
     hips_pairs,
@@ -1507,6 +1508,24 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
         next_facing(dataclass_replace(view_at(0.1, 0.0), z_contact=-0.05), up.maps, path, "forward", p)
         == "forward"
     )
+    # the feet's circle (Spot's: 0.34 m + the foot) on the top: on a top 1.1 m long (x -0.1-1.0, a tread 0.15 m
+    # below before it), centred 0.5 m before its edge, the body turns; on a top 0.8 m long it reaches off its
+    # back, and the body walks on forward
+    spot_legs = dict(p_body_hip=np.array([[0.3, 0.055], [0.3, -0.055], [-0.3, 0.055], [-0.3, -0.055]]),
+                     abd_offset_m=np.array([0.11, -0.11, 0.11, -0.11]))  # fmt: skip
+    at = dataclass_replace(view_at(0.5, 0.0), **spot_legs)
+    assert next_facing(at, maps, path, "forward", p) == "back"
+    long_top = _world(*_ground(lambda X: np.where(X < -0.1, -0.15, np.where(X < 1.0, 0.0, -0.15))))
+    assert next_facing(at, long_top.maps, path, "forward", p) == "back"
+    short_top = _world(*_ground(lambda X: np.where(X < -0.1, -0.15, np.where(X < 0.7, 0.0, -0.15))))
+    on_short = dataclass_replace(at, p_world_body=np.array([0.2, 0.0, 0.55]))
+    assert next_facing(on_short, short_top.maps, path, "forward", p) == "forward"
+    assert feet_turn_level(at, long_top.maps, 0.066) and not feet_turn_level(on_short, short_top.maps, 0.066)
+    # the hind feet measured a tread below the front ones (the map behind the body unseen, level): no turn
+    hind_low = dataclass_replace(
+        at, p_world_foot=at.p_world_foot - np.array([0.0, 0.0, 0.15]) * [[0], [0], [1], [1]]
+    )
+    assert next_facing(hind_low, maps, path, "forward", p) == "forward"
     # facing forward, the way the body goes backward (a path that turns back) is no descent walked backward
     assert next_facing(view_at(after + 0.05, math.pi), maps, path, "forward", p) == "forward"
     off = dataclasses.replace(p, back_drop_frac=None)

@@ -1,4 +1,4 @@
-"""Closed loop in MuJoCo: down a flight of tall risers backward (WalkCommand.descend_backward, off by default).
+"""Closed loop in MuJoCo: down a flight of tall risers backward (WalkCommand.descend_backward, the default).
 
 Three staircases 2 m wide without railings, 3 steps of 0.17-0.19 m up and down with a 1.5 m top landing, walked to
 1 m past their end with the depth sensor: on the top landing the body turns round in place (there is room for its
