@@ -881,8 +881,7 @@ def feet_turn_level(view: TerrainView, maps: TerrainMaps, level_m: float, n: int
     """Tells whether the ground the feet stand on while the body turns in place is level: at n points on the circle
     the feet sweep (the farthest leg plane's distance from the body's centre at its hip, RobotModel, plus the foot's
     radius) and at the centre, the heights span less than level_m."""
-    y = np.abs(view.p_body_hip[:, 1] + (0.0 if view.abd_offset_m is None else view.abd_offset_m))
-    r = float(np.max(np.hypot(view.p_body_hip[:, 0], y))) + view.foot_radius_m
+    r = float(np.max(np.hypot(view.p_body_hip[:, 0], _leg_plane_y(view)))) + view.foot_radius_m
     a = 2.0 * math.pi * np.arange(n) / n
     x = float(view.p_world_body[0]) + np.concatenate([[0.0], r * np.cos(a)])
     yy = float(view.p_world_body[1]) + np.concatenate([[0.0], r * np.sin(a)])
@@ -892,8 +891,12 @@ def feet_turn_level(view: TerrainView, maps: TerrainMaps, level_m: float, n: int
 def feet_half_width(view: TerrainView) -> float:
     """Gives the feet's lines' half width (m): the mean lateral offset of the legs' planes from the body's axis
     (the hips' offsets plus each leg's plane's offset from its abduction axis, RobotModel)."""
-    y = view.p_body_hip[:, 1] + (0.0 if view.abd_offset_m is None else view.abd_offset_m)
-    return float(np.mean(np.abs(y)))
+    return float(np.mean(np.abs(_leg_plane_y(view))))
+
+
+def _leg_plane_y(view: TerrainView) -> NDArray[np.float64]:
+    """Gives each leg's plane's lateral offset from the body's axis (4,): its hip's plus its abduction offset (m)."""
+    return np.asarray(view.p_body_hip[:, 1] + (0.0 if view.abd_offset_m is None else view.abd_offset_m))
 
 
 def turn_way(view: TerrainView, maps: TerrainMaps, yaw_to: float, p: DecisionParams) -> int:
