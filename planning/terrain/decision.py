@@ -76,7 +76,7 @@ class DecisionParams:
     _piece_centre; 0: around the nominal, whose flicker across a box between two pieces of the floor moved a
     swing's target 0.4 m back and forth; for the whole swing, inf, the clutter family's no-step walks went 9 to 3
     of 50 but its falls 11 to 18); back_drop_frac: a walk to a goal goes down a descent backward (None: off, the
-    default; BACK_DROP_FRAC, 0.2, is the value measured, WalkCommand.descend_backward turns it on). A descent edge is a
+    default here; BACK_DROP_FRAC, 0.2, is the value measured, and WalkCommand.descend_backward, on by default, sets it). A descent edge is a
     fall in the ground along the body path of at least this share of the leg's length (thigh + shank) within
     back_edge_m (a riser, not a slope), the ground staying that much lower for back_beyond_m past it (a flight
     down, not the pit between two stones), on both of the feet's lines beside the path (read on the centre line,
