@@ -859,12 +859,13 @@ def next_facing(
             s - p.back_behind_m + maps.resolution_m * np.arange(int(p.back_behind_m / maps.resolution_m) + 1),
         )
         level = p.back_level_frac * p.back_drop_frac * leg_m
-        # ... the feet measured level too (the map behind a body that has just climbed is filled from its feet,
-        # not seen: the mixed family's 0.6 m top read level with the hind feet a tread below), and the ground the
+        # ... the feet down measured level too (stance_feet_level; the map behind a body that has just climbed is
+        # filled from its feet, not seen: the mixed family's 0.6 m top read level with the hind feet a tread below;
+        # a swinging foot does not count, or a slow gait's turn would wait for a touchdown), and the ground the
         # feet turn on level (feet_turn_level: a landing shorter than the feet's circle is no place to turn)
         ahead = (
             float(np.ptp(under)) < level
-            and float(np.ptp(view.p_world_foot[:, 2])) < level
+            and stance_feet_level(view, level)
             and feet_turn_level(view, maps, level)
         )
     if ahead and turn_way(view, maps, travel_yaw(view, path, p) + math.pi, p):
@@ -875,6 +876,13 @@ def next_facing(
     ):
         return "round"
     return "forward"
+
+
+def stance_feet_level(view: TerrainView, level_m: float) -> bool:
+    """Tells whether the feet down (view.stance) stand level: at least two of them, their measured heights spanning
+    less than level_m. A swinging foot does not count: it is in the air, wherever it is headed."""
+    z = view.p_world_foot[view.stance, 2]
+    return bool(z.size >= 2 and float(np.ptp(z)) < level_m)
 
 
 def feet_turn_level(view: TerrainView, maps: TerrainMaps, level_m: float, n: int = 16) -> bool:

@@ -31,6 +31,7 @@ from planning.terrain.decision import (
     decide,
     descent_edges,
     feet_turn_level,
+    stance_feet_level,
     follow_path,
     footholds_plane,
     hips_pairs,
@@ -1526,6 +1527,16 @@ def test_a_walk_to_a_goal_turns_round_in_place_before_a_descent_and_goes_down_ba
         at, p_world_foot=at.p_world_foot - np.array([0.0, 0.0, 0.15]) * [[0], [0], [1], [1]]
     )
     assert next_facing(hind_low, maps, path, "forward", p) == "forward"
+    # a swinging foot high in the air does not count (only the feet down); one hind foot down a tread below does
+    swinging = dataclass_replace(
+        at, p_world_foot=at.p_world_foot + np.array([0.0, 0.0, 0.12]) * [[0], [0], [1], [0]],
+        stance=np.array([True, True, False, True]),
+    )  # fmt: skip
+    assert next_facing(swinging, maps, path, "forward", p) == "back"
+    assert not stance_feet_level(dataclass_replace(swinging, stance=np.ones(4, dtype=bool)), 0.066)
+    one_low = dataclass_replace(hind_low, stance=np.array([True, True, False, True]))
+    assert next_facing(one_low, maps, path, "forward", p) == "forward"
+    assert not stance_feet_level(dataclass_replace(at, stance=np.array([True, False, False, False])), 0.066)
     # facing forward, the way the body goes backward (a path that turns back) is no descent walked backward
     assert next_facing(view_at(after + 0.05, math.pi), maps, path, "forward", p) == "forward"
     off = dataclasses.replace(p, back_drop_frac=None)
