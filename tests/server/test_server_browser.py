@@ -234,6 +234,24 @@ def _drag(page: Any, box: dict[str, float], dx: float, at: str = "center") -> No
     page.mouse.up()
 
 
+def _box(locator: Any) -> dict[str, float]:
+    """The element's box. The studio redraws the timeline (a new element) whenever it changes, and Playwright gives
+    no box for an element replaced as it looks: it is looked up again."""
+    end = time.monotonic() + 30
+    while (box := locator.bounding_box()) is None:
+        assert time.monotonic() < end, f"{locator} has no box"
+        time.sleep(0.1)
+    return dict(box)
+
+
+def _hide_3d(page: Any) -> None:
+    """Hides the 3D view. Chromium here draws WebGL in software (no GPU): while the 3D view is drawn, its frames take
+    both cores and each mouse drag on the timeline takes 7-20 s (the timeline test ran 3 min, under 1 without it;
+    shown again for a screenshot, the page stalled for 90 s). So the timeline's steps, and their screenshots, go
+    without it."""
+    page.add_style_tag(content="canvas { display: none !important; }")
+
+
 def _scroll_to(page: Any, selector: str) -> None:
     """Scrolls the element into view; the studio redraws the timeline (a new element) whenever it changes, so an
     element replaced mid-scroll is found again."""
@@ -309,6 +327,7 @@ def test_keys_timeline_drag_undo_broken_edit_and_save(server: dict[str, Any], tm
         page.set_default_timeout(90_000)  # a loaded 2-core machine renders the studio slowly
         cid = _open_studio(page, server)
         _keys_steer_without_moving_the_camera(page, server, cid)
+        _hide_3d(page)  # the rest is the timeline and the panel (see the helper)
         page.get_by_role("tab", name="Author").click()
         picker = page.get_by_label("Maneuver", exact=True)
         picker.click()
@@ -326,15 +345,12 @@ def test_keys_timeline_drag_undo_broken_edit_and_save(server: dict[str, Any], tm
         bars = page.locator(f"{svg} rect[data-part=move]")
         wait_svg(lambda h: h.count('data-part="move"') >= 8, "jump's bars and keyframes are drawn")
         fl = bars.first  # the FL swing (rows are drawn FL, FR, RL, RR)
-        box = fl.bounding_box()
-        assert box is not None
-        px_per_s = (
-            page.locator(svg).bounding_box()["width"] * 264 / 300 / 3.5
-        )  # inner width over jump's 3.5 s
+        box = _box(fl)
+        px_per_s = _box(page.locator(svg))["width"] * 264 / 300 / 3.5  # inner width over jump's 3.5 s
         _drag(page, box, 0.2 * px_per_s)
         wait_svg(lambda h: "FL swing 1.40 → 1.62 s" in h, "the FL bar moved by 0.2 s")
         kfs = page.locator(f"{svg} path[data-part=move]")
-        kbox = kfs.nth(3).bounding_box()  # jump's last keyframe (2.80 s)
+        kbox = _box(kfs.nth(3))  # jump's last keyframe (2.80 s)
         _drag(page, kbox, -0.3 * px_per_s)
         wait_svg(lambda h: "body at 2.50 s" in h, "the keyframe moved to 2.50 s")
         page.keyboard.press("Control+z")
@@ -342,7 +358,7 @@ def test_keys_timeline_drag_undo_broken_edit_and_save(server: dict[str, Any], tm
             lambda h: "body at 2.80 s" in h and "FL swing 1.40 → 1.62 s" in h, "undo put the keyframe back"
         )
         # a broken edit: FL's touchdown dragged to before its liftoff
-        box = page.locator(f"{svg} rect[data-part=end]").first.bounding_box()
+        box = _box(page.locator(f"{svg} rect[data-part=end]").first)
         _drag(page, box, -0.5 * px_per_s)
         wait_svg(lambda h: "#ff3b30" in h, "the failure shows on the timeline")
         page.screenshot(path=str(ARTIFACTS / "studio-timeline-failure.png"))
@@ -398,7 +414,7 @@ def _physics_failure_music_and_beats(
     page.get_by_role("option", name="jump", exact=True).click()
     page.get_by_role("button", name="Open", exact=True).click()
     wait_svg(lambda h: "FL swing 1.20 → 1.42 s" in h, "jump is open again")
-    box = page.locator(f"{svg} rect[data-part=end]").first.bounding_box()
+    box = _box(page.locator(f"{svg} rect[data-part=end]").first)
     _drag(page, box, 0.13 * px_per_s)
     wait_svg(
         lambda h: "FL swing 1.20 → 1.55 s" in h and "#ff3b30" not in h, "FL's touchdown at 1.55 s, valid"
@@ -417,7 +433,7 @@ def _physics_failure_music_and_beats(
     chooser.value.set_files(str(_click_wav(tmp_path / "clicks.wav")))
     wait_svg(lambda h: h.count('stroke-dasharray="1 2"') >= 6, "the beat grid is drawn")
     _scroll_to(page, svg)
-    kbox = page.locator(f"{svg} path[data-part=move]").nth(3).bounding_box()  # the keyframe at 2.80 s
+    kbox = _box(page.locator(f"{svg} path[data-part=move]").nth(3))  # the keyframe at 2.80 s
     _drag(page, kbox, 0.12 * px_per_s)
 
     def on_beat(h: str) -> bool:  # the beats found are 120 bpm from ~0.25 s (within a few ms)
