@@ -935,7 +935,7 @@ def turn_room(
         th = view.yaw + sign * np.linspace(0.0, arc, int(math.ceil(arc / step)) + 1)
         cx = x + np.outer(np.cos(th), xs).ravel()
         cy = y + np.outer(np.sin(th), xs).ravel()
-        clear = float(np.min(np.asarray(maps.sdf_body(cx, cy), dtype=np.float64))) - radius_m
+        clear = float(np.min(np.asarray(maps.sdf_collide(cx, cy), dtype=np.float64))) - radius_m
         if clear >= margin_m and clear > best_clear:
             best, best_clear = sign, clear
     return best

@@ -23,7 +23,7 @@ import dataclasses
 import functools
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -109,6 +109,7 @@ class TerrainMaps:
     grad_sdf_step: NDArray[np.float64]  # (nx, ny, 2)
     clearance_m: NDArray[np.float64]
     t_s: float = 0.0
+    drop_only: NDArray[np.bool_] | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -217,6 +218,28 @@ class TerrainMaps:
     def sdf_body_grad(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
         """Gives the gradient (.., 2) of the body SDF at world (x, y) (points away from body obstacles)."""
         return np.asarray(self._bilinear(self.grad_sdf_body, x, y))
+
+    def _collide_fields(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The SDF (m) of the body obstacles the body can collide with and its gradient, made on first use: the body
+        obstacles less drop_only (the edge of a drop below the body's band); the body SDF's own where none."""
+        cached = self.__dict__.get("_collide")
+        if cached is None:
+            if self.drop_only is None or not bool(np.any(self.drop_only & self.body_obstacle)):
+                cached = (self.sdf_body_m, self.grad_sdf_body)
+            else:
+                sdf = signed_distance(self.body_obstacle & ~self.drop_only, self.resolution_m)
+                cached = (sdf, _gradient(sdf, self.resolution_m))
+            object.__setattr__(self, "_collide", cached)
+        return cast(tuple[NDArray[np.float64], NDArray[np.float64]], cached)
+
+    def sdf_collide(self, x: ArrayLike, y: ArrayLike) -> Any:
+        """Gives the signed distance (m) at world (x, y) to the body obstacles the body can hit (sdf_body less the
+        edges of drops lower than the body's band: the open side of a landing the robot stands on), bilinear."""
+        return self._bilinear(self._collide_fields()[0], x, y)
+
+    def sdf_collide_grad(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """Gives the gradient (.., 2) of sdf_collide at world (x, y) (points away from the obstacles it reads)."""
+        return np.asarray(self._bilinear(self._collide_fields()[1], x, y))
 
     def clearance_at(self, x: ArrayLike, y: ArrayLike) -> Any:
         """Gives the free height (m) above the ground under an overhang at world (x, y); +inf where none."""
@@ -510,13 +533,28 @@ def build_maps(
     )
     wall_max, edge_max, knee_max = disk_filters(h, (wall_fp, edge_fp, knee_fp), np.maximum)
     wall_min, edge_min = disk_filters(h, (wall_fp, edge_fp), np.minimum)
-    body |= wall_max - h > p.body_step_m
-    body |= h - wall_min > p.body_step_m
+    wall = wall_max - h > p.body_step_m
+    rim = h - wall_min > p.body_step_m
+    drop = None
+    if p.band_from_support and (wall.any() or rim.any()):
+        # The foot of a wall and the rim of a drop whose top lies below the body's band over the ground the robot
+        # stands on (the floor beside a landing, the landing's open edge, seen from the landing): edges the body
+        # path keeps off, but nothing the body can hit (drop_only; the barrier and the turn's room read the SDF
+        # without them). Real ones (a wall, a box, a step rising into the band) are body obstacles either way.
+        top = default_ground_z + lo
+        low_wall, low_rim = wall & (wall_max < top), rim & (h < top)
+        real = body | (wall & ~low_wall) | (rim & ~low_rim)
+        drop = (low_wall | low_rim) & ~real
+    body |= wall | rim
     body = _remove_specks(body, p.speck_cells)
     if p.close_cells > 0 and body.any():
         st = _disk(p.close_cells)
         padded = pad2(body, p.close_cells)
         body = _closing(padded, st)[p.close_cells : -p.close_cells, p.close_cells : -p.close_cells]
+    if drop is not None:
+        # (what the closing added beside a drop's edge is the drop's too; real cells stay)
+        c = max(p.close_cells, 1)
+        drop = disk_filter(drop, _disk(c), np.maximum, False) & ~real
 
     spread = edge_max - edge_min
     step = spread > p.edge_height_m
@@ -552,6 +590,7 @@ def build_maps(
         sdf_body_m=sdf_body,
         clearance_m=clearance,
         t_s=t_s,
+        drop_only=drop,
     )
 
 

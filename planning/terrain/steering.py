@@ -114,13 +114,13 @@ def barrier_rules(
     cx = float(xy[0]) + c * off
     cy = float(xy[1]) + s * off
     on = np.asarray(maps.in_map(cx, cy), dtype=bool)
-    d = np.where(on, np.asarray(maps.sdf_body(cx, cy), dtype=np.float64), np.inf) - footprint.footprint_r_m
+    d = np.where(on, np.asarray(maps.sdf_collide(cx, cy), dtype=np.float64), np.inf) - footprint.footprint_r_m
     excess = d - p.margin_m
     near = np.flatnonzero(excess < p.near_m)
     if near.size == 0:
         return np.zeros((0, 3)), np.zeros(0)
     near = near[np.argsort(excess[near], kind="stable")[: p.max_rules]]
-    g = np.asarray(maps.sdf_body_grad(cx[near], cy[near]), dtype=np.float64).reshape(-1, 2)
+    g = np.asarray(maps.sdf_collide_grad(cx[near], cy[near]), dtype=np.float64).reshape(-1, 2)
     norm = np.linalg.norm(g, axis=1)
     keep = norm > 1e-6
     near, g = near[keep], g[keep] / norm[keep, None]

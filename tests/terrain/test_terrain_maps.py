@@ -249,6 +249,40 @@ def test_the_body_band_from_the_support_keeps_stone_edges_over_a_pit_slot_out_an
         assert build_maps(box, params, default_ground_z=0.0).body_obstacle[18:22, 18:22].all()
 
 
+def test_the_open_edge_of_a_landing_the_robot_stands_on_is_a_body_obstacle_it_cannot_hit() -> None:
+    """A landing 0.6 m above the floor, its side open: from the landing (band_from_support, default_ground_z the
+    landing's top) its edge and the floor's cells at its foot stay body obstacles (the body path keeps off the drop)
+    but are drop_only, and the collide SDF reads them free; a box 0.45 m tall on the landing stays in both. From
+    the floor the landing's side is a wall the body can hit: nothing is drop_only there."""
+    n, res, dz, z0, nz = 60, 0.03, 0.03, -0.1, 40
+    p = dataclasses.replace(MapParams(), band_from_support=True)
+    ground = np.zeros((n, n))
+    ground[:, :30] = 0.6  # the landing: y < 0.9 m; the floor beyond its open side
+    occ = np.zeros((n, n, nz), dtype=bool)
+    k_lo, k_hi = int(round((0.6 - z0) / dz)), int(round((1.05 - z0) / dz))
+    occ[10:14, 10:14, k_lo : k_hi + 1] = True  # a tall box on the landing
+    columns = Columns((0.0, 0.0), res, ground, occ, z0, dz)
+    top = build_maps(columns, p, default_ground_z=0.6)
+    assert top.drop_only is not None
+    edge = top.body_obstacle[:, 27:33].any(axis=1)
+    assert edge[20:40].all()  # the edge is a body obstacle
+    assert top.drop_only[20:40, 27:33][top.body_obstacle[20:40, 27:33]].all()  # ... and only a drop
+    assert top.body_obstacle[10:14, 10:14].all() and not top.drop_only[10:14, 10:14].any()
+    # The collide SDF: the edge is free, 0.45 m from it on the landing; the box is still an obstacle.
+    x, y_edge = 30 * res, 29.5 * res
+    assert top.sdf_body(x, y_edge - 0.15) < 0.2
+    assert top.sdf_collide(x, y_edge - 0.15) > 0.5
+    assert top.sdf_collide(12 * res, 12 * res) < 0.0
+    g = top.sdf_collide_grad(12 * res, 17 * res)
+    assert g[1] > 0.5  # away from the box
+    floor = build_maps(columns, p, default_ground_z=0.0)
+    assert floor.body_obstacle[20:40, 27:33].any(axis=1).all()
+    assert floor.drop_only is not None and not (floor.drop_only & floor.body_obstacle)[:, 20:].any()
+    assert floor.sdf_collide(x, y_edge + 0.15) == pytest.approx(floor.sdf_body(x, y_edge + 0.15))
+    # Without band_from_support (the shipped default settings) no drop is told apart.
+    assert build_maps(columns, MapParams(), default_ground_z=0.6).drop_only is None
+
+
 def test_the_step_sdf_computed_on_first_read_equals_the_one_computed_at_once() -> None:
     """build_maps leaves the step SDF and its gradient, and the body SDF's gradient, to their first read: the same
     values; replace, pickling and a missing attribute behave as for plain maps."""

@@ -79,3 +79,26 @@ def test_the_barrier_keeps_the_body_off_a_body_obstacle_by_the_least_change_of_i
     assert nose_vx <= 1e-9
     assert _barrier(0.50, fwd, margin_m=None) == fwd  # type: ignore[arg-type]
     assert barrier_command(None, np.zeros(2), 0.0, fwd, BodyPathParams(), BarrierParams(margin_m=0.05)) == fwd
+
+
+def test_the_barrier_lets_the_body_turn_over_the_open_edge_of_a_landing_it_stands_on() -> None:
+    """A body turning in place on a landing 0.6 m above the floor, its open side 0.45 m to the left: the landing's
+    edge is a body obstacle (the body path keeps off the drop) but nothing the body can hit, so the barrier lets the
+    turn go on as asked; the same cells read as a wall (no drop told apart) stop the turn's nose from closing in."""
+    import dataclasses
+
+    from planning.terrain.maps import MapParams, build_maps
+    from planning.terrain.voxels import Columns
+
+    n, nz, z0, dz = 80, 40, -0.1, 0.03
+    ground = np.zeros((n, n))
+    ground[:, :55] = 0.6  # y < 0.45 m from the origin at y -1.2: the landing; its open side beyond
+    columns = Columns((-1.2, -1.2), RES, ground, np.zeros((n, n, nz), dtype=bool), z0, dz)
+    maps = build_maps(columns, dataclasses.replace(MapParams(), band_from_support=True), default_ground_z=0.6)
+    assert maps.drop_only is not None and maps.no_body(0.0, 0.47)
+    turn = SteeringCommand(0.0, 0.0, 0.5)
+    p = BarrierParams(margin_m=0.05)
+    assert barrier_command(maps, np.zeros(2), 0.6, turn, BodyPathParams(), p) == turn
+    wall = dataclasses.replace(maps, drop_only=None)
+    held = barrier_command(wall, np.zeros(2), 0.6, turn, BodyPathParams(), p)
+    assert held != turn
