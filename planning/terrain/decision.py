@@ -107,6 +107,11 @@ class DecisionParams:
     count_step_rise: the swing time counts as well how far a next foothold lies above its foot where the two are on
     different regions (step_rise: a riser climbed, a box stepped onto; a slope is one region), so a swing up a
     riser has the time to rise over it (the 0.3 s swings of `climb` are too short for a 0.12 m riser);
+    count_rise_behind: and, as much as that, how far a foot stands above a foot behind it on another region
+    (rise_behind: a hind foot a riser below the front feet on the flight's top): on one tick whose next footholds
+    all lay on their feet's treads, the stairs gait switched to `climb` and held it for gait_hold_s while a hind
+    foot still had the last riser to climb, and its 0.16 s swing met the riser's face (4 of 4 stairs draws traced
+    with a no-step touchdown, docs/terrain-notes.md, session 22);
     free_rise_m: where the walk is allowed faster (max_speed_mps) than the climb gaits stride (climb_top_speed), a
     rise (hump plus step rise) below this asks no more than base_swing_s (the swing's own lift clears it): on a
     plain slope the swing ground, dilated by the foot's radius, stands up to 29 mm above the straight swing
@@ -340,6 +345,7 @@ class DecisionParams:
     gap_dip_m: float | None = 0.05
     gap_flight_steps: int | None = 2
     count_step_rise: bool = True
+    count_rise_behind: bool = True
     own_side_m: float | None = 0.0
 
 
@@ -500,8 +506,8 @@ def decide(
     lo = p.min_speed_mps / max(p.max_speed_mps, 1e-9)
     share = lo + (1.0 - lo) * frac
     cap = p.max_speed_mps * share
-    gait = cadence(view, world, last, p)
     back = facing == "back"
+    gait = cadence(view, world, last, p, back)
     cap = min(cap, stride_m(view, gait, p) / get_gait(gait).cycle_s, trail_speed(view, last, p, back))
     command = (
         follow_path(view, world.path, cap, p, facing, world.maps)
@@ -603,11 +609,18 @@ def trail_speed(
     return float(np.min(np.maximum(room[use], 0.0) / np.maximum(remain[use], view.dt_s)))
 
 
-def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, p: DecisionParams) -> str:
+def cadence(
+    view: TerrainView,
+    world: TerrainWorld,
+    last: FootholdDecision | None,
+    p: DecisionParams,
+    back: bool = False,
+) -> str:
     """Gives the gait: the slow gait where a gap longer than slow_gap_m lies on the feet's lines ahead (gap_ahead);
     else the first of the walk's own gait and then climb_gaits whose swing lasts long enough to rise over the
     ground above the straight line of the next swings (swing_hump; base_swing_s + rise / rise_speed_mps, a rise
-    below free_rise_m counting 0 where the allowance is above climb_top_speed); a gait switch is held for
+    below free_rise_m counting 0 where the allowance is above climb_top_speed) and up to the next footholds, or to
+    the feet ahead (step_rise, rise_behind; back: the body walks backward); a gait switch is held for
     gait_hold_s."""
     if view.t_s - view.gait_since_s < p.gait_hold_s:
         return view.gait
@@ -615,7 +628,10 @@ def cadence(view: TerrainView, world: TerrainWorld, last: FootholdDecision | Non
         return p.slow_gait
     rise = swing_hump(view, world, last, p.hump_above_start)
     if p.count_step_rise:
-        rise += step_rise(view, world, last)
+        up = step_rise(view, world, last)
+        if p.count_rise_behind:
+            up = max(up, rise_behind(view, world, last, back))
+        rise += up
     if rise < p.free_rise_m and p.max_speed_mps > climb_top_speed(view, p):
         rise = 0.0
     need = p.base_swing_s + rise / p.rise_speed_mps
@@ -644,6 +660,29 @@ def step_rise(view: TerrainView, world: TerrainWorld, last: FootholdDecision | N
             float(b[0]), float(b[1])
         ):
             most = up
+    return most
+
+
+def rise_behind(
+    view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, back: bool = False
+) -> float:
+    """Gives the most (m) a foot stands above a foot behind it (along the way the body walks: its heading, or
+    against it walking backward) where the two stand on different regions: what the feet behind have still to
+    climb (a hind foot a riser below the front feet on a flight's top), besides their next footholds. Each foot
+    where it stands, or a foot in the air at the height of its last stance foothold (support_points); 0 on one
+    region (a slope is one plane), or with every foot at least as high as those ahead (a descent)."""
+    pts = support_points(view, last, touchdowns=False)
+    sign = -1.0 if back else 1.0
+    u = sign * np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    along = pts[:, :2] @ u
+    regions = world.regions
+    labels = [regions.label_at(float(x), float(y)) for x, y in pts[:, :2].tolist()]
+    most = 0.0
+    for i in range(4):
+        for j in range(4):
+            up = float(pts[i, 2] - pts[j, 2])
+            if up > most and along[i] > along[j] and labels[i] != labels[j]:
+                most = up
     return most
 
 
