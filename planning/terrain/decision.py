@@ -620,8 +620,8 @@ def cadence(
     else the first of the walk's own gait and then climb_gaits whose swing lasts long enough to rise over the
     ground above the straight line of the next swings (swing_hump; base_swing_s + rise / rise_speed_mps, a rise
     below free_rise_m counting 0 where the allowance is above climb_top_speed) and up to the next footholds, or to
-    the feet ahead (step_rise, rise_behind; back: the body walks backward); a gait switch is held for
-    gait_hold_s."""
+    the feet ahead along its way (step_rise, rise_behind, way_yaw; back: the body walks backward); a gait switch is
+    held for gait_hold_s."""
     if view.t_s - view.gait_since_s < p.gait_hold_s:
         return view.gait
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
@@ -630,7 +630,7 @@ def cadence(
     if p.count_step_rise:
         up = step_rise(view, world, last)
         if p.count_rise_behind:
-            up = max(up, rise_behind(view, world, last, back))
+            up = max(up, rise_behind(view, world, last, way_yaw(view, world, p, back)))
         rise += up
     if rise < p.free_rise_m and p.max_speed_mps > climb_top_speed(view, p):
         rise = 0.0
@@ -663,17 +663,25 @@ def step_rise(view: TerrainView, world: TerrainWorld, last: FootholdDecision | N
     return most
 
 
+def way_yaw(view: TerrainView, world: TerrainWorld, p: DecisionParams, back: bool = False) -> float:
+    """Gives the way (rad) the body goes: along its path (travel_yaw) to a goal, else its heading (reversed walking
+    backward: back)."""
+    if view.goal is not None and world.path is not None and world.path.length_m > 1e-6:
+        return travel_yaw(view, world.path, p)
+    return view.yaw + (math.pi if back else 0.0)
+
+
 def rise_behind(
-    view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, back: bool = False
+    view: TerrainView, world: TerrainWorld, last: FootholdDecision | None, way_yaw: float
 ) -> float:
-    """Gives the most (m) a foot stands above a foot behind it (along the way the body walks: its heading, or
-    against it walking backward) where the two stand on different regions: what the feet behind have still to
-    climb (a hind foot a riser below the front feet on a flight's top), besides their next footholds. Each foot
-    where it stands, or a foot in the air at the height of its last stance foothold (support_points); 0 on one
-    region (a slope is one plane), or with every foot at least as high as those ahead (a descent)."""
+    """Gives the most (m) a foot stands above a foot behind it along the way the body goes (way_yaw, rad: its
+    path's way, whichever way it faces) where the two stand on different regions: what the feet behind have
+    still to climb (a hind foot a riser below the front feet on a flight's top), besides their next footholds.
+    Each foot where it stands, or a foot in the air at the height of its last stance foothold (support_points);
+    0 on one region (a slope is one plane), or with every foot at least as high as those ahead (a descent,
+    facing down it or walking backward; a turn round at the foot of a flight, the path leading away from it)."""
     pts = support_points(view, last, touchdowns=False)
-    sign = -1.0 if back else 1.0
-    u = sign * np.array([math.cos(view.yaw), math.sin(view.yaw)])
+    u = np.array([math.cos(way_yaw), math.sin(way_yaw)])
     along = pts[:, :2] @ u
     regions = world.regions
     labels = [regions.label_at(float(x), float(y)) for x, y in pts[:, :2].tolist()]

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from planning.steps import SteeringCommand
+from planning.steps.gait import get_gait
 from planning.steps.state import BodyMotion, StepPath
 from planning.terrain.bodypath import BodyPath, plan_body_path
 from planning.terrain.cadence import CADENCES, CadenceParams, make_request
@@ -45,6 +46,7 @@ from planning.terrain.decision import (
     path_holds,
     pitched_nominals,
     reach_height,
+    rise_behind,
     shin_cell_cost,
     shin_choice,
     shin_cost_region,
@@ -450,6 +452,34 @@ def test_a_swing_rises_over_a_nosing_going_up_but_not_stepping_down_past_it() ->
     assert above > 0.05 and above == pytest.approx(line) and gait in P.climb_gaits
 
 
+def test_hind_feet_a_riser_below_the_front_feet_keep_the_climbing_gait() -> None:
+    """Up _steps_down along -x: the front feet on the landing (0.6 m), the hind feet on the tread below (0.45 m),
+    every next foothold on its foot's own tread (no step rise, no hump: the walk's trot before). The hind feet have
+    the riser still to climb: rise_behind is 0.15 m and the gait is a climbing one with swings long enough for it.
+    Walking backward down the same flight, or on one plane, nothing is behind and below."""
+    world = _steps_down()
+    view = dataclass_replace(
+        _view(np.array([0.6, 0.6, 0.45, 0.45]), np.array([0.85, 0.85, 1.15, 1.15])), yaw=math.pi
+    )
+    view = dataclass_replace(view, p_world_body=np.array([1.0, 0.0, 1.05]), z_contact=0.545)
+    chosen = view.p_world_foot.copy()
+    chosen[:, 0] -= 0.1  # each on its own tread
+    chosen[:, 2] -= view.foot_radius_m
+    last = FootholdDecision(
+        np.zeros((0, 3)), (), None, 0.0, FootholdMemory(np.full(4, np.nan), chosen, np.full(4, np.nan))
+    )
+    assert rise_behind(view, world, last, math.pi) == pytest.approx(0.15, abs=1e-9)  # going up, along -x
+    gait = cadence(view, world, last, P)
+    need = P.base_swing_s + 0.15 / P.rise_speed_mps
+    assert gait in P.climb_gaits and get_gait(gait).swing_s >= min(need, get_gait(P.climb_gaits[-1]).swing_s)
+    assert cadence(view, world, last, dataclass_replace(P, count_rise_behind=False)) == "trot"  # as before
+    # going down (walking backward, or turning round at the top to go down): the feet behind are the higher ones
+    assert rise_behind(view, world, last, 0.0) == 0.0
+    on_top = view.p_world_foot * np.array([1.0, 1.0, 0.0]) + np.array([-0.3, 0.0, 0.62])
+    level = dataclass_replace(view, p_world_foot=on_top)
+    assert rise_behind(level, world, None, math.pi) == 0.0  # all four on the landing
+
+
 def test_a_plain_slope_is_the_walks_own_gait_ground_at_the_legs_stride() -> None:
     """A 15° slope: the dilated swing ground stands a few mm above a straight swing up it, below free_rise_m, so at
     a 1.0 m/s allowance (above the climb gaits' 0.5) the walk keeps its trot (without the threshold, or at 0.5 m/s,
@@ -472,6 +502,9 @@ def test_a_plain_slope_is_the_walks_own_gait_ground_at_the_legs_stride() -> None
     view = dataclass_replace(view, p_world_foot=feet)
     rise = swing_hump(view, world, last, True)
     assert 0.0 < rise < P.free_rise_m
+    assert (
+        rise_behind(view, world, last, 0.0) == 0.0
+    )  # a slope is one region: its front feet higher count nothing
     fast = dataclass_replace(P, max_speed_mps=1.0)
     assert climb_top_speed(view, P) == pytest.approx(0.5)
     assert cadence(view, world, last, fast) == "trot"
