@@ -970,7 +970,8 @@ def turn_room(
 ) -> int:
     """Gives the way the body can turn in place from its yaw to yaw_to (rad): +1 (counterclockwise) or -1 where every
     footprint circle (centres circles_x_m along the body's axis, radius radius_m) keeps margin_m from body obstacles
-    (the body SDF) at every heading on the way (15° apart or closer), the way of more clearance where both can;
+    (the body SDF less the edges of drops below the body: maps.sdf_collide; a landing's open side does not hold a
+    turn on the landing) at every heading on the way (15° apart or closer), the way of more clearance where both can;
     0: neither can."""
     d = math.remainder(yaw_to - view.yaw, 2.0 * math.pi)
     step = math.pi / 12.0

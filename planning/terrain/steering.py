@@ -82,6 +82,10 @@ class BarrierParams:
     """A walk to a goal keeps its body off body obstacles by its command, whatever its path (a path may graze a tall
     box: the body path's search keeps the footprint clear with no margin, and the body lags its path's yaw).
 
+    The obstacles it reads are those the body can hit (maps.sdf_collide): the edge of a drop below the body's band,
+    a landing's open side seen from the landing, is a body obstacle for the body path but not for the barrier (it
+    held a turn round on a 1.2 m landing for seconds once the sensor saw the floor beyond its sides).
+
     margin_m: the clearance (m) each circle of the barrier's footprint keeps from body obstacles; None: off (the
     command as the path asks; on, the clutter family crossed 26 of 50 clean against 19 off, its trunk falls 5 to 0,
     and the stairs 27 either way; 0.08 crossed clutter 24: docs/terrain-notes.md, session 15); rate_hz: a circle
