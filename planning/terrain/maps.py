@@ -551,7 +551,7 @@ def build_maps(
         st = _disk(p.close_cells)
         padded = pad2(body, p.close_cells)
         body = _closing(padded, st)[p.close_cells : -p.close_cells, p.close_cells : -p.close_cells]
-    if drop is not None:
+    if drop is not None and drop.any():
         # (what the closing added beside a drop's edge is the drop's too; real cells stay)
         c = max(p.close_cells, 1)
         drop = disk_filter(drop, _disk(c), np.maximum, False) & ~real
