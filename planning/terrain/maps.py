@@ -219,27 +219,33 @@ class TerrainMaps:
         """Gives the gradient (.., 2) of the body SDF at world (x, y) (points away from body obstacles)."""
         return np.asarray(self._bilinear(self.grad_sdf_body, x, y))
 
-    def _collide_fields(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The SDF (m) of the body obstacles the body can collide with and its gradient, made on first use: the body
-        obstacles less drop_only (the edge of a drop below the body's band); the body SDF's own where none."""
-        cached = self.__dict__.get("_collide")
-        if cached is None:
-            if self.drop_only is None or not bool(np.any(self.drop_only & self.body_obstacle)):
-                cached = (self.sdf_body_m, self.grad_sdf_body)
-            else:
-                sdf = signed_distance(self.body_obstacle & ~self.drop_only, self.resolution_m)
-                cached = (sdf, _gradient(sdf, self.resolution_m))
-            object.__setattr__(self, "_collide", cached)
-        return cast(tuple[NDArray[np.float64], NDArray[np.float64]], cached)
+    def _collide_sdf(self) -> NDArray[np.float64] | None:
+        """The SDF (m) of the body obstacles less drop_only (the edges of drops below the body's band), made on first
+        use; None where no drop is marked (sdf_body is that SDF then)."""
+        d = self.__dict__
+        if "_collide_sdf_m" not in d:
+            drop = self.drop_only
+            sdf = None
+            if drop is not None and bool(np.any(drop & self.body_obstacle)):
+                sdf = signed_distance(self.body_obstacle & ~drop, self.resolution_m)
+            object.__setattr__(self, "_collide_sdf_m", sdf)
+        return cast("NDArray[np.float64] | None", d["_collide_sdf_m"])
 
     def sdf_collide(self, x: ArrayLike, y: ArrayLike) -> Any:
         """Gives the signed distance (m) at world (x, y) to the body obstacles the body can hit (sdf_body less the
         edges of drops lower than the body's band: the open side of a landing the robot stands on), bilinear."""
-        return self._bilinear(self._collide_fields()[0], x, y)
+        sdf = self._collide_sdf()
+        return self._bilinear(self.sdf_body_m if sdf is None else sdf, x, y)
 
     def sdf_collide_grad(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
         """Gives the gradient (.., 2) of sdf_collide at world (x, y) (points away from the obstacles it reads)."""
-        return np.asarray(self._bilinear(self._collide_fields()[1], x, y))
+        sdf = self._collide_sdf()
+        if sdf is None:
+            return self.sdf_body_grad(x, y)
+        d = self.__dict__
+        if "_collide_grad" not in d:
+            object.__setattr__(self, "_collide_grad", _gradient(sdf, self.resolution_m))
+        return np.asarray(self._bilinear(d["_collide_grad"], x, y))
 
     def clearance_at(self, x: ArrayLike, y: ArrayLike) -> Any:
         """Gives the free height (m) above the ground under an overhang at world (x, y); +inf where none."""
