@@ -346,6 +346,7 @@ class DecisionParams:
     gap_flight_steps: int | None = 2
     count_step_rise: bool = True
     count_rise_behind: bool = True
+    slow_drop_m: float | None = 0.05
     own_side_m: float | None = 0.0
 
 
@@ -625,7 +626,11 @@ def cadence(
     if view.t_s - view.gait_since_s < p.gait_hold_s:
         return view.gait
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
-        return p.slow_gait
+        if p.slow_drop_m is None or view.gait == p.slow_gait:
+            return p.slow_gait
+        drop = rise_behind(view, world, last, way_yaw(view, world, p, back) + math.pi)
+        if drop <= p.slow_drop_m:
+            return p.slow_gait
     rise = swing_hump(view, world, last, p.hump_above_start)
     if p.count_step_rise:
         up = step_rise(view, world, last)

@@ -207,3 +207,30 @@ def test_the_liftoff_hold_is_asked_on_a_stone_not_on_the_floor() -> None:
     assert not on_small_regions(_going_view(floor_feet), world, 0.3)
     flying = dataclasses.replace(view, stance=np.array([False, True, True, True]))
     assert not on_small_regions(flying, world, 0.3)
+
+
+def test_the_slow_gait_waits_while_the_hind_feet_are_still_on_a_descent() -> None:
+    """A pit 0.3 m wide lies ahead of a step 0.15 m down along +x: on the step, the hind feet on the tread above
+    the front feet, the gait does not switch to the slow one (a switch there slowed the
+    body while a hind foot stepped down, its hip left behind the nosing and its shin on it: the mixed family's
+    hind lower-leg falls, docs/terrain-notes.md, session 24); with all four feet on the floor, or with the rule
+    off (slow_drop_m None), it does; a walk already in the slow gait keeps it."""
+    X = np.broadcast_to((-0.6 + np.arange(110) * RES)[:, None], (110, 60))
+    steps = np.where(X < -0.15, 0.15, 0.0)  # the tread above, down to the floor at x = -0.15
+    in_pit = (X > 0.75) & (X < 1.05)
+    h = np.asarray(np.where(in_pit, -0.3, steps), dtype=np.float64)
+    world = _world(h, np.asarray(in_pit, dtype=bool))
+    p = DecisionParams()
+    assert p.slow_drop_m is not None and p.slow_gait is not None
+    level = _going_view(np.array([[0.3, 0.15, 0.02], [0.3, -0.15, 0.02], [0.6, 0.15, 0.02], [0.6, -0.15, 0.02]]))
+    level = dataclasses.replace(level, p_world_body=np.array([0.45, 0.0, 0.55]))
+    assert gap_ahead(level, world, p) > p.slow_gap_m
+    assert cadence(level, world, None, p) == p.slow_gait
+    # front feet on the floor (x 0.3), hind feet on the tread above it (x -0.3, 0.15 m up)
+    feet = _going_view().p_world_foot.copy()
+    feet[2:, 2] += 0.15
+    on_flight = dataclasses.replace(level, p_world_foot=feet, p_world_body=np.array([0.0, 0.0, 0.6]))
+    assert gap_ahead(on_flight, world, p) > p.slow_gap_m
+    assert cadence(on_flight, world, None, p) != p.slow_gait
+    assert cadence(on_flight, world, None, dataclasses.replace(p, slow_drop_m=None)) == p.slow_gait
+    assert cadence(dataclasses.replace(on_flight, gait=p.slow_gait), world, None, p) == p.slow_gait
