@@ -125,7 +125,16 @@ class DecisionParams:
     m/s at the trot's 0.5 s cycle; max_stride_m where the view has no leg lengths);
     slow_gait, slow_gap_m, gap_behind_m, gap_ahead_m: the
     gait where a gap wider than slow_gap_m lies on the feet's lines from gap_behind_m behind the body to
-    gap_ahead_m ahead (far enough ahead that the switch is made before the front feet reach it); lookahead_m, yaw_gain,
+    gap_ahead_m ahead (far enough ahead that the switch is made before the front feet reach it); slow_drop_m: the
+    switch into the slow gait waits while a foot stands more than this above a foot ahead of it, along the way the
+    body goes, on another region (rise_behind read the other way: a descent the hind feet have not finished; a walk
+    already in the slow gait keeps it; None: no wait). A flight's foot lies within gap_ahead_m of the pit past it
+    (the mixed family's 0.4 m floor), and the switch made mid-flight cut the body's speed from the climb gait's
+    ~0.45 m/s to the crawl's 0.19 while a hind foot stepped down: its hip stayed behind the nosing, no foothold its
+    shin cleared was in reach, and the shin came down on the nosing (the family's 13 hind lower-leg falls and 1
+    upper-leg fall, each traced on main). 0.05 m (above the stones' height jitter between a platform and a
+    stone): the mixed family 26 of 50 clean against 20, falls 19 to 6 (docs/terrain-notes.md, session 24);
+    lookahead_m, yaw_gain,
     max_yaw_rate_rps, goal_gain, goal_tolerance_m: path following; yaw_lookahead_m: the body turns toward the path's
     yaw this far ahead of the path's point nearest the body (0: at that point; a path replanned from the body's pose
     starts at the body's yaw and turns to its heading over its first 0.3 m, so with 0 a path replanned every tick,

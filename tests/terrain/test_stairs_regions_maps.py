@@ -222,7 +222,9 @@ def test_the_slow_gait_waits_while_the_hind_feet_are_still_on_a_descent() -> Non
     world = _world(h, np.asarray(in_pit, dtype=bool))
     p = DecisionParams()
     assert p.slow_drop_m is not None and p.slow_gait is not None
-    level = _going_view(np.array([[0.3, 0.15, 0.02], [0.3, -0.15, 0.02], [0.6, 0.15, 0.02], [0.6, -0.15, 0.02]]))
+    level = _going_view(
+        np.array([[0.3, 0.15, 0.02], [0.3, -0.15, 0.02], [0.6, 0.15, 0.02], [0.6, -0.15, 0.02]])
+    )
     level = dataclasses.replace(level, p_world_body=np.array([0.45, 0.0, 0.55]))
     assert gap_ahead(level, world, p) > p.slow_gap_m
     assert cadence(level, world, None, p) == p.slow_gait
