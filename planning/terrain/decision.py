@@ -477,7 +477,8 @@ class TerrainDecision:
     mean contact height and the pitch target (positive nose down), the ground the swings clear, the speed cap it
     came from, and whether the slow gait's liftoffs wait for static balance (support_hold: the controller's
     SupportShiftParams.hold for this tick, see DecisionParams.hold_region_m2), and how the body faces along its path
-    (next_facing: "back" walking down a descent backward, "round" turning to face its path again)."""
+    (next_facing: "back" walking down a descent backward, "round" turning to face its path again); slow_wait: the
+    slow gait was asked for by a gap ahead and waits for a descent's hind feet (DecisionParams.slow_drop_m)."""
 
     command: SteeringCommand
     gait: str
@@ -487,6 +488,7 @@ class TerrainDecision:
     speed_cap_mps: float
     support_hold: bool = False
     facing: Facing = "forward"
+    slow_wait: bool = False
 
 
 # ---- the decisions ---------------------------------------------------------------------------------------------
@@ -517,7 +519,7 @@ def decide(
     share = lo + (1.0 - lo) * frac
     cap = p.max_speed_mps * share
     back = facing == "back"
-    gait = cadence(view, world, last, p, back)
+    gait, slow_wait = _cadence(view, world, last, p, back)
     cap = min(cap, stride_m(view, gait, p) / get_gait(gait).cycle_s, trail_speed(view, last, p, back))
     command = (
         follow_path(view, world.path, cap, p, facing, world.maps)
@@ -541,7 +543,7 @@ def decide(
     if p.touchdown_reach_frac is not None and last is not None:
         height = min(height, touchdown_reach_height(view, last.memory.p_chosen, pitch, p))
     hold = p.hold_region_m2 is not None and on_small_regions(view, world, p.hold_region_m2)
-    return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap, hold, facing)
+    return TerrainDecision(command, gait, height, pitch, world.swing_ground, cap, hold, facing, slow_wait)
 
 
 def level_height(view: TerrainView, last: FootholdDecision | None, p: DecisionParams) -> float:
@@ -632,14 +634,27 @@ def cadence(
     below free_rise_m counting 0 where the allowance is above climb_top_speed) and up to the next footholds, or to
     the feet ahead along its way (step_rise, rise_behind, way_yaw; back: the body walks backward); a gait switch is
     held for gait_hold_s."""
+    return _cadence(view, world, last, p, back)[0]
+
+
+def _cadence(
+    view: TerrainView,
+    world: TerrainWorld,
+    last: FootholdDecision | None,
+    p: DecisionParams,
+    back: bool = False,
+) -> tuple[str, bool]:
+    """cadence's gait, and whether the slow gait waited for a descent's hind feet on this tick (slow_drop_m)."""
     if view.t_s - view.gait_since_s < p.gait_hold_s:
-        return view.gait
+        return view.gait, False
+    waited = False
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
         if p.slow_drop_m is None or view.gait == p.slow_gait:
-            return p.slow_gait
+            return p.slow_gait, False
         drop = rise_behind(view, world, last, way_yaw(view, world, p, back) + math.pi)
         if drop <= p.slow_drop_m:
-            return p.slow_gait
+            return p.slow_gait, False
+        waited = True
     rise = swing_hump(view, world, last, p.hump_above_start)
     if p.count_step_rise:
         up = step_rise(view, world, last)
@@ -651,8 +666,8 @@ def cadence(
     need = p.base_swing_s + rise / p.rise_speed_mps
     for name in (view.fast_gait, *p.climb_gaits):
         if get_gait(name).swing_s >= need - 1e-9:
-            return name
-    return p.climb_gaits[-1] if p.climb_gaits else view.fast_gait
+            return name, waited
+    return (p.climb_gaits[-1] if p.climb_gaits else view.fast_gait), waited
 
 
 def step_rise(view: TerrainView, world: TerrainWorld, last: FootholdDecision | None) -> float:
@@ -2520,6 +2535,7 @@ class PipelineStats:
     footholds_ms: list[float] = field(default_factory=list)
     gait_switches: int = 0
     barrier_ticks: int = 0
+    slow_waits: int = 0
     late_holds: int = 0
     min_height_m: float = np.inf
     backward_s: float = 0.0
@@ -2542,6 +2558,7 @@ class PipelineStats:
             "footholds_ms_p99": _p(self.footholds_ms, 99),
             "gait_switches": self.gait_switches,
             "barrier_ticks": self.barrier_ticks,
+            "slow_gait_waits": self.slow_waits,
             "late_jump_holds": self.late_holds,
             "backward_s": round(self.backward_s, 2),
             "turns_given_up": self.turns_given_up,
@@ -2687,6 +2704,7 @@ class TerrainPipeline:
                 d = dataclasses.replace(d, command=kept)
         if d.gait != view.gait:
             self.stats.gait_switches += 1
+        self.stats.slow_waits += int(d.slow_wait)
         if d.facing == "back":
             self.stats.backward_s += view.dt_s
         self.stats.min_height_m = min(self.stats.min_height_m, d.body_height_m)
