@@ -8,7 +8,7 @@ shin came down on it (all 13 of the family's hind lower-leg falls, docs/terrain-
 switch waiting for the hind feet to finish the descent (DecisionParams.slow_drop_m) the same draws walk down and
 onto the stones. Each walk runs 11 s (the falls came at 6.7-9.3 s): it passes when the body did not fall and stands
 past the flight's last riser. Measured: 3 of the first 3 (the verdict then settled); main without the rule: 0 of
-the first 2 (623: a hind lower leg at 6.8 s; 992: still on the flight's foot at 11 s). The claim is a rate, >= 3
+the first 2 (623 and 675: a hind lower leg at 6.8 s). The claim is a rate, >= 3
 of 4, so a last-bit difference between machines cannot flip it. About 35-60 s.
 """
 
@@ -24,9 +24,9 @@ from planning.terrain.spec import load_terrain
 # (terrain, seed): draws of sweeps/family-mixed.yaml that fell there on a hind lower leg, the switch mid-flight
 DRAWS = [
     (0.1297, 2, "0.15..0.2", 623),
-    (0.1128, 4, "0.25..0.3", 992),
-    (0.1066, 3, "0.15..0.2", 492),
     (0.1501, 2, "0.25..0.3", 675),
+    (0.1066, 3, "0.15..0.2", 492),
+    (0.1128, 4, "0.25..0.3", 992),
 ]
 
 
