@@ -6,10 +6,10 @@ cadence switched to the slow gait as soon as the pit came within gap_ahead_m, mi
 climb gait's ~0.45 m/s to the crawl's 0.19 while a hind foot stepped down, its hip stayed behind the nosing, and the
 shin came down on it (all 13 of the family's hind lower-leg falls, docs/terrain-notes.md, session 24). With the
 switch waiting for the hind feet to finish the descent (DecisionParams.slow_drop_m) the same draws walk down and
-onto the stones. Each walk runs 11 s (the falls came at 6.7-9.3 s): it passes when the body did not fall and stands
-past the flight's last riser. Measured: 3 of the first 3 (the verdict then settled); main without the rule: 0 of
-the first 2 (623 and 675: a hind lower leg at 6.8 s). The claim is a rate, >= 3
-of 4, so a last-bit difference between machines cannot flip it. About 35-60 s.
+onto the stones. Each walk runs 11 s (the falls came at 6.7-9.3 s): it passes when the body did not fall, stands
+past the flight's last riser, and the slow gait waited (the run report's navigator.slow_gait_waits). Measured: 3 of
+the first 3 (the verdict then settled); main without the rule: 0 of the first 2 (623 and 675: a hind lower leg at
+6.8 s). The claim is a rate, >= 3 of 4, so a last-bit difference between machines cannot flip it. About 35-60 s.
 """
 
 from __future__ import annotations
