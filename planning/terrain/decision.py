@@ -628,7 +628,8 @@ def cadence(
     p: DecisionParams,
     back: bool = False,
 ) -> str:
-    """Gives the gait: the slow gait where a gap longer than slow_gap_m lies on the feet's lines ahead (gap_ahead);
+    """Gives the gait: the slow gait where a gap longer than slow_gap_m lies on the feet's lines ahead (gap_ahead),
+    once no foot stands more than slow_drop_m above a foot ahead of it on another region (a descent's hind feet);
     else the first of the walk's own gait and then climb_gaits whose swing lasts long enough to rise over the
     ground above the straight line of the next swings (swing_hump; base_swing_s + rise / rise_speed_mps, a rise
     below free_rise_m counting 0 where the allowance is above climb_top_speed) and up to the next footholds, or to
