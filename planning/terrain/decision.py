@@ -649,18 +649,20 @@ def _cadence(
     if view.t_s - view.gait_since_s < p.gait_hold_s:
         return view.gait, False
     waited = False
+    way: float | None = None  # the way the body goes (way_yaw), read once where a rule needs it
     if p.slow_gait is not None and gap_ahead(view, world, p) > p.slow_gap_m:
         if p.slow_drop_m is None or view.gait == p.slow_gait:
             return p.slow_gait, False
-        drop = rise_behind(view, world, last, way_yaw(view, world, p, back) + math.pi)
-        if drop <= p.slow_drop_m:
+        way = way_yaw(view, world, p, back)
+        if rise_behind(view, world, last, way + math.pi) <= p.slow_drop_m:  # no foot above one ahead of it
             return p.slow_gait, False
         waited = True
     rise = swing_hump(view, world, last, p.hump_above_start)
     if p.count_step_rise:
         up = step_rise(view, world, last)
         if p.count_rise_behind:
-            up = max(up, rise_behind(view, world, last, way_yaw(view, world, p, back)))
+            way = way_yaw(view, world, p, back) if way is None else way
+            up = max(up, rise_behind(view, world, last, way))
         rise += up
     if rise < p.free_rise_m and p.max_speed_mps > climb_top_speed(view, p):
         rise = 0.0
