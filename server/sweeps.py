@@ -130,7 +130,12 @@ def check_request(spec: SweepSpec, settings: Settings) -> None:
             if r.probe.sleep_s > MAX_PROBE_SLEEP_S:
                 problems.append((f"{where}.probe.sleep_s", f"at most {MAX_PROBE_SLEEP_S} s over REST"))
     robots = [spec.defaults.robot]
-    for axes in [spec.axes, *(r.axes for r in spec.runs())]:
+    named: list[tuple[str, dict[str, Any]]] = [
+        ("axes", spec.axes),
+        *(("axes", r.axes) for r in spec.runs()),
+        ("sampling.repeat", spec.repeat()),
+    ]
+    for where, axes in named:
         for name in ("robot", "maneuver"):
             ax = axes.get(name)
             if isinstance(ax, list):
@@ -138,7 +143,7 @@ def check_request(spec: SweepSpec, settings: Settings) -> None:
                     if name == "robot":
                         robots.append(str(v))
                     elif not _SAFE_NAME.match(str(v)):
-                        problems.append((f"axes.{name}", f"{v!r}: a library name, not a path"))
+                        problems.append((f"{where}.{name}", f"{v!r}: a library name, not a path"))
     for rb in robots:
         if not _SAFE_NAME.match(rb):
             problems.append(("robot", f"{rb!r}: a built-in robot name (spot, go1), not a path"))

@@ -2,8 +2,8 @@
 
 A case is a plain dict (it crosses process and machine boundaries): {"params": what the run needs, self-contained
 (the maneuver's document travels with it, so a remote worker needs no library files), "axes": the case's value on
-each axis of the sweep, for grouping}. Its key hashes the params and the code version, so results stored under it
-stay valid until either changes.
+each axis of the sweep, for grouping (in a repeated sweep, also its draw's number on the `draw` axis)}. Its key
+hashes the params and the code version, so results stored under it stay valid until either changes.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from planning.sweep.spec import MAX_CASES, Range, SweepSpec, SweepSpecError
+from planning.sweep.spec import DRAW, MAX_CASES, Range, SweepSpec, SweepSpecError
 
 _ROOT = Path(__file__).resolve().parents[1]  # planning/
 _REPO = _ROOT.parent
@@ -93,7 +93,8 @@ def _sample(axis: list[Any] | Range, rng: np.random.Generator) -> Any:
 
 def _coordinates(spec: SweepSpec) -> list[dict[str, Any]]:
     """Each case's value on every axis (run labels on the `run` axis when the spec lists several runs; a run's own
-    axes replace the sweep's of the same name)."""
+    axes replace the sweep's of the same name). A repeated sweep's draws are drawn first, as without the repeat
+    (the same draws), then each is taken at every combination of the repeat values, its number on the draw axis."""
     runs = spec.runs()
     per_run: list[dict[str, list[Any] | Range]] = []
     for r in runs:
@@ -121,7 +122,14 @@ def _coordinates(spec: SweepSpec) -> list[dict[str, Any]]:
     for _ in range(spec.sampling.random):
         axes = per_run[int(rng.integers(len(runs)))]
         draws.append({n: _sample(ax, rng) for n, ax in axes.items()})
-    return draws
+    repeat = {n: grid_values(v) for n, v in spec.repeat().items()}
+    if not repeat:
+        return draws
+    return [
+        {**d, **dict(zip(repeat, combo, strict=True)), DRAW: i}
+        for i, d in enumerate(draws)
+        for combo in itertools.product(*repeat.values())
+    ]
 
 
 def _number(axis: str, v: Any) -> float:

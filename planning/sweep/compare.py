@@ -8,6 +8,11 @@ pair's outcome: the cases B gains (A failed, B
 succeeded), the cases it loses, and the exact two-sided sign test over those discordant pairs (McNemar's exact
 test): the chance of a split at least that lopsided if the change made no difference. On 12 draws a gain of 2 and
 a loss of 0 is p = 0.5: no evidence either way.
+
+Repeated sweeps (sampling.repeat) pair the same way, each repeat a case (its repeat value and draw number are
+axes). When both sides repeated their draws, each draw's success fraction over its paired repeats is compared too:
+the draws whose fraction went up, down or stayed, and the sign test over the ups and downs (the draws, unlike the
+repeats of one draw, are independent).
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from planning.sweep.spec import DRAW
 from planning.sweep.summary import clean_record, reason_group, wilson
 
 
@@ -107,14 +113,23 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
     b, b_success = load_results(b_dir)
     keys = [k for k in a if k in b]
     if not keys:
-        raise CompareError(f"{a_dir} and {b_dir} share no draw (their sweeps' axes took other values)")
+        hint = ""
+        if _repeated(a) != _repeated(b):
+            hint = "; one of them repeated its draws (sampling.repeat) and the other did not"
+        raise CompareError(f"{a_dir} and {b_dir} share no draw (their sweeps' axes took other values{hint})")
     changed: list[dict[str, Any]] = []
     n_a = n_b = gains = losses = 0
+    draws: dict[Any, list[int]] = {}  # a repeated sweep's draw → [A's successes, B's successes] on its pairs
     for k in keys:
         ok_a, why_a = outcome(a[k], a_success)
         ok_b, why_b = outcome(b[k], b_success)
         n_a += ok_a
         n_b += ok_b
+        draw = (a[k]["case"].get("axes") or {}).get(DRAW)
+        if draw is not None:  # (paired by their axes, so B's case has the same draw)
+            tally = draws.setdefault(draw, [0, 0])
+            tally[0] += ok_a
+            tally[1] += ok_b
         if ok_a != ok_b:
             gains += ok_b
             losses += ok_a
@@ -151,6 +166,27 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
         "sign_test_p": round(sign_test_p(gains, losses), 4),
         "params_differ": differ,
         "changed": changed,
+        "draws": _draws(draws) if draws else None,
+    }
+
+
+def _repeated(results: dict[str, dict[str, Any]]) -> bool:
+    """Whether a results directory's cases carry draw numbers (its sweep repeated its draws)."""
+    return any(DRAW in (r["case"].get("axes") or {}) for r in results.values())
+
+
+def _draws(tallies: dict[Any, list[int]]) -> dict[str, Any]:
+    """The per-draw comparison of a repeated sweep: of the draws paired, those whose success fraction over their
+    paired repeats went up in B, down, or stayed, and the exact sign test over the ups and downs. tallies: draw →
+    [A's successes, B's successes] on the same paired repeats (so the fractions share their denominator)."""
+    up = sum(1 for sa, sb in tallies.values() if sb > sa)
+    down = sum(1 for sa, sb in tallies.values() if sb < sa)
+    return {
+        "paired": len(tallies),
+        "up": up,
+        "down": down,
+        "same": len(tallies) - up - down,
+        "sign_test_p": round(sign_test_p(up, down), 4),
     }
 
 
@@ -170,6 +206,12 @@ def format_compare(c: dict[str, Any]) -> str:
         f"outcomes: p = {c['sign_test_p']:.3g}"
         + ("  (no evidence of a difference)" if c["sign_test_p"] > 0.05 else ""),
     ]
+    d = c.get("draws")
+    if d:
+        lines.append(
+            f"per draw (its success fraction over its paired repeats): B up on {d['up']}, down on {d['down']}, "
+            f"the same on {d['same']} of {d['paired']} draws; exact sign test: p = {d['sign_test_p']:.3g}"
+        )
     if c["changed"]:
         lines.append("cases whose outcome changed:")
         for ch in c["changed"]:

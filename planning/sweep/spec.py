@@ -2,11 +2,13 @@
 
 A sweep names one run (a maneuver, a walk, or a trivial probe for measuring the tool itself) or a list of them,
 defaults for every run parameter, and axes: each a list of values or a range. The cases are the full grid of the
-axes' values, or N random samples drawn with a seed. See sweeps/README.md for the fields and examples.
+axes' values, or N random samples drawn with a seed, each run once or, with `sampling.repeat`, once per value of a
+nuisance axis. See README.md, "Robustness sweeps", for the fields and examples.
 """
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -18,6 +20,9 @@ from planning.terrain.spec import terrain_pipeline_name
 FORMAT = "footfall/sweep@1"
 MAX_CASES = 100_000  # the most cases one sweep may expand to
 MAX_AXIS_VALUES = 10_000  # the most values one axis may list or a range may give
+MAX_REPEAT_VALUES = 10  # the most values one repeat axis (sampling.repeat) may list
+# The axis on which a repeated sweep's cases carry their draw's number (0..N-1): not an axis a spec may vary.
+DRAW = "draw"
 SHIPPED_SWEEPS = Path(__file__).resolve().parents[2] / "sweeps"
 
 Scalar = float | int | str | bool
@@ -176,10 +181,21 @@ AXES: dict[str, str] = {
 
 
 class Sampling(_Model):
-    """N random cases: each axis's value drawn uniformly (from its list, or within its range), with a seed."""
+    """N random cases: each axis's value drawn uniformly (from its list, or within its range), with a seed; with
+    `repeat`, each draw runs once per combination of the repeat axes' values, its other axes' values the same."""
 
     random: Annotated[int, Field(ge=1, le=MAX_CASES)]
     seed: int = 0
+    repeat: dict[str, Annotated[list[AxisValue], Field(min_length=1, max_length=MAX_REPEAT_VALUES)]] = Field(
+        default_factory=dict,
+        description="axis name → values each draw is run at (every combination across the repeat axes): a "
+        "nuisance axis, such as a 1 mm start offset (start_x_m: [0.0, 0.001]), that tells a change's effect from "
+        "chaos; the draws are the spec's without it, and each case carries its draw's number on the `draw` axis",
+    )
+
+    def repeats_per_draw(self) -> int:
+        """How many cases each draw runs as: the product of the repeat axes' value counts (1 without repeat)."""
+        return math.prod(len(v) for v in self.repeat.values())
 
 
 class Summary(_Model):
@@ -219,9 +235,15 @@ class SweepSpec(_Model):
     def runs(self) -> list[Run]:
         return list(self.run) if isinstance(self.run, list) else [self.run]
 
+    def repeat(self) -> dict[str, list[AxisValue]]:
+        """The axes each random draw is repeated over, with their values (sampling.repeat; empty for a grid)."""
+        return {} if isinstance(self.sampling, str) else dict(self.sampling.repeat)
+
     @model_validator(mode="after")
     def _check_axes(self) -> SweepSpec:
-        for where, axes in [("axes", self.axes)] + [(f"run.{r.name()}.axes", r.axes) for r in self.runs()]:
+        drawn: list[tuple[str, dict[str, Any]]] = [("axes", self.axes)]
+        drawn += [(f"run.{r.name()}.axes", r.axes) for r in self.runs()]
+        for where, axes in [*drawn, ("sampling.repeat", self.repeat())]:
             for name in axes:
                 if name not in AXES and not name.startswith("terrain."):
                     raise ValueError(
@@ -231,6 +253,19 @@ class SweepSpec(_Model):
                     raise ValueError(
                         f"{where}.run: list the runs under `run:` instead; the list is the run axis"
                     )
+        for name in self.repeat():
+            for where, axes in drawn:
+                if name in axes:
+                    raise ValueError(
+                        f"sampling.repeat.{name}: also {where}.{name}; an axis is either drawn or repeated"
+                    )
+        if isinstance(self.sampling, Sampling) and self.sampling.repeat:
+            per = self.sampling.repeats_per_draw()
+            if self.sampling.random * per > MAX_CASES:
+                raise ValueError(
+                    f"sampling.repeat: {self.sampling.random} draws × {per} repeats is "
+                    f"{self.sampling.random * per} cases, over the {MAX_CASES} a sweep may run"
+                )
         labels = [r.name() for r in self.runs()]
         if len(set(labels)) != len(labels):
             raise ValueError(f"run: labels must differ (got {labels}); give each a label")

@@ -1,5 +1,6 @@
 """A sweep's summary: success rate per cell with a 95 % Wilson interval, failure reasons grouped, times and errors
-as percentiles; as a dict (JSON), a text table, CSV, and the grid a heat map draws."""
+as percentiles, and for a repeated sweep how many draws had one outcome at every repeat; as a dict (JSON), a text
+table, CSV, and the grid a heat map draws."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from planning.sweep.spec import SweepSpec
+from planning.sweep.spec import DRAW, SweepSpec
 
 Z95 = 1.959963984540054  # the normal quantile of a two-sided 95 % interval
 
@@ -50,11 +51,17 @@ def reason_group(reason: str | None) -> str:
     return _NUMBER.sub("#", reason or "unknown")
 
 
+def _varied(spec: SweepSpec, cases: list[dict[str, Any]]) -> list[str]:
+    """The axes with more than one value among the cases, but a repeated sweep's repeat axes and draw number (a
+    repeat is the same variant again: it groups only when summary.by names it)."""
+    skip = {DRAW, *spec.repeat()}
+    return [n for n in axis_names(cases) if n not in skip and len({_label(_ax(c, n)) for c in cases}) > 1]
+
+
 def default_by(spec: SweepSpec, cases: list[dict[str, Any]]) -> list[str]:
-    """The axes that make the cells unless the spec says: every axis with more than one value, but the seed."""
-    names = axis_names(cases)
-    out = [n for n in names if n != "seed" and len({_label(_ax(c, n)) for c in cases}) > 1]
-    return out
+    """The axes that make the cells unless the spec says: every axis with more than one value, but the seed (and a
+    repeated sweep's repeat axes and draw number)."""
+    return [n for n in _varied(spec, cases) if n != "seed"]
 
 
 def axis_names(cases: list[dict[str, Any]]) -> list[str]:
@@ -103,6 +110,12 @@ def _sort_key(s: str) -> tuple[int, float, str]:
         return (0, float(s.split("–")[0]), s)
     except ValueError:
         return (1, 0.0, s)
+
+
+def _binner(spec: SweepSpec, cases: list[dict[str, Any]], axis: str) -> _Binner:
+    """The labels of an axis's values as the summary groups them (a draw number is never binned)."""
+    sampled = spec.sampling != "grid" and axis != DRAW
+    return _Binner([_ax(c, axis) for c in cases], spec.summary.bins, sampled)
 
 
 def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
@@ -160,15 +173,14 @@ def summarize(
     for a in by:
         if a not in names:
             raise ValueError(f"summary.by: {a!r} is not an axis of this sweep (axes: {', '.join(names)})")
-    sampled = spec.sampling != "grid"
-    binners = {a: _Binner([_ax(c, a) for c in cases], spec.summary.bins, sampled) for a in names}
+    binners = {a: _binner(spec, cases, a) for a in names}
     groups: dict[tuple[str, ...], dict[str, dict[str, Any] | None]] = {}  # cell → {key: record}
     for c in cases:
         k = tuple(binners[a](_ax(c, a)) for a in by)
         groups.setdefault(k, {})[c["key"]] = records.get(c["key"])
     order = sorted(groups, key=lambda k: tuple(_sort_key(s) for s in k))
     cells = [{"axes": dict(zip(by, k, strict=True)), **_stats(list(groups[k].values()))} for k in order]
-    multi = [n for n in names if len({_label(_ax(c, n)) for c in cases}) > 1]
+    multi = _varied(spec, cases)
     two = by[:2] if len(by) >= 2 else (by + [n for n in multi if n not in by])[:2]
     heat = spec.summary.heatmap or (tuple(two) if len(two) == 2 else None)
     heatmap = None
@@ -191,7 +203,7 @@ def summarize(
             "successes": [[_stats(list(grid.get((x, y), {}).values()))["successes"] for x in xs] for y in ys],
             "done": [[_stats(list(grid.get((x, y), {}).values()))["done"] for x in xs] for y in ys],
         }
-    return {
+    out = {
         "sweep": spec.name,
         "success": spec.summary.success,
         "by": by,
@@ -199,6 +211,50 @@ def summarize(
         "cells": cells,
         "heatmap": heatmap,
     }
+    if spec.repeat():
+        out["steady"] = steady(cases, records)
+    return out
+
+
+def steady(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -> dict[str, int]:
+    """How many draws of a repeated sweep had one outcome at every repeat: "draws" (those judged: every repeat
+    done), "steady" of them, "always" (success at every repeat), "never" (at none), "flipping" (draws − steady),
+    and "left_out" (a repeat still pending or crashed: a crash is no outcome of the walk). records: by key, with
+    the summary's success rule applied."""
+    by_draw: dict[Any, list[dict[str, Any] | None]] = {}
+    for c in cases:
+        by_draw.setdefault(c["axes"][DRAW], []).append(records.get(c["key"]))
+    always = never = flipping = left_out = 0
+    for recs in by_draw.values():
+        if any(r is None or r["status"] != "done" for r in recs):
+            left_out += 1
+            continue
+        outcomes = {bool(r["report"].get("success")) for r in recs if r is not None}
+        if outcomes == {True}:
+            always += 1
+        elif outcomes == {False}:
+            never += 1
+        else:
+            flipping += 1
+    return {
+        "draws": always + never + flipping,
+        "steady": always + never,
+        "always": always,
+        "never": never,
+        "flipping": flipping,
+        "left_out": left_out,
+    }
+
+
+def _format_steady(s: dict[str, int]) -> str:
+    """The steady count as one line of text."""
+    line = (
+        f"steady: {s['steady']} of {s['draws']} draws have one outcome at every repeat "
+        f"({s['always']} always, {s['never']} never, {s['flipping']} flip)"
+    )
+    if s["left_out"]:
+        line += f"; {s['left_out']} draws left out (a repeat pending or crashed)"
+    return line
 
 
 def _ci(c: dict[str, Any]) -> str:
@@ -239,6 +295,8 @@ def format_table(summary: dict[str, Any]) -> str:
     lines = ["  ".join(str(v).ljust(widths[i]) for i, v in enumerate(r)).rstrip() for r in [head, *rows]]
     lines.insert(1, "  ".join("-" * w for w in widths))
     lines.insert(len(lines) - 1, "  ".join("-" * w for w in widths))
+    if summary.get("steady"):
+        lines.append(_format_steady(summary["steady"]))
     reasons = summary["overall"]["failure_reasons"]
     if reasons:
         lines.append("failure reasons (numbers blanked as #):")
@@ -291,9 +349,7 @@ def heatmap_cell_keys(
 ) -> dict[tuple[str, str], list[str]]:
     """The case keys in each cell (x label, y label) of the heat map over axes x and y, binned as summarize() bins
     them (so the labels are the heat map's)."""
-    sampled = spec.sampling != "grid"
-    bx = _Binner([_ax(c, x) for c in cases], spec.summary.bins, sampled)
-    by = _Binner([_ax(c, y) for c in cases], spec.summary.bins, sampled)
+    bx, by = _binner(spec, cases, x), _binner(spec, cases, y)
     cells: dict[tuple[str, str], list[str]] = {}
     for c in cases:
         keys = cells.setdefault((bx(_ax(c, x)), by(_ax(c, y))), [])

@@ -11,6 +11,7 @@ import pytest
 from fastapi.testclient import TestClient
 from server_fakes import make_client
 
+from planning.robot.model import ASSETS
 from server.settings import Settings
 
 
@@ -72,6 +73,18 @@ def test_cancel_stops_a_sweep(client: TestClient) -> None:
         ({**_probe(1), "run": {"maneuver": "no-such-maneuver"}}, "run.maneuver"),
         ({**_probe(1), "run": {"probe": {"mark_dir": "/tmp"}}}, "run.probe.mark_dir"),
         ({**_probe(1), "defaults": {"robot": "/etc/robot.yaml"}}, "robot"),
+        # a repeat axis is checked like the others (a path that exists, which expansion alone would load)
+        (
+            {
+                **_probe(1),
+                "sampling": {"random": 2, "repeat": {"robot": ["spot", str(ASSETS / "spot.yaml")]}},
+            },
+            "robot",
+        ),
+        (
+            {**_probe(1), "sampling": {"random": 2, "repeat": {"maneuver": ["../x"]}}},
+            "sampling.repeat.maneuver",
+        ),
         ({**_probe(1), "defaults": {"duration_s": 500}}, "defaults.duration_s"),
         ({**_probe(1), "axes": {"seed": {"min": 0, "max": 5000, "integer": True}}}, "axes"),
         ({**_probe(1), "summary": {"by": ["wind"]}}, "summary.by"),

@@ -154,3 +154,36 @@ def test_a_walks_descent_way_reaches_the_case_and_backward_needs_a_goal_and_a_te
         expand(parse_spec(spec({"vx": 0.3, "descend_backward": True})))  # no goal
     with pytest.raises(SweepSpecError, match="run.walk.descend_backward"):
         expand(parse_spec(spec({"goal": [3.0, 0.0], "descend_backward": True}, "flat")))
+
+
+def _repeated(draw: int, start: float, ok: bool, version: str, repeat: bool = True) -> dict[str, Any]:
+    """A record of a repeated clutter sweep's case: draw `draw` started `start` m forward."""
+    r = _record(draw, ok, version)
+    r["key"] = r["case"]["key"] = f"{version}{draw:04d}{int(start * 1000)}"
+    r["case"]["params"]["start"] = [start, 0.0, 0.0]
+    if repeat:
+        r["case"]["axes"] = {**r["case"]["axes"], "start_x_m": start, "draw": draw}
+    return r
+
+
+def test_repeated_sweeps_pair_each_repeat_and_compare_each_draws_fraction(tmp_path: Path) -> None:
+    # (A at 0 mm, A at 1 mm, B at 0 mm, B at 1 mm) for four draws
+    outcomes = [(False, False, True, True), (True, False, True, True), (True, True, False, True),
+                (False, True, True, False)]  # fmt: skip
+    a = _write(tmp_path / "a", [_repeated(d, s, o[j], "a") for d, o in enumerate(outcomes)
+                                for j, s in enumerate((0.0, 0.001))])  # fmt: skip
+    b = _write(tmp_path / "b", [_repeated(d, s, o[2 + j], "b") for d, o in enumerate(outcomes)
+                                for j, s in enumerate((0.0, 0.001))])  # fmt: skip
+    c = compare(a, b)
+    assert c["paired"] == 8 and (c["a_successes"], c["b_successes"]) == (4, 6)
+    assert (c["gains"], c["losses"]) == (4, 2)
+    # draw 0: 0/2 → 2/2 up; draw 1: 1/2 → 2/2 up; draw 2: 2/2 → 1/2 down; draw 3: 1/2 → 1/2 the same
+    assert c["draws"] == {"paired": 4, "up": 2, "down": 1, "same": 1, "sign_test_p": 1.0}
+    text = format_compare(c)
+    assert "B up on 2, down on 1, the same on 1 of 4 draws" in text
+    assert "start_x_m=0.001 draw=3" in text  # each changed case named with its repeat and draw
+    # an unrepeated sweep has no per-draw line, and does not pair with a repeated one
+    plain = _write(tmp_path / "plain", [_repeated(d, 0.0, True, "p", repeat=False) for d in range(4)])
+    assert compare(plain, plain)["draws"] is None and "per draw" not in format_compare(compare(plain, plain))
+    with pytest.raises(CompareError, match="one of them repeated its draws"):
+        compare(plain, b)
