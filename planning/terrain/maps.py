@@ -64,7 +64,13 @@ class MapParams:
     reads as the pit it most likely is, not as more stone); band_from_support: the body band's lower end is also at
     least its lower bound above the ground the robot stands on (build_maps' default_ground_z: the body's height
     less its standing height), so a cell below the feet's ground (the pit between two stones) does not read the
-    stones' top edges beside it as a body obstacle, while ground at or above the feet's keeps its own band.
+    stones' top edges beside it as a body obstacle, while ground at or above the feet's keeps its own band;
+    fill_below_free: an unknown cell's fill is at most the bottom of the lowest voxel seen free in its column
+    (Columns.free_floor_z), and the cells filled from it carry that on: the shadow behind a stone's far edge or a
+    nosing, whose ground no ray reached but where rays passed below the top, reads as the drop it is, not as more
+    top, and is a step obstacle where that voxel's bottom lies more than free_drop_m below the fill without it (a
+    grazing ray passes through the voxel of the floor it is about to hit, so one voxel's evidence is not a drop)
+    (False: the fill alone).
     """
 
     body_band_m: tuple[float, float] = (0.30, 0.52)
@@ -91,6 +97,8 @@ class MapParams:
     ceiling_above_m: float = 0.30
     fill_low_radius_m: float | None = None
     band_from_support: bool = False
+    fill_below_free: bool = True
+    free_drop_m: float = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -342,10 +350,19 @@ def _small_components(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.boo
     return speck
 
 
-def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: float) -> NDArray[np.float64]:
+def _fill_ground(
+    ground_z: NDArray[np.float64],
+    fill_min_cells: int,
+    default_z: float,
+    cap: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """Gives the ground with its unknown (NaN) cells filled: those within fill_min_cells of known ones each round
+    from the lowest of their 3 × 3 neighbours filled so far, the rest from the nearest filled cell (default_z when
+    nothing is known). cap: (nx, ny) the most an unknown cell's fill may be (m; +inf: no bound): the free space seen
+    in its column (Columns.free_floor_z), which the fill carries on to the cells beyond it."""
     known = np.isfinite(ground_z)
     if not known.any():
-        return np.full(ground_z.shape, default_z)
+        return np.full(ground_z.shape, default_z) if cap is None else np.minimum(default_z, cap)
     # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown), on a grid
     # framed by +inf (the same as repeating the edge cells: they are in the window already). Only the round's
     # frontier (unknown cells beside known ones) changes: its cells' 3 × 3 minima are gathered from the flat framed
@@ -361,6 +378,11 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
     known = known_f[1:-1, 1:-1]
     front_f = np.zeros((nx + 2, w), dtype=bool)
     around = _around_offsets(w)
+    cap_f = None
+    if cap is not None:
+        cap_f = np.full((nx + 2, w), np.inf)
+        cap_f[1:-1, 1:-1] = cap
+        cap_f = cap_f.reshape(-1)
     for _ in range(fill_min_cells):
         rows = known_f[:, :-2] | known_f[:, 1:-1]
         rows |= known_f[:, 2:]
@@ -371,6 +393,8 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
         if idx.size == 0:  # all known
             break
         vals = flat.take(around + idx).min(axis=0)
+        if cap_f is not None:
+            np.minimum(vals, cap_f[idx], out=vals)
         flat[idx] = vals
         known_f.reshape(-1)[idx] = True
     h = np.ascontiguousarray(h)
@@ -382,6 +406,9 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
         flat *= ny
         flat += ft[1]
         h = h.reshape(-1).take(flat)
+        if cap is not None:
+            h = h.reshape(nx, ny)
+            np.copyto(h, np.minimum(h, cap), where=~known)
     return h
 
 
@@ -511,7 +538,14 @@ def build_maps(
     p = params or MapParams()
     res = columns.resolution_m
     observed = np.isfinite(columns.ground_z)
-    h = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z)
+    cap = columns.free_floor_z if p.fill_below_free else None
+    if cap is not None and not np.isfinite(cap).any():
+        cap = None
+    h0 = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z)
+    # Unknown cells whose column was seen free more than free_drop_m below the height the fill gives them: the
+    # surface beside them (a stone's top, a landing) provably ends there; their ground is lower and unknown.
+    drop_unknown = None if cap is None else ~observed & (cap < h0 - p.free_drop_m)
+    h = h0 if cap is None else _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z, cap)
     if p.fill_low_radius_m is not None and not observed.all():
         low = disk_filter(
             np.where(observed, columns.ground_z, np.inf), _disk(p.fill_low_radius_m / res), np.minimum
@@ -570,6 +604,8 @@ def build_maps(
     high = (h - h_low > p.max_step_height_m) if p.high_is_step else np.zeros(h.shape, dtype=bool)
     low_only = None if p.dense_counts_high else _remove_specks(step, p.speck_cells)
     step = _remove_specks(step | high, p.speck_cells)
+    if drop_unknown is not None:
+        step |= drop_unknown
     dense_src = step if low_only is None else low_only
     # Dense step obstacles become body obstacles.
     if dense_src.any():
