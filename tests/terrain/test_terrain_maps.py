@@ -321,7 +321,9 @@ def test_free_space_seen_in_an_unknown_column_makes_the_shadow_past_an_edge_a_dr
     free = np.full((n, n), np.inf)
     free[20:23, :20] = -0.075  # rays passed 7.5 cm under the top here (left half)
     free[20:23, 20:] = -0.015  # only through the top's own voxel here (right half)
-    columns = Columns((0.0, 0.0), res, ground, np.zeros((n, n, 4), dtype=bool), -0.3, 0.03, (0, -1), None, free)
+    columns = Columns(
+        (0.0, 0.0), res, ground, np.zeros((n, n, 4), dtype=bool), -0.3, 0.03, (0, -1), None, free
+    )
     off = build_maps(columns, MapParams(fill_below_free=False))
     on = build_maps(columns, MapParams())
     assert not off.step_obstacle[20:23].any() and np.allclose(off.ground_height[20:23], 0.0)

@@ -253,13 +253,19 @@ def test_the_free_space_under_a_far_edge_takes_most_of_the_shadow_off_the_steppa
     from planning.terrain.maps import build_maps
 
     before = after = 0
-    for seed, xs in ((3, [0.0, 0.3, 0.6, 0.9, 1.2]), (7, [0.0, 0.4, 0.8, 1.2, 1.6]), (11, [0.0, 0.5, 1.0, 1.5])):
+    for seed, xs in (
+        (3, [0.0, 0.3, 0.6, 0.9, 1.2]),
+        (7, [0.0, 0.4, 0.8, 1.2, 1.6]),
+        (11, [0.0, 0.5, 1.0, 1.5]),
+    ):
         scene, perception, maps = scanned("stones", xs, seed=seed)
         columns = perception.voxels.classify()
         assert perception.memory is not None
         columns = perception.memory.apply(columns)
         p = dataclasses.replace(perception.params.maps, fill_below_free=False)
-        _, unseen_off = _edge_cells_left_steppable(scene, build_maps(columns, p, default_ground_z=0.0), xs[-1])
+        _, unseen_off = _edge_cells_left_steppable(
+            scene, build_maps(columns, p, default_ground_z=0.0), xs[-1]
+        )
         _, unseen_on = _edge_cells_left_steppable(scene, maps, xs[-1])
         before += unseen_off
         after += unseen_on
