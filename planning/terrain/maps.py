@@ -355,14 +355,19 @@ def _fill_ground(
     fill_min_cells: int,
     default_z: float,
     cap: NDArray[np.float64] | None = None,
-) -> NDArray[np.float64]:
-    """Gives the ground with its unknown (NaN) cells filled: those within fill_min_cells of known ones each round
-    from the lowest of their 3 × 3 neighbours filled so far, the rest from the nearest filled cell (default_z when
-    nothing is known). cap: (nx, ny) the most an unknown cell's fill may be (m; +inf: no bound): the free space seen
-    in its column (Columns.free_floor_z), which the fill carries on to the cells beyond it."""
+    drop_m: float = 0.0,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_] | None]:
+    """Gives the ground with its unknown (NaN) cells filled, and which of them are drops (None without cap): those
+    within fill_min_cells of known ones each round from the lowest of their 3 × 3 neighbours filled so far, the rest
+    from the nearest filled cell (default_z when nothing is known). cap: (nx, ny) the most an unknown cell's fill
+    may be (m; +inf: no bound), the free space seen in its column (Columns.free_floor_z). A cell whose cap lies more
+    than drop_m below what its neighbours give it is a drop (no surface there: the one beside it ends), and so is a
+    cell filled from a drop: its value is a bound, not a surface."""
     known = np.isfinite(ground_z)
     if not known.any():
-        return np.full(ground_z.shape, default_z) if cap is None else np.minimum(default_z, cap)
+        if cap is None:
+            return np.full(ground_z.shape, default_z), None
+        return np.minimum(default_z, cap), cap < default_z - drop_m
     # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown), on a grid
     # framed by +inf (the same as repeating the edge cells: they are in the window already). Only the round's
     # frontier (unknown cells beside known ones) changes: its cells' 3 × 3 minima are gathered from the flat framed
@@ -378,11 +383,12 @@ def _fill_ground(
     known = known_f[1:-1, 1:-1]
     front_f = np.zeros((nx + 2, w), dtype=bool)
     around = _around_offsets(w)
-    cap_f = None
+    cap_f = drop_f = None
     if cap is not None:
         cap_f = np.full((nx + 2, w), np.inf)
         cap_f[1:-1, 1:-1] = cap
         cap_f = cap_f.reshape(-1)
+        drop_f = np.zeros((nx + 2) * w, dtype=bool)
     for _ in range(fill_min_cells):
         rows = known_f[:, :-2] | known_f[:, 1:-1]
         rows |= known_f[:, 2:]
@@ -392,12 +398,19 @@ def _fill_ground(
         idx = np.flatnonzero(front_f)
         if idx.size == 0:  # all known
             break
-        vals = flat.take(around + idx).min(axis=0)
-        if cap_f is not None:
-            np.minimum(vals, cap_f[idx], out=vals)
-        flat[idx] = vals
+        if cap_f is None or drop_f is None:
+            flat[idx] = flat.take(around + idx).min(axis=0)
+        else:
+            at = around + idx
+            arg = flat.take(at).argmin(axis=0)
+            src = at[arg, np.arange(idx.size)]
+            vals = flat[src]
+            c = cap_f[idx]
+            drop_f[idx] = (c < vals - drop_m) | drop_f[src]
+            flat[idx] = np.minimum(vals, c)
         known_f.reshape(-1)[idx] = True
     h = np.ascontiguousarray(h)
+    drop = None if drop_f is None else drop_f.reshape(nx + 2, w)[1:-1, 1:-1].copy()
     if not known.all():
         # the nearest known cell's value: its indices in int32 (ndimage's own are int64), as one flat index
         ft = np.empty((2, nx, ny), np.int32)
@@ -406,10 +419,12 @@ def _fill_ground(
         flat *= ny
         flat += ft[1]
         h = h.reshape(-1).take(flat)
-        if cap is not None:
-            h = h.reshape(nx, ny)
-            np.copyto(h, np.minimum(h, cap), where=~known)
-    return h
+        if cap is not None and drop is not None:
+            far = ~known
+            src_drop = drop.reshape(-1).take(flat)
+            drop = np.where(far, src_drop | (cap < h - drop_m), drop)
+            np.copyto(h, np.minimum(h, cap), where=far)
+    return h, drop
 
 
 _AROUND: dict[int, NDArray[np.intp]] = {}
@@ -541,11 +556,9 @@ def build_maps(
     cap = columns.free_floor_z if p.fill_below_free else None
     if cap is not None and not np.isfinite(cap).any():
         cap = None
-    h0 = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z)
-    # Unknown cells whose column was seen free more than free_drop_m below the height the fill gives them: the
-    # surface beside them (a stone's top, a landing) provably ends there; their ground is lower and unknown.
-    drop_unknown = None if cap is None else ~observed & (cap < h0 - p.free_drop_m)
-    h = h0 if cap is None else _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z, cap)
+    # (drop_unknown: unknown cells whose column was seen free more than free_drop_m below the height the fill gives
+    # them, and those filled from them: the surface beside them, a stone's top or a landing, provably ends there)
+    h, drop_unknown = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z, cap, p.free_drop_m)
     if p.fill_low_radius_m is not None and not observed.all():
         low = disk_filter(
             np.where(observed, columns.ground_z, np.inf), _disk(p.fill_low_radius_m / res), np.minimum
