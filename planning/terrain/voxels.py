@@ -341,14 +341,12 @@ class VoxelMap:
                 # A column with no occupied voxel below its lowest voxel seen through by free_floor_misses (more
                 # than the one outlier ray a scan may carve below a surface): that voxel is free, and the column's
                 # ground (if any) lies below its bottom.
-                # (only the columns left without ground that were seen through at all: a few of the map's)
-                cand = np.flatnonzero(~has_ground & (first_seen < top + 1 - mlo))
-                if cand.size:
-                    band_m = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells)
-                    first_many = _first_true(band_m[:, cand] >= p.free_floor_misses * w)
-                    ok = first_many < top + 1 - mlo
-                    ok &= ~any_occ[cand] | (first_many + mlo < k_ground[cand])
-                    free_floor[cand[ok]] = self.z0 + (first_many[ok] + mlo - 0.5) * self.res
+                # (over the whole band: a column subset's gather costs several times the band's compare)
+                band_m = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells)
+                first_many = _first_true(band_m >= p.free_floor_misses * w)
+                below = ~has_ground & (first_many < top + 1 - mlo)
+                below &= ~any_occ | (first_many + mlo < k_ground)
+                free_floor[below] = self.z0 + (first_many[below] + mlo - 0.5) * self.res
         # Ground height: mean z of the points in the ground voxel and, for a thin surface, the one above it (thin:
         # the voxel above is occupied and the one above that is not).
         occ_flat = occ.reshape(-1)
