@@ -64,7 +64,13 @@ class MapParams:
     reads as the pit it most likely is, not as more stone); band_from_support: the body band's lower end is also at
     least its lower bound above the ground the robot stands on (build_maps' default_ground_z: the body's height
     less its standing height), so a cell below the feet's ground (the pit between two stones) does not read the
-    stones' top edges beside it as a body obstacle, while ground at or above the feet's keeps its own band.
+    stones' top edges beside it as a body obstacle, while ground at or above the feet's keeps its own band;
+    fill_below_free: an unknown cell's fill is at most the bottom of the lowest voxel seen free in its column
+    (Columns.free_floor_z), and the cells filled from it carry that on: the shadow behind a stone's far edge or a
+    nosing, whose ground no ray reached but where rays passed below the top, reads as the drop it is, not as more
+    top, and is a step obstacle where that voxel's bottom lies more than free_drop_m below the fill without it (a
+    grazing ray passes through the voxel of the floor it is about to hit, so one voxel's evidence is not a drop)
+    (False: the fill alone).
     """
 
     body_band_m: tuple[float, float] = (0.30, 0.52)
@@ -91,6 +97,8 @@ class MapParams:
     ceiling_above_m: float = 0.30
     fill_low_radius_m: float | None = None
     band_from_support: bool = False
+    fill_below_free: bool = True
+    free_drop_m: float = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -342,10 +350,24 @@ def _small_components(mask: NDArray[np.bool_], min_cells: int) -> NDArray[np.boo
     return speck
 
 
-def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: float) -> NDArray[np.float64]:
+def _fill_ground(
+    ground_z: NDArray[np.float64],
+    fill_min_cells: int,
+    default_z: float,
+    cap: NDArray[np.float64] | None = None,
+    drop_m: float = 0.0,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_] | None]:
+    """Gives the ground with its unknown (NaN) cells filled, and which of them are drops (None without cap): those
+    within fill_min_cells of known ones each round from the lowest of their 3 × 3 neighbours filled so far, the rest
+    from the nearest filled cell (default_z when nothing is known). cap: (nx, ny) the most an unknown cell's fill
+    may be (m; +inf: no bound), the free space seen in its column (Columns.free_floor_z). A cell whose cap lies more
+    than drop_m below what its neighbours give it is a drop (no surface there: the one beside it ends), and so is a
+    cell filled from a drop: its value is a bound, not a surface."""
     known = np.isfinite(ground_z)
     if not known.any():
-        return np.full(ground_z.shape, default_z)
+        if cap is None:
+            return np.full(ground_z.shape, default_z), None
+        return np.minimum(default_z, cap), cap < default_z - drop_m
     # Each round an unknown cell with a known 3 × 3 neighbour takes their lowest value (infinite: unknown), on a grid
     # framed by +inf (the same as repeating the edge cells: they are in the window already). Only the round's
     # frontier (unknown cells beside known ones) changes: its cells' 3 × 3 minima are gathered from the flat framed
@@ -361,6 +383,12 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
     known = known_f[1:-1, 1:-1]
     front_f = np.zeros((nx + 2, w), dtype=bool)
     around = _around_offsets(w)
+    cap_f = drop_f = None
+    if cap is not None:
+        cap_f = np.full((nx + 2, w), np.inf)
+        cap_f[1:-1, 1:-1] = cap
+        cap_f = cap_f.reshape(-1)
+        drop_f = np.zeros((nx + 2) * w, dtype=bool)
     for _ in range(fill_min_cells):
         rows = known_f[:, :-2] | known_f[:, 1:-1]
         rows |= known_f[:, 2:]
@@ -370,10 +398,19 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
         idx = np.flatnonzero(front_f)
         if idx.size == 0:  # all known
             break
-        vals = flat.take(around + idx).min(axis=0)
-        flat[idx] = vals
+        if cap_f is None or drop_f is None:
+            flat[idx] = flat.take(around + idx).min(axis=0)
+        else:
+            at = around + idx
+            arg = flat.take(at).argmin(axis=0)
+            src = at[arg, np.arange(idx.size)]
+            vals = flat[src]
+            c = cap_f[idx]
+            drop_f[idx] = (c < vals - drop_m) | drop_f[src]
+            flat[idx] = np.minimum(vals, c)
         known_f.reshape(-1)[idx] = True
     h = np.ascontiguousarray(h)
+    drop = None if drop_f is None else drop_f.reshape(nx + 2, w)[1:-1, 1:-1].copy()
     if not known.all():
         # the nearest known cell's value: its indices in int32 (ndimage's own are int64), as one flat index
         ft = np.empty((2, nx, ny), np.int32)
@@ -382,7 +419,12 @@ def _fill_ground(ground_z: NDArray[np.float64], fill_min_cells: int, default_z: 
         flat *= ny
         flat += ft[1]
         h = h.reshape(-1).take(flat)
-    return h
+        if cap is not None and drop is not None:
+            far = ~known
+            src_drop = drop.reshape(-1).take(flat)
+            drop = np.where(far, src_drop | (cap < h - drop_m), drop)
+            np.copyto(h, np.minimum(h, cap), where=far)
+    return h, drop
 
 
 _AROUND: dict[int, NDArray[np.intp]] = {}
@@ -511,7 +553,12 @@ def build_maps(
     p = params or MapParams()
     res = columns.resolution_m
     observed = np.isfinite(columns.ground_z)
-    h = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z)
+    cap = columns.free_floor_z if p.fill_below_free else None
+    if cap is not None and not np.isfinite(cap).any():
+        cap = None
+    # (drop_unknown: unknown cells whose column was seen free more than free_drop_m below the height the fill gives
+    # them, and those filled from them: the surface beside them, a stone's top or a landing, provably ends there)
+    h, drop_unknown = _fill_ground(columns.ground_z, p.fill_min_cells, default_ground_z, cap, p.free_drop_m)
     if p.fill_low_radius_m is not None and not observed.all():
         low = disk_filter(
             np.where(observed, columns.ground_z, np.inf), _disk(p.fill_low_radius_m / res), np.minimum
@@ -570,6 +617,8 @@ def build_maps(
     high = (h - h_low > p.max_step_height_m) if p.high_is_step else np.zeros(h.shape, dtype=bool)
     low_only = None if p.dense_counts_high else _remove_specks(step, p.speck_cells)
     step = _remove_specks(step | high, p.speck_cells)
+    if drop_unknown is not None:
+        step |= drop_unknown
     dense_src = step if low_only is None else low_only
     # Dense step obstacles become body obstacles.
     if dense_src.any():

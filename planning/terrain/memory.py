@@ -41,7 +41,14 @@ class _RollingGrid:
 
 
 class GroundMemory(_RollingGrid):
-    """Last observed ground height (m, world) per cell of the columns' lattice; NaN where never observed."""
+    """Last observed ground height (m, world) per cell of the columns' lattice; NaN where never observed. With it
+    the last bound the free space seen in each column gave its ground (Columns.free_floor_z), kept the same way: the
+    shadow past a stone's far edge is carved by the front camera's rays only while the edge lies ahead, and the
+    hind feet reach it after the camera has passed."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._free = _RollingGrid()
 
     @property
     def n_cells(self) -> int:
@@ -55,6 +62,14 @@ class GroundMemory(_RollingGrid):
         seen = np.isfinite(g)
         np.copyto(mem, g, where=seen)
         fill = ~seen & np.isfinite(mem)
+        free = columns.free_floor_z
+        if free is not None:
+            kept = self._free._rolled(columns.origin_xy, columns.resolution_m, g.shape)
+            bound = np.isfinite(free)
+            np.copyto(kept, free, where=bound)
+            if np.isfinite(kept).any() and not (np.isfinite(kept) <= bound).all():
+                free = np.where(bound, free, np.where(np.isfinite(kept), kept, np.inf))
+                columns = dataclasses.replace(columns, free_floor_z=free)
         if not fill.any():
             return columns
         return dataclasses.replace(columns, ground_z=np.where(fill, mem, g))

@@ -36,7 +36,9 @@ class VoxelParams:
     map center that triggers a shift (m); decay: factor applied to the statistics each scan; min_hits: decayed hits
     for occupancy; hit_miss_ratio: occupancy also needs hits >= ratio * misses; min_misses: decayed misses for free;
     carve_every: carve free space along one ray in this many; carve_margin_m: stop carving this short of a hit (m);
-    obstacle_top_m: occupied voxels higher than this above their column's ground are 'other' (m)."""
+    obstacle_top_m: occupied voxels higher than this above their column's ground are 'other' (m); free_floor_misses:
+    decayed misses a voxel needs to bound its column's ground from above (Columns.free_floor_z): more than an outlier
+    ray's one (the sensor's gross errors carve a few voxels below the surface they hit)."""
 
     resolution_m: float = 0.03
     half_extent_m: float = 2.0
@@ -50,6 +52,7 @@ class VoxelParams:
     carve_every: int = 2
     carve_margin_m: float = 0.05
     obstacle_top_m: float = 1.0
+    free_floor_misses: float = 3.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,7 +64,10 @@ class Columns:
     (m); dz_m: layer height (m); obstacle_layers: (first, last) layers that may hold an obstacle (none outside them;
     None: any layer may), so the maps need not scan the empty ones; obstacle_voxels: (layer, cell) index arrays of
     every obstacle voxel (cell: the flat column index ix * ny + iy) when the producer lists them (the maps read them
-    instead of scanning the occupancy), None when not.
+    instead of scanning the occupancy), None when not; free_floor_z: (nx, ny) the bottom (m, world) of each column's
+    lowest voxel observed free (rays passed through it, nothing hit it), +inf where none was seen below the highest
+    ground layer, None when the producer does not say. A column's ground lies below it: the ground of a column
+    nothing was seen on (the shadow behind a stone's far edge or a nosing) is at most this.
     """
 
     origin_xy: tuple[float, float]
@@ -72,6 +78,7 @@ class Columns:
     dz_m: float
     obstacle_layers: tuple[int, int] | None = None
     obstacle_voxels: tuple[NDArray[np.intp], NDArray[np.intp]] | None = None
+    free_floor_z: NDArray[np.float64] | None = None
 
 
 class VoxelMap:
@@ -323,6 +330,7 @@ class VoxelMap:
         # stands when the lowest seen-through voxel is not below it. Only layers below the highest ground can hold
         # one under a ground: the layers from there up are not read.
         has_ground = any_occ.copy()
+        free_floor = np.full(cells, np.inf)
         if self._miss_layers is not None:
             mlo, mhi = self._miss_layers
             top = min(mhi, hi, int(k_ground.max(where=any_occ, initial=lo)) - 1)
@@ -330,6 +338,15 @@ class VoxelMap:
                 seen = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells) >= p.min_misses * w
                 first_seen = _first_true(seen)
                 has_ground &= (first_seen == top + 1 - mlo) | (first_seen + mlo >= k_ground)
+                # A column with no occupied voxel below its lowest voxel seen through by free_floor_misses (more
+                # than the one outlier ray a scan may carve below a surface): that voxel is free, and the column's
+                # ground (if any) lies below its bottom.
+                # (over the whole band: a column subset's gather costs several times the band's compare)
+                band_m = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells)
+                first_many = _first_true(band_m >= p.free_floor_misses * w)
+                below = ~has_ground & (first_many < top + 1 - mlo)
+                below &= ~any_occ | (first_many + mlo < k_ground)
+                free_floor[below] = self.z0 + (first_many[below] + mlo - 0.5) * self.res
         # Ground height: mean z of the points in the ground voxel and, for a thin surface, the one above it (thin:
         # the voxel above is occupied and the one above that is not).
         occ_flat = occ.reshape(-1)
@@ -360,7 +377,7 @@ class VoxelMap:
         kept = ~(has_ground[occ_c] & ((occ_k == fo) | (thin[occ_c] & (occ_k == fo + 1))))
         return Columns(
             self.origin_xy, self.res, ground_z.reshape(n, n), np.moveaxis(obstacle, 0, -1), self.z0, self.res,
-            (lo, hi), (occ_k[kept] + lo, occ_c[kept]),
+            (lo, hi), (occ_k[kept] + lo, occ_c[kept]), free_floor.reshape(n, n),
         )  # fmt: skip
 
     def _ground_reference(

@@ -308,3 +308,30 @@ def test_the_step_sdf_computed_on_first_read_equals_the_one_computed_at_once() -
     np.testing.assert_array_equal(plain.sdf_step_m, sdf)
     with pytest.raises(AttributeError):
         _ = maps.no_such_map  # type: ignore[attr-defined]
+
+
+def test_free_space_seen_in_an_unknown_column_makes_the_shadow_past_an_edge_a_drop() -> None:
+    """A stone's top (0 m) over a pit, the 3 rows past its far edge never hit (the sensor's shadow). Filled from
+    their lowest neighbour they read as more stone. Where rays were seen passing through those columns well below
+    the top (Columns.free_floor_z), the fill is bounded by it and the cells are step obstacles (the top provably
+    ends there); a column seen free only within the top's own voxel (a grazing ray) is left as it was."""
+    n, res = 40, 0.03
+    ground = np.full((n, n), np.nan)
+    ground[:20, :] = 0.0  # the stone, seen
+    free = np.full((n, n), np.inf)
+    free[20:23, :20] = -0.075  # rays passed 7.5 cm under the top here (left half)
+    free[20:23, 20:] = -0.015  # only through the top's own voxel here (right half)
+    columns = Columns(
+        (0.0, 0.0), res, ground, np.zeros((n, n, 4), dtype=bool), -0.3, 0.03, (0, -1), None, free
+    )
+    off = build_maps(columns, MapParams(fill_below_free=False))
+    on = build_maps(columns, MapParams())
+    assert not off.step_obstacle[20:23].any() and np.allclose(off.ground_height[20:23], 0.0)
+    assert on.step_obstacle[20:23, :20].all()
+    assert np.all(on.ground_height[20:23, :20] <= -0.075 + 1e-9)
+    # the right half: bounded by -0.015 (within free_drop_m of the top): no drop, no step obstacle from it
+    assert not on.step_obstacle[20:23, 25:].any()
+    # the cells filled beyond the bounded ones carry the bound on
+    assert np.all(on.ground_height[23:, :15] <= -0.075 + 1e-9)
+    # the seen stone is untouched
+    assert np.allclose(on.ground_height[:19], 0.0) and not on.step_obstacle[:18].any()

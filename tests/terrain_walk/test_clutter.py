@@ -148,3 +148,37 @@ def test_clutter_crossings_with_the_sensor_at_a_rate() -> None:
         if ok is None
     )
     assert trips[len(trips) // 2] <= MAX_SWING_COLLISIONS, trips
+
+
+def test_memory_keeps_the_free_space_seen_in_a_column_once_the_rays_stop_carving_it() -> None:
+    """The bound the free space gave an unknown column's ground (Columns.free_floor_z) is kept, rolling with the
+    window, once the cameras no longer carve it (the shadow past a far edge behind the front camera); a new bound
+    replaces it."""
+    import dataclasses
+
+    xs, h = _box_heights()
+    h[30:33] = np.nan  # a shadow
+    free = np.full(h.shape, np.inf)
+    free[30:33] = -0.2
+    mem = GroundMemory()
+    first = mem.apply(dataclasses.replace(_columns(h.copy(), (0.0, -0.6)), free_floor_z=free))
+    assert first.free_floor_z is not None and np.all(first.free_floor_z[30:33] == -0.2)
+    # the next scans see no free space there; the window moves 2 cells forward in the second
+    later = mem.apply(
+        dataclasses.replace(_columns(h.copy(), (0.0, -0.6)), free_floor_z=np.full(h.shape, np.inf))
+    )
+    assert later.free_floor_z is not None and np.all(later.free_floor_z[30:33] == -0.2)
+    assert np.all(np.isinf(later.free_floor_z[:30]))
+    moved = mem.apply(
+        dataclasses.replace(
+            _columns(np.full(h.shape, np.nan), (2 * RES, -0.6)), free_floor_z=np.full(h.shape, np.inf)
+        )
+    )
+    assert moved.free_floor_z is not None and np.all(moved.free_floor_z[28:31] == -0.2)
+    # seen again higher: the new bound wins
+    free2 = np.full(h.shape, np.inf)
+    free2[28:31] = -0.1
+    again = mem.apply(
+        dataclasses.replace(_columns(np.full(h.shape, np.nan), (2 * RES, -0.6)), free_floor_z=free2)
+    )
+    assert again.free_floor_z is not None and np.all(again.free_floor_z[28:31] == -0.1)
