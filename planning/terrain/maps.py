@@ -68,9 +68,9 @@ class MapParams:
     fill_below_free: an unknown cell's fill is at most the bottom of the lowest voxel seen free in its column
     (Columns.free_floor_z), and the cells filled from it carry that on: the shadow behind a stone's far edge or a
     nosing, whose ground no ray reached but where rays passed below the top, reads as the drop it is, not as more
-    top, and is a step obstacle where that voxel's bottom lies more than free_drop_m below the fill without it (a
-    grazing ray passes through the voxel of the floor it is about to hit, so one voxel's evidence is not a drop)
-    (False: the fill alone).
+    top (False: the fill alone); free_drop_m: such a cell is a drop, a step obstacle, where its bound lies more than
+    this below what its neighbours give it, and so is a cell filled from a drop (a grazing ray passes through the
+    voxel of the floor it is about to hit, so one voxel's evidence is not a drop).
     """
 
     body_band_m: tuple[float, float] = (0.30, 0.52)
