@@ -67,9 +67,9 @@ class GroundMemory(_RollingGrid):
             kept = self._free._rolled(columns.origin_xy, columns.resolution_m, g.shape)
             bound = np.isfinite(free)
             np.copyto(kept, free, where=bound)
-            if np.isfinite(kept).any() and not (np.isfinite(kept) <= bound).all():
-                free = np.where(bound, free, np.where(np.isfinite(kept), kept, np.inf))
-                columns = dataclasses.replace(columns, free_floor_z=free)
+            remembered = np.isfinite(kept) & ~bound  # bounds this scan did not see again
+            if remembered.any():
+                columns = dataclasses.replace(columns, free_floor_z=np.where(remembered, kept, free))
         if not fill.any():
             return columns
         return dataclasses.replace(columns, ground_z=np.where(fill, mem, g))

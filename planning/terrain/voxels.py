@@ -335,14 +335,13 @@ class VoxelMap:
             mlo, mhi = self._miss_layers
             top = min(mhi, hi, int(k_ground.max(where=any_occ, initial=lo)) - 1)
             if mlo <= top:
-                seen = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells) >= p.min_misses * w
-                first_seen = _first_true(seen)
+                band_m = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells)
+                first_seen = _first_true(band_m >= p.min_misses * w)
                 has_ground &= (first_seen == top + 1 - mlo) | (first_seen + mlo >= k_ground)
                 # A column with no occupied voxel below its lowest voxel seen through by free_floor_misses (more
                 # than the one outlier ray a scan may carve below a surface): that voxel is free, and the column's
                 # ground (if any) lies below its bottom.
                 # (over the whole band: a column subset's gather costs several times the band's compare)
-                band_m = self.misses[mlo : top + 1].reshape(top + 1 - mlo, cells)
                 first_many = _first_true(band_m >= p.free_floor_misses * w)
                 below = ~has_ground & (first_many < top + 1 - mlo)
                 below &= ~any_occ | (first_many + mlo < k_ground)
