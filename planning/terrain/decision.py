@@ -2445,7 +2445,7 @@ class TerrainSwing:
 
     late_descent_gain_per_s: float = 5.0
     a_max_z_mps2: float = 40.0
-    terrain_apex_m: float | None = None
+    terrain_apex_m: float | None = 0.10
     apex_free_over_obstacles: bool = False
     cliff_margin_m: float = 0.03
     cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.03)
