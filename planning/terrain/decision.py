@@ -2426,8 +2426,14 @@ class TerrainSwing:
     a late foot high above its touchdown comes down faster (late_descent_gain_per_s); a step up over an edge rises
     first, from a wait point fixed at lift-off and as high as the leg reaches (rise_first_*), rise_first_margin_m
     over the edge; vertical accelerations at most a_max_z_mps2 (the gentleness family scaled to keep its
-    fractions of it); edges above the foot probed at cliff_rings_m with cliff_margin_m; no cap of the apex over
-    the ground on the way (terrain_apex_m None) and no extra apex over an obstacle (apex_free_over_obstacles). Off
+    fractions of it); edges above the foot probed at cliff_rings_m with cliff_margin_m; no extra apex over an
+    obstacle (apex_free_over_obstacles). The apex keeps the planner's own cap over the highest ground on the way
+    (SwingParams.terrain_apex_m, 0.10 m; this set had turned it off, unmeasured): a foot stepping down off the mixed
+    family's top landing in a swing squeezed by a late neighbour rose 16 cm over the landing and hung there past
+    its touchdown time, the next pair lifted, the body pitched onto one foot; the cap bounds such a rise to 0.10 m
+    over the landing (docs/terrain-notes.md, session 28;
+    with the cap the mixed family 39 of 50 clean against 38, stairs 34 against 33, no-step walks 5 -> 3 and 4 -> 3).
+    Off
     (measured on the clutter quick spec against main at 06fdc87: 6 of 12 clean with them, 9 without, the same 4
     no-step touchdowns; docs/terrain-notes.md): a swing whose plan meets the terrain planned again with its apex free
     of its first plan's, and still colliding, rising first over the box on its way (rise_over_boxes: clutter seed
@@ -2445,7 +2451,6 @@ class TerrainSwing:
 
     late_descent_gain_per_s: float = 5.0
     a_max_z_mps2: float = 40.0
-    terrain_apex_m: float | None = None
     apex_free_over_obstacles: bool = False
     cliff_margin_m: float = 0.03
     cliff_rings_m: tuple[float, ...] = (0.01, 0.02, 0.03)
