@@ -133,6 +133,10 @@ def _summary(report: dict[str, Any]) -> str:
             f"body collisions {report['body_collisions']}, swing collisions "
             f"{report['swing_collisions_per_100_steps']} per 100 steps"
         )
+        if report.get("near_misses") is not None:
+            least = report.get("link_clearance_min_m")
+            line += f", near misses {report['near_misses']} (a leg or the body within 2 cm of the terrain"
+            line += ")" if least is None else f"; closest {1000 * least:.0f} mm)"
     nav = report.get("navigator") or {}
     perception = (report.get("stages") or {}).get("perception") or {}
     if nav.get("cloud_points_p50") and perception.get("p50_ms") is not None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -481,12 +482,13 @@ class WalkSession(_Session):
             self.controller.steer(command.vx, command.vy, command.yaw_rate)
         self.pipeline: TerrainPipeline | None = None
         self.collisions: Any = None
+        self.near_misses: Any = None
         monitors: list[Callable[[RobotState], None]] = []
         aware = command.terrain_aware
         if aware is None:
             aware = self.scene.name != "flat"
         if aware:
-            from planning.terrain.crossing import BodyCollisionMonitor
+            from planning.terrain.crossing import BodyCollisionMonitor, NearMissMonitor
 
             self.pipeline = TerrainPipeline(
                 self.robot,
@@ -498,7 +500,8 @@ class WalkSession(_Session):
             )
             self.controller.use_terrain(self.pipeline)
             self.collisions = BodyCollisionMonitor(self.world)
-            monitors.append(self.collisions)
+            self.near_misses = NearMissMonitor(self.world)
+            monitors += [self.collisions, self.near_misses]
         self._t_at_goal: float | None = None
         self._start_loop(self.controller.stages, self.controller.actuate, monitors)
 
@@ -618,6 +621,13 @@ class WalkSession(_Session):
                 1 if self.loop.fell and self.collisions.body_collisions == 0 else 0
             )
             out["foot_obstacle_contacts"] = int(self.collisions.foot_on_obstacle)
+        if self.near_misses is not None:
+            # a non-foot part within NEAR_MISS_M of the terrain, not touching it: per approach, and per 100 steps
+            nm = self.near_misses
+            out["near_misses"] = int(nm.near_misses)
+            steps = max(int(rec.landings), 1)
+            out["near_misses_per_100_steps"] = round(100.0 * nm.near_misses / steps, 2)
+            out["link_clearance_min_m"] = None if math.isinf(nm.least_m) else round(float(nm.least_m), 4)
         if self.pipeline is not None:
             out["navigator"] = self.pipeline.stats.summary()
         return out

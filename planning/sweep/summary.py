@@ -127,6 +127,11 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
     reasons = Counter(reason_group(rep.get("failure_reason")) for rep in reports if not rep.get("success"))
     reasons.update(f"crashed: {reason_group((r['error'] or '').splitlines()[0])}" for r in crashed)
     pos_err = [(rep.get("final_pose_error") or {}).get("position_m") for rep in reports]
+    # near misses (terrain walks: a non-foot part within 2 cm of the terrain, not touching it) per 100 steps over
+    # the cell's walks, and per walk
+    watched = [rep for rep in reports if rep.get("near_misses") is not None]
+    misses = sum(int(rep["near_misses"]) for rep in watched)
+    steps = sum(int(rep.get("steps_taken") or 0) for rep in watched)
     return {
         "cases": len(recs),
         "done": len(done),
@@ -138,6 +143,9 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
         "failure_reasons": dict(reasons.most_common()),
         "wall_s": pct([r["wall_s"] for r in done]),
         "simulated_s": pct([rep.get("duration_s") for rep in reports]),
+        "near_misses": misses if watched else None,
+        "near_misses_per_100_steps": round(100.0 * misses / steps, 2) if watched and steps else None,
+        "link_clearance_min_m": pct([rep.get("link_clearance_min_m") for rep in watched]),
         "time_to_goal_s": pct([rep.get("time_to_goal_s") for rep in reports]),
         "time_to_cross_s": pct([rep.get("time_to_cross_s") for rep in reports]),
         "final_position_error_m": pct(pos_err),
@@ -271,8 +279,12 @@ def format_table(summary: dict[str, Any]) -> str:
     """The summary as a text table: one row per cell, then the whole sweep and its failure reasons."""
     by = summary["by"]
     head = [*by, "success", "95 % CI", "crashed", "pos. error p50/p90 m", "wall s p50", "top failure"]
+    cells = [*summary["cells"], {"axes": dict.fromkeys(by, ""), **summary["overall"]}]
+    near = any(c.get("near_misses") is not None for c in cells)
+    if near:
+        head.insert(len(by) + 3, "near misses /100 steps")
     rows = []
-    for c in [*summary["cells"], {"axes": dict.fromkeys(by, ""), **summary["overall"]}]:
+    for c in cells:
         e = c["final_position_error_m"]
         w = c["wall_s"]
         top = next(iter(c["failure_reasons"]), "")
@@ -287,6 +299,9 @@ def format_table(summary: dict[str, Any]) -> str:
                 top[:60],
             ]
         )
+        if near:
+            v = c.get("near_misses_per_100_steps")
+            rows[-1].insert(len(by) + 3, "" if v is None else f"{v:.2f} ({c['near_misses']})")
     if by:
         rows[-1][0] = "all"
     else:
@@ -331,7 +346,7 @@ def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -
     names = axis_names(cases)
     out = io.StringIO()
     w = csv.writer(out)
-    w.writerow([*names, "status", "success", "failure_reason", "attempts", "wall_s", "key"])
+    w.writerow([*names, "status", "success", "failure_reason", "attempts", "wall_s", "near_misses", "key"])
     for c in cases:
         r = records.get(c["key"])
         rep = (r or {}).get("report") or {}
@@ -339,7 +354,11 @@ def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -
             [*(_label(_ax(c, a)) for a in names)]
             + [r["status"] if r else "pending", rep.get("success") if r and r["status"] == "done" else ""]
             + [rep.get("failure_reason") or (r or {}).get("error") or "", (r or {}).get("attempts", "")]
-            + [(r or {}).get("wall_s", ""), c["key"]]
+            + [
+                (r or {}).get("wall_s", ""),
+                "" if rep.get("near_misses") is None else rep["near_misses"],
+                c["key"],
+            ]
         )
     return out.getvalue()
 

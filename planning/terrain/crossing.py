@@ -6,14 +6,18 @@
   the true ground varies by more than ``max_spread_m``, or the contact lies more than ``max_gap_m`` above the true
   ground there (the foot rests on an obstacle or an edge's corner), or a foot touched an obstacle geom;
 - ``BodyCollisionMonitor``: a loop monitor counting contact events (rising edges per pair) between a robot geom other
-  than a foot and a ``terrain_obstacle_*`` geom, plus feet touching obstacles.
+  than a foot and a ``terrain_obstacle_*`` geom, plus feet touching obstacles;
+- ``NearMissMonitor``: a loop monitor counting near misses, a non-foot robot geom within ``NEAR_MISS_M`` of the
+  world without touching it.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -63,6 +67,90 @@ def no_step_touchdowns(
     if len(p_world_contact) == 0:
         return 0
     return int(np.count_nonzero(no_step_flags(scene, np.array(p_world_contact), check)))
+
+
+NEAR_MISS_M = 0.02  # a near miss: a non-foot part of the robot within this of the world (m), not touching it
+NEAR_MISS_CLEAR_M = 0.025  # ... which ends when it is farther than this again
+NEAR_MISS_EVERY = 2  # the distances are measured every this many physics steps
+
+
+class NearMissMonitor:
+    """Counts near misses: a non-foot robot geom (a lower leg, a thigh, the body) coming within NEAR_MISS_M of a
+    terrain geom without touching it (one per approach: it counts again after moving away beyond
+    NEAR_MISS_CLEAR_M), and keeps the least such distance of the run. A touch is a fall, so a rate of falls over a
+    family of terrains moves by whole walks; near misses are their precursors, counted per step, and compare two
+    versions of the stack on far fewer walks (docs/terrain-notes.md, session 29).
+
+    Measured with MuJoCo's own distance (mj_geomDistance) every NEAR_MISS_EVERY physics steps on the pairs whose
+    bounding spheres (a plane's half-space) come within NEAR_MISS_CLEAR_M: the simulation itself is untouched (a
+    contact margin on the robot's geoms would have MuJoCo report the near contacts for free, but it changes how
+    its colliders place a touching contact)."""
+
+    def __init__(self, world: World) -> None:
+        self.world = world
+        m = world.model
+        foot = np.zeros(m.ngeom, dtype=bool)
+        foot[world.foot_geom] = True
+        foot[world.leg_of_foot_geom >= 0] = True
+        collides = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+        self._links = np.nonzero(world.is_robot_geom & ~foot & collides)[0]
+        terrain = np.nonzero(~world.is_robot_geom & collides)[0]
+        plane = m.geom_type[terrain] == mujoco.mjtGeom.mjGEOM_PLANE
+        self._planes = terrain[plane]
+        self._solids = terrain[~plane]
+        self._rb_links = m.geom_rbound[self._links]
+        self._rb_solids = m.geom_rbound[self._solids]
+        self._fromto = np.zeros(6)
+        self._tick = 0
+        self._inside: set[int] = set()
+        self.near_misses = 0
+        self.least_m = math.inf
+        self.events: list[tuple[float, str, float]] = []
+
+    def _distances(self) -> dict[int, float]:
+        """Each link geom's least distance (m) to the terrain where it is under NEAR_MISS_CLEAR_M (touching: 0)."""
+        m, d = self.world.model, self.world.data
+        watch = NEAR_MISS_CLEAR_M
+        xl = d.geom_xpos[self._links]
+        out: dict[int, float] = {}
+        pairs: list[tuple[int, int]] = []
+        if len(self._solids):
+            xs = d.geom_xpos[self._solids]
+            gap = (
+                np.linalg.norm(xl[:, None, :] - xs[None, :, :], axis=-1)
+                - self._rb_links[:, None]
+                - self._rb_solids[None, :]
+            )
+            li, si = np.nonzero(gap < watch)
+            pairs += zip(self._links[li].tolist(), self._solids[si].tolist(), strict=True)
+        for p in self._planes.tolist():
+            n = d.geom_xmat[p].reshape(3, 3)[:, 2]
+            h = (xl - d.geom_xpos[p]) @ n - self._rb_links
+            pairs += [(int(g), p) for g in self._links[h < watch]]
+        for g, t in pairs:
+            dist = mujoco.mj_geomDistance(m, d, g, t, watch, self._fromto)
+            if dist < watch:
+                out[g] = min(out.get(g, watch), max(dist, 0.0))
+        return out
+
+    def __call__(self, s: RobotState) -> None:
+        self._tick += 1
+        if self._tick % NEAR_MISS_EVERY:
+            return
+        now: set[int] = set()
+        for g, dist in self._distances().items():
+            if dist <= 0.0:
+                continue  # touching: a fall, not a near miss
+            if dist < self.least_m:
+                self.least_m = dist
+            if dist < NEAR_MISS_M:
+                now.add(g)
+                if g not in self._inside:
+                    self.near_misses += 1
+                    self.events.append((s.t, self.world.geom_names[g], round(dist, 4)))
+            elif g in self._inside:
+                now.add(g)  # (under NEAR_MISS_CLEAR_M: the same approach)
+        self._inside = now
 
 
 class BodyCollisionMonitor:

@@ -173,3 +173,25 @@ def test_clean_success_counts_body_collisions_and_no_step_touchdowns_as_failures
         "not clean: # no-step touchdowns",
     }
     assert summarize(_spec(axes={"seed": [0, 1, 2]}), cases, records)["overall"]["successes"] == 3
+
+
+def test_near_misses_are_summed_per_100_steps_over_the_walks_that_watched() -> None:
+    from planning.sweep.summary import format_table, summarize
+
+    spec = _spec(axes={"seed": [0, 1, 2]})
+    cases = expand(spec)
+    reps = [
+        {"success": True, "near_misses": 3, "steps_taken": 100, "link_clearance_min_m": 0.004},
+        {"success": False, "near_misses": 1, "steps_taken": 50, "link_clearance_min_m": 0.012},
+        {"success": True, "steps_taken": 400},
+    ]  # (the last: no near-miss watch, not counted)
+    records = {
+        c["key"]: {"status": "done", "report": r, "wall_s": 1.0} for c, r in zip(cases, reps, strict=True)
+    }
+    s = summarize(spec, cases, records)
+    assert s["overall"]["near_misses"] == 4
+    assert s["overall"]["near_misses_per_100_steps"] == pytest.approx(100 * 4 / 150, abs=0.01)
+    assert s["overall"]["link_clearance_min_m"]["p50"] == pytest.approx(0.008)
+    assert "near misses /100 steps" in format_table(s) and "2.67 (4)" in format_table(s)
+    plain = summarize(spec, cases, {k: {**r, "report": {"success": True}} for k, r in records.items()})
+    assert plain["overall"]["near_misses"] is None and "near misses" not in format_table(plain)
