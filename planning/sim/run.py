@@ -624,16 +624,22 @@ class WalkSession(_Session):
         if self.near_misses is not None:
             # a non-foot part within NEAR_MISS_M of the terrain, not touching it: per approach, and per 100 steps
             nm = self.near_misses
+            nm.finish(self.loop.fell)
             out["near_misses"] = int(nm.near_misses)
             steps = max(int(rec.landings), 1)
             out["near_misses_per_100_steps"] = round(100.0 * nm.near_misses / steps, 2)
             out["link_clearance_min_m"] = None if math.isinf(nm.least_m) else round(float(nm.least_m), 4)
+            out["near_miss_events"] = [
+                {"t_s": round(t, 3), "part": part, "gap_m": gap}
+                for t, part, gap in nm.events[:NEAR_MISS_EVENTS]
+            ]
         if self.pipeline is not None:
             out["navigator"] = self.pipeline.stats.summary()
         return out
 
 
 _TERRAIN_TRIPS = (TripKind.NORMAL, TripKind.KNEE)  # trips against terrain (not another leg of the robot)
+NEAR_MISS_EVENTS = 20  # the run report lists the first this many near misses (when, which part, how close)
 CROSSED_BEYOND_M = 0.5  # "crossed": the body center got this far past the terrain's end (m)
 
 

@@ -77,7 +77,8 @@ NEAR_MISS_EVERY = 2  # the distances are measured every this many physics steps
 class NearMissMonitor:
     """Counts near misses: a non-foot robot geom (a lower leg, a thigh, the body) coming within NEAR_MISS_M of a
     terrain geom without touching it (one per approach: it counts again after moving away beyond
-    NEAR_MISS_CLEAR_M), and keeps the least such distance of the run. A touch is a fall, so a rate of falls over a
+    NEAR_MISS_CLEAR_M; an approach that ends in a touch, a fall, is none), and keeps the least such distance of
+    the run. A touch is a fall, so a rate of falls over a
     family of terrains moves by whole walks; near misses are their precursors, counted per step, and compare two
     versions of the stack on far fewer walks (docs/terrain-notes.md, session 29).
 
@@ -103,6 +104,7 @@ class NearMissMonitor:
         self._fromto = np.zeros(6)
         self._tick = 0
         self._inside: set[int] = set()
+        self._open: dict[int, int] = {}  # a geom within NEAR_MISS_M now: the index of its approach's event
         self.near_misses = 0
         self.least_m = math.inf
         self.events: list[tuple[float, str, float]] = []
@@ -140,7 +142,8 @@ class NearMissMonitor:
         now: set[int] = set()
         for g, dist in self._distances().items():
             if dist <= 0.0:
-                continue  # touching: a fall, not a near miss
+                now.add(g)  # touching: a fall (the run ends), not a near miss (see finish)
+                continue
             if dist < self.least_m:
                 self.least_m = dist
             if dist < NEAR_MISS_M:
@@ -148,9 +151,21 @@ class NearMissMonitor:
                 if g not in self._inside:
                     self.near_misses += 1
                     self.events.append((s.t, self.world.geom_names[g], round(dist, 4)))
+                    self._open[g] = len(self.events) - 1
             elif g in self._inside:
                 now.add(g)  # (under NEAR_MISS_CLEAR_M: the same approach)
+        for g in self._inside - now:
+            self._open.pop(g, None)  # moved away: a near miss
         self._inside = now
+
+    def finish(self, fell: bool) -> None:
+        """Ends the run: after a fall, the approaches still open are the ones that ended in the touch (or were cut
+        short by it), and are no near misses."""
+        if fell and self._open:
+            drop = set(self._open.values())
+            self.events = [e for i, e in enumerate(self.events) if i not in drop]
+            self.near_misses -= len(drop)
+        self._open.clear()
 
 
 class BodyCollisionMonitor:

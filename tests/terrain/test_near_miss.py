@@ -36,6 +36,22 @@ def test_an_approach_is_counted_once_and_a_touch_is_no_near_miss() -> None:
     _at(world, nm, 0.05, box_x)  # away beyond the clearing distance ...
     _at(world, nm, 0.015, box_x)  # ... and back: a second near miss
     assert nm.near_misses == 2
-    _at(world, nm, -0.01, box_x)  # touching: a fall's business, not a near miss
-    assert nm.near_misses == 2 and nm.least_m == pytest.approx(0.008, abs=2e-3)
+    _at(world, nm, 0.05, box_x)  # away: the second approach was a near miss too
+    nm.finish(fell=False)
+    assert nm.near_misses == 2 and len(nm.events) == 2
+    _at(world, nm, 0.015, box_x)  # a third approach ...
+    _at(world, nm, -0.01, box_x)  # ... ends touching: a fall, which ends the run
+    assert nm.least_m == pytest.approx(0.008, abs=2e-3)  # (a touch is no clearance)
+    nm.finish(fell=True)
+    assert nm.near_misses == 2 and len(nm.events) == 2  # the approach that touched is no near miss
     assert all(name == "trunk_geom" and d < NEAR_MISS_M for _, name, d in nm.events)
+
+
+def test_an_approach_open_when_a_walk_falls_elsewhere_is_dropped_with_the_fall() -> None:
+    scene = build_terrain("clutter", n_low=0, platform=False)
+    world = World(load_robot("spot"), scene)
+    nm = NearMissMonitor(world)
+    _at(world, nm, 0.01, scene.obstacle_boxes[0][0])
+    assert nm.near_misses == 1
+    nm.finish(fell=True)
+    assert nm.near_misses == 0 and nm.events == []

@@ -14,7 +14,8 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, TypeVar
 
-from planning.sim.run import RunOptions, WalkCommand, run_walk
+from planning.sim.run import NEAR_MISS_EVENTS, RunOptions, WalkCommand, run_walk
+from planning.terrain.crossing import NEAR_MISS_M
 
 T = TypeVar("T")
 
@@ -31,6 +32,18 @@ def clean_crossing(r: dict[str, Any], max_no_step: int) -> str | None:
     if r["no_step_touchdowns"] > max_no_step:
         return f"{r['no_step_touchdowns']} no-step touchdowns (at most {max_no_step})"
     return None
+
+
+def near_misses_listed(r: dict[str, Any]) -> None:
+    """Asserts that a terrain walk's report lists its near misses (a leg or the body within NEAR_MISS_M of the
+    terrain, not touching it) as it counts them: the first NEAR_MISS_EVENTS, each closer than NEAR_MISS_M, the
+    closest no farther than the run's least clearance."""
+    events = r["near_miss_events"]
+    assert len(events) == min(r["near_misses"], NEAR_MISS_EVENTS), r["near_misses"]
+    assert all(0.0 < e["gap_m"] < NEAR_MISS_M and e["part"] for e in events), events
+    if events:
+        assert r["link_clearance_min_m"] <= min(e["gap_m"] for e in events)
+        assert r["near_misses_per_100_steps"] > 0.0
 
 
 def decided(passed: int, done: int, total: int, needed: int) -> bool:
@@ -71,6 +84,7 @@ def crossings(
     for (label, cmd, opts), record in until_decided(variants, needed):
         r = run_walk(cmd, opts)
         reports.append(r)
+        near_misses_listed(r)
         outcome[label] = clean_crossing(r, max_no_step)
         if outcome[label] is None and check is not None:
             outcome[label] = check(r)
