@@ -183,6 +183,20 @@ def _point_segment_f(p: list[float], a: list[float], s: tuple[float, float, floa
     return math.sqrt(ex * ex + ey * ey + ez * ez)
 
 
+def _pose_floats(body: BodyMotion, t: float) -> tuple[float, ...]:
+    """body.pose_at(t) as 12 floats (position, then the rotation row by row); without a yaw rate in Python floats
+    (the same arithmetic as pose_at's arrays: p + v·dt element by element)."""
+    if body.yaw_rate != 0.0:
+        p_w, R = body.pose_at(t)
+        return (*p_w.tolist(), *R.ravel().tolist())
+    dt = t - body.t0
+    px, py, pz = body.p_world_body.tolist()
+    if dt != 0.0:
+        vx, vy, vz = body.v_world_body.tolist()
+        px, py, pz = px + vx * dt, py + vy * dt, pz + vz * dt
+    return (px, py, pz, *body.R_world_body.ravel().tolist())
+
+
 class Analyzer:
     """Puts candidates of one leg in tiers; holds the robot and parameters, no per-tick state."""
 
@@ -611,26 +625,21 @@ class Analyzer:
         idx = v.knee_idx
         n = len(idx)
         if n <= _FEW_KNEES:
-            kn_few, kept = self._knees_few(prob, v, zs)
-            if kn_few is None:
+            # a few knees: Python floats throughout (arrays only for a lookup of mapped ground)
+            rows, kept_l = self._knee_rows(prob, v, zs)
+            if not rows:
                 return 0.0, 0.0, None
-            kn = kn_few
-        else:
-            kn, kept_many = self._knees_many(prob, v, zs)
-            if kept_many is None:
-                return 0.0, 0.0, None
-            kept = kept_many
-        kt = 0.0
-        if v.knee_terrain:
-            gk = (
-                np.full(len(kn), prob.flat_height)
-                if prob.flat_height is not None
-                else np.asarray(prob.ground(kn[:, 0], kn[:, 1]), dtype=float)
-            )
-            kt = max(0.0, float(pr.knee_radius_m - (kn[:, 2] - gk).min()))
-        ks, blame = 0.0, None
-        if n <= _FEW_KNEES:
-            rows, kept_l = kn.tolist(), kept.tolist()
+            kt = 0.0
+            if v.knee_terrain:
+                if prob.flat_height is not None:
+                    h = prob.flat_height
+                    clear = min([r[2] - h for r in rows])  # (kn[:, 2] - gk).min(), the same differences
+                else:
+                    kn_a = np.array(rows)
+                    gk = np.asarray(prob.ground(kn_a[:, 0], kn_a[:, 1]), dtype=float)
+                    clear = float((kn_a[:, 2] - gk).min())
+                kt = max(0.0, float(pr.knee_radius_m - clear))
+            ks, blame = 0.0, None
             for o in others:
                 fcs = o.foot_center.tolist()
                 d_min = min(
@@ -641,6 +650,19 @@ class Analyzer:
                 if sev > ks:
                     ks, blame = sev, o.leg
             return kt, ks, blame
+        kn, kept_many = self._knees_many(prob, v, zs)
+        if kept_many is None:
+            return 0.0, 0.0, None
+        kept = kept_many
+        kt = 0.0
+        if v.knee_terrain:
+            gk = (
+                np.full(len(kn), prob.flat_height)
+                if prob.flat_height is not None
+                else np.asarray(prob.ground(kn[:, 0], kn[:, 1]), dtype=float)
+            )
+            kt = max(0.0, float(pr.knee_radius_m - (kn[:, 2] - gk).min()))
+        ks, blame = 0.0, None
         for o in others:
             fc = o.foot_center if len(o.foot_center) == 1 else o.foot_center[kept]
             d, _ = _point_segment(kn, fc, o.shank)
@@ -652,9 +674,17 @@ class Analyzer:
     def _knees_few(
         self, prob: LegProblem, v: Verdict, zs: np.ndarray
     ) -> tuple[np.ndarray | None, np.ndarray]:
-        """World knees (m, n×3) at a few of v's knee samples, one leg IK each in Python floats (~3 µs a row; the
-        vectorized IK costs ~35 µs, for one row as for twenty); and the samples they are at (out of reach ones
-        left out)."""
+        """World knees (m, n×3) at a few of v's knee samples (_knee_rows as arrays), and the samples they are at
+        (out of reach ones left out)."""
+        rows, kept = self._knee_rows(prob, v, zs)
+        if not rows:
+            return None, v.knee_idx
+        return np.array(rows), np.array(kept, dtype=int)
+
+    def _knee_rows(self, prob: LegProblem, v: Verdict, zs: np.ndarray) -> tuple[list[list[float]], list[int]]:
+        """World knees (m, rows of 3 floats) at a few of v's knee samples, one leg IK each in Python floats (~3 µs a
+        row; the vectorized IK costs ~35 µs, for one row as for twenty); and the samples they are at (out of reach
+        ones left out)."""
         robot, leg, rf = self.robot, prob.leg, self.r_foot
         rows: list[list[float]] = []
         kept: list[int] = []
@@ -663,8 +693,7 @@ class Analyzer:
         for k in v.knee_idx.tolist():
             pose = poses.get(k)
             if pose is None:
-                p_w, R = prob.body.pose_at(float(prob.ts[k]))
-                pose = poses[k] = (*p_w.tolist(), *R.ravel().tolist())
+                pose = poses[k] = _pose_floats(prob.body, float(prob.ts[k]))
             px, py, pz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = pose
             dx, dy, dz = float(xw[k]) - px, float(yw[k]) - py, float(zs[k]) + rf - pz
             knee_b = robot.knee_of_foot(
@@ -684,9 +713,7 @@ class Analyzer:
                 ]
             )
             kept.append(k)
-        if not rows:
-            return None, v.knee_idx
-        return np.array(rows), np.array(kept, dtype=int)
+        return rows, kept
 
     def _knees_many(
         self, prob: LegProblem, v: Verdict, zs: np.ndarray
