@@ -22,6 +22,8 @@ from planning.swing.types import BodyMotion, GroundHeightFn, Tier
 _FEW_KNEES = 8  # up to this many knee samples, one float IK each beats the vectorized one
 # ndarray.max()/.min() without the method's Python wrapper (the same reduction: the same result, NaN included)
 _max, _min = np.maximum.reduce, np.minimum.reduce
+_NO_SAMPLES = np.zeros(0, dtype=int)  # no knee samples (read-only)
+_NO_SAMPLES.flags.writeable = False
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
 
 
@@ -220,6 +222,7 @@ class Analyzer:
         self._n_cliff_rings = int(np.count_nonzero(self._ring_radii < params.cliff_margin_m))
         self._knee_idx_cache: dict[int, np.ndarray] = {}
         self._no_obstacle_cache: dict[int, np.ndarray] = {}
+        self._flat_cache: dict[tuple[int, float], np.ndarray] = {}
         # per leg: the knee probe grid's fore-aft offsets (every ~4 cm) and its two lateral offsets (hip, foot)
         fore = np.linspace(-self.knee_reach, self.knee_reach, 17)
         self._knee_grid = [(fore, np.array([0.0, float(robot.abd_offset[leg])])) for leg in range(4)]
@@ -236,7 +239,7 @@ class Analyzer:
     def _terrain(self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ground under the samples and which samples are over an obstacle (above the reference surface)."""
         if prob.flat_height is not None:
-            g = np.full(len(xw), prob.flat_height)
+            g = self._flat(len(xw), prob.flat_height)
             return g, g  # flat ground is never an obstacle (analyze knows it: flat_height is set)
         g = np.asarray(prob.ground(xw, yw), dtype=float)
         p0, p1 = prob.p_start, prob.p_target
@@ -362,7 +365,13 @@ class Analyzer:
         return g
 
     # ---- the tiers ----------------------------------------------------------------------------------------
-    def analyze(self, prob: LegProblem, hp: HPath, u_total: float) -> Verdict:
+    def analyze(
+        self,
+        prob: LegProblem,
+        hp: HPath,
+        u_total: float,
+        simple: tuple[bool, float, bool] | None = None,
+    ) -> Verdict:
         """Returns the tier of hp flown with the most aggressive vertical policy.
 
         The checks run in the order that decides the tier soonest: the other legs and the reach first (a foot hitting
@@ -370,11 +379,15 @@ class Analyzer:
         (not computed where the terrain collision decides the tier). Once a candidate of this problem collided with
         the terrain, the next ones look up the ground under their samples first and the ring probes only when they
         do not collide (two smaller lookups instead of one: cheaper for a collision, dearer otherwise). Only a
-        verdict in Success, whose vertical checks read them, needs every field."""
+        verdict in Success, whose vertical checks read them, needs every field.
+
+        simple: what the simple analysis found already, (limits_ok, miss_distance, reaches) of hp."""
         pr = self.params
         c = prob.ctx
-        miss = miss_distance(hp, c)
-        if not limits_ok(hp, c):
+        if simple is None:
+            simple = (limits_ok(hp, c), miss_distance(hp, c), reaches(hp, c, pr))
+        limits, miss, reach = simple
+        if not limits:
             return Verdict(Tier.VIOLATES_CONSTRAINTS, (0.0,), u_total, miss)
         xw, yw = self.world_xy(prob, hp)
         zs = prob.zs_aggressive
@@ -396,7 +409,6 @@ class Analyzer:
                     foot_sev, blame = sev_low, blame_low
         else:
             foot_sev, blame, near = 0.0, None, None
-        reach = reaches(hp, c, pr)
         bucket = pr.severity_bucket_m
         if foot_sev > 0.0 or not reach:
             v = Verdict(
@@ -439,8 +451,6 @@ class Analyzer:
             prob.terrain_hit = True
             v.tier, v.key = Tier.TERRAIN_COLLISION, (pen / bucket + u_total,)
             return v
-        if near is None:
-            near = np.zeros(len(xw), dtype=bool)
         v.knee_idx, v.knee_terrain = self._knee_samples(prob, g, near)
         knee_terrain, knee_self, knee_blame = self._knees(prob, near_others, v, zs)
         v.knee_sev = (knee_terrain, knee_self)
@@ -562,8 +572,11 @@ class Analyzer:
             near |= d < r_knee
         return (worst[0], blame[0], near[0]), (worst[1], blame[1], near[1])
 
-    def _knee_samples(self, prob: LegProblem, g: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, bool]:
-        """Sample indices at which to compute knees, and whether knees can reach the terrain at all.
+    def _knee_samples(
+        self, prob: LegProblem, g: np.ndarray, near: np.ndarray | None
+    ) -> tuple[np.ndarray, bool]:
+        """Sample indices at which to compute knees, and whether knees can reach the terrain at all (near: the
+        samples near another leg, None: none is).
 
         Knees lie within knee_reach of the hips: when the hips stand higher than that above every ground height
         probed (under the path, and on a grid up to knee_reach fore and aft of the hips), no knee touches terrain;
@@ -579,9 +592,9 @@ class Analyzer:
         # on flat ground g is all flat_height (= g_knee_max)
         g_max = prob.g_knee_max if prob.flat_height is not None else max(prob.g_knee_max, float(_max(g)))
         terrain = prob.hip_z_min - self.knee_reach - g_max < pr.knee_radius_m
-        idx = self._knee_idx(len(near))
+        idx = self._knee_idx(len(g))
         if not terrain:
-            idx = idx[near[idx]]
+            idx = _NO_SAMPLES if near is None else idx[near[idx]]
         return idx, terrain
 
     def knee_grid(self, leg: int, hips: np.ndarray, c: float, sn: float) -> tuple[np.ndarray, np.ndarray]:
@@ -593,6 +606,17 @@ class Analyzer:
         oy = fore * sn
         oy += side * c
         return (hips[:, 0:1] + ox).ravel(), (hips[:, 1:2] + oy).ravel()
+
+    def _flat(self, K: int, height: float) -> np.ndarray:
+        """np.full(K, height), cached per K and height (read-only: the verdicts only read their ground)."""
+        key = (K, height)
+        a = self._flat_cache.get(key)
+        if a is None:
+            if len(self._flat_cache) > 64:
+                self._flat_cache.clear()
+            a = self._flat_cache[key] = np.full(K, height)
+            a.flags.writeable = False
+        return a
 
     def _no_obstacle(self, K: int) -> np.ndarray:
         """K samples none of which is over an obstacle (cached per K; read-only)."""

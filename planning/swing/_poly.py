@@ -325,6 +325,19 @@ def rest_time(p: float, v: float, p1: float, v_max: float, a_max: float) -> floa
     return t + (2.0 * v_max - V) / a_max + (0.0 if 0.0 > cruise else cruise)
 
 
+def rest_time_still(p: float, p1: float, v_max: float, a_max: float) -> float:
+    """rest_time(p, 0.0, p1, v_max, a_max): from rest, its branches for v = 0 folded (the same value, bit for bit:
+    the fall from a swing's top, which the vertical search evaluates for every top it tries)."""
+    d = p1 - p
+    D = d if d >= 0.0 else -d  # s·d
+    q = a_max * D + 0.0  # + 0.5·V·V, which is +0.0 for V = ±0.0
+    vp = math.sqrt(0.0 if 0.0 > q else q)
+    if vp <= v_max:
+        return 2.0 * vp / a_max  # 0.0 + (2.0·vp − V) / a_max
+    cruise = (D - 2.0 * v_max * v_max / (2.0 * a_max)) / v_max
+    return 2.0 * v_max / a_max + (0.0 if 0.0 > cruise else cruise)
+
+
 def to_rest(b: Builder, p1: float, v_max: float, a_max: float) -> float:
     """Appends the time-optimal motion to rest at p1; returns the arrival time (s)."""
     n = len(b.breaks)
@@ -345,7 +358,7 @@ def coast_time(p: float, v: float, p1: float, horizon: float, v_max: float, a_ma
     if t_opt >= horizon - 1e-9:
         return 0.0  # no time to spare (a replan from the plan's own state lands here, give or take rounding)
     if abs(v) < 1e-12:
-        return horizon - rest_time(p, 0.0, p1, v_max, a_max)
+        return horizon - rest_time_still(p, p1, v_max, a_max)
     # Closed forms for the usual case (moving toward the target, no overshoot), verified before use.
     d = p1 - p
     s = 1.0 if d >= 0.0 else -1.0
@@ -401,14 +414,12 @@ def rise_hold_fall(
     horizon = t_end - b.t
     z_lo = max(z0 + v0 * abs(v0) / (2.0 * a_max), z_end)
     z_top = max(z_top, z_lo)
-
-    def total(h: float) -> float:
-        return rest_time(z0, v0, h, v_up, a_max) + rest_time(h, 0.0, z_end, v_down, a_max)
-
-    t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)  # the fall from the top (reused when the top stays)
+    # the time to rise to a top h and fall from it is rest_time(z0, v0, h, ...) + rest_time_still(h, z_end, ...),
+    # written out where it is needed (a nested function's calls cost a tenth of the search)
+    t_fall = rest_time_still(z_top, z_end, v_down, a_max)  # the fall from the top (reused when the top stays)
     t_hi = rest_time(z0, v0, z_top, v_up, a_max) + t_fall
     if t_hi > horizon:
-        t_lo = total(z_lo)
+        t_lo = rest_time(z0, v0, z_lo, v_up, a_max) + rest_time_still(z_lo, z_end, v_down, a_max)
         if t_lo > horizon + 1e-9:
             v_lim = v_down if z_end < z0 else v_up
             w = coast_time(z0, v0, z_end, horizon, v_lim, a_max)
@@ -416,13 +427,13 @@ def rise_hold_fall(
                 b.accel(w, 0.0)
             to_rest(b, z_end, v_lim, a_max)
             return w >= 0.0
-        # Illinois regula falsi on total(h) = horizon; total grows with h.
+        # Illinois regula falsi on (the rise and fall's time to a top h) = horizon; that time grows with h.
         lo, hi, f_lo, f_hi = z_lo, z_top, t_lo - horizon, t_hi - horizon
         side = 0
         h = lo
         for _ in range(30):
             h = (lo * f_hi - hi * f_lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
-            f = total(h) - horizon
+            f = rest_time(z0, v0, h, v_up, a_max) + rest_time_still(h, z_end, v_down, a_max) - horizon
             if abs(f) < 1e-6:  # s; the top found is then within a fraction of a millimeter of the highest
                 break
             if f > 0.0:
@@ -435,9 +446,9 @@ def rise_hold_fall(
                 if side == -1:
                     f_hi *= 0.5
                 side = -1
-        # f = total(h) − horizon of the last h tried, and a − b > 0 exactly when a > b
+        # f = (rise and fall time to h) − horizon of the last h tried, and a − b > 0 exactly when a > b
         z_top = lo if f > 0.0 else h
-        t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)
+        t_fall = rest_time_still(z_top, z_end, v_down, a_max)
     n = len(b.breaks)
     b.segments(rest_segments(z0, v0, z_top, v_up, a_max))
     if len(b.breaks) > n:
@@ -462,8 +473,8 @@ def rise_hold_fall_outlook(
     z_lo = max(z0 + v0 * abs(v0) / (2.0 * a_max), z_end)
     top = max(z_top, z_lo)
     if (
-        rest_time(z0, v0, top, v_up, a_max) + rest_time(top, 0.0, z_end, v_down, a_max) > horizon
-        and rest_time(z0, v0, z_lo, v_up, a_max) + rest_time(z_lo, 0.0, z_end, v_down, a_max) > horizon + 1e-9
+        rest_time(z0, v0, top, v_up, a_max) + rest_time_still(top, z_end, v_down, a_max) > horizon
+        and rest_time(z0, v0, z_lo, v_up, a_max) + rest_time_still(z_lo, z_end, v_down, a_max) > horizon + 1e-9
     ):
         v_lim = v_down if z_end < z0 else v_up
         return math.inf, rest_time(z0, v0, z_end, v_lim, a_max) <= horizon + 1e-7

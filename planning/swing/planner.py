@@ -994,18 +994,21 @@ class SwingPlanner:
             evaluations += 1
             # Simple analysis: the best tier and key this policy could reach.
             u = undesirability_h(hp, pr) + prob.u_z_aggressive
-            if not limits_ok(hp, c):
+            limits = limits_ok(hp, c)
+            miss = miss_distance(hp, c)
+            reach = hp.t_arrive <= c.t_end + 1e-6 and miss <= pr.xy_reach_tol_m  # reaches(hp, c, pr)
+            if not limits:
                 opt: tuple[int, tuple[float, ...]] = (Tier.VIOLATES_CONSTRAINTS, (0.0,))
-            elif not reaches(hp, c, pr):
+            elif not reach:
                 hyst = pr.miss_hysteresis_m if name == prob.previous_policy else 0.0
-                opt = (Tier.XY_CANT_REACH, (miss_distance(hp, c) - hyst,))
+                opt = (Tier.XY_CANT_REACH, (miss - hyst,))
             else:
                 opt = (Tier.SUCCESS if prob.z_ok else Tier.XY_SUCCESS_Z_IMPOSSIBLE, (u,))
             if name != DEFAULT_POLICY and opt[0] == Tier.VIOLATES_CONSTRAINTS:
                 continue
             if best is not None and name != DEFAULT_POLICY and not _could_beat(opt, best):
                 continue
-            v = self.analyzer.analyze(prob, hp, u)
+            v = self.analyzer.analyze(prob, hp, u, (limits, miss, reach))
             if name == DEFAULT_POLICY:
                 default = (hp, v)
             if v.tier == Tier.VIOLATES_CONSTRAINTS:
