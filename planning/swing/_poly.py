@@ -474,7 +474,8 @@ def rise_hold_fall_outlook(
     top = max(z_top, z_lo)
     if (
         rest_time(z0, v0, top, v_up, a_max) + rest_time_still(top, z_end, v_down, a_max) > horizon
-        and rest_time(z0, v0, z_lo, v_up, a_max) + rest_time_still(z_lo, z_end, v_down, a_max) > horizon + 1e-9
+        and rest_time(z0, v0, z_lo, v_up, a_max) + rest_time_still(z_lo, z_end, v_down, a_max)
+        > horizon + 1e-9
     ):
         v_lim = v_down if z_end < z0 else v_up
         return math.inf, rest_time(z0, v0, z_end, v_lim, a_max) <= horizon + 1e-7

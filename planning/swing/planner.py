@@ -215,6 +215,9 @@ class SwingPlanner:
         # per leg: the body-frame foot center the shank was last computed for, and that shank (NaN: none yet)
         self._sc_foot = np.full((4, 3), np.nan)
         self._sc_shank = np.zeros((4, 3))
+        # the same rows as floats (the stance legs' set-up reads them every tick)
+        self._sc_foot_f: list[tuple[float, ...]] = [(math.nan,) * 3] * 4
+        self._sc_shank_f: list[tuple[float, ...]] = [(0.0,) * 3] * 4
         self._z_liftoff: list[float | None] = [None] * 4  # lift-off height of the current swing, m
         # lift-off place (x, y) of the current swing, m
         self._xy_liftoff: list[np.ndarray | None] = [None] * 4
@@ -267,6 +270,7 @@ class SwingPlanner:
         self._last_plan = [None] * 4
         self._trip = [None] * 4
         self._sc_foot[:] = np.nan
+        self._sc_foot_f = [(math.nan,) * 3] * 4
         self._z_liftoff = [None] * 4
         self._xy_liftoff = [None] * 4
         self._z_top = [None] * 4
@@ -913,6 +917,8 @@ class SwingPlanner:
             )
         self._sc_foot[leg] = p_body_foot
         self._sc_shank[leg] = shank_body
+        self._sc_foot_f[leg] = tuple(self._sc_foot[leg].tolist())
+        self._sc_shank_f[leg] = tuple(self._sc_shank[leg].tolist())
         return self._sc_shank[leg]
 
     def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
@@ -942,14 +948,14 @@ class SwingPlanner:
             bx = r00 * dx + r10 * dy + r20 * dz  # body frame: Rᵀ (fc − p)
             by = r01 * dx + r11 * dy + r21 * dz
             bz = r02 * dx + r12 * dy + r22 * dz
-            fx, fy, fz = self._sc_foot[j].tolist()
+            fx, fy, fz = self._sc_foot_f[j]
             if not (
                 abs(fx - bx) < _SHANK_CACHE_M
                 and abs(fy - by) < _SHANK_CACHE_M
                 and abs(fz - bz) < _SHANK_CACHE_M
             ):
                 self._shank_ik(j, np.array([bx, by, bz]))
-            hx, hy, hz = self._sc_shank[j].tolist()
+            hx, hy, hz = self._sc_shank_f[j]
             rows.append([x, y, z, r00 * hx + r01 * hy + r02 * hz, r10 * hx + r11 * hy + r12 * hz,
                          r20 * hx + r21 * hy + r22 * hz])  # fmt: skip
         arr = np.array(rows)
@@ -958,11 +964,14 @@ class SwingPlanner:
         boxes = []
         for i, (x, y, _, sx, sy, _) in enumerate(rows):
             x1, y1 = x + sx, y + sy
-            others.append(
-                OtherLeg(legs[i], fc[i : i + 1], shank[i], (min(x, x1), max(x, x1), min(y, y1), max(y, y1)))
-            )
+            # min(a, b) and max(a, b) as the builtins pick them (b only when strictly smaller or larger), inline
+            box = (x1 if x1 < x else x, x1 if x1 > x else x, y1 if y1 < y else y, y1 if y1 > y else y)
+            others.append(OtherLeg(legs[i], fc[i : i + 1], shank[i], box))
             ax, ay, bx, by = c * x + s * y, c * y - s * x, c * x1 + s * y1, c * y1 - s * x1
-            boxes.append((min(ax, bx) - r, max(ax, bx) + r, min(ay, by) - r, max(ay, by) + r))
+            boxes.append(
+                ((bx if bx < ax else ax) - r, (bx if bx > ax else ax) + r,
+                 (by if by < ay else ay) - r, (by if by > ay else ay) + r)
+            )  # fmt: skip
         return others, boxes
 
     @staticmethod
