@@ -118,11 +118,13 @@ class Poly1D:
 
 
 def sample_pair(a: Poly1D, b: Poly1D, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions of two trajectories with the same breaks (a path's x and y) at the times ts (K,): what
+    """Positions of two trajectories with the same breaks (a path's x and y) at the ascending times ts (K,): what
     a.sample_many(ts) and b.sample_many(ts) return, with one piece lookup and one evaluation for both."""
     br = a.breaks
     if len(br) == 1 or br != b.breaks:
         return a.sample_many(ts), b.sample_many(ts)
+    if len(br) == 2:
+        return _sample_pair_two(a, b, ts)
     tb = np.array(br)
     k = tb.searchsorted(ts, "right")
     k -= 1
@@ -133,6 +135,28 @@ def sample_pair(a: Poly1D, b: Poly1D, ts: np.ndarray) -> tuple[np.ndarray, np.nd
         tau = ts - tb[k]
     c0, c1, c2, c3 = np.array([a.coeffs, b.coeffs]).take(k, axis=1).transpose(2, 0, 1)  # each (2,K)
     out = c0 + tau * (c1 + tau * (c2 + tau * c3))
+    return out[0], out[1]
+
+
+def _sample_pair_two(a: Poly1D, b: Poly1D, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sample_pair of two-piece trajectories (one piece, then the tail: a Cubic path) at ascending ts: the first
+    piece evaluated with its coefficients as scalars at every sample (no gathering), then the samples from the
+    tail's start on (the last one or few) overwritten with the tail's, in floats. Per sample the same operations
+    as the gathered evaluation, so the same values."""
+    b0, b1 = a.breaks
+    tau = ts - b0
+    if ts[0] < b0:  # before the start: hold the start state
+        np.maximum(tau, 0.0, out=tau)
+    i = int(ts.searchsorted(b1, "left"))  # the first sample on the tail
+    tail = ts[i:].tolist()
+    out = []
+    for p in (a, b):
+        (c0, c1, c2, c3), (d0, d1, d2, d3) = p.coeffs
+        v = c0 + tau * (c1 + tau * (c2 + tau * c3))
+        for j, t in enumerate(tail, i):
+            t -= b1
+            v[j] = d0 + t * (d1 + t * (d2 + t * d3))
+        out.append(v)
     return out[0], out[1]
 
 
