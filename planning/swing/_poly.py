@@ -25,7 +25,7 @@ class Poly1D:
     is a constant-velocity tail).
     """
 
-    __slots__ = ("breaks", "coeffs", "peak_v", "peak_a", "_tb_np", "_c_np", "_cols")
+    __slots__ = ("breaks", "coeffs", "peak_v", "peak_a", "_cols")
 
     def __init__(
         self,
@@ -38,9 +38,7 @@ class Poly1D:
         self.coeffs = coeffs
         self.peak_v = peak_v
         self.peak_a = peak_a
-        self._tb_np: np.ndarray | None = None
-        self._c_np: np.ndarray | None = None
-        self._cols: np.ndarray | None = None  # (4,P) coefficients by power, for sampling many times at once
+        self._cols: np.ndarray | None = None  # (5,P) breaks and coefficients by power, for sample_many
 
     @property
     def t_start(self) -> float:
@@ -74,32 +72,27 @@ class Poly1D:
         c0, c1, c2, c3 = self.coeffs[k]
         return c0 + tau * (c1 + tau * (c2 + tau * c3))
 
-    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        if self._tb_np is None:
-            self._tb_np = np.asarray(self.breaks, dtype=float)
-            self._c_np = np.asarray(self.coeffs, dtype=float)
-        assert self._c_np is not None
-        return self._tb_np, self._c_np
-
     def sample_many(self, ts: np.ndarray, order: int = 0) -> np.ndarray:
         """Returns p (order 0), v (1) or a (2) at the times ts (K,) as a (K,) array."""
-        if len(self.breaks) == 1:
+        br = self.breaks
+        if len(br) == 1:
             c0, c1, c2, c3 = self.coeffs[0]
-            tau = np.maximum(ts - self.breaks[0], 0.0)
+            tau = np.maximum(ts - br[0], 0.0)
         else:
-            tb = self._tb_np
             cols = self._cols
-            if tb is None or cols is None:
-                tb, c = self._arrays()
-                cols = self._cols = np.ascontiguousarray(c.T)
-            k = tb.searchsorted(ts, "right")
+            if cols is None:
+                # (5,P): the breaks, then the coefficients by power, in one conversion; one gather then gives each
+                # sample's piece start with its coefficients
+                cols = self._cols = np.array([br, *zip(*self.coeffs, strict=True)])
+            k = cols[0].searchsorted(ts, "right")
             k -= 1
             if k[0] < 0:  # before the start: hold the start state
                 np.maximum(k, 0, out=k)
-                tau = np.maximum(ts - tb[k], 0.0)
+                t_k, c0, c1, c2, c3 = cols.take(k, axis=1)
+                tau = np.maximum(ts - t_k, 0.0)
             else:
-                tau = ts - tb[k]
-            c0, c1, c2, c3 = cols.take(k, axis=1)
+                t_k, c0, c1, c2, c3 = cols.take(k, axis=1)
+                tau = ts - t_k
         if order == 0:
             return c0 + tau * (c1 + tau * (c2 + tau * c3))
         if order == 1:
