@@ -219,6 +219,13 @@ class Analyzer:
         self._probe_offsets = np.vstack(
             (np.zeros((1, 2)), self._ring_offsets_dr)
         )  # the samples, then the rings
+        # their x and y columns as (n,1) arrays of their own (a slice of a column costs as much as the addition)
+        self._probe_dx, self._probe_dy = (
+            np.ascontiguousarray(self._probe_offsets[:, i : i + 1]) for i in (0, 1)
+        )
+        self._ring_dx, self._ring_dy = (
+            np.ascontiguousarray(self._ring_offsets_dr[:, i : i + 1]) for i in (0, 1)
+        )
         self._n_cliff_rings = int(np.count_nonzero(self._ring_radii < params.cliff_margin_m))
         self._knee_idx_cache: dict[int, np.ndarray] = {}
         self._no_obstacle_cache: dict[int, np.ndarray] = {}
@@ -277,10 +284,9 @@ class Analyzer:
         directions is a reduction over the outer axis (over the inner axis of 8 it costs several times more); the
         samples themselves come first (offset 0), all in one broadcast addition per axis."""
         K = len(xw)
-        off = self._probe_offsets  # (1 + 8·R, 2): 0, then the rings direction-major
-        m = len(off) - 1
-        px = xw + off[:, 0:1]  # (1 + 8·R, K), C-contiguous: ravel is a view
-        py = yw + off[:, 1:2]
+        m = len(self._probe_dx) - 1  # 0, then the rings direction-major
+        px = xw + self._probe_dx  # (1 + 8·R, K), C-contiguous: ravel is a view
+        py = yw + self._probe_dy
         gall = np.asarray(prob.ground(px.ravel(), py.ravel()), dtype=float)
         g = gall[:K]
         h_obs = self._h_obs(prob, xw, yw)
@@ -307,8 +313,8 @@ class Analyzer:
         same probes, the same arithmetic)."""
         K = len(xw)
         off = self._ring_offsets_dr  # (8·R, 2), direction-major
-        px = xw + off[:, 0:1]  # (8·R, K)
-        py = yw + off[:, 1:2]
+        px = xw + self._ring_dx  # (8·R, K)
+        py = yw + self._ring_dy
         gr_all = np.asarray(prob.ground(px.ravel(), py.ravel()), dtype=float)
         h_obs = self._h_obs(prob, xw, yw)
         gr = _max(gr_all.reshape(8, len(off) // 8, K), axis=0)  # (R,K)
@@ -713,13 +719,13 @@ class Analyzer:
         rows: list[list[float]] = []
         kept: list[int] = []
         poses = prob.pose_floats
-        xw, yw = v.xw, v.yw
+        xw, yw, zl = v.xw.tolist(), v.yw.tolist(), zs.tolist()
         for k in v.knee_idx.tolist():
             pose = poses.get(k)
             if pose is None:
                 pose = poses[k] = _pose_floats(prob.body, float(prob.ts[k]))
             px, py, pz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = pose
-            dx, dy, dz = float(xw[k]) - px, float(yw[k]) - py, float(zs[k]) + rf - pz
+            dx, dy, dz = xw[k] - px, yw[k] - py, zl[k] + rf - pz
             knee_b = robot.knee_of_foot(
                 leg,
                 r00 * dx + r10 * dy + r20 * dz,
