@@ -24,6 +24,10 @@ _FEW_KNEES = 8  # up to this many knee samples, one float IK each beats the vect
 _max, _min = np.maximum.reduce, np.minimum.reduce
 _NO_SAMPLES = np.zeros(0, dtype=int)  # no knee samples (read-only)
 _NO_SAMPLES.flags.writeable = False
+_NO_FLOATS = np.zeros(0)  # a verdict's arrays before they are computed (read-only)
+_NO_FLOATS.flags.writeable = False
+_NO_BOOLS = np.zeros(0, dtype=bool)
+_NO_BOOLS.flags.writeable = False
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
 
 
@@ -112,19 +116,16 @@ class Verdict:
     undesirability: float
     miss_m: float
     blame: int | None = None  # the other leg in the worst self-collision
-    xw: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (K,) world x of the samples
-    yw: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    g: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (K,) ground height under the samples
-    obstacle: np.ndarray = field(
-        default_factory=lambda: np.zeros(0, dtype=bool)
-    )  # (K,) ground is an obstacle
+    # (the empty defaults are shared read-only arrays: a verdict's arrays are replaced, never written into)
+    xw: np.ndarray = field(default_factory=lambda: _NO_FLOATS)  # (K,) world x of the samples
+    yw: np.ndarray = field(default_factory=lambda: _NO_FLOATS)
+    g: np.ndarray = field(default_factory=lambda: _NO_FLOATS)  # (K,) ground height under the samples
+    obstacle: np.ndarray = field(default_factory=lambda: _NO_BOOLS)  # (K,) ground is an obstacle
     ring_g: np.ndarray | None = None  # (K,R) highest obstacle ground on each probe ring (−inf: none)
     any_obstacle: bool = True  # obstacle.any() (False lets the vertical checks skip the scraping test)
     foot_self_sev: float = 0.0
     near_others: list[OtherLeg] = field(default_factory=list)  # other legs close enough to matter
-    knee_idx: np.ndarray = field(
-        default_factory=lambda: np.zeros(0, dtype=int)
-    )  # samples where knees are checked
+    knee_idx: np.ndarray = field(default_factory=lambda: _NO_SAMPLES)  # samples where knees are checked
     knee_terrain: bool = False  # knees may reach the terrain here
     gentlest_foot_sev: float | None = None  # _foot_self's severity along this path with the gentlest policy
     knee_sev: tuple[float, float] = (

@@ -75,6 +75,7 @@ _WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
 _ROUTE_SAMPLES = np.linspace(0.0, 1.0, 24)  # the rise-first route's samples (fractions of the way)
 _ROUTE_SAMPLES.flags.writeable = False
 _max = np.maximum.reduce  # ndarray.max() without the method's Python wrapper (the same reduction)
+_F64 = np.dtype(np.float64)
 _SHANK_CACHE_M = 0.005  # a leg's shank is recomputed once its foot moved this far in the body frame (m)
 # other legs as obstacles and their keep-out areas (heading frame), in one order
 _Obstacles = tuple[tuple[OtherLeg, ...] | list[OtherLeg], tuple[AABB, ...] | list[AABB]]
@@ -874,7 +875,9 @@ class SwingPlanner:
         for k, a in feet.items():  # the usual case, checked in floats: float (3,) arrays of finite numbers
             if type(k) is not int or not 0 <= k < 4 or type(a) is not np.ndarray or a.shape != (3,):
                 break
-            if a.dtype != np.float64 or not math.isfinite(sum(a.tolist())):  # a sum is finite if each term is
+            # the dtype by identity first (float64 arrays share one dtype object; != converts the type each time);
+            # a sum is finite if each term is
+            if (a.dtype is not _F64 and a.dtype != np.float64) or not math.isfinite(sum(a.tolist())):
                 break
             fast[k] = a
         else:
