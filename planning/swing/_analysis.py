@@ -132,6 +132,7 @@ class Verdict:
         0.0,
         0.0,
     )  # knee-terrain and knee-self intrusions with the aggressive policy
+    flat_height: float | None = None  # the ground's height when it is FlatGround (g is that everywhere)
 
 
 def undesirability_h(hp: HPath, params: SwingParams) -> float:
@@ -450,6 +451,7 @@ class Analyzer:
             g, _ = self._terrain(prob, xw, yw)
             obstacle, ring_g, any_obstacle = self._no_obstacle(len(xw)), None, False
         v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g, any_obstacle)
+        v.flat_height = prob.flat_height
         v.near_others, v.foot_self_sev, v.gentlest_foot_sev = near_others, foot_sev, gentlest_foot_sev
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         if pen > pr.penetration_tol_m:
@@ -478,6 +480,11 @@ class Analyzer:
     def terrain_scores(self, v: Verdict, zs: np.ndarray) -> tuple[float, bool, float]:
         """Returns (penetration depth m, vertical margin short over an obstacle, horizontal margin m)."""
         pr = self.params
+        h = v.flat_height
+        if h is not None and len(zs):
+            # flat ground (no obstacle, no rings): min(zs − h) is min(zs) − h, subtracting a constant keeps the
+            # order, rounding included
+            return -(float(_min(zs)) - h), False, math.inf
         clear = zs - v.g
         pen = -float(_min(clear)) if len(clear) else 0.0
         # the .any() of small boolean arrays as `True in` their lists: the same answer, a tenth of the time
