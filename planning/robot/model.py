@@ -501,19 +501,24 @@ class RobotModel:
         c2 = min(max((D * D - lu * lu - ll * ll) / (2 * lu * ll), -1.0), 1.0)
         psi2 = branch * math.acos(c2)
         psi1 = math.atan2(-px, -zs) - math.atan2(ll * math.sin(psi2), lu + ll * math.cos(psi2))
-        q = [s0 * q0, s1 * (psi1 - a), s2 * (psi2 - b + a)]
-        lo, hi = self._q_lo_f[leg], self._q_hi_f[leg]
+        q0, q1, q2 = s0 * q0, s1 * (psi1 - a), s2 * (psi2 - b + a)
+        lo0, lo1, lo2 = self._q_lo_f[leg]
+        hi0, hi1, hi2 = self._q_hi_f[leg]
         two_pi = 2 * math.pi
-        for k in (1, 2):  # as ik_leg
-            if q[k] < lo[k] and lo[k] <= q[k] + two_pi <= hi[k]:
-                q[k] += two_pi
-            elif q[k] > hi[k] and lo[k] <= q[k] - two_pi <= hi[k]:
-                q[k] -= two_pi
-        for j in range(3):
-            if q[j] < lo[j] or q[j] > hi[j]:
-                return None
+        # as ik_leg: the hip and knee angles wrapped by a turn when that brings them within their ranges (written
+        # out per joint: a list and loops cost a sixth of the call)
+        if q1 < lo1 and lo1 <= q1 + two_pi <= hi1:
+            q1 += two_pi
+        elif q1 > hi1 and lo1 <= q1 - two_pi <= hi1:
+            q1 -= two_pi
+        if q2 < lo2 and lo2 <= q2 + two_pi <= hi2:
+            q2 += two_pi
+        elif q2 > hi2 and lo2 <= q2 - two_pi <= hi2:
+            q2 -= two_pi
+        if q0 < lo0 or q0 > hi0 or q1 < lo1 or q1 > hi1 or q2 < lo2 or q2 > hi2:
+            return None
         # knee_body
-        qa, p1 = s0 * q[0], s1 * q[1] + a
+        qa, p1 = s0 * q0, s1 * q1 + a
         kx = -lu * math.sin(p1)
         kz = -lu * math.cos(p1) + z_flex
         yk = self._y_knee_f[leg]

@@ -22,6 +22,12 @@ from planning.swing.types import BodyMotion, GroundHeightFn, Tier
 _FEW_KNEES = 8  # up to this many knee samples, one float IK each beats the vectorized one
 # ndarray.max()/.min() without the method's Python wrapper (the same reduction: the same result, NaN included)
 _max, _min = np.maximum.reduce, np.minimum.reduce
+_NO_SAMPLES = np.zeros(0, dtype=int)  # no knee samples (read-only)
+_NO_SAMPLES.flags.writeable = False
+_NO_FLOATS = np.zeros(0)  # a verdict's arrays before they are computed (read-only)
+_NO_FLOATS.flags.writeable = False
+_NO_BOOLS = np.zeros(0, dtype=bool)
+_NO_BOOLS.flags.writeable = False
 _DIRS = np.array([[math.cos(a), math.sin(a)] for a in np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)])
 
 
@@ -110,25 +116,23 @@ class Verdict:
     undesirability: float
     miss_m: float
     blame: int | None = None  # the other leg in the worst self-collision
-    xw: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (K,) world x of the samples
-    yw: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    g: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (K,) ground height under the samples
-    obstacle: np.ndarray = field(
-        default_factory=lambda: np.zeros(0, dtype=bool)
-    )  # (K,) ground is an obstacle
+    # (the empty defaults are shared read-only arrays: a verdict's arrays are replaced, never written into)
+    xw: np.ndarray = field(default_factory=lambda: _NO_FLOATS)  # (K,) world x of the samples
+    yw: np.ndarray = field(default_factory=lambda: _NO_FLOATS)
+    g: np.ndarray = field(default_factory=lambda: _NO_FLOATS)  # (K,) ground height under the samples
+    obstacle: np.ndarray = field(default_factory=lambda: _NO_BOOLS)  # (K,) ground is an obstacle
     ring_g: np.ndarray | None = None  # (K,R) highest obstacle ground on each probe ring (−inf: none)
     any_obstacle: bool = True  # obstacle.any() (False lets the vertical checks skip the scraping test)
     foot_self_sev: float = 0.0
     near_others: list[OtherLeg] = field(default_factory=list)  # other legs close enough to matter
-    knee_idx: np.ndarray = field(
-        default_factory=lambda: np.zeros(0, dtype=int)
-    )  # samples where knees are checked
+    knee_idx: np.ndarray = field(default_factory=lambda: _NO_SAMPLES)  # samples where knees are checked
     knee_terrain: bool = False  # knees may reach the terrain here
     gentlest_foot_sev: float | None = None  # _foot_self's severity along this path with the gentlest policy
     knee_sev: tuple[float, float] = (
         0.0,
         0.0,
     )  # knee-terrain and knee-self intrusions with the aggressive policy
+    flat_height: float | None = None  # the ground's height when it is FlatGround (g is that everywhere)
 
 
 def undesirability_h(hp: HPath, params: SwingParams) -> float:
@@ -183,6 +187,20 @@ def _point_segment_f(p: list[float], a: list[float], s: tuple[float, float, floa
     return math.sqrt(ex * ex + ey * ey + ez * ez)
 
 
+def _pose_floats(body: BodyMotion, t: float) -> tuple[float, ...]:
+    """body.pose_at(t) as 12 floats (position, then the rotation row by row); without a yaw rate in Python floats
+    (the same arithmetic as pose_at's arrays: p + v·dt element by element)."""
+    if body.yaw_rate != 0.0:
+        p_w, R = body.pose_at(t)
+        return (*p_w.tolist(), *R.ravel().tolist())
+    dt = t - body.t0
+    px, py, pz = body.p_world_body.tolist()
+    if dt != 0.0:
+        vx, vy, vz = body.v_world_body.tolist()
+        px, py, pz = px + vx * dt, py + vy * dt, pz + vz * dt
+    return (px, py, pz, *body.R_world_body.ravel().tolist())
+
+
 class Analyzer:
     """Puts candidates of one leg in tiers; holds the robot and parameters, no per-tick state."""
 
@@ -203,9 +221,17 @@ class Analyzer:
         self._probe_offsets = np.vstack(
             (np.zeros((1, 2)), self._ring_offsets_dr)
         )  # the samples, then the rings
+        # their x and y columns as (n,1) arrays of their own (a slice of a column costs as much as the addition)
+        self._probe_dx, self._probe_dy = (
+            np.ascontiguousarray(self._probe_offsets[:, i : i + 1]) for i in (0, 1)
+        )
+        self._ring_dx, self._ring_dy = (
+            np.ascontiguousarray(self._ring_offsets_dr[:, i : i + 1]) for i in (0, 1)
+        )
         self._n_cliff_rings = int(np.count_nonzero(self._ring_radii < params.cliff_margin_m))
         self._knee_idx_cache: dict[int, np.ndarray] = {}
         self._no_obstacle_cache: dict[int, np.ndarray] = {}
+        self._flat_cache: dict[tuple[int, float], np.ndarray] = {}
         # per leg: the knee probe grid's fore-aft offsets (every ~4 cm) and its two lateral offsets (hip, foot)
         fore = np.linspace(-self.knee_reach, self.knee_reach, 17)
         self._knee_grid = [(fore, np.array([0.0, float(robot.abd_offset[leg])])) for leg in range(4)]
@@ -222,7 +248,7 @@ class Analyzer:
     def _terrain(self, prob: LegProblem, xw: np.ndarray, yw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ground under the samples and which samples are over an obstacle (above the reference surface)."""
         if prob.flat_height is not None:
-            g = np.full(len(xw), prob.flat_height)
+            g = self._flat(len(xw), prob.flat_height)
             return g, g  # flat ground is never an obstacle (analyze knows it: flat_height is set)
         g = np.asarray(prob.ground(xw, yw), dtype=float)
         p0, p1 = prob.p_start, prob.p_target
@@ -260,10 +286,9 @@ class Analyzer:
         directions is a reduction over the outer axis (over the inner axis of 8 it costs several times more); the
         samples themselves come first (offset 0), all in one broadcast addition per axis."""
         K = len(xw)
-        off = self._probe_offsets  # (1 + 8·R, 2): 0, then the rings direction-major
-        m = len(off) - 1
-        px = xw + off[:, 0:1]  # (1 + 8·R, K), C-contiguous: ravel is a view
-        py = yw + off[:, 1:2]
+        m = len(self._probe_dx) - 1  # 0, then the rings direction-major
+        px = xw + self._probe_dx  # (1 + 8·R, K), C-contiguous: ravel is a view
+        py = yw + self._probe_dy
         gall = np.asarray(prob.ground(px.ravel(), py.ravel()), dtype=float)
         g = gall[:K]
         h_obs = self._h_obs(prob, xw, yw)
@@ -290,8 +315,8 @@ class Analyzer:
         same probes, the same arithmetic)."""
         K = len(xw)
         off = self._ring_offsets_dr  # (8·R, 2), direction-major
-        px = xw + off[:, 0:1]  # (8·R, K)
-        py = yw + off[:, 1:2]
+        px = xw + self._ring_dx  # (8·R, K)
+        py = yw + self._ring_dy
         gr_all = np.asarray(prob.ground(px.ravel(), py.ravel()), dtype=float)
         h_obs = self._h_obs(prob, xw, yw)
         gr = _max(gr_all.reshape(8, len(off) // 8, K), axis=0)  # (R,K)
@@ -348,7 +373,13 @@ class Analyzer:
         return g
 
     # ---- the tiers ----------------------------------------------------------------------------------------
-    def analyze(self, prob: LegProblem, hp: HPath, u_total: float) -> Verdict:
+    def analyze(
+        self,
+        prob: LegProblem,
+        hp: HPath,
+        u_total: float,
+        simple: tuple[bool, float, bool] | None = None,
+    ) -> Verdict:
         """Returns the tier of hp flown with the most aggressive vertical policy.
 
         The checks run in the order that decides the tier soonest: the other legs and the reach first (a foot hitting
@@ -356,11 +387,15 @@ class Analyzer:
         (not computed where the terrain collision decides the tier). Once a candidate of this problem collided with
         the terrain, the next ones look up the ground under their samples first and the ring probes only when they
         do not collide (two smaller lookups instead of one: cheaper for a collision, dearer otherwise). Only a
-        verdict in Success, whose vertical checks read them, needs every field."""
+        verdict in Success, whose vertical checks read them, needs every field.
+
+        simple: what the simple analysis found already, (limits_ok, miss_distance, reaches) of hp."""
         pr = self.params
         c = prob.ctx
-        miss = miss_distance(hp, c)
-        if not limits_ok(hp, c):
+        if simple is None:
+            simple = (limits_ok(hp, c), miss_distance(hp, c), reaches(hp, c, pr))
+        limits, miss, reach = simple
+        if not limits:
             return Verdict(Tier.VIOLATES_CONSTRAINTS, (0.0,), u_total, miss)
         xw, yw = self.world_xy(prob, hp)
         zs = prob.zs_aggressive
@@ -382,7 +417,6 @@ class Analyzer:
                     foot_sev, blame = sev_low, blame_low
         else:
             foot_sev, blame, near = 0.0, None, None
-        reach = reaches(hp, c, pr)
         bucket = pr.severity_bucket_m
         if foot_sev > 0.0 or not reach:
             v = Verdict(
@@ -417,6 +451,7 @@ class Analyzer:
             g, _ = self._terrain(prob, xw, yw)
             obstacle, ring_g, any_obstacle = self._no_obstacle(len(xw)), None, False
         v = Verdict(Tier.SUCCESS, (u_total,), u_total, miss, None, xw, yw, g, obstacle, ring_g, any_obstacle)
+        v.flat_height = prob.flat_height
         v.near_others, v.foot_self_sev, v.gentlest_foot_sev = near_others, foot_sev, gentlest_foot_sev
         pen, scrape, h_margin = self.terrain_scores(v, zs)
         if pen > pr.penetration_tol_m:
@@ -425,8 +460,6 @@ class Analyzer:
             prob.terrain_hit = True
             v.tier, v.key = Tier.TERRAIN_COLLISION, (pen / bucket + u_total,)
             return v
-        if near is None:
-            near = np.zeros(len(xw), dtype=bool)
         v.knee_idx, v.knee_terrain = self._knee_samples(prob, g, near)
         knee_terrain, knee_self, knee_blame = self._knees(prob, near_others, v, zs)
         v.knee_sev = (knee_terrain, knee_self)
@@ -447,6 +480,11 @@ class Analyzer:
     def terrain_scores(self, v: Verdict, zs: np.ndarray) -> tuple[float, bool, float]:
         """Returns (penetration depth m, vertical margin short over an obstacle, horizontal margin m)."""
         pr = self.params
+        h = v.flat_height
+        if h is not None and len(zs):
+            # flat ground (no obstacle, no rings): min(zs − h) is min(zs) − h, subtracting a constant keeps the
+            # order, rounding included
+            return -(float(_min(zs)) - h), False, math.inf
         clear = zs - v.g
         pen = -float(_min(clear)) if len(clear) else 0.0
         # the .any() of small boolean arrays as `True in` their lists: the same answer, a tenth of the time
@@ -548,8 +586,11 @@ class Analyzer:
             near |= d < r_knee
         return (worst[0], blame[0], near[0]), (worst[1], blame[1], near[1])
 
-    def _knee_samples(self, prob: LegProblem, g: np.ndarray, near: np.ndarray) -> tuple[np.ndarray, bool]:
-        """Sample indices at which to compute knees, and whether knees can reach the terrain at all.
+    def _knee_samples(
+        self, prob: LegProblem, g: np.ndarray, near: np.ndarray | None
+    ) -> tuple[np.ndarray, bool]:
+        """Sample indices at which to compute knees, and whether knees can reach the terrain at all (near: the
+        samples near another leg, None: none is).
 
         Knees lie within knee_reach of the hips: when the hips stand higher than that above every ground height
         probed (under the path, and on a grid up to knee_reach fore and aft of the hips), no knee touches terrain;
@@ -565,9 +606,9 @@ class Analyzer:
         # on flat ground g is all flat_height (= g_knee_max)
         g_max = prob.g_knee_max if prob.flat_height is not None else max(prob.g_knee_max, float(_max(g)))
         terrain = prob.hip_z_min - self.knee_reach - g_max < pr.knee_radius_m
-        idx = self._knee_idx(len(near))
+        idx = self._knee_idx(len(g))
         if not terrain:
-            idx = idx[near[idx]]
+            idx = _NO_SAMPLES if near is None else idx[near[idx]]
         return idx, terrain
 
     def knee_grid(self, leg: int, hips: np.ndarray, c: float, sn: float) -> tuple[np.ndarray, np.ndarray]:
@@ -579,6 +620,17 @@ class Analyzer:
         oy = fore * sn
         oy += side * c
         return (hips[:, 0:1] + ox).ravel(), (hips[:, 1:2] + oy).ravel()
+
+    def _flat(self, K: int, height: float) -> np.ndarray:
+        """np.full(K, height), cached per K and height (read-only: the verdicts only read their ground)."""
+        key = (K, height)
+        a = self._flat_cache.get(key)
+        if a is None:
+            if len(self._flat_cache) > 64:
+                self._flat_cache.clear()
+            a = self._flat_cache[key] = np.full(K, height)
+            a.flags.writeable = False
+        return a
 
     def _no_obstacle(self, K: int) -> np.ndarray:
         """K samples none of which is over an obstacle (cached per K; read-only)."""
@@ -611,26 +663,21 @@ class Analyzer:
         idx = v.knee_idx
         n = len(idx)
         if n <= _FEW_KNEES:
-            kn_few, kept = self._knees_few(prob, v, zs)
-            if kn_few is None:
+            # a few knees: Python floats throughout (arrays only for a lookup of mapped ground)
+            rows, kept_l = self._knee_rows(prob, v, zs)
+            if not rows:
                 return 0.0, 0.0, None
-            kn = kn_few
-        else:
-            kn, kept_many = self._knees_many(prob, v, zs)
-            if kept_many is None:
-                return 0.0, 0.0, None
-            kept = kept_many
-        kt = 0.0
-        if v.knee_terrain:
-            gk = (
-                np.full(len(kn), prob.flat_height)
-                if prob.flat_height is not None
-                else np.asarray(prob.ground(kn[:, 0], kn[:, 1]), dtype=float)
-            )
-            kt = max(0.0, float(pr.knee_radius_m - (kn[:, 2] - gk).min()))
-        ks, blame = 0.0, None
-        if n <= _FEW_KNEES:
-            rows, kept_l = kn.tolist(), kept.tolist()
+            kt = 0.0
+            if v.knee_terrain:
+                if prob.flat_height is not None:
+                    h = prob.flat_height
+                    clear = min([r[2] - h for r in rows])  # (kn[:, 2] - gk).min(), the same differences
+                else:
+                    kn_a = np.array(rows)
+                    gk = np.asarray(prob.ground(kn_a[:, 0], kn_a[:, 1]), dtype=float)
+                    clear = float((kn_a[:, 2] - gk).min())
+                kt = max(0.0, float(pr.knee_radius_m - clear))
+            ks, blame = 0.0, None
             for o in others:
                 fcs = o.foot_center.tolist()
                 d_min = min(
@@ -641,6 +688,19 @@ class Analyzer:
                 if sev > ks:
                     ks, blame = sev, o.leg
             return kt, ks, blame
+        kn, kept_many = self._knees_many(prob, v, zs)
+        if kept_many is None:
+            return 0.0, 0.0, None
+        kept = kept_many
+        kt = 0.0
+        if v.knee_terrain:
+            gk = (
+                np.full(len(kn), prob.flat_height)
+                if prob.flat_height is not None
+                else np.asarray(prob.ground(kn[:, 0], kn[:, 1]), dtype=float)
+            )
+            kt = max(0.0, float(pr.knee_radius_m - (kn[:, 2] - gk).min()))
+        ks, blame = 0.0, None
         for o in others:
             fc = o.foot_center if len(o.foot_center) == 1 else o.foot_center[kept]
             d, _ = _point_segment(kn, fc, o.shank)
@@ -652,21 +712,28 @@ class Analyzer:
     def _knees_few(
         self, prob: LegProblem, v: Verdict, zs: np.ndarray
     ) -> tuple[np.ndarray | None, np.ndarray]:
-        """World knees (m, n×3) at a few of v's knee samples, one leg IK each in Python floats (~3 µs a row; the
-        vectorized IK costs ~35 µs, for one row as for twenty); and the samples they are at (out of reach ones
-        left out)."""
+        """World knees (m, n×3) at a few of v's knee samples (_knee_rows as arrays), and the samples they are at
+        (out of reach ones left out)."""
+        rows, kept = self._knee_rows(prob, v, zs)
+        if not rows:
+            return None, v.knee_idx
+        return np.array(rows), np.array(kept, dtype=int)
+
+    def _knee_rows(self, prob: LegProblem, v: Verdict, zs: np.ndarray) -> tuple[list[list[float]], list[int]]:
+        """World knees (m, rows of 3 floats) at a few of v's knee samples, one leg IK each in Python floats (~3 µs a
+        row; the vectorized IK costs ~35 µs, for one row as for twenty); and the samples they are at (out of reach
+        ones left out)."""
         robot, leg, rf = self.robot, prob.leg, self.r_foot
         rows: list[list[float]] = []
         kept: list[int] = []
         poses = prob.pose_floats
-        xw, yw = v.xw, v.yw
+        xw, yw, zl = v.xw.tolist(), v.yw.tolist(), zs.tolist()
         for k in v.knee_idx.tolist():
             pose = poses.get(k)
             if pose is None:
-                p_w, R = prob.body.pose_at(float(prob.ts[k]))
-                pose = poses[k] = (*p_w.tolist(), *R.ravel().tolist())
+                pose = poses[k] = _pose_floats(prob.body, float(prob.ts[k]))
             px, py, pz, r00, r01, r02, r10, r11, r12, r20, r21, r22 = pose
-            dx, dy, dz = float(xw[k]) - px, float(yw[k]) - py, float(zs[k]) + rf - pz
+            dx, dy, dz = xw[k] - px, yw[k] - py, zl[k] + rf - pz
             knee_b = robot.knee_of_foot(
                 leg,
                 r00 * dx + r10 * dy + r20 * dz,
@@ -684,9 +751,7 @@ class Analyzer:
                 ]
             )
             kept.append(k)
-        if not rows:
-            return None, v.knee_idx
-        return np.array(rows), np.array(kept, dtype=int)
+        return rows, kept
 
     def _knees_many(
         self, prob: LegProblem, v: Verdict, zs: np.ndarray

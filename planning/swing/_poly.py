@@ -25,7 +25,7 @@ class Poly1D:
     is a constant-velocity tail).
     """
 
-    __slots__ = ("breaks", "coeffs", "peak_v", "peak_a", "_tb_np", "_c_np", "_cols")
+    __slots__ = ("breaks", "coeffs", "peak_v", "peak_a", "_cols")
 
     def __init__(
         self,
@@ -38,9 +38,7 @@ class Poly1D:
         self.coeffs = coeffs
         self.peak_v = peak_v
         self.peak_a = peak_a
-        self._tb_np: np.ndarray | None = None
-        self._c_np: np.ndarray | None = None
-        self._cols: np.ndarray | None = None  # (4,P) coefficients by power, for sampling many times at once
+        self._cols: np.ndarray | None = None  # (5,P) breaks and coefficients by power, for sample_many
 
     @property
     def t_start(self) -> float:
@@ -74,32 +72,27 @@ class Poly1D:
         c0, c1, c2, c3 = self.coeffs[k]
         return c0 + tau * (c1 + tau * (c2 + tau * c3))
 
-    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        if self._tb_np is None:
-            self._tb_np = np.asarray(self.breaks, dtype=float)
-            self._c_np = np.asarray(self.coeffs, dtype=float)
-        assert self._c_np is not None
-        return self._tb_np, self._c_np
-
     def sample_many(self, ts: np.ndarray, order: int = 0) -> np.ndarray:
         """Returns p (order 0), v (1) or a (2) at the times ts (K,) as a (K,) array."""
-        if len(self.breaks) == 1:
+        br = self.breaks
+        if len(br) == 1:
             c0, c1, c2, c3 = self.coeffs[0]
-            tau = np.maximum(ts - self.breaks[0], 0.0)
+            tau = np.maximum(ts - br[0], 0.0)
         else:
-            tb = self._tb_np
             cols = self._cols
-            if tb is None or cols is None:
-                tb, c = self._arrays()
-                cols = self._cols = np.ascontiguousarray(c.T)
-            k = tb.searchsorted(ts, "right")
+            if cols is None:
+                # (5,P): the breaks, then the coefficients by power, in one conversion; one gather then gives each
+                # sample's piece start with its coefficients
+                cols = self._cols = np.array([br, *zip(*self.coeffs, strict=True)])
+            k = cols[0].searchsorted(ts, "right")
             k -= 1
             if k[0] < 0:  # before the start: hold the start state
                 np.maximum(k, 0, out=k)
-                tau = np.maximum(ts - tb[k], 0.0)
+                t_k, c0, c1, c2, c3 = cols.take(k, axis=1)
+                tau = np.maximum(ts - t_k, 0.0)
             else:
-                tau = ts - tb[k]
-            c0, c1, c2, c3 = cols.take(k, axis=1)
+                t_k, c0, c1, c2, c3 = cols.take(k, axis=1)
+                tau = ts - t_k
         if order == 0:
             return c0 + tau * (c1 + tau * (c2 + tau * c3))
         if order == 1:
@@ -118,11 +111,13 @@ class Poly1D:
 
 
 def sample_pair(a: Poly1D, b: Poly1D, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions of two trajectories with the same breaks (a path's x and y) at the times ts (K,): what
+    """Positions of two trajectories with the same breaks (a path's x and y) at the ascending times ts (K,): what
     a.sample_many(ts) and b.sample_many(ts) return, with one piece lookup and one evaluation for both."""
     br = a.breaks
     if len(br) == 1 or br != b.breaks:
         return a.sample_many(ts), b.sample_many(ts)
+    if len(br) == 2:
+        return _sample_pair_two(a, b, ts)
     tb = np.array(br)
     k = tb.searchsorted(ts, "right")
     k -= 1
@@ -133,6 +128,28 @@ def sample_pair(a: Poly1D, b: Poly1D, ts: np.ndarray) -> tuple[np.ndarray, np.nd
         tau = ts - tb[k]
     c0, c1, c2, c3 = np.array([a.coeffs, b.coeffs]).take(k, axis=1).transpose(2, 0, 1)  # each (2,K)
     out = c0 + tau * (c1 + tau * (c2 + tau * c3))
+    return out[0], out[1]
+
+
+def _sample_pair_two(a: Poly1D, b: Poly1D, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sample_pair of two-piece trajectories (one piece, then the tail: a Cubic path) at ascending ts: the first
+    piece evaluated with its coefficients as scalars at every sample (no gathering), then the samples from the
+    tail's start on (the last one or few) overwritten with the tail's, in floats. Per sample the same operations
+    as the gathered evaluation, so the same values."""
+    b0, b1 = a.breaks
+    tau = ts - b0
+    if ts[0] < b0:  # before the start: hold the start state
+        np.maximum(tau, 0.0, out=tau)
+    i = int(ts.searchsorted(b1, "left"))  # the first sample on the tail
+    tail = ts[i:].tolist()
+    out = []
+    for p in (a, b):
+        (c0, c1, c2, c3), (d0, d1, d2, d3) = p.coeffs
+        v = c0 + tau * (c1 + tau * (c2 + tau * c3))
+        for j, t in enumerate(tail, i):
+            t -= b1
+            v[j] = d0 + t * (d1 + t * (d2 + t * d3))
+        out.append(v)
     return out[0], out[1]
 
 
@@ -325,6 +342,19 @@ def rest_time(p: float, v: float, p1: float, v_max: float, a_max: float) -> floa
     return t + (2.0 * v_max - V) / a_max + (0.0 if 0.0 > cruise else cruise)
 
 
+def rest_time_still(p: float, p1: float, v_max: float, a_max: float) -> float:
+    """rest_time(p, 0.0, p1, v_max, a_max): from rest, its branches for v = 0 folded (the same value, bit for bit:
+    the fall from a swing's top, which the vertical search evaluates for every top it tries)."""
+    d = p1 - p
+    D = d if d >= 0.0 else -d  # s·d
+    q = a_max * D + 0.0  # + 0.5·V·V, which is +0.0 for V = ±0.0
+    vp = math.sqrt(0.0 if 0.0 > q else q)
+    if vp <= v_max:
+        return 2.0 * vp / a_max  # 0.0 + (2.0·vp − V) / a_max
+    cruise = (D - 2.0 * v_max * v_max / (2.0 * a_max)) / v_max
+    return 2.0 * v_max / a_max + (0.0 if 0.0 > cruise else cruise)
+
+
 def to_rest(b: Builder, p1: float, v_max: float, a_max: float) -> float:
     """Appends the time-optimal motion to rest at p1; returns the arrival time (s)."""
     n = len(b.breaks)
@@ -345,7 +375,7 @@ def coast_time(p: float, v: float, p1: float, horizon: float, v_max: float, a_ma
     if t_opt >= horizon - 1e-9:
         return 0.0  # no time to spare (a replan from the plan's own state lands here, give or take rounding)
     if abs(v) < 1e-12:
-        return horizon - rest_time(p, 0.0, p1, v_max, a_max)
+        return horizon - rest_time_still(p, p1, v_max, a_max)
     # Closed forms for the usual case (moving toward the target, no overshoot), verified before use.
     d = p1 - p
     s = 1.0 if d >= 0.0 else -1.0
@@ -401,14 +431,12 @@ def rise_hold_fall(
     horizon = t_end - b.t
     z_lo = max(z0 + v0 * abs(v0) / (2.0 * a_max), z_end)
     z_top = max(z_top, z_lo)
-
-    def total(h: float) -> float:
-        return rest_time(z0, v0, h, v_up, a_max) + rest_time(h, 0.0, z_end, v_down, a_max)
-
-    t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)  # the fall from the top (reused when the top stays)
+    # the time to rise to a top h and fall from it is rest_time(z0, v0, h, ...) + rest_time_still(h, z_end, ...),
+    # written out where it is needed (a nested function's calls cost a tenth of the search)
+    t_fall = rest_time_still(z_top, z_end, v_down, a_max)  # the fall from the top (reused when the top stays)
     t_hi = rest_time(z0, v0, z_top, v_up, a_max) + t_fall
     if t_hi > horizon:
-        t_lo = total(z_lo)
+        t_lo = rest_time(z0, v0, z_lo, v_up, a_max) + rest_time_still(z_lo, z_end, v_down, a_max)
         if t_lo > horizon + 1e-9:
             v_lim = v_down if z_end < z0 else v_up
             w = coast_time(z0, v0, z_end, horizon, v_lim, a_max)
@@ -416,13 +444,13 @@ def rise_hold_fall(
                 b.accel(w, 0.0)
             to_rest(b, z_end, v_lim, a_max)
             return w >= 0.0
-        # Illinois regula falsi on total(h) = horizon; total grows with h.
+        # Illinois regula falsi on (the rise and fall's time to a top h) = horizon; that time grows with h.
         lo, hi, f_lo, f_hi = z_lo, z_top, t_lo - horizon, t_hi - horizon
         side = 0
         h = lo
         for _ in range(30):
             h = (lo * f_hi - hi * f_lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
-            f = total(h) - horizon
+            f = rest_time(z0, v0, h, v_up, a_max) + rest_time_still(h, z_end, v_down, a_max) - horizon
             if abs(f) < 1e-6:  # s; the top found is then within a fraction of a millimeter of the highest
                 break
             if f > 0.0:
@@ -435,9 +463,9 @@ def rise_hold_fall(
                 if side == -1:
                     f_hi *= 0.5
                 side = -1
-        # f = total(h) − horizon of the last h tried, and a − b > 0 exactly when a > b
+        # f = (rise and fall time to h) − horizon of the last h tried, and a − b > 0 exactly when a > b
         z_top = lo if f > 0.0 else h
-        t_fall = rest_time(z_top, 0.0, z_end, v_down, a_max)
+        t_fall = rest_time_still(z_top, z_end, v_down, a_max)
     n = len(b.breaks)
     b.segments(rest_segments(z0, v0, z_top, v_up, a_max))
     if len(b.breaks) > n:
@@ -462,8 +490,9 @@ def rise_hold_fall_outlook(
     z_lo = max(z0 + v0 * abs(v0) / (2.0 * a_max), z_end)
     top = max(z_top, z_lo)
     if (
-        rest_time(z0, v0, top, v_up, a_max) + rest_time(top, 0.0, z_end, v_down, a_max) > horizon
-        and rest_time(z0, v0, z_lo, v_up, a_max) + rest_time(z_lo, 0.0, z_end, v_down, a_max) > horizon + 1e-9
+        rest_time(z0, v0, top, v_up, a_max) + rest_time_still(top, z_end, v_down, a_max) > horizon
+        and rest_time(z0, v0, z_lo, v_up, a_max) + rest_time_still(z_lo, z_end, v_down, a_max)
+        > horizon + 1e-9
     ):
         v_lim = v_down if z_end < z0 else v_up
         return math.inf, rest_time(z0, v0, z_end, v_lim, a_max) <= horizon + 1e-7

@@ -5,6 +5,10 @@ Each case replans its legs from states along their own swings (as the loop does 
 Per case: wall time (``p50_ms``, ``p99_ms``), this thread's CPU time (``cpu_p50_us``, ``cpu_p99_us``: other
 processes on the machine do not add to it) and, measured in a second pass, the CPU time of the bare geometry calls
 inside each replan (``geometry_cpu_us``: the ground lookups and the leg IK; the rest is the selection's own work).
+With the product's parameters most of these replans reuse the last selection (``SwingParams.reuse_selection_s``);
+``full_analysis`` gives the same cases with the full tier analysis on every replan (``reuse_selection_s=0``).
+
+Run: ``python -m planning.swing.bench`` (everything), ``--full`` (the full-analysis rows alone), ``--calls N``.
 """
 
 from __future__ import annotations
@@ -112,12 +116,13 @@ class _Geometry:
         return self._timed(ground)
 
 
-def _run(name: str, calls: int, geometry: bool = False) -> dict[str, object]:
+def _run(name: str, calls: int, geometry: bool = False, full: bool = False) -> dict[str, object]:
     """Replans the case's leg ``calls`` times: wall and thread CPU time per call (p50, p99), evaluations; with
-    ``geometry``, the CPU time of the bare geometry calls inside each call instead (p50, p99, µs)."""
+    ``geometry``, the CPU time of the bare geometry calls inside each call instead (p50, p99, µs); with ``full``,
+    every replan runs the full tier analysis (no reused selection)."""
     robot = load_robot("spot")
     geo = _Geometry(robot) if geometry else None
-    planner = SwingPlanner(robot, SwingParams())
+    planner = SwingPlanner(robot, SwingParams(reuse_selection_s=0.0) if full else SwingParams())
     req, ground, stance, body = _case(name)
     if geo is not None:
         ground = geo.ground(ground)
@@ -158,22 +163,38 @@ def _run(name: str, calls: int, geometry: bool = False) -> dict[str, object]:
     }
 
 
+_CASES = ("flat", "box", "crossing")
+
+
+def bench_full_analysis(calls: int = 300) -> dict[str, object]:
+    """The cases with the full tier analysis on every replan (SwingParams.reuse_selection_s = 0), per case as
+    bench_swing_select's."""
+    return {case: _run(case, calls, full=True) for case in _CASES}
+
+
 def bench_swing_select(calls: int = 300) -> dict[str, object]:
-    """Returns p50/p99 (ms) and evaluation counts per case; the top-level p50/p99 are the flat case's."""
-    out: dict[str, object] = {case: _run(case, calls) for case in ("flat", "box", "crossing")}
-    for case in ("flat", "box", "crossing"):
+    """Returns p50/p99 (ms) and evaluation counts per case; the top-level p50/p99 are the flat case's; and the
+    cases again with the full tier analysis on every replan (``full_analysis``)."""
+    out: dict[str, object] = {case: _run(case, calls) for case in _CASES}
+    for case in _CASES:
         # the ground lookups and the leg IK alone, timed inside the same replans (a second pass: their timers
         # would otherwise add to the times above)
         r = out[case]
         assert isinstance(r, dict)
         r["geometry_cpu_us"] = _run(case, calls, geometry=True)
     out["trot_pair"] = _trot_pair(calls)
+    out["full_analysis"] = bench_full_analysis(calls)
     flat = out["flat"]
     assert isinstance(flat, dict)
     return {"p50_ms": flat["p50_ms"], "p99_ms": flat["p99_ms"], "case": "flat", **out}
 
 
 if __name__ == "__main__":
+    import argparse
     import json
 
-    print(json.dumps(bench_swing_select(), indent=2))
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--full", action="store_true", help="only the full tier analysis on every replan")
+    ap.add_argument("--calls", type=int, default=300, help="replans per case")
+    a = ap.parse_args()
+    print(json.dumps(bench_full_analysis(a.calls) if a.full else bench_swing_select(a.calls), indent=2))

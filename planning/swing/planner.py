@@ -75,6 +75,7 @@ _WAY_SAMPLES = np.linspace(0.0, 1.0, 9)
 _ROUTE_SAMPLES = np.linspace(0.0, 1.0, 24)  # the rise-first route's samples (fractions of the way)
 _ROUTE_SAMPLES.flags.writeable = False
 _max = np.maximum.reduce  # ndarray.max() without the method's Python wrapper (the same reduction)
+_F64 = np.dtype(np.float64)
 _SHANK_CACHE_M = 0.005  # a leg's shank is recomputed once its foot moved this far in the body frame (m)
 # other legs as obstacles and their keep-out areas (heading frame), in one order
 _Obstacles = tuple[tuple[OtherLeg, ...] | list[OtherLeg], tuple[AABB, ...] | list[AABB]]
@@ -215,6 +216,9 @@ class SwingPlanner:
         # per leg: the body-frame foot center the shank was last computed for, and that shank (NaN: none yet)
         self._sc_foot = np.full((4, 3), np.nan)
         self._sc_shank = np.zeros((4, 3))
+        # the same rows as floats (the stance legs' set-up reads them every tick)
+        self._sc_foot_f: list[tuple[float, ...]] = [(math.nan,) * 3] * 4
+        self._sc_shank_f: list[tuple[float, ...]] = [(0.0,) * 3] * 4
         self._z_liftoff: list[float | None] = [None] * 4  # lift-off height of the current swing, m
         # lift-off place (x, y) of the current swing, m
         self._xy_liftoff: list[np.ndarray | None] = [None] * 4
@@ -267,6 +271,7 @@ class SwingPlanner:
         self._last_plan = [None] * 4
         self._trip = [None] * 4
         self._sc_foot[:] = np.nan
+        self._sc_foot_f = [(math.nan,) * 3] * 4
         self._z_liftoff = [None] * 4
         self._xy_liftoff = [None] * 4
         self._z_top = [None] * 4
@@ -870,7 +875,9 @@ class SwingPlanner:
         for k, a in feet.items():  # the usual case, checked in floats: float (3,) arrays of finite numbers
             if type(k) is not int or not 0 <= k < 4 or type(a) is not np.ndarray or a.shape != (3,):
                 break
-            if a.dtype != np.float64 or not math.isfinite(sum(a.tolist())):  # a sum is finite if each term is
+            # the dtype by identity first (float64 arrays share one dtype object; != converts the type each time);
+            # a sum is finite if each term is
+            if (a.dtype is not _F64 and a.dtype != np.float64) or not math.isfinite(sum(a.tolist())):
                 break
             fast[k] = a
         else:
@@ -913,6 +920,8 @@ class SwingPlanner:
             )
         self._sc_foot[leg] = p_body_foot
         self._sc_shank[leg] = shank_body
+        self._sc_foot_f[leg] = tuple(self._sc_foot[leg].tolist())
+        self._sc_shank_f[leg] = tuple(self._sc_shank[leg].tolist())
         return self._sc_shank[leg]
 
     def _shank(self, leg: int, p_foot_world: np.ndarray, body: BodyMotion, t: float) -> np.ndarray:
@@ -942,14 +951,14 @@ class SwingPlanner:
             bx = r00 * dx + r10 * dy + r20 * dz  # body frame: Rᵀ (fc − p)
             by = r01 * dx + r11 * dy + r21 * dz
             bz = r02 * dx + r12 * dy + r22 * dz
-            fx, fy, fz = self._sc_foot[j].tolist()
+            fx, fy, fz = self._sc_foot_f[j]
             if not (
                 abs(fx - bx) < _SHANK_CACHE_M
                 and abs(fy - by) < _SHANK_CACHE_M
                 and abs(fz - bz) < _SHANK_CACHE_M
             ):
                 self._shank_ik(j, np.array([bx, by, bz]))
-            hx, hy, hz = self._sc_shank[j].tolist()
+            hx, hy, hz = self._sc_shank_f[j]
             rows.append([x, y, z, r00 * hx + r01 * hy + r02 * hz, r10 * hx + r11 * hy + r12 * hz,
                          r20 * hx + r21 * hy + r22 * hz])  # fmt: skip
         arr = np.array(rows)
@@ -958,11 +967,14 @@ class SwingPlanner:
         boxes = []
         for i, (x, y, _, sx, sy, _) in enumerate(rows):
             x1, y1 = x + sx, y + sy
-            others.append(
-                OtherLeg(legs[i], fc[i : i + 1], shank[i], (min(x, x1), max(x, x1), min(y, y1), max(y, y1)))
-            )
+            # min(a, b) and max(a, b) as the builtins pick them (b only when strictly smaller or larger), inline
+            box = (x1 if x1 < x else x, x1 if x1 > x else x, y1 if y1 < y else y, y1 if y1 > y else y)
+            others.append(OtherLeg(legs[i], fc[i : i + 1], shank[i], box))
             ax, ay, bx, by = c * x + s * y, c * y - s * x, c * x1 + s * y1, c * y1 - s * x1
-            boxes.append((min(ax, bx) - r, max(ax, bx) + r, min(ay, by) - r, max(ay, by) + r))
+            boxes.append(
+                ((bx if bx < ax else ax) - r, (bx if bx > ax else ax) + r,
+                 (by if by < ay else ay) - r, (by if by > ay else ay) + r)
+            )  # fmt: skip
         return others, boxes
 
     @staticmethod
@@ -994,18 +1006,21 @@ class SwingPlanner:
             evaluations += 1
             # Simple analysis: the best tier and key this policy could reach.
             u = undesirability_h(hp, pr) + prob.u_z_aggressive
-            if not limits_ok(hp, c):
+            limits = limits_ok(hp, c)
+            miss = miss_distance(hp, c)
+            reach = hp.t_arrive <= c.t_end + 1e-6 and miss <= pr.xy_reach_tol_m  # reaches(hp, c, pr)
+            if not limits:
                 opt: tuple[int, tuple[float, ...]] = (Tier.VIOLATES_CONSTRAINTS, (0.0,))
-            elif not reaches(hp, c, pr):
+            elif not reach:
                 hyst = pr.miss_hysteresis_m if name == prob.previous_policy else 0.0
-                opt = (Tier.XY_CANT_REACH, (miss_distance(hp, c) - hyst,))
+                opt = (Tier.XY_CANT_REACH, (miss - hyst,))
             else:
                 opt = (Tier.SUCCESS if prob.z_ok else Tier.XY_SUCCESS_Z_IMPOSSIBLE, (u,))
             if name != DEFAULT_POLICY and opt[0] == Tier.VIOLATES_CONSTRAINTS:
                 continue
             if best is not None and name != DEFAULT_POLICY and not _could_beat(opt, best):
                 continue
-            v = self.analyzer.analyze(prob, hp, u)
+            v = self.analyzer.analyze(prob, hp, u, (limits, miss, reach))
             if name == DEFAULT_POLICY:
                 default = (hp, v)
             if v.tier == Tier.VIOLATES_CONSTRAINTS:

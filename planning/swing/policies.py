@@ -173,10 +173,11 @@ def bbw_then_cubic(c: LegCtx) -> HPath | None:
 def _segment_hits_box(
     a: tuple[float, float], b: tuple[float, float], box: AABB, shrink: float = 1e-6
 ) -> bool:
-    """True when the segment a→b passes through the open box (Liang–Barsky slab test)."""
-    x0, x1, y0, y1 = box[0] + shrink, box[1] - shrink, box[2] + shrink, box[3] - shrink
+    """True when the segment a→b passes through the open box (Liang–Barsky slab test, the two axes written out;
+    max and min as the builtins pick them: the first of equal values)."""
     t_lo, t_hi = 0.0, 1.0
-    for p, d, lo, hi in ((a[0], b[0] - a[0], x0, x1), (a[1], b[1] - a[1], y0, y1)):
+    for p, d, lo, hi in ((a[0], b[0] - a[0], box[0] + shrink, box[1] - shrink),
+                         (a[1], b[1] - a[1], box[2] + shrink, box[3] - shrink)):  # fmt: skip
         if abs(d) < 1e-15:
             if p <= lo or p >= hi:
                 return False
@@ -184,7 +185,10 @@ def _segment_hits_box(
         ta, tb = (lo - p) / d, (hi - p) / d
         if ta > tb:
             ta, tb = tb, ta
-        t_lo, t_hi = max(t_lo, ta), min(t_hi, tb)
+        if ta > t_lo:  # max(t_lo, ta)
+            t_lo = ta
+        if tb < t_hi:  # min(t_hi, tb)
+            t_hi = tb
         if t_lo >= t_hi:
             return False
     return True

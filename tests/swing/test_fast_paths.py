@@ -62,7 +62,8 @@ def test_the_float_knees_are_the_vectorized_ones() -> None:
 
 
 def test_sample_pair_is_sample_many_of_each() -> None:
-    """The paths' x and y sampled together (one piece lookup) give each axis's sample_many, bit for bit."""
+    """The paths' x and y sampled together (one piece lookup; a Cubic path's two pieces without gathering) give
+    each axis's sample_many, bit for bit."""
     from planning.swing._poly import sample_pair
     from planning.swing.policies import HORIZONTAL_POLICIES, LegCtx
 
@@ -72,15 +73,16 @@ def test_sample_pair_is_sample_many_of_each() -> None:
         p0 = tuple(rng.normal(0.0, 0.2, 2).tolist())
         ctx = LegCtx(0.1, 0.1 + rng.uniform(0.1, 0.4), p0, tuple(rng.normal(0.0, 1.0, 2).tolist()),
                      tuple(rng.normal(0.0, 0.2, 2).tolist()), 4.0, 80.0, [], 0.03, 0.1, [])  # fmt: skip
-        ts = np.linspace(ctx.t0 - 0.01, ctx.t_end + 0.05, 20)
-        for _, fn in HORIZONTAL_POLICIES:
-            hp = fn(ctx)
-            if hp is None:
-                continue
-            hx, hy = sample_pair(hp.x, hp.y, ts)
-            assert hx.tobytes() == hp.x.sample_many(ts).tobytes()
-            assert hy.tobytes() == hp.y.sample_many(ts).tobytes()
-            pairs += hp.x.breaks == hp.y.breaks
+        # beyond both ends, and the problem's own sample times (the last one on a Cubic path's tail)
+        for ts in (np.linspace(ctx.t0 - 0.01, ctx.t_end + 0.05, 20), np.linspace(ctx.t0, ctx.t_end, 20)):
+            for _, fn in HORIZONTAL_POLICIES:
+                hp = fn(ctx)
+                if hp is None:
+                    continue
+                hx, hy = sample_pair(hp.x, hp.y, ts)
+                assert hx.tobytes() == hp.x.sample_many(ts).tobytes()
+                assert hy.tobytes() == hp.y.sample_many(ts).tobytes()
+                pairs += hp.x.breaks == hp.y.breaks
     assert pairs > 40
 
 

@@ -8,6 +8,7 @@ from planning.swing._poly import (
     Builder,
     coast_time,
     rest_time,
+    rest_time_still,
     rise_hold_fall,
     rise_hold_fall_outlook,
     to_rest,
@@ -104,3 +105,20 @@ def test_rise_hold_fall_outlook_bounds_the_height_and_says_when_it_arrives(z0, v
     assert on_time == ok
     _, Z, _, _ = _dense(poly, 0.0, T)
     assert Z.max() <= peak + 1e-9
+
+
+def test_rest_time_still_is_rest_time_from_rest_bit_for_bit() -> None:
+    """rest_time_still (the fall from a swing's top) folds rest_time's branches for v = 0: the same value, bit for
+    bit, on random ends, zero-length moves and both signs of zero."""
+    import random
+    import struct
+
+    rng = random.Random(3)
+    special = [0.0, -0.0, 1e-300, -1e-300, 0.1, -0.1, 0.3]
+    for _ in range(20000):
+        p = rng.choice([rng.uniform(-1.0, 1.0), rng.choice(special)])
+        p1 = rng.choice([rng.uniform(-1.0, 1.0), rng.choice(special), p, -p, p + rng.uniform(-1e-12, 1e-12)])
+        v_max = rng.choice([rng.uniform(0.01, 5.0), 2.0, 1.5])
+        a_max = rng.choice([rng.uniform(0.5, 100.0), 60.0, 14.0])
+        want, got = rest_time(p, 0.0, p1, v_max, a_max), rest_time_still(p, p1, v_max, a_max)
+        assert struct.pack("d", want) == struct.pack("d", got), (p, p1, v_max, a_max)
