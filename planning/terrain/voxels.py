@@ -212,14 +212,15 @@ class VoxelMap:
         i0 = np.array([self._ix0, self._iy0, self._iz0], dtype=np.float64)
         o_vox = o[np.minimum(bounds[:-1], len(n_k) - 1)] / self.res - i0  # each chunk's (one camera's) origin
         lim = np.array([[n], [n], [nz]], dtype=np.uint32)
-        uT = u.T
+        uT = np.ascontiguousarray(u.T)  # (each chunk's repeat reads three contiguous rows)
         for c, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
             nk = n_k[a:b]
             m = int(nk.sum())
             if m == 0:
                 continue
-            s = np.arange(m, dtype=np.float64)
-            s += np.repeat(0.5 - (np.cumsum(nk) - nk), nk)  # k + 1/2 (exact: half-integers)
+            # k + 1/2 (exact: half-integers), the chunk's sample numbers read from a kept ramp, not made anew
+            s = np.repeat(0.5 - (np.cumsum(nk) - nk), nk)
+            s += _ramp(m)
             xyz = np.repeat(uT[:, a:b], nk, axis=1)
             xyz *= s
             xyz += o_vox[c][:, None]
@@ -245,9 +246,16 @@ class VoxelMap:
         i0 = np.array([self._ix0, self._iy0, self._iz0], dtype=np.float64)
         lo = (i0 - 1.5) * res
         hi = (i0 + n + 0.5) * res
-        inside = np.all((o > lo) & (o < hi), axis=1)
+        ok = (o > lo) & (o < hi)
+        inside = ok[:, 0] & ok[:, 1] & ok[:, 2]  # (not all over axis 1: slow)
+        # Per axis, the distance along the ray to the face it heads for, (hi - o) / u or (lo - o) / u (one quotient
+        # per axis, not both), +inf along an axis it does not move on.
+        t_axis = np.where(u > 0, hi, lo)
+        t_axis -= o
         with np.errstate(divide="ignore", invalid="ignore"):
-            t_axis = np.where(u > 0, (hi - o) / u, np.where(u < 0, (lo - o) / u, np.inf))
+            t_axis /= u
+        if not u.all():
+            t_axis[u == 0] = np.inf
         t_exit = np.minimum(
             np.minimum(t_axis[:, 0], t_axis[:, 1]), t_axis[:, 2]
         )  # (not min over axis 1: slow)
@@ -427,6 +435,19 @@ class VoxelMap:
 
 
 _CARVE_CHUNK = 32768
+_RAMP: list[NDArray[np.float64]] = [np.zeros(0)]
+
+
+def _ramp(m: int) -> NDArray[np.float64]:
+    """Gives np.arange(m, dtype=float64) (read-only; one kept array, grown when a longer one is asked for)."""
+    ramp = _RAMP[0]
+    if ramp.size < m:
+        ramp = np.arange(max(m, 2 * ramp.size), dtype=np.float64)
+        ramp.flags.writeable = False
+        _RAMP[0] = ramp
+    return ramp[:m]
+
+
 _NO_VOXELS = (np.zeros(0, np.intp), np.zeros(0, np.intp))
 
 
