@@ -458,7 +458,8 @@ def _first_true(a: NDArray[np.bool_]) -> NDArray[np.intp]:
     rows = a.shape[0]
     if rows < 256:
         # rows - row where True, 0 where not, in one byte (half the bytes of int16 to write and reduce)
-        k8 = np.multiply(a, np.arange(rows, 0, -1, dtype=np.uint8)[:, None], dtype=np.uint8)
+        # (the bools read as bytes: a uint8 product, where a bool × uint8 one casts every element first)
+        k8 = np.multiply(a.view(np.uint8), np.arange(rows, 0, -1, dtype=np.uint8)[:, None])
         return rows - np.asarray(k8.max(axis=0), dtype=np.intp)
     dtype = np.int16 if rows < 2**15 else np.int64
     # row - rows where True, 0 where not (a product: several times faster than np.where with a broadcast row index)

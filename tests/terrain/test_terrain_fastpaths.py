@@ -1,6 +1,7 @@
 """The perception's whole-array fast paths against simple reference implementations on random inputs: the min / max
 filters (gridops.py) against scipy.ndimage, the voxel carving and classification against a ray-by-ray and a
-column-by-column version, the SDF, the ground fill and the first-true search against their plain forms."""
+column-by-column version, the SDF, the ground fill, the nearest known cell and the first-true search against their
+plain forms."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from planning.terrain.gridops import (
     square_filter,
     window_1d,
 )
-from planning.terrain.maps import _disk, _fill_ground, signed_distance
+from planning.terrain.maps import _disk, _fill_ground, _nearest_known, signed_distance
 from planning.terrain.sensor import PointCloud
 from planning.terrain.voxels import VoxelMap, VoxelParams, _first_true
 
@@ -344,3 +345,25 @@ def test_obstacle_layers_between_heights_equal_a_direct_count(seed: int) -> None
     got = _any_between(vox, z0, dz, z_lo, z_hi)
     inside = (zc >= z_lo[..., None] - 1e-9 * dz) & (zc <= z_hi[..., None] + 1e-9 * dz)
     np.testing.assert_array_equal(got, np.count_nonzero(obstacle & inside, axis=2) > 0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2**31))
+def test_nearest_known_equals_feature_transform(seed: int) -> None:
+    """The ground fill's nearest known cell, by its direct search (few unknown cells) or not: the same cell as
+    ndimage's feature transform of the unknown cells, ties included (blocks of unknown cells and few known ones make
+    equidistant cells common)."""
+    rng = np.random.default_rng(seed)
+    nx, ny = (int(v) for v in rng.integers(1, 50, 2))
+    known = rng.random((nx, ny)) < rng.uniform(0.0, 1.0)
+    if seed % 2:
+        i0, j0 = int(rng.integers(0, nx)), int(rng.integers(0, ny))
+        known[i0 : i0 + int(rng.integers(1, 25)), j0 : j0 + int(rng.integers(1, 25))] = False
+    if seed % 5 == 0:
+        known[:] = True
+        known[rng.integers(0, nx, 3), rng.integers(0, ny, 3)] = False
+    if not known.any():
+        known[int(rng.integers(0, nx)), int(rng.integers(0, ny))] = True
+    ft = np.empty((2, nx, ny), np.int32)
+    ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True, indices=ft)
+    np.testing.assert_array_equal(_nearest_known(known), ft[0] * ny + ft[1])
