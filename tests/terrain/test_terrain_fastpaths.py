@@ -76,12 +76,31 @@ def test_distance_transform_equals_ndimage(seed: int) -> None:
     np.testing.assert_array_equal(distance_transform(~m), ndimage.distance_transform_edt(~m))
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2**31))
+def test_distance_transform_either_way_round_and_with_the_edge_equals_ndimage(seed: int) -> None:
+    """Lines of False cells along either axis (the transform then runs on the grid or on its transpose), and the
+    edge as False cells: the same distances as ndimage's on the grid, and on the grid padded by a False cell."""
+    rng = np.random.default_rng(seed)
+    m = _grid(seed, bool_=True) | (rng.random() < 0.5)
+    n0, n1 = m.shape
+    if seed % 3 == 0:
+        m[rng.integers(0, n0, int(rng.integers(1, 4))), :] = False
+    elif seed % 3 == 1:
+        m[:, rng.integers(0, n1, int(rng.integers(1, 4)))] = False
+    np.testing.assert_array_equal(distance_transform(m), ndimage.distance_transform_edt(m))
+    padded = ndimage.distance_transform_edt(pad2(m, 1, False))[1:-1, 1:-1]
+    np.testing.assert_array_equal(distance_transform(m, edge=True), padded)
+
+
 @pytest.mark.parametrize("shape", [(1, 1), (2, 1), (1, 3), (5, 4)])
 def test_distance_transform_of_a_mask_with_no_false_cell_equals_ndimage(shape: tuple[int, int]) -> None:
     # The case a random mask hits now and then (found by the property test above on a clean clone): all True.
     m = np.ones(shape, bool)
     np.testing.assert_array_equal(distance_transform(m), ndimage.distance_transform_edt(m))
     np.testing.assert_array_equal(distance_transform(~m), ndimage.distance_transform_edt(~m))
+    padded = ndimage.distance_transform_edt(pad2(m, 1, False))[1:-1, 1:-1]
+    np.testing.assert_array_equal(distance_transform(m, edge=True), padded)
 
 
 def test_disk_filter_refuses_a_footprint_it_cannot_split_into_rows() -> None:
