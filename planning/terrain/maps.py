@@ -384,6 +384,7 @@ def _fill_ground(
     front_f = np.zeros((nx + 2, w), dtype=bool)
     around = _around_offsets(w)
     cap_f = drop_f = None
+    any_drop = False  # whether drop_f holds a drop yet
     if cap is not None:
         cap_f = np.full((nx + 2, w), np.inf)
         cap_f[1:-1, 1:-1] = cap
@@ -402,11 +403,24 @@ def _fill_ground(
             flat[idx] = flat.take(around + idx).min(axis=0)
         else:
             at = around + idx
-            arg = flat.take(at).argmin(axis=0)
-            src = at[arg, np.arange(idx.size)]
-            vals = flat[src]
+            around_vals = flat.take(at)
             c = cap_f[idx]
-            drop_f[idx] = (c < vals - drop_m) | drop_f[src]
+            vals = None
+            if not any_drop:
+                # No cell is a drop yet, so none passes one on: the lowest value alone, not which cell holds it
+                # (the value of argmin's cell, bit for bit, unless it is a zero or NaN, whose ties can differ in
+                # their bits: then argmin's, below). Most of a fill's cells are filled in its first round.
+                vals = around_vals.min(axis=0)
+                if not (np.abs(vals) > 0.0).all():
+                    vals = None
+            if vals is None:
+                src = at[around_vals.argmin(axis=0), np.arange(idx.size)]
+                vals = flat[src]
+                new_drop = (c < vals - drop_m) | drop_f[src]
+            else:
+                new_drop = c < vals - drop_m
+            drop_f[idx] = new_drop
+            any_drop = any_drop or bool(new_drop.any())
             flat[idx] = np.minimum(vals, c)
         known_f.reshape(-1)[idx] = True
     h = np.ascontiguousarray(h)
