@@ -450,7 +450,8 @@ def _fit_planes(
     cx, cy = 0.5 * (float(xs[0]) + float(xs[-1])), 0.5 * (float(ys[0]) + float(ys[-1]))
     u, v = xs - cx, ys - cy
     zr = float(h.mean())
-    m = labels.reshape(-1)
+    # (bincount's own index type: converted once, not in each of the bincounts)
+    m = labels.reshape(-1).astype(np.intp)
     rows, cols = _row_col_index(nx, ny)
     key_r = m * nx
     key_r += rows
