@@ -390,13 +390,22 @@ def _fill_ground(
         cap_f[1:-1, 1:-1] = cap
         cap_f = cap_f.reshape(-1)
         drop_f = np.zeros((nx + 2) * w, dtype=bool)
+    # The first round's frontier from the whole grid; after it, the cells left unknown (a fraction of them: the holes
+    # wider than a cell or two) are listed once, and each round's frontier is those with a known 3 × 3 neighbour.
+    known_flat = known_f.reshape(-1)
+    unknown = None  # after the first round: the unknown cells (flat framed), in order
     for _ in range(fill_min_cells):
-        rows = known_f[:, :-2] | known_f[:, 1:-1]
-        rows |= known_f[:, 2:]
-        near = rows[:-2] | rows[1:-1]
-        near |= rows[2:]
-        np.greater(near, known, out=front_f[1:-1, 1:-1])  # near and not known
-        idx = np.flatnonzero(front_f)
+        if unknown is None:
+            rows = known_f[:, :-2] | known_f[:, 1:-1]
+            rows |= known_f[:, 2:]
+            near = rows[:-2] | rows[1:-1]
+            near |= rows[2:]
+            np.greater(near, known, out=front_f[1:-1, 1:-1])  # near and not known
+            idx = np.flatnonzero(front_f)
+        else:
+            beside = known_flat.take(around + unknown).any(axis=0)
+            idx = unknown[beside]
+            unknown = unknown[~beside]
         if idx.size == 0:  # all known
             break
         if cap_f is None or drop_f is None:
@@ -422,7 +431,10 @@ def _fill_ground(
             drop_f[idx] = new_drop
             any_drop = any_drop or bool(new_drop.any())
             flat[idx] = np.minimum(vals, c)
-        known_f.reshape(-1)[idx] = True
+        known_flat[idx] = True
+        if unknown is None:
+            np.logical_not(known, out=front_f[1:-1, 1:-1])  # (the frame stays False)
+            unknown = np.flatnonzero(front_f)
     h = np.ascontiguousarray(h)
     drop = None if drop_f is None else drop_f.reshape(nx + 2, w)[1:-1, 1:-1].copy()
     if not known.all():
