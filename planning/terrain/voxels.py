@@ -354,7 +354,8 @@ class VoxelMap:
                 first_many = _first_true(band_m >= p.free_floor_misses * w)
                 below = ~has_ground & (first_many < top + 1 - mlo)
                 below &= ~any_occ | (first_many + mlo < k_ground)
-                free_floor[below] = self.z0 + (first_many[below] + mlo - 0.5) * self.res
+                b = np.flatnonzero(below)  # (one search for the gather and the scatter, not one each)
+                free_floor[b] = self.z0 + (first_many.take(b) + mlo - 0.5) * self.res
         # Ground height: mean z of the points in the ground voxel and, for a thin surface, the one above it (thin:
         # the voxel above is occupied and the one above that is not).
         occ_flat = occ.reshape(-1)
