@@ -1,14 +1,17 @@
-"""Record depth scans and the maps perception builds from them; later, replay the scans and compare the maps.
+"""Record depth scans and the maps and regions perception builds from them; later, replay the scans and compare.
 
-A change to the perception (voxels.py, memory.py, maps.py) that should not change its output is checked by
-recording with the code before it and comparing with the code after it:
+A change to the perception (voxels.py, memory.py, maps.py, regions.py) that should not change its output is checked
+by recording with the code before it and comparing with the code after it:
 
     python -m benchmarks.perception_replay record /tmp/scans.npz      # the code before the change
     python -m benchmarks.perception_replay compare /tmp/scans.npz     # the code after: prints every difference
 
 Scans are taken on each terrain with a stand-in body (as `footfall bench --only perception`) moved 0.1 m a scan,
 swaying sideways, so the map shifts and sees new ground; the replay feeds the recorded clouds (noise included)
-through a fresh voxel map, ground memory and map building, so the sensor's ray casting is not part of the check.
+through a fresh voxel map, ground memory and map building, so the sensor's ray casting is not part of the check. The
+steppable regions (`segment_regions` with its default parameters, no cover, as `footfall bench` runs it) of each
+scan's maps are recorded and compared too (`--no-regions`: maps only, for recordings made without them). To record
+with another checkout's planning code, run this file by path with that checkout on PYTHONPATH.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ MAP_FIELDS = (
     "ground_height", "observed", "body_obstacle", "step_obstacle", "sdf_body_m", "sdf_step_m", "grad_sdf_body",
     "grad_sdf_step", "clearance_m",
 )  # fmt: skip
+REGION_FIELDS = ("labels", "inset", "depth_m", "normals", "z0", "xy0", "roughness_m", "area_m2")
 TERRAINS = ("stairs", "clutter", "stones", "under-table", "rough", "slope")
 
 
@@ -33,6 +37,7 @@ def record(path: str, scans: int = 10, terrains: tuple[str, ...] = TERRAINS) -> 
 
     from planning.terrain.bench import _STAND_IN
     from planning.terrain.perception import Perception
+    from planning.terrain.regions import RegionParams, segment_regions
     from planning.terrain.scenes import build_terrain
 
     out: dict[str, Any] = {}
@@ -58,21 +63,28 @@ def record(path: str, scans: int = 10, terrains: tuple[str, ...] = TERRAINS) -> 
             out[f"{key}/origin_xy"] = np.asarray(maps.origin_xy)
             for name in MAP_FIELDS:
                 out[f"{key}/{name}"] = getattr(maps, name)
+            regions = segment_regions(maps, RegionParams(), cover=False)
+            for name in REGION_FIELDS:
+                out[f"{key}/regions/{name}"] = getattr(regions, name)
     np.savez_compressed(path, **out)
     print(f"recorded {scans} scans of {len(terrains)} terrains into {path}")
 
 
-def compare(path: str) -> int:
-    """Replays the recorded scans and compares each map with the recorded one; gives the number of differing arrays
-    (0: every map the same, bit for bit)."""
+def compare(path: str, regions: bool = True) -> int:
+    """Replays the recorded scans and compares each map (and with regions, each scan's regions) with the recorded
+    one; gives the number of differing arrays (0: every map and region array the same, bit for bit)."""
     from planning.terrain.maps import build_maps
     from planning.terrain.memory import GroundMemory
     from planning.terrain.perception import PerceptionParams
+    from planning.terrain.regions import RegionParams, segment_regions
     from planning.terrain.sensor import PointCloud
     from planning.terrain.voxels import VoxelMap
 
     rec = np.load(path)
-    keys = sorted({k.rsplit("/", 1)[0] for k in rec.files})
+    keys = sorted({k.rsplit("/", 1)[0] for k in rec.files if "/regions/" not in k})
+    if regions and not any("/regions/" in k for k in rec.files):
+        print(f"{path} holds no regions (recorded without them): run with --no-regions")
+        return 1
     params = PerceptionParams()
     state: dict[str, tuple[VoxelMap, GroundMemory]] = {}
     bad = 0
@@ -104,8 +116,17 @@ def compare(path: str) -> int:
                     d = np.abs(np.where(np.isfinite(want) & np.isfinite(got), want - got, 0.0))
                     print(f"{key} {name}: max difference {float(d.max()):.3g}; finite where not: "
                           f"{int(np.count_nonzero(np.isfinite(want) != np.isfinite(got)))} cells")  # fmt: skip
+        if regions:
+            seg = segment_regions(maps, RegionParams(), cover=False)
+            for name in REGION_FIELDS:
+                want, got = rec[f"{key}/regions/{name}"], getattr(seg, name)
+                if want.shape != got.shape or not np.array_equal(want, got):
+                    bad += 1
+                    n_bad = int(np.count_nonzero(want != got)) if want.shape == got.shape else -1
+                    print(f"{key} regions {name}: {n_bad} entries differ (-1: another shape)")
+    what = "map and region" if regions else "map"
     print(
-        f"{len(keys)} scans replayed, {bad} map arrays differ; voxels to maps {np.median(times):.2f} ms CPU p50"
+        f"{len(keys)} scans replayed, {bad} {what} arrays differ; voxels to maps {np.median(times):.2f} ms CPU p50"
     )
     return bad
 
@@ -120,11 +141,12 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--scans", type=int, default=10, help="scans per terrain (default 10)")
     c = sub.add_parser("compare", help="replay the saved clouds and compare the maps")
     c.add_argument("path")
+    c.add_argument("--no-regions", action="store_true", help="compare the maps only")
     a = ap.parse_args(argv)
     if a.cmd == "record":
         record(a.path, a.scans)
         return 0
-    return 1 if compare(a.path) else 0
+    return 1 if compare(a.path, regions=not a.no_regions) else 0
 
 
 if __name__ == "__main__":

@@ -237,15 +237,42 @@ def _indices(shape: tuple[int, int]) -> tuple[NDArray[np.int32], NDArray[np.int3
     return ij
 
 
-def distance_transform(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+def distance_transform(mask: NDArray[np.bool_], edge: bool = False) -> NDArray[np.float64]:
     """Gives ndimage.distance_transform_edt(mask) of a 2D grid (per True cell the Euclidean distance in cells to
-    the nearest False cell, 0 on False cells): the same feature transform, then the squared distances summed in
-    int32 (exact) and one square root, where ndimage goes through float64 copies of the offsets: the same values,
-    ~20 % less time on the maps' 133 × 133 grids."""
-    if mask.all():
-        # No False cell to measure to: the feature transform's indices are undefined (ours would give NaN); ndimage's
-        # own answer for this case, so the maps match it whatever the grid holds.
-        return np.asarray(ndimage.distance_transform_edt(mask), dtype=np.float64)
+    the nearest False cell, 0 on False cells); edge: the cells just beyond the grid count as False too (the same as
+    the transform of the grid padded by a False cell on every side, without the padding).
+
+    The same squared distances as ndimage's (integers: its feature transform is exact, whichever cell it picks among
+    equidistant ones), summed in int32 and rooted once, where ndimage goes through float64 copies of the offsets
+    (~20 % less time on the maps' 133 × 133 grids). The transform runs on the grid or its transpose, whichever has
+    fewer rows holding a False cell: its second pass, along each row, weighs the nearest False cell of every column
+    that holds one, and runs ~1.2–1.4× faster with fewer of those columns (the stairs' regions: their edges run
+    across the map's rows). The edge is added afterwards: the nearest cell beyond the grid lies straight out from a
+    cell, so its squared distance is the least of (i + 1)², (n0 - i)², (j + 1)², (n1 - j)²."""
+    mask = np.asarray(mask, dtype=bool)
+    n0, n1 = (int(v) for v in mask.shape)
+    free = ~mask
+    rows_free = int(np.count_nonzero(free.any(axis=1)))
+    if rows_free == 0:
+        if not edge:
+            # No False cell to measure to: the feature transform's indices are undefined (ours would give NaN);
+            # ndimage's own answer for this case, so the maps match it whatever the grid holds.
+            return np.asarray(ndimage.distance_transform_edt(mask), dtype=np.float64)
+        d2 = _edge_squared((n0, n1)).copy()
+    else:
+        cols_free = int(np.count_nonzero(free.any(axis=0)))
+        if rows_free < cols_free:
+            d2 = np.ascontiguousarray(_squared_distances(np.ascontiguousarray(mask.T)).T)
+        else:
+            d2 = _squared_distances(mask)
+        if edge:
+            np.minimum(d2, _edge_squared((n0, n1)), out=d2)
+    return np.sqrt(d2, dtype=np.float64)
+
+
+def _squared_distances(mask: NDArray[np.bool_]) -> NDArray[np.int32]:
+    """Gives per cell the squared distance (cells²) to the nearest False cell of a grid holding one, from ndimage's
+    feature transform."""
     shape = (int(mask.shape[0]), int(mask.shape[1]))
     ft = np.empty((2, *shape), np.int32)
     ndimage.distance_transform_edt(mask, return_distances=False, return_indices=True, indices=ft)
@@ -257,4 +284,20 @@ def distance_transform(mask: NDArray[np.bool_]) -> NDArray[np.float64]:
     dj -= j
     dj *= dj
     d2 += dj
-    return np.sqrt(d2, dtype=np.float64)
+    return d2
+
+
+_EDGE: dict[tuple[int, int], NDArray[np.int32]] = {}
+
+
+def _edge_squared(shape: tuple[int, int]) -> NDArray[np.int32]:
+    """Gives per cell the squared distance (cells²) to the nearest cell just beyond the grid (read-only, made once
+    per shape)."""
+    e = _EDGE.get(shape)
+    if e is None:
+        i, j = _indices(shape)
+        e = np.minimum(np.minimum(i + 1, shape[0] - i), np.minimum(j + 1, shape[1] - j))
+        e *= e
+        e.flags.writeable = False
+        _EDGE[shape] = e
+    return e

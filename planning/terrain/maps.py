@@ -384,40 +384,62 @@ def _fill_ground(
     front_f = np.zeros((nx + 2, w), dtype=bool)
     around = _around_offsets(w)
     cap_f = drop_f = None
+    any_drop = False  # whether drop_f holds a drop yet
     if cap is not None:
         cap_f = np.full((nx + 2, w), np.inf)
         cap_f[1:-1, 1:-1] = cap
         cap_f = cap_f.reshape(-1)
         drop_f = np.zeros((nx + 2) * w, dtype=bool)
+    # The first round's frontier from the whole grid; after it, the cells left unknown (a fraction of them: the holes
+    # wider than a cell or two) are listed once, and each round's frontier is those with a known 3 × 3 neighbour.
+    known_flat = known_f.reshape(-1)
+    unknown = None  # after the first round: the unknown cells (flat framed), in order
     for _ in range(fill_min_cells):
-        rows = known_f[:, :-2] | known_f[:, 1:-1]
-        rows |= known_f[:, 2:]
-        near = rows[:-2] | rows[1:-1]
-        near |= rows[2:]
-        np.greater(near, known, out=front_f[1:-1, 1:-1])  # near and not known
-        idx = np.flatnonzero(front_f)
+        if unknown is None:
+            rows = known_f[:, :-2] | known_f[:, 1:-1]
+            rows |= known_f[:, 2:]
+            near = rows[:-2] | rows[1:-1]
+            near |= rows[2:]
+            np.greater(near, known, out=front_f[1:-1, 1:-1])  # near and not known
+            idx = np.flatnonzero(front_f)
+        else:
+            beside = known_flat.take(around + unknown).any(axis=0)
+            idx = unknown[beside]
+            unknown = unknown[~beside]
         if idx.size == 0:  # all known
             break
         if cap_f is None or drop_f is None:
             flat[idx] = flat.take(around + idx).min(axis=0)
         else:
             at = around + idx
-            arg = flat.take(at).argmin(axis=0)
-            src = at[arg, np.arange(idx.size)]
-            vals = flat[src]
+            around_vals = flat.take(at)
             c = cap_f[idx]
-            drop_f[idx] = (c < vals - drop_m) | drop_f[src]
+            vals = None
+            if not any_drop:
+                # No cell is a drop yet, so none passes one on: the lowest value alone, not which cell holds it
+                # (the value of argmin's cell, bit for bit, unless it is a zero or NaN, whose ties can differ in
+                # their bits: then argmin's, below). Most of a fill's cells are filled in its first round.
+                vals = around_vals.min(axis=0)
+                if not (np.abs(vals) > 0.0).all():
+                    vals = None
+            if vals is None:
+                src = at[around_vals.argmin(axis=0), np.arange(idx.size)]
+                vals = flat[src]
+                new_drop = (c < vals - drop_m) | drop_f[src]
+            else:
+                new_drop = c < vals - drop_m
+            drop_f[idx] = new_drop
+            any_drop = any_drop or bool(new_drop.any())
             flat[idx] = np.minimum(vals, c)
-        known_f.reshape(-1)[idx] = True
+        known_flat[idx] = True
+        if unknown is None:
+            np.logical_not(known, out=front_f[1:-1, 1:-1])  # (the frame stays False)
+            unknown = np.flatnonzero(front_f)
     h = np.ascontiguousarray(h)
     drop = None if drop_f is None else drop_f.reshape(nx + 2, w)[1:-1, 1:-1].copy()
     if not known.all():
-        # the nearest known cell's value: its indices in int32 (ndimage's own are int64), as one flat index
-        ft = np.empty((2, nx, ny), np.int32)
-        ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True, indices=ft)
-        flat = ft[0]
-        flat *= ny
-        flat += ft[1]
+        # the nearest known cell's value (and drop), as a flat index per cell
+        flat = _nearest_known(known)
         h = h.reshape(-1).take(flat)
         if cap is not None and drop is not None:
             far = ~known
@@ -425,6 +447,49 @@ def _fill_ground(
             drop = np.where(far, src_drop | (cap < h - drop_m), drop)
             np.copyto(h, np.minimum(h, cap), where=far)
     return h, drop
+
+
+# _nearest_known's direct search: at most this many unknown cells, and unknown × candidate pairs
+_NEAREST_CELLS = 2048
+_NEAREST_PAIRS = 1 << 16
+_AROUND_DI = np.array([-1, -1, -1, 0, 0, 1, 1, 1], dtype=np.intp)
+_AROUND_DJ = np.array([-1, 0, 1, -1, 1, -1, 0, 1], dtype=np.intp)
+
+
+def _nearest_known(known: NDArray[np.bool_]) -> NDArray[np.integer]:
+    """Gives per cell of the grid the flat index of its nearest known cell (itself where known), the same as
+    ndimage's feature transform of ~known: of several nearest ones, the one in the lowest column, then row.
+
+    The few unknown cells a fill leaves (past fill_min_cells of any seen cell: a map's far corner) are matched
+    directly against the known cells beside an unknown one, the only ones that can be nearest (a known cell whose 8
+    neighbours are all known has one nearer to any unknown cell: its neighbour towards it), by their exact squared
+    distances and then (column, row) as the transform's ties fall (Maurer's algorithm as ndimage runs it: along
+    axis 0 a tie goes to the lower row, then along axis 1 to the lower column). Many unknown cells: the transform."""
+    nx, ny = known.shape
+    unknown = np.flatnonzero(~known)
+    if unknown.size <= _NEAREST_CELLS:
+        ui, uj = np.divmod(unknown, ny)
+        ni = (ui[:, None] + _AROUND_DI).reshape(-1)
+        nj = (uj[:, None] + _AROUND_DJ).reshape(-1)
+        on = (ni.astype(np.uintp) < nx) & (nj.astype(np.uintp) < ny)
+        cand = np.unique(ni[on] * ny + nj[on])
+        cand = cand[known.reshape(-1).take(cand)]
+        if cand.size and unknown.size * cand.size <= _NEAREST_PAIRS:
+            ci, cj = np.divmod(cand, ny)
+            key = np.square(ui[:, None] - ci)
+            key += np.square(uj[:, None] - cj)
+            key *= nx * ny  # (squared distance, column, row), as one integer
+            key += cj * nx + ci
+            flat = np.arange(nx * ny)
+            flat[unknown] = cand.take(key.argmin(axis=1))
+            return flat.reshape(nx, ny)
+    # its indices in int32 (ndimage's own are int64), as one flat index
+    ft = np.empty((2, nx, ny), np.int32)
+    ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True, indices=ft)
+    flat32 = ft[0]
+    flat32 *= ny
+    flat32 += ft[1]
+    return flat32
 
 
 _AROUND: dict[int, NDArray[np.intp]] = {}

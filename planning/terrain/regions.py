@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from planning.terrain.gridops import disk_filter, distance_transform, pad2, square_filter
+from planning.terrain.gridops import disk_filter, distance_transform, square_filter
 from planning.terrain.maps import TerrainMaps
 
 _CROSS = ndimage.generate_binary_structure(2, 1)
@@ -378,7 +378,7 @@ def segment_regions(
     labels, n = ndimage.label(ok, structure=_CROSS)
     # Distance from a cell's centre to the nearest non-steppable cell's centre, less half a cell: to the edge.
     # (the map's border counts as an edge: nothing is known beyond it)
-    edt = distance_transform(pad2(ok, 1, False))[1:-1, 1:-1] if n else np.zeros(h.shape)
+    edt = distance_transform(ok, edge=True) if n else np.zeros(h.shape)
     depth = np.where(ok, edt * res - 0.5 * res, 0.0)
     # (inset_from_shadow: the distance to the shadow beyond a cell counts too, the shadow's own cells included;
     # the labels as without it)
@@ -450,7 +450,8 @@ def _fit_planes(
     cx, cy = 0.5 * (float(xs[0]) + float(xs[-1])), 0.5 * (float(ys[0]) + float(ys[-1]))
     u, v = xs - cx, ys - cy
     zr = float(h.mean())
-    m = labels.reshape(-1)
+    # (bincount's own index type: converted once, not in each of the bincounts)
+    m = labels.reshape(-1).astype(np.intp)
     rows, cols = _row_col_index(nx, ny)
     key_r = m * nx
     key_r += rows

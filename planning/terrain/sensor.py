@@ -160,6 +160,7 @@ class DepthSensor:
         R_world_body = data.xmat[self.body_id].reshape(3, 3)
         points: list[NDArray[np.float64]] = []
         origins: list[NDArray[np.float64]] = []
+        counts: list[int] = []
         raycast_s = 0.0
         raycast_cpu_s = 0.0
         cast_total = 0
@@ -205,11 +206,13 @@ class DepthSensor:
             q *= r[:, None]
             q += origin
             points.append(q)
-            origins.append(np.broadcast_to(origin, (r.shape[0], 3)))
+            origins.append(origin)
+            counts.append(r.shape[0])
         self.rays_cast = cast_total
         self.raycast_ms = raycast_s * 1e3
         self.raycast_cpu_ms = raycast_cpu_s * 1e3
-        return PointCloud(np.concatenate(points), np.concatenate(origins), float(data.time))
+        # (each camera's origin repeated for its points: one repeat, not a broadcast per camera concatenated)
+        return PointCloud(np.concatenate(points), np.repeat(origins, counts, axis=0), float(data.time))
 
     def _dense_skip(self, k: int) -> NDArray[np.intp] | None:
         """Gives the indices of camera k's rays to cast this scan (None: all): an odd checkerboard ray is left out

@@ -185,14 +185,16 @@ class VoxelMap:
         self._hit_layers = _grow_band(self._hit_layers, flat, self.n_xy * self.n_xy)
         np.maximum.at(self._row_max.reshape(-1), flat // self.n_xy, self.hits.reshape(-1)[flat])
         # Free space: sample each carved ray every voxel from its origin to carve_margin short of its hit.
+        # The rays as rows per axis (3, rays): an operation on (rays, 3) arrays with a per-axis operand, or between
+        # strided ones, loops three elements at a time, several times slower.
         o = cloud.p_world_origins[:: p.carve_every]
-        d = pts[:: p.carve_every] - o
-        # (the norm's sum written out: a reduction along an axis of 3 is a loop per row, several times slower)
-        dd = d * d
-        length = np.sqrt(dd[:, 0] + dd[:, 1] + dd[:, 2])
-        u = d / np.maximum(length, 1e-9)[:, None]
+        oT = np.ascontiguousarray(o.T)
+        dT = np.subtract(pts[:: p.carve_every].T, oT, order="C")
+        dd = dT * dT
+        length = np.sqrt(dd[0] + dd[1] + dd[2])
+        uT = dT / np.maximum(length, 1e-9)
         n_k = np.maximum(np.floor((length - p.carve_margin_m) / self.res - 0.5).astype(np.intp) + 1, 0)
-        n_k = np.minimum(n_k, self._samples_inside(o, u))
+        n_k = np.minimum(n_k, self._samples_inside(oT, uT))
         # In chunks of rays of about _CARVE_CHUNK samples, each from one camera: the passes over a chunk's samples
         # stay in the cache (over a whole scan's ~200k samples they would stream from memory each time), and a
         # chunk's rays share their origin, added as one vector. The same operations on the same samples, in the
@@ -202,7 +204,8 @@ class VoxelMap:
         if total == 0:
             return
         cuts = np.searchsorted(ends, np.arange(_CARVE_CHUNK, total, _CARVE_CHUNK), side="right")
-        cameras = np.flatnonzero(np.any(o[1:] != o[:-1], axis=1)) + 1
+        moved = oT[:, 1:] != oT[:, :-1]
+        cameras = np.flatnonzero(moved[0] | moved[1] | moved[2]) + 1
         bounds = np.unique(np.concatenate([[0, len(n_k)], cuts, cameras])).tolist()
         misses = self.misses.reshape(-1)
         n, nz = self.n_xy, self.n_z
@@ -212,14 +215,14 @@ class VoxelMap:
         i0 = np.array([self._ix0, self._iy0, self._iz0], dtype=np.float64)
         o_vox = o[np.minimum(bounds[:-1], len(n_k) - 1)] / self.res - i0  # each chunk's (one camera's) origin
         lim = np.array([[n], [n], [nz]], dtype=np.uint32)
-        uT = u.T
         for c, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
             nk = n_k[a:b]
             m = int(nk.sum())
             if m == 0:
                 continue
-            s = np.arange(m, dtype=np.float64)
-            s += np.repeat(0.5 - (np.cumsum(nk) - nk), nk)  # k + 1/2 (exact: half-integers)
+            # k + 1/2 (exact: half-integers), the chunk's sample numbers read from a kept ramp, not made anew
+            s = np.repeat(0.5 - (np.cumsum(nk) - nk), nk)
+            s += _ramp(m)
             xyz = np.repeat(uT[:, a:b], nk, axis=1)
             xyz *= s
             xyz += o_vox[c][:, None]
@@ -236,21 +239,27 @@ class VoxelMap:
             np.add.at(misses, flat_f, w)
             self._miss_layers = _grow_band(self._miss_layers, flat_f, n * n)
 
-    def _samples_inside(self, o: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.intp]:
-        """Gives per ray (origins o, unit directions u) how many of its carving samples (every voxel from half a
-        voxel on) may lie in the map: the rest lie past where the ray leaves the map's box grown by a voxel, more
-        than a voxel outside the map, and would be dropped anyway (a large count for a ray that starts outside)."""
+    def _samples_inside(self, oT: NDArray[np.float64], uT: NDArray[np.float64]) -> NDArray[np.intp]:
+        """Gives per ray (origins oT, unit directions uT, (3, rays) each) how many of its carving samples (every voxel
+        from half a voxel on) may lie in the map: the rest lie past where the ray leaves the map's box grown by a
+        voxel, more than a voxel outside the map, and would be dropped anyway (a large count for a ray that starts
+        outside)."""
         res = self.res
         n = np.array([self.n_xy, self.n_xy, self.n_z], dtype=np.float64)
         i0 = np.array([self._ix0, self._iy0, self._iz0], dtype=np.float64)
-        lo = (i0 - 1.5) * res
-        hi = (i0 + n + 0.5) * res
-        inside = np.all((o > lo) & (o < hi), axis=1)
+        lo = ((i0 - 1.5) * res)[:, None]
+        hi = ((i0 + n + 0.5) * res)[:, None]
+        ok = (oT > lo) & (oT < hi)
+        inside = ok[0] & ok[1] & ok[2]
+        # Per axis, the distance along the ray to the face it heads for, (hi - o) / u or (lo - o) / u (one quotient
+        # per axis, not both), +inf along an axis it does not move on.
+        t_axis = np.where(uT > 0, hi, lo)
+        t_axis -= oT
         with np.errstate(divide="ignore", invalid="ignore"):
-            t_axis = np.where(u > 0, (hi - o) / u, np.where(u < 0, (lo - o) / u, np.inf))
-        t_exit = np.minimum(
-            np.minimum(t_axis[:, 0], t_axis[:, 1]), t_axis[:, 2]
-        )  # (not min over axis 1: slow)
+            t_axis /= uT
+        if not uT.all():
+            t_axis[uT == 0] = np.inf
+        t_exit = np.minimum(np.minimum(t_axis[0], t_axis[1]), t_axis[2])
         big = np.iinfo(np.intp).max // 4
         keep = np.floor(np.minimum(t_exit / res + 0.5, big)).astype(np.intp) + 1
         return np.where(inside, np.maximum(keep, 0), big)
@@ -345,7 +354,8 @@ class VoxelMap:
                 first_many = _first_true(band_m >= p.free_floor_misses * w)
                 below = ~has_ground & (first_many < top + 1 - mlo)
                 below &= ~any_occ | (first_many + mlo < k_ground)
-                free_floor[below] = self.z0 + (first_many[below] + mlo - 0.5) * self.res
+                b = np.flatnonzero(below)  # (one search for the gather and the scatter, not one each)
+                free_floor[b] = self.z0 + (first_many.take(b) + mlo - 0.5) * self.res
         # Ground height: mean z of the points in the ground voxel and, for a thin surface, the one above it (thin:
         # the voxel above is occupied and the one above that is not).
         occ_flat = occ.reshape(-1)
@@ -427,6 +437,19 @@ class VoxelMap:
 
 
 _CARVE_CHUNK = 32768
+_RAMP: list[NDArray[np.float64]] = [np.zeros(0)]
+
+
+def _ramp(m: int) -> NDArray[np.float64]:
+    """Gives np.arange(m, dtype=float64) (read-only; one kept array, grown when a longer one is asked for)."""
+    ramp = _RAMP[0]
+    if ramp.size < m:
+        ramp = np.arange(max(m, 2 * ramp.size), dtype=np.float64)
+        ramp.flags.writeable = False
+        _RAMP[0] = ramp
+    return ramp[:m]
+
+
 _NO_VOXELS = (np.zeros(0, np.intp), np.zeros(0, np.intp))
 
 
@@ -437,7 +460,8 @@ def _first_true(a: NDArray[np.bool_]) -> NDArray[np.intp]:
     rows = a.shape[0]
     if rows < 256:
         # rows - row where True, 0 where not, in one byte (half the bytes of int16 to write and reduce)
-        k8 = np.multiply(a, np.arange(rows, 0, -1, dtype=np.uint8)[:, None], dtype=np.uint8)
+        # (the bools read as bytes: a uint8 product, where a bool × uint8 one casts every element first)
+        k8 = np.multiply(a.view(np.uint8), np.arange(rows, 0, -1, dtype=np.uint8)[:, None])
         return rows - np.asarray(k8.max(axis=0), dtype=np.intp)
     dtype = np.int16 if rows < 2**15 else np.int64
     # row - rows where True, 0 where not (a product: several times faster than np.where with a broadcast row index)

@@ -1,6 +1,7 @@
 """The perception's whole-array fast paths against simple reference implementations on random inputs: the min / max
 filters (gridops.py) against scipy.ndimage, the voxel carving and classification against a ray-by-ray and a
-column-by-column version, the SDF, the ground fill and the first-true search against their plain forms."""
+column-by-column version, the SDF, the ground fill, the nearest known cell and the first-true search against their
+plain forms."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from planning.terrain.gridops import (
     square_filter,
     window_1d,
 )
-from planning.terrain.maps import _disk, _fill_ground, signed_distance
+from planning.terrain.maps import _disk, _fill_ground, _nearest_known, signed_distance
 from planning.terrain.sensor import PointCloud
 from planning.terrain.voxels import VoxelMap, VoxelParams, _first_true
 
@@ -75,12 +76,31 @@ def test_distance_transform_equals_ndimage(seed: int) -> None:
     np.testing.assert_array_equal(distance_transform(~m), ndimage.distance_transform_edt(~m))
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 2**31))
+def test_distance_transform_either_way_round_and_with_the_edge_equals_ndimage(seed: int) -> None:
+    """Lines of False cells along either axis (the transform then runs on the grid or on its transpose), and the
+    edge as False cells: the same distances as ndimage's on the grid, and on the grid padded by a False cell."""
+    rng = np.random.default_rng(seed)
+    m = _grid(seed, bool_=True) | (rng.random() < 0.5)
+    n0, n1 = m.shape
+    if seed % 3 == 0:
+        m[rng.integers(0, n0, int(rng.integers(1, 4))), :] = False
+    elif seed % 3 == 1:
+        m[:, rng.integers(0, n1, int(rng.integers(1, 4)))] = False
+    np.testing.assert_array_equal(distance_transform(m), ndimage.distance_transform_edt(m))
+    padded = ndimage.distance_transform_edt(pad2(m, 1, False))[1:-1, 1:-1]
+    np.testing.assert_array_equal(distance_transform(m, edge=True), padded)
+
+
 @pytest.mark.parametrize("shape", [(1, 1), (2, 1), (1, 3), (5, 4)])
 def test_distance_transform_of_a_mask_with_no_false_cell_equals_ndimage(shape: tuple[int, int]) -> None:
     # The case a random mask hits now and then (found by the property test above on a clean clone): all True.
     m = np.ones(shape, bool)
     np.testing.assert_array_equal(distance_transform(m), ndimage.distance_transform_edt(m))
     np.testing.assert_array_equal(distance_transform(~m), ndimage.distance_transform_edt(~m))
+    padded = ndimage.distance_transform_edt(pad2(m, 1, False))[1:-1, 1:-1]
+    np.testing.assert_array_equal(distance_transform(m, edge=True), padded)
 
 
 def test_disk_filter_refuses_a_footprint_it_cannot_split_into_rows() -> None:
@@ -344,3 +364,84 @@ def test_obstacle_layers_between_heights_equal_a_direct_count(seed: int) -> None
     got = _any_between(vox, z0, dz, z_lo, z_hi)
     inside = (zc >= z_lo[..., None] - 1e-9 * dz) & (zc <= z_hi[..., None] + 1e-9 * dz)
     np.testing.assert_array_equal(got, np.count_nonzero(obstacle & inside, axis=2) > 0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 2**31))
+def test_nearest_known_equals_feature_transform(seed: int) -> None:
+    """The ground fill's nearest known cell, by its direct search (few unknown cells) or not: the same cell as
+    ndimage's feature transform of the unknown cells, ties included (blocks of unknown cells and few known ones make
+    equidistant cells common)."""
+    rng = np.random.default_rng(seed)
+    nx, ny = (int(v) for v in rng.integers(1, 50, 2))
+    known = rng.random((nx, ny)) < rng.uniform(0.0, 1.0)
+    if seed % 2:
+        i0, j0 = int(rng.integers(0, nx)), int(rng.integers(0, ny))
+        known[i0 : i0 + int(rng.integers(1, 25)), j0 : j0 + int(rng.integers(1, 25))] = False
+    if seed % 5 == 0:
+        known[:] = True
+        known[rng.integers(0, nx, 3), rng.integers(0, ny, 3)] = False
+    if not known.any():
+        known[int(rng.integers(0, nx)), int(rng.integers(0, ny))] = True
+    ft = np.empty((2, nx, ny), np.int32)
+    ndimage.distance_transform_edt(~known, return_distances=False, return_indices=True, indices=ft)
+    np.testing.assert_array_equal(_nearest_known(known), ft[0] * ny + ft[1])
+
+
+def _fill_capped_reference(
+    ground_z: np.ndarray, rounds: int, cap: np.ndarray, drop_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ground fill under a cap as first written: each round an unknown cell with a known 3 × 3 neighbour takes
+    the first lowest one's value (in row-major order around it), capped, and is a drop where the cap lies more than
+    drop_m below that value or where that neighbour is a drop; then the nearest known cell's."""
+    nx, ny = ground_z.shape
+    h = np.where(np.isfinite(ground_z), ground_z, np.inf)
+    known = np.isfinite(ground_z)
+    drop = np.zeros((nx, ny), bool)
+    for _ in range(rounds):
+        new_h, new_drop, new = h.copy(), drop.copy(), np.zeros_like(known)
+        for i in range(nx):
+            for j in range(ny):
+                if known[i, j]:
+                    continue
+                around = [
+                    (a, b)
+                    for a in (i - 1, i, i + 1)
+                    for b in (j - 1, j, j + 1)
+                    if 0 <= a < nx and 0 <= b < ny
+                ]
+                seen = [(a, b) for a, b in around if known[a, b]]
+                if not seen:
+                    continue
+                # (argmin over the framed 3 x 3 window: unknown and off-grid cells hold +inf)
+                vals = [h[a, b] if known[a, b] else np.inf for a, b in around]
+                a, b = around[int(np.argmin(vals))]
+                new_h[i, j] = np.minimum(h[a, b], cap[i, j])
+                new_drop[i, j] = bool(cap[i, j] < h[a, b] - drop_m) or bool(drop[a, b])
+                new[i, j] = True
+        h, drop, known = new_h, new_drop, known | new
+    if not known.all() and known.any():
+        _, (ix, iy) = ndimage.distance_transform_edt(~known, return_indices=True)
+        far = ~known
+        src_h, src_drop = h[ix, iy], drop[ix, iy]
+        drop = np.where(far, src_drop | (cap < src_h - drop_m), drop)
+        h = np.where(far, np.minimum(src_h, cap), src_h)
+    return h, drop
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**31), st.integers(0, 5))
+def test_ground_fill_under_a_cap_equals_the_round_by_round_reference(seed: int, rounds: int) -> None:
+    """Values with ties and signed zeros, caps some of which make drops: the same heights, bit for bit, and drops."""
+    rng = np.random.default_rng(seed)
+    g = _grid(seed)
+    g[rng.random(g.shape) < 0.2] = -0.0
+    g[rng.random(g.shape) < rng.uniform(0.0, 1.0)] = np.nan
+    if np.isfinite(g).all() or not np.isfinite(g).any():
+        return
+    cap = np.where(rng.random(g.shape) < 0.3, rng.integers(-6, 4, g.shape) * 0.25, np.inf)
+    cap[rng.random(g.shape) < 0.1] = -0.0
+    h, drop = _fill_ground(g, rounds, -1.0, cap, 0.1)
+    want_h, want_drop = _fill_capped_reference(g, rounds, cap, 0.1)
+    np.testing.assert_array_equal(h.view(np.int64), want_h.view(np.int64))
+    np.testing.assert_array_equal(drop, want_drop)
