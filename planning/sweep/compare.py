@@ -78,6 +78,31 @@ def sign_test_p(gains: int, losses: int) -> float:
     return min(1.0, 2.0 * tail)
 
 
+def rate_test_p(n_a: int, exposure_a: float, n_b: int, exposure_b: float) -> float:
+    """Gives the exact two-sided p-value that two Poisson counts (n_a events over exposure_a, n_b over exposure_b)
+    come from one rate: given their sum, B's count is binomial with B's share of the exposure (1.0 with no events
+    or no exposure)."""
+    n = n_a + n_b
+    if n == 0 or exposure_a <= 0.0 or exposure_b <= 0.0:
+        return 1.0
+    q = exposure_b / (exposure_a + exposure_b)
+    pmf = [math.comb(n, i) * q**i * (1.0 - q) ** (n - i) for i in range(n + 1)]
+    here = pmf[n_b] * (1.0 + 1e-9)
+    return min(1.0, sum(x for x in pmf if x <= here))
+
+
+def _near_misses(recs: list[dict[str, Any]]) -> tuple[int, int] | None:
+    """Gives the near misses and steps summed over the records whose reports count near misses (None: none)."""
+    reps = [
+        r["report"]
+        for r in recs
+        if r.get("status") == "done" and (r.get("report") or {}).get("near_misses") is not None
+    ]
+    if not reps:
+        return None
+    return sum(int(r["near_misses"]) for r in reps), sum(int(r.get("steps_taken") or 0) for r in reps)
+
+
 def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
     if not isinstance(d, dict):
         return {prefix: d}
@@ -147,6 +172,19 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
                 }
             )
     n = len(keys)
+    near = None
+    # near misses on the paired walks both sides counted them on (terrain walks: see NearMissMonitor)
+    both = [k for k in keys if _near_misses([a[k]]) is not None and _near_misses([b[k]]) is not None]
+    na, nb = _near_misses([a[k] for k in both]) or (0, 0), _near_misses([b[k] for k in both]) or (0, 0)
+    if both:
+        near = {
+            "walks": len(both),
+            "a": na[0],
+            "a_steps": na[1],
+            "b": nb[0],
+            "b_steps": nb[1],
+            "rate_test_p": round(rate_test_p(na[0], na[1], nb[0], nb[1]), 4),
+        }
     differ = sorted(
         {d for k in keys for d in differing_params(a[k]["case"]["params"], b[k]["case"]["params"])}
     )
@@ -167,6 +205,7 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
         "params_differ": differ,
         "changed": changed,
         "draws": _draws(draws) if draws else None,
+        "near_misses": near,
     }
 
 
@@ -211,6 +250,17 @@ def format_compare(c: dict[str, Any]) -> str:
         lines.append(
             f"per draw (its success fraction over its paired repeats): B up on {d['up']}, down on {d['down']}, "
             f"the same on {d['same']} of {d['paired']} draws; exact sign test: p = {d['sign_test_p']:.3g}"
+        )
+    nm = c.get("near_misses")
+    if nm:
+
+        def per(k: str) -> str:
+            steps = nm[f"{k}_steps"]
+            return f"{nm[k]} in {steps} steps ({100.0 * nm[k] / steps:.2f} per 100)" if steps else f"{nm[k]}"
+
+        lines.append(
+            f"near misses (a leg or the body within 2 cm of the terrain, not touching it) over the {nm['walks']} "
+            f"paired walks: A {per('a')}, B {per('b')}; exact test of one rate: p = {nm['rate_test_p']:.3g}"
         )
     if c["changed"]:
         lines.append("cases whose outcome changed:")

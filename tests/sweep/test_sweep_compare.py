@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from planning.sweep.compare import CompareError, compare, format_compare, sign_test_p
+from planning.sweep.compare import CompareError, compare, format_compare, rate_test_p, sign_test_p
 from server.cli import main as cli_main
 
 
@@ -187,3 +187,37 @@ def test_repeated_sweeps_pair_each_repeat_and_compare_each_draws_fraction(tmp_pa
     assert compare(plain, plain)["draws"] is None and "per draw" not in format_compare(compare(plain, plain))
     with pytest.raises(CompareError, match="one of them repeated its draws"):
         compare(plain, b)
+
+
+def test_the_rate_test_is_the_exact_conditional_binomial() -> None:
+    assert rate_test_p(0, 100.0, 0, 100.0) == 1.0
+    assert rate_test_p(5, 100.0, 5, 100.0) == pytest.approx(1.0)
+    # 0 against 6 on equal exposure: the two tails of Binomial(6, 1/2) at their ends
+    assert rate_test_p(0, 100.0, 6, 100.0) == pytest.approx(2 / 64)
+    # B walked three times as far: 2 against 6 is what one rate gives
+    assert rate_test_p(2, 100.0, 6, 300.0) == pytest.approx(1.0)
+    assert rate_test_p(42, 4337.0, 66, 4201.0) < 0.05 < rate_test_p(42, 4337.0, 50, 4201.0)
+
+
+def test_near_misses_compare_over_the_walks_both_sides_counted(tmp_path: Path) -> None:
+    def with_near(r: dict[str, Any], n: int | None) -> dict[str, Any]:
+        if n is not None:
+            r["report"].update(near_misses=n, steps_taken=100)
+        return r
+
+    a = _write(
+        tmp_path / "a", [with_near(_record(i, True, "aaaa"), n) for i, n in enumerate([1, 0, 2, None])]
+    )
+    b = _write(tmp_path / "b", [with_near(_record(i, True, "bbbb"), n) for i, n in enumerate([4, 3, 5, 7])])
+    c = compare(a, b)
+    nm = c["near_misses"]
+    assert (nm["walks"], nm["a"], nm["b"], nm["a_steps"], nm["b_steps"]) == (3, 3, 12, 300, 300)
+    assert (
+        nm["rate_test_p"] == pytest.approx(rate_test_p(3, 300.0, 12, 300.0), abs=1e-4)
+        and nm["rate_test_p"] < 0.05
+    )
+    assert "A 3 in 300 steps (1.00 per 100), B 12 in 300 steps (4.00 per 100)" in format_compare(c)
+    plain = compare(
+        _write(tmp_path / "c", [_record(0, True, "cccc")]), _write(tmp_path / "d", [_record(0, True, "dddd")])
+    )
+    assert plain["near_misses"] is None and "near misses" not in format_compare(plain)
