@@ -135,8 +135,14 @@ def _summary(report: dict[str, Any]) -> str:
         )
         if report.get("near_misses") is not None:
             least = report.get("link_clearance_min_m")
-            line += f", near misses {report['near_misses']} (a leg or the body within 2 cm of the terrain"
-            line += ")" if least is None else f"; closest {1000 * least:.0f} mm)"
+            from planning.terrain.crossing import NEAR_MISS_M
+
+            line += (
+                f", near misses {report['near_misses']} (a leg or the body within {100 * NEAR_MISS_M:g} cm"
+            )
+            line += (
+                " of the terrain)" if least is None else f" of the terrain; closest {1000 * least:.0f} mm)"
+            )
     nav = report.get("navigator") or {}
     perception = (report.get("stages") or {}).get("perception") or {}
     if nav.get("cloud_points_p50") and perception.get("p50_ms") is not None:

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.sweep.spec import DRAW
-from planning.sweep.summary import clean_record, reason_group, wilson
+from planning.sweep.summary import clean_record, near_miss_totals, reason_group, wilson
 
 
 class CompareError(ValueError):
@@ -91,16 +91,9 @@ def rate_test_p(n_a: int, exposure_a: float, n_b: int, exposure_b: float) -> flo
     return min(1.0, sum(x for x in pmf if x <= here))
 
 
-def _near_misses(recs: list[dict[str, Any]]) -> tuple[int, int] | None:
-    """Gives the near misses and steps summed over the records whose reports count near misses (None: none)."""
-    reps = [
-        r["report"]
-        for r in recs
-        if r.get("status") == "done" and (r.get("report") or {}).get("near_misses") is not None
-    ]
-    if not reps:
-        return None
-    return sum(int(r["near_misses"]) for r in reps), sum(int(r.get("steps_taken") or 0) for r in reps)
+def _report(rec: dict[str, Any]) -> dict[str, Any]:
+    """A finished record's run report ({} for a crashed one)."""
+    return rec.get("report") or {} if rec.get("status") == "done" else {}
 
 
 def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
@@ -174,9 +167,14 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
     n = len(keys)
     near = None
     # near misses on the paired walks both sides counted them on (terrain walks: see NearMissMonitor)
-    both = [k for k in keys if _near_misses([a[k]]) is not None and _near_misses([b[k]]) is not None]
-    na, nb = _near_misses([a[k] for k in both]) or (0, 0), _near_misses([b[k] for k in both]) or (0, 0)
+    both = [
+        k
+        for k in keys
+        if _report(a[k]).get("near_misses") is not None and _report(b[k]).get("near_misses") is not None
+    ]
     if both:
+        na = near_miss_totals([_report(a[k]) for k in both]) or (0, 0)
+        nb = near_miss_totals([_report(b[k]) for k in both]) or (0, 0)
         near = {
             "walks": len(both),
             "a": na[0],
@@ -258,8 +256,11 @@ def format_compare(c: dict[str, Any]) -> str:
             steps = nm[f"{k}_steps"]
             return f"{nm[k]} in {steps} steps ({100.0 * nm[k] / steps:.2f} per 100)" if steps else f"{nm[k]}"
 
+        from planning.terrain.crossing import NEAR_MISS_M
+
         lines.append(
-            f"near misses (a leg or the body within 2 cm of the terrain, not touching it) over the {nm['walks']} "
+            f"near misses (a leg or the body within {100 * NEAR_MISS_M:g} cm of the terrain, not touching it) over "
+            f"the {nm['walks']} "
             f"paired walks: A {per('a')}, B {per('b')}; exact test of one rate: p = {nm['rate_test_p']:.3g}"
         )
     if c["changed"]:

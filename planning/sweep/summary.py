@@ -118,6 +118,17 @@ def _binner(spec: SweepSpec, cases: list[dict[str, Any]], axis: str) -> _Binner:
     return _Binner([_ax(c, axis) for c in cases], spec.summary.bins, sampled)
 
 
+def near_miss_totals(reports: list[dict[str, Any]]) -> tuple[int, int] | None:
+    """Gives the near misses (terrain walks: a non-foot part near the terrain, not touching it; NearMissMonitor) and
+    the steps summed over the run reports that count them (None: none does)."""
+    watched = [rep for rep in reports if rep.get("near_misses") is not None]
+    if not watched:
+        return None
+    return sum(int(rep["near_misses"]) for rep in watched), sum(
+        int(rep.get("steps_taken") or 0) for rep in watched
+    )
+
+
 def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
     done = [r for r in recs if r is not None and r["status"] == "done"]
     crashed = [r for r in recs if r is not None and r["status"] == "crashed"]
@@ -127,11 +138,8 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
     reasons = Counter(reason_group(rep.get("failure_reason")) for rep in reports if not rep.get("success"))
     reasons.update(f"crashed: {reason_group((r['error'] or '').splitlines()[0])}" for r in crashed)
     pos_err = [(rep.get("final_pose_error") or {}).get("position_m") for rep in reports]
-    # near misses (terrain walks: a non-foot part within 2 cm of the terrain, not touching it) per 100 steps over
-    # the cell's walks, and per walk
     watched = [rep for rep in reports if rep.get("near_misses") is not None]
-    misses = sum(int(rep["near_misses"]) for rep in watched)
-    steps = sum(int(rep.get("steps_taken") or 0) for rep in watched)
+    misses, steps = near_miss_totals(watched) or (0, 0)
     return {
         "cases": len(recs),
         "done": len(done),

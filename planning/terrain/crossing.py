@@ -90,9 +90,7 @@ class NearMissMonitor:
     def __init__(self, world: World) -> None:
         self.world = world
         m = world.model
-        foot = np.zeros(m.ngeom, dtype=bool)
-        foot[world.foot_geom] = True
-        foot[world.leg_of_foot_geom >= 0] = True
+        foot = world.leg_of_foot_geom >= 0  # the feet and the geoms that count as their leg's foot
         collides = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
         self._links = np.nonzero(world.is_robot_geom & ~foot & collides)[0]
         terrain = np.nonzero(~world.is_robot_geom & collides)[0]
