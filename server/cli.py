@@ -107,6 +107,10 @@ def _write_report(report: dict[str, Any], path: str | None) -> None:
 
 def _summary(report: dict[str, Any]) -> str:
     verdict = "success" if report["success"] else f"FAILED ({report['failure_reason']})"
+    fc = report.get("fall_contact")
+    if fc and fc.get("touched"):  # what the part touched, and where
+        x, y, z = fc["point_m"]
+        verdict += f" on {fc['touched']} at ({x:.2f}, {y:.2f}, {z:.2f}) m"
     fpe = report["final_pose_error"]
     line = (
         f"{report.get('maneuver') or report.get('mode')} on {report['terrain']}: {verdict}; "

@@ -182,6 +182,14 @@ class _Session:
     def report(self, wall_s: float) -> dict[str, Any]:
         raise NotImplementedError
 
+    def _fall_contact(self) -> dict[str, Any] | None:
+        """A fall by touch: the robot's part, the world geom it touched and where (None: no such fall)."""
+        fc = self.loop.fall_contact
+        if fc is None:
+            return None
+        part, touched, point = fc
+        return {"part": part, "touched": touched, "point_m": [round(v, 4) for v in point]}
+
     def _slips_report(self) -> dict[str, Any]:
         """The stance feet that slid (planning.handler: HandlerParams.slip_*): how many slips, per leg, each one's
         start and duration (the first 100), and the lowest share of the nominal friction the forces assumed."""
@@ -212,6 +220,7 @@ class _Session:
             "duration_s": round(t_end, 4),
             "fell": bool(self.loop.fell),
             "fall_time_s": None if self.loop.fall_time is None else round(self.loop.fall_time, 4),
+            "fall_contact": self._fall_contact(),
             "no_step_touchdowns": 0,
             "no_step_scuffs": 0,
             "body_collisions": 0 if not self.loop.fell else 1,
@@ -588,15 +597,30 @@ class WalkSession(_Session):
 
     def _terrain_report(self) -> dict[str, Any]:
         """Ground-truth terrain fields: no-step touchdowns, body collisions, crossed, time taken, the pipeline's stats."""
-        from planning.terrain.crossing import no_step_touchdowns, terrain_span_x
+        from planning.terrain.crossing import no_step_details, terrain_span_x
 
         rec = self.recorder
-        places: dict[bool, list[np.ndarray]] = {True: [], False: []}  # landings, and scuffs or chatter
-        for td in rec.touchdowns:
-            places[td.landing].append(td.p_world)
+        landings = [td for td in rec.touchdowns if td.landing]
+        scuffs = [td for td in rec.touchdowns if not td.landing]
+        flags, spread, gap = no_step_details(self.scene, [td.p_world for td in landings])
         out: dict[str, Any] = {
-            "no_step_touchdowns": no_step_touchdowns(self.scene, places[True]),
-            "no_step_scuffs": no_step_touchdowns(self.scene, places[False]),
+            "no_step_touchdowns": int(np.count_nonzero(flags)),
+            "no_step_scuffs": int(
+                np.count_nonzero(no_step_details(self.scene, [td.p_world for td in scuffs])[0])
+            ),
+            # the first NO_STEP_EVENTS no-step landings: when, which leg, where, and why (the true ground's height
+            # spread around the contact point: an edge; the contact point's height above it: on an obstacle)
+            "no_step_events": [
+                {
+                    "t_s": round(td.t, 3),
+                    "leg": LEGS[td.leg],
+                    "point_m": [round(float(v), 4) for v in td.p_world],
+                    "spread_m": round(float(sp), 4),
+                    "gap_m": round(float(gp), 4),
+                }
+                for td, f, sp, gp in zip(landings, flags, spread, gap, strict=True)
+                if f
+            ][:NO_STEP_EVENTS],
         }
         x_end = terrain_span_x(self.scene)[1]
         crossed_at = next(
@@ -640,6 +664,7 @@ class WalkSession(_Session):
 
 _TERRAIN_TRIPS = (TripKind.NORMAL, TripKind.KNEE)  # trips against terrain (not another leg of the robot)
 NEAR_MISS_EVENTS = 20  # the run report lists the first this many near misses (when, which part, how close)
+NO_STEP_EVENTS = 20  # ... and the first this many no-step landings (when, which leg, where, why)
 CROSSED_BEYOND_M = 0.5  # "crossed": the body center got this far past the terrain's end (m)
 
 

@@ -104,6 +104,8 @@ class RobotState:
     loaded: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
     knee_contact: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
     bad_contact: str | None = None  # name of the body of a non-foot robot geom touching the world, if any
+    bad_contact_with: str | None = None  # ... the world geom it touches (its name)
+    bad_contact_at: np.ndarray = field(default_factory=lambda: np.zeros(3))  # ... where (world, m)
 
     @property
     def yaw(self) -> float:
@@ -310,6 +312,7 @@ class World:
         loaded[:] = False
         s.knee_contact[:] = False
         s.bad_contact = None
+        s.bad_contact_with = None
         n = d.ncon
         if n:
             geoms = d.contact.geom[:n].tolist()
@@ -340,6 +343,8 @@ class World:
                         continue
                     s.knee_contact[kl] = True
                 s.bad_contact = self.geom_body_names[g]
+                s.bad_contact_with = self.geom_names[g2 if r1 else g1]
+                s.bad_contact_at[:] = d.contact.pos[k]
         return s
 
 

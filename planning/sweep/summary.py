@@ -138,6 +138,13 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
     reasons = Counter(reason_group(rep.get("failure_reason")) for rep in reports if not rep.get("success"))
     reasons.update(f"crashed: {reason_group((r['error'] or '').splitlines()[0])}" for r in crashed)
     pos_err = [(rep.get("final_pose_error") or {}).get("position_m") for rep in reports]
+    # falls by touch by the part and what it touched, a geom's trailing index dropped (terrain_box_low_3 and
+    # terrain_box_low_0 are one kind of thing to fall on)
+    touched = Counter(
+        f"{fc.get('part')} on {touched_kind(fc.get('touched'))}"
+        for rep in reports
+        if (fc := rep.get("fall_contact"))
+    )
     watched = [rep for rep in reports if rep.get("near_misses") is not None]
     misses, steps = near_miss_totals(watched) or (0, 0)
     return {
@@ -149,6 +156,7 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
         "success_rate": round(ok / len(done), 4) if done else None,
         "ci95": [round(lo, 4), round(hi, 4)],
         "failure_reasons": dict(reasons.most_common()),
+        "falls_touched": dict(touched.most_common()),
         "wall_s": pct([r["wall_s"] for r in done]),
         "simulated_s": pct([rep.get("duration_s") for rep in reports]),
         "near_misses": misses if watched else None,
@@ -161,6 +169,14 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
             [(rep.get("foot_placement_error_m") or {}).get("median") for rep in reports]
         ),
     }
+
+
+def touched_kind(name: str | None) -> str:
+    """A world geom's name without its trailing index ("terrain_box_low_3" -> "terrain_box_low"; None: "?")."""
+    if not name:
+        return "?"
+    head, sep, tail = name.rpartition("_")
+    return head if sep and tail.isdigit() else name
 
 
 def clean_record(rec: dict[str, Any]) -> dict[str, Any]:
@@ -324,6 +340,10 @@ def format_table(summary: dict[str, Any]) -> str:
     if reasons:
         lines.append("failure reasons (numbers blanked as #):")
         lines += [f"  {n:5d}  {r}" for r, n in reasons.items()]
+    touched = summary["overall"].get("falls_touched")
+    if touched:
+        lines.append("falls by touch, by the part and what it touched:")
+        lines += [f"  {n:5d}  {r}" for r, n in touched.items()]
     if summary["overall"]["pending"]:
         lines.append(f"{summary['overall']['pending']} cases have not run yet (run the sweep again to go on)")
     return "\n".join(lines)
@@ -350,11 +370,25 @@ def cells_csv(summary: dict[str, Any]) -> str:
 
 
 def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -> str:
-    """One CSV row per case: its axes, status, success, failure reason, attempts and key."""
+    """One CSV row per case: its axes, status, success, failure reason, attempts, wall time, near misses, no-step
+    landings, what a fall by touch met (the world geom; the run report's fall_contact) and key."""
     names = axis_names(cases)
     out = io.StringIO()
     w = csv.writer(out)
-    w.writerow([*names, "status", "success", "failure_reason", "attempts", "wall_s", "near_misses", "key"])
+    w.writerow(
+        [
+            *names,
+            "status",
+            "success",
+            "failure_reason",
+            "attempts",
+            "wall_s",
+            "near_misses",
+            "no_step_touchdowns",
+            "fall_touched",
+            "key",
+        ]
+    )
     for c in cases:
         r = records.get(c["key"])
         rep = (r or {}).get("report") or {}
@@ -365,6 +399,8 @@ def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -
             + [
                 (r or {}).get("wall_s", ""),
                 "" if rep.get("near_misses") is None else rep["near_misses"],
+                "" if rep.get("no_step_touchdowns") is None else rep["no_step_touchdowns"],
+                (rep.get("fall_contact") or {}).get("touched") or "",
                 c["key"],
             ]
         )

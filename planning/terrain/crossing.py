@@ -44,20 +44,31 @@ class NoStepCheck:
 _RING = np.stack([np.cos(np.arange(8) * np.pi / 4), np.sin(np.arange(8) * np.pi / 4)], axis=1)
 
 
-def no_step_flags(
-    scene: TerrainScene, p_world_contact: NDArray[np.float64], check: NoStepCheck | None = None
-) -> NDArray[np.bool_]:
-    """Gives (N,) whether each contact point (N, 3) (m, world) is a no-step touchdown on the scene's ground truth."""
+def no_step_details(
+    scene: TerrainScene,
+    p_world_contact: Sequence[NDArray[np.float64]] | NDArray[np.float64],
+    check: NoStepCheck | None = None,
+) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]:
+    """Gives, for contact points (N, 3) (m, world), whether each is a no-step touchdown on the scene's ground truth
+    (N,), and why: the true ground's height spread within the check's ring around it (an edge: above max_spread_m)
+    and the point's height above the true ground under it (on an obstacle: above max_gap_m) (N,) m each."""
     c = check or NoStepCheck()
     p = np.asarray(p_world_contact, dtype=np.float64).reshape(-1, 3)
     if p.shape[0] == 0:
-        return np.zeros(0, dtype=bool)
+        return np.zeros(0, dtype=bool), np.zeros(0), np.zeros(0)
     pts = p[:, None, :2] + c.radius_m * _RING[None]
     pts = np.concatenate([p[:, None, :2], pts], axis=1)
     h = np.asarray(scene.ground_height(pts[..., 0], pts[..., 1]), dtype=np.float64)
     spread = h.max(axis=1) - h.min(axis=1)
     gap = p[:, 2] - h[:, 0]
-    return (spread > c.max_spread_m) | (gap > c.max_gap_m)
+    return (spread > c.max_spread_m) | (gap > c.max_gap_m), spread, gap
+
+
+def no_step_flags(
+    scene: TerrainScene, p_world_contact: NDArray[np.float64], check: NoStepCheck | None = None
+) -> NDArray[np.bool_]:
+    """Gives (N,) whether each contact point (N, 3) (m, world) is a no-step touchdown on the scene's ground truth."""
+    return no_step_details(scene, p_world_contact, check)[0]
 
 
 def no_step_touchdowns(

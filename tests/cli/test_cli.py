@@ -142,6 +142,13 @@ def test_walk_summary_gives_the_perception_and_step_qp_times() -> None:
     rms = {"vx": 0.1, "vy": 0.02, "yaw_rate": 0.05}
     report |= {"mean_velocity": {"vx": 2.3, "vy": 0.0, "yaw_rate": 0.0}, "velocity_tracking_rms": rms}
     assert "; in flight 3.1 % of the time" in _summary(report | {"flight_fraction": 0.0312})
+    fell = report | {"success": False, "failure_reason": "fell: FL_lleg touched the world at t=10.77 s",
+                     "fall_contact": {"part": "FL_lleg", "touched": "terrain_box_platform",
+                                      "point_m": [3.4512, -0.1, 0.1204]}}  # fmt: skip
+    assert (
+        "FAILED (fell: FL_lleg touched the world at t=10.77 s) on terrain_box_platform at (3.45, -0.10, 0.12) m"
+        in (_summary(fell))
+    )
 
 
 def test_walk_notes_when_the_terrain_speed_caps_the_command(capsys) -> None:

@@ -175,6 +175,41 @@ def test_clean_success_counts_body_collisions_and_no_step_touchdowns_as_failures
     assert summarize(_spec(axes={"seed": [0, 1, 2]}), cases, records)["overall"]["successes"] == 3
 
 
+def test_falls_by_touch_are_counted_by_the_part_and_the_kind_of_thing_touched() -> None:
+    """The summary's falls_touched (the run reports' fall_contact: a geom's trailing index dropped, so two low boxes
+    are one kind), its lines in the table, and cases.csv's no-step and fall columns."""
+    import csv
+    import io
+
+    from planning.sweep.summary import cases_csv, format_table, summarize, touched_kind
+
+    assert touched_kind("terrain_box_low_3") == "terrain_box_low" == touched_kind("terrain_box_low_10")
+    assert touched_kind("terrain_box_platform") == "terrain_box_platform" and touched_kind(None) == "?"
+    spec = _spec(axes={"seed": [0, 1, 2, 3]})
+    cases = expand(spec)
+
+    def fell(part: str, touched: str) -> dict:
+        return {"success": False, "failure_reason": f"fell: {part} touched the world at t=1.00 s",
+                "fall_contact": {"part": part, "touched": touched, "point_m": [1.0, 0.0, 0.1]}}  # fmt: skip
+
+    reps = [fell("FL_lleg", "terrain_box_low_3"), fell("FL_lleg", "terrain_box_low_0"),
+            fell("trunk", "terrain_obstacle_box_tall_1"), {"success": True, "no_step_touchdowns": 2}]  # fmt: skip
+    records = {
+        c["key"]: {"status": "done", "report": r, "wall_s": 1.0} for c, r in zip(cases, reps, strict=True)
+    }
+    s = summarize(spec, cases, records)
+    assert s["overall"]["falls_touched"] == {
+        "FL_lleg on terrain_box_low": 2,
+        "trunk on terrain_obstacle_box_tall": 1,
+    }
+    table = format_table(s)
+    assert "falls by touch" in table and "FL_lleg on terrain_box_low" in table
+    rows = list(csv.DictReader(io.StringIO(cases_csv(cases, records))))
+    assert [r["fall_touched"] for r in rows] == ["terrain_box_low_3", "terrain_box_low_0",
+                                                  "terrain_obstacle_box_tall_1", ""]  # fmt: skip
+    assert rows[3]["no_step_touchdowns"] == "2" and rows[0]["no_step_touchdowns"] == ""
+
+
 def test_near_misses_are_summed_per_100_steps_over_the_walks_that_watched() -> None:
     from planning.sweep.summary import format_table, summarize
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from planning.sim.run import RunOptions, WalkCommand, WalkSession
-from planning.terrain.crossing import no_step_flags, no_step_touchdowns, terrain_span_x
+from planning.terrain.crossing import no_step_details, no_step_flags, no_step_touchdowns, terrain_span_x
 from planning.terrain.decision import PipelineParams, TerrainPipeline
 from planning.terrain.scenes import build_terrain
 
@@ -22,6 +22,46 @@ def test_no_step_flags_on_the_stones_ground_truth() -> None:
     flags = no_step_flags(scene, pts)
     assert flags.tolist() == [True, False, True, False]
     assert no_step_touchdowns(scene, list(pts)) == 2
+
+
+def test_no_step_details_say_why_a_contact_point_is_no_step() -> None:
+    """no_step_details: the flags of no_step_flags, and why: the true ground's height spread around the point (an
+    edge) and the point's height above the ground under it (held up on nothing, or on an obstacle)."""
+    scene = build_terrain("stones")
+    x0, _ = terrain_span_x(scene)
+    pts = np.array([[x0 + 0.05, 1.0, 0.0], [0.5, 0.0, 0.0], [x0, 0.0, 0.0]])
+    flags, spread, gap = no_step_details(scene, pts)
+    assert flags.tolist() == no_step_flags(scene, pts).tolist() == [True, False, True]
+    assert gap[0] > 0.03  # over the pit
+    assert spread[1] == pytest.approx(0.0, abs=1e-9) and gap[1] == pytest.approx(
+        0.0, abs=1e-9
+    )  # the platform
+    assert spread[2] > 0.04  # the platform's edge
+    empty = no_step_details(scene, np.zeros((0, 3)))
+    assert [a.size for a in empty] == [0, 0, 0]
+
+
+def test_a_fall_by_touch_names_the_part_what_it_touched_and_where() -> None:
+    """The run report's fall_contact: the robot's part, the world geom it touched and the contact point; the
+    robot set down with its body's front in the clutter's first tall box falls at once on that box."""
+    import mujoco
+
+    session = WalkSession(
+        WalkCommand(0.0, 0.0, 0.0, terrain_aware=False), RunOptions(terrain="clutter", duration_s=0.1)
+    )
+    m = session.world.model
+    gid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "terrain_obstacle_box_tall_0")
+    centre, half = m.geom_pos[gid].copy(), m.geom_size[gid].copy()
+    session.world.place(float(centre[0] - half[0] - 0.25), float(centre[1]), 0.0)
+    rep = session.run()
+    fc = rep["fall_contact"]
+    assert rep["fell"] and fc is not None
+    assert fc["touched"] == "terrain_obstacle_box_tall_0" and fc["part"] in rep["failure_reason"]
+    point = np.array(fc["point_m"])
+    assert np.all(np.abs(point - centre) <= half + 0.01)  # on the box
+    assert isinstance(rep["no_step_events"], list)
+    standing = WalkSession(WalkCommand(0.0, 0.0, 0.0, terrain_aware=False), RunOptions(duration_s=0.2)).run()
+    assert not standing["fell"] and standing["fall_contact"] is None
 
 
 @pytest.mark.parametrize("name", ["stairs", "stones", "clutter", "under-table", "slope", "rough"])
