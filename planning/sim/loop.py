@@ -72,8 +72,9 @@ class Loop:
         self.fell = False
         self.fall_time: float | None = None
         self.failure_reason: str | None = None
-        # a fall by touch: the robot's part (body name), the world geom it touched and where (world, m)
-        self.fall_contact: tuple[str, str | None, tuple[float, float, float]] | None = None
+        # a fall by touch: the robot's part (body name), what it is (World: trunk, upper or lower leg), the world geom
+        # it touched and where (world, m)
+        self.fall_contact: tuple[str, str | None, str | None, tuple[float, float, float]] | None = None
         self.min_height = self.fall.min_height_fraction * world.robot.standing_height_m
         world.read_state(self.state)
 
@@ -105,7 +106,7 @@ class Loop:
         if s.bad_contact is not None:
             reason = f"{s.bad_contact} touched the world at t={s.t:.2f} s"
             x, y, z = s.bad_contact_at.tolist()
-            self.fall_contact = (s.bad_contact, s.bad_contact_with, (x, y, z))
+            self.fall_contact = (s.bad_contact, s.bad_contact_kind, s.bad_contact_with, (x, y, z))
         elif s.p_world_body[2] - ground < self.min_height:
             reason = f"body dropped to {s.p_world_body[2] - ground:.2f} m at t={s.t:.2f} s"
         if reason is not None:

@@ -183,12 +183,13 @@ class _Session:
         raise NotImplementedError
 
     def _fall_contact(self) -> dict[str, Any] | None:
-        """A fall by touch: the robot's part, the world geom it touched and where (None: no such fall)."""
+        """A fall by touch: the robot's part and what it is (trunk, upper leg, lower leg), the world geom it touched
+        and where (None: no such fall)."""
         fc = self.loop.fall_contact
         if fc is None:
             return None
-        part, touched, point = fc
-        return {"part": part, "touched": touched, "point_m": [round(v, 4) for v in point]}
+        part, kind, touched, point = fc
+        return {"part": part, "kind": kind, "touched": touched, "point_m": [round(v, 4) for v in point]}
 
     def _slips_report(self) -> dict[str, Any]:
         """The stance feet that slid (planning.handler: HandlerParams.slip_*): how many slips, per leg, each one's

@@ -105,6 +105,7 @@ class RobotState:
     knee_contact: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))
     bad_contact: str | None = None  # name of the body of a non-foot robot geom touching the world, if any
     bad_contact_with: str | None = None  # ... the world geom it touches (its name)
+    bad_contact_kind: str | None = None  # ... what the part is: "trunk", "upper leg" or "lower leg"
     bad_contact_at: np.ndarray = field(default_factory=lambda: np.zeros(3))  # ... where (world, m)
 
     @property
@@ -186,6 +187,18 @@ class World:
                 gg = rid(mujoco.mjtObj.mjOBJ_GEOM, g)
                 if self.leg_of_foot_geom[gg] < 0:
                     self.leg_of_knee_geom[gg] = i
+        # what each robot geom is, for a fall report: the trunk (the floating body's own geoms), a lower leg (below a
+        # knee, not the foot), a foot, or an upper leg (the other geoms of a leg: thigh, hip)
+        self._part_kind_l: list[str] = [
+            "foot"
+            if self.leg_of_foot_geom[g] >= 0
+            else "lower leg"
+            if self.leg_of_knee_geom[g] >= 0
+            else "trunk"
+            if int(m.geom_bodyid[g]) == self.body_id
+            else "upper leg"
+            for g in range(m.ngeom)
+        ]
         self._near_foot_m = float(robot.near_foot_m())
         soft = bool(np.any(m.geom_solimp[self.foot_geom, 2] > SOFT_FOOT_WIDTH_M))
         self._foot_push_min_n = FOOT_PUSH_SHARE * robot.mass_kg * 9.81 if soft else 0.0
@@ -313,6 +326,7 @@ class World:
         s.knee_contact[:] = False
         s.bad_contact = None
         s.bad_contact_with = None
+        s.bad_contact_kind = None
         n = d.ncon
         if n:
             geoms = d.contact.geom[:n].tolist()
@@ -344,6 +358,7 @@ class World:
                     s.knee_contact[kl] = True
                 s.bad_contact = self.geom_body_names[g]
                 s.bad_contact_with = self.geom_names[g2 if r1 else g1]
+                s.bad_contact_kind = self._part_kind_l[g]
                 s.bad_contact_at[:] = d.contact.pos[k]
         return s
 

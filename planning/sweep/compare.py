@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.sweep.spec import DRAW
-from planning.sweep.summary import clean_record, near_miss_totals, reason_group, wilson
+from planning.sweep.summary import clean_record, failure_kind, near_miss_totals, reason_group, wilson
 
 
 class CompareError(ValueError):
@@ -183,6 +183,13 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
             "b_steps": nb[1],
             "rate_test_p": round(rate_test_p(na[0], na[1], nb[0], nb[1]), 4),
         }
+    # the kinds of failure on the paired cases, each side (failure_kind)
+    kinds: dict[str, list[int]] = {}
+    for k in keys:
+        for side, rec, crit in ((0, a[k], a_success), (1, b[k], b_success)):
+            kind = failure_kind(rec, crit)
+            if kind is not None:
+                kinds.setdefault(kind, [0, 0])[side] += 1
     differ = sorted(
         {d for k in keys for d in differing_params(a[k]["case"]["params"], b[k]["case"]["params"])}
     )
@@ -204,6 +211,9 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
         "changed": changed,
         "draws": _draws(draws) if draws else None,
         "near_misses": near,
+        "failure_kinds": {
+            k: {"a": v[0], "b": v[1]} for k, v in sorted(kinds.items(), key=lambda kv: -sum(kv[1]))
+        },
     }
 
 
@@ -262,6 +272,11 @@ def format_compare(c: dict[str, Any]) -> str:
             f"near misses (a leg or the body within {100 * NEAR_MISS_M:g} cm of the terrain, not touching it) over "
             f"the {nm['walks']} "
             f"paired walks: A {per('a')}, B {per('b')}; exact test of one rate: p = {nm['rate_test_p']:.3g}"
+        )
+    fk = c.get("failure_kinds")
+    if fk:
+        lines.append(
+            "failures by kind, A → B: " + ", ".join(f"{kind} {v['a']} → {v['b']}" for kind, v in fk.items())
         )
     if c["changed"]:
         lines.append("cases whose outcome changed:")

@@ -179,6 +179,28 @@ def touched_kind(name: str | None) -> str:
     return head if sep and tail.isdigit() else name
 
 
+def failure_kind(rec: dict[str, Any], success: str = "report") -> str | None:
+    """Gives what kind of failure a record is (None: a success under the criterion): "crashed", "fell: trunk",
+    "fell: upper leg", "fell: lower leg" (a fall by touch, by the part's kind; the run report's fall_contact),
+    "fell: body dropped", "no-step touchdown" or "body collision" (success "clean"), else "other"."""
+    if rec.get("status") != "done":
+        return "crashed"
+    rep = rec.get("report") or {}
+    if rep.get("success"):
+        if success != "clean":
+            return None
+        if int(rep.get("no_step_touchdowns") or 0):
+            return "no-step touchdown"
+        return "body collision" if int(rep.get("body_collisions") or 0) else None
+    fc = rep.get("fall_contact")
+    if fc:
+        return f"fell: {fc.get('kind') or 'touch'}"
+    why = str(rep.get("failure_reason") or "")
+    if "dropped" in why:
+        return "fell: body dropped"
+    return "fell: touch" if "touched" in why else "other"  # (reports from before fall_contact)
+
+
 def clean_record(rec: dict[str, Any]) -> dict[str, Any]:
     """The record with a successful run that touched the terrain with its body or stepped into a no-step cell
     counted as a failure (summary.success: clean)."""

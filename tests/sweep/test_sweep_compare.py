@@ -221,3 +221,35 @@ def test_near_misses_compare_over_the_walks_both_sides_counted(tmp_path: Path) -
         _write(tmp_path / "c", [_record(0, True, "cccc")]), _write(tmp_path / "d", [_record(0, True, "dddd")])
     )
     assert plain["near_misses"] is None and "near misses" not in format_compare(plain)
+
+
+def test_compare_counts_the_kinds_of_failure_on_each_side(tmp_path: Path) -> None:
+    """--compare's failures by kind: a fall by touch by the part's kind (the run report's fall_contact), a body
+    dropped, a no-step touchdown counted under the clean criterion, older reports' falls by their reason."""
+    from planning.sweep.summary import failure_kind
+
+    def fell(i: int, version: str, kind: str | None) -> dict[str, Any]:
+        r = _record(i, False, version)
+        if kind is not None:
+            r["report"]["fall_contact"] = {"part": "FL_lleg", "kind": kind, "touched": "terrain_step_3",
+                                           "point_m": [1.0, 0.0, 0.2]}  # fmt: skip
+        return r
+
+    a = [fell(0, "aaaa", "lower leg"), fell(1, "aaaa", "lower leg"), fell(2, "aaaa", None),
+         _record(3, True, "aaaa", no_step=1), _record(4, False, "aaaa", reason="fell: body dropped to 0.20 m")]  # fmt: skip
+    b = [fell(0, "bbbb", "trunk"), _record(1, True, "bbbb"), _record(2, True, "bbbb"),
+         _record(3, True, "bbbb"), _record(4, True, "bbbb")]  # fmt: skip
+    assert failure_kind(a[0]) == "fell: lower leg" and failure_kind(a[2]) == "fell: touch"
+    assert failure_kind(a[3]) is None and failure_kind(a[3], "clean") == "no-step touchdown"
+    assert failure_kind({"status": "crashed"}) == "crashed" and failure_kind(b[1], "clean") is None
+    c = compare(
+        _write(tmp_path / "a", a, {"success": "clean"}), _write(tmp_path / "b", b, {"success": "clean"})
+    )
+    assert c["failure_kinds"] == {
+        "fell: lower leg": {"a": 2, "b": 0},
+        "fell: touch": {"a": 1, "b": 0},
+        "no-step touchdown": {"a": 1, "b": 0},
+        "fell: body dropped": {"a": 1, "b": 0},
+        "fell: trunk": {"a": 0, "b": 1},
+    }
+    assert "failures by kind, A → B: fell: lower leg 2 → 0" in format_compare(c)

@@ -57,6 +57,7 @@ def test_a_fall_by_touch_names_the_part_what_it_touched_and_where() -> None:
     fc = rep["fall_contact"]
     assert rep["fell"] and fc is not None
     assert fc["touched"] == "terrain_obstacle_box_tall_0" and fc["part"] in rep["failure_reason"]
+    assert fc["kind"] in ("trunk", "upper leg", "lower leg")
     point = np.array(fc["point_m"])
     assert np.all(np.abs(point - centre) <= half + 0.01)  # on the box
     assert isinstance(rep["no_step_events"], list)
