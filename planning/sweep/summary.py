@@ -185,17 +185,15 @@ def failure_kind(rec: dict[str, Any], success: str = "report") -> str | None:
     "fell: body dropped", "no-step touchdown" or "body collision" (success "clean"), else "other"."""
     if rec.get("status") != "done":
         return "crashed"
-    rep = rec.get("report") or {}
+    rep = (clean_record(rec) if success == "clean" else rec).get("report") or {}
     if rep.get("success"):
-        if success != "clean":
-            return None
-        if int(rep.get("no_step_touchdowns") or 0):
-            return "no-step touchdown"
-        return "body collision" if int(rep.get("body_collisions") or 0) else None
+        return None
+    why = str(rep.get("failure_reason") or "")
+    if why.startswith("not clean:"):  # a success that clean_record failed
+        return "no-step touchdown" if int(rep.get("no_step_touchdowns") or 0) else "body collision"
     fc = rep.get("fall_contact")
     if fc:
         return f"fell: {fc.get('kind') or 'touch'}"
-    why = str(rep.get("failure_reason") or "")
     if "dropped" in why:
         return "fell: body dropped"
     return "fell: touch" if "touched" in why else "other"  # (reports from before fall_contact)
