@@ -256,6 +256,17 @@ def cmd_walk(a: argparse.Namespace) -> int:
         why = check_terrain_speed(a.speed, scene)
         if why is not None:
             raise UsageError(f"--speed {why}")
+    if a.trace is None and a.trace_every != 0.01:
+        raise UsageError("--trace-every: only with --trace FILE")
+    if a.trace is not None:
+        from planning.sim.trace import check_trace_every
+
+        why = check_trace_every(a.trace_every)
+        if why is not None:
+            raise UsageError(f"--trace-every {why}")
+        parent = Path(a.trace).expanduser().resolve().parent
+        if not parent.is_dir():
+            raise UsageError(f"--trace {a.trace}: no such directory {parent}")
     if getattr(a, "descend_backward", False) and (goal is None or scene == "flat"):
         raise UsageError("--descend-backward: only walking to a --goal on a terrain")
     if getattr(a, "descend_backward", False) and getattr(a, "descend_forward", False):
@@ -293,9 +304,24 @@ def cmd_walk(a: argparse.Namespace) -> int:
             )
             print(f"note: on {scene} the terrain speed caps --vx/--vy at {cap} m/s{more}", file=sys.stderr)
     progress = _Progress("walk")
-    report = run_walk(cmd, opts, progress=progress)
+    if a.trace is None:
+        report = run_walk(cmd, opts, progress=progress)
+    else:
+        from planning.sim.run import WalkSession
+
+        session = WalkSession(cmd, opts, trace_every_s=a.trace_every)
+        report = session.run(progress)
     progress.done()
     _write_report(report, a.report)
+    if a.trace is not None and session.trace is not None:
+        trace = session.trace
+        out = trace.write_csv(a.trace)
+        cut = (
+            f" ({trace.dropped // 4} later samples dropped past {len(trace.rows)} rows)"
+            if trace.dropped
+            else ""
+        )
+        print(f"trace: {len(trace.rows)} rows to {out}{cut}", file=sys.stderr)
     print(_summary(report))
     return EXIT_OK if report["success"] else EXIT_FAILED
 
@@ -479,6 +505,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     w.add_argument("--push", action="append", metavar="SPEC", help="T:FX,FY,FZ[:DURATION], repeatable")
     w.add_argument("--report", metavar="FILE", help="write the JSON run report here")
+    w.add_argument(
+        "--trace",
+        metavar="FILE",
+        help="write a per-leg trace here (CSV: body pose, phase, foot, swing plan, terrain foothold; README, "
+        "Tracing a walk)",
+    )
+    w.add_argument(
+        "--trace-every",
+        type=float,
+        default=0.01,
+        metavar="S",
+        help="the trace's sampling period, simulated seconds (default 0.01, at least 0.002)",
+    )
     w.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     w.add_argument("--robot", default="spot", help="robot: spot (default), go1 or an MJCF file (PATH.xml)")
     w.set_defaults(fn=cmd_walk)

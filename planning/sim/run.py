@@ -22,6 +22,7 @@ from planning.maneuver.scale import scale_to_robot
 from planning.robot import LEGS, RobotModel, load_robot
 from planning.sim.loop import Loop, ProgressFn, Stage
 from planning.sim.metrics import Recorder, match_touchdowns, percentiles
+from planning.sim.trace import LegTrace
 from planning.sim.world import Push, RobotState, World
 from planning.swing.types import TripKind
 from planning.terrain.decision import BACK_DROP_FRAC, PipelineParams, TerrainPipeline
@@ -474,7 +475,15 @@ class WalkSession(_Session):
 
     mode = "walk"
 
-    def __init__(self, command: WalkCommand, options: RunOptions, robot: RobotModel | None = None) -> None:
+    def __init__(
+        self,
+        command: WalkCommand,
+        options: RunOptions,
+        robot: RobotModel | None = None,
+        trace_every_s: float | None = None,
+    ) -> None:
+        """trace_every_s: keep a per-leg trace (planning.sim.trace.LegTrace, `self.trace`) sampled this often in
+        simulated seconds (None: none)."""
         from planning.walk import WalkController, WalkParams
 
         self.command = command
@@ -512,6 +521,10 @@ class WalkSession(_Session):
             self.collisions = BodyCollisionMonitor(self.world)
             self.near_misses = NearMissMonitor(self.world)
             monitors += [self.collisions, self.near_misses]
+        self.trace: LegTrace | None = None
+        if trace_every_s is not None:
+            self.trace = LegTrace(self.controller, self.pipeline, trace_every_s)
+            monitors.append(self.trace)
         self._t_at_goal: float | None = None
         self._start_loop(self.controller.stages, self.controller.actuate, monitors)
 

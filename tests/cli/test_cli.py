@@ -40,6 +40,13 @@ def test_terrains_lists_names(capsys) -> None:
             ["walk", "--terrain", "stairs", "--terrain-pipeline", "modes"],
             "--terrain-pipeline 'modes': removed",
         ),
+        (
+            ["walk", "--trace", "t.csv", "--trace-every", "0.001"],
+            "--trace-every 0.001 s: must be at least 0.002",
+        ),
+        (["walk", "--trace", "t.csv", "--trace-every", "nan"], "--trace-every nan s: must be at least 0.002"),
+        (["walk", "--trace-every", "0.05"], "--trace-every: only with --trace FILE"),
+        (["walk", "--trace", "no/such/dir/t.csv"], "--trace no/such/dir/t.csv: no such directory"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(argv, needle, capsys) -> None:
@@ -161,3 +168,40 @@ def test_walk_notes_when_the_terrain_speed_caps_the_command(capsys) -> None:
     )
     main([*argv, "--speed", "1.0"])
     assert "note:" not in capsys.readouterr().err
+
+
+def test_walk_trace_gives_a_row_per_leg_per_sample(tmp_path, capsys) -> None:
+    """`walk --trace FILE` writes the per-leg trace as CSV: its header, four rows (one per leg) each sample, the
+    phases and the swing plans where the legs swing, and on a terrain the foothold chosen for each leg's next
+    touchdown with the region under it."""
+    import csv
+
+    from planning.sim.trace import TRACE_COLUMNS
+
+    path = tmp_path / "trace.csv"
+    argv = ["walk", "--terrain", "slope", "--maps", "truth", "--vx", "0.4", "--duration", "1.0"]
+    assert main([*argv, "--trace", str(path), "--trace-every", "0.05"]) == 0
+    assert "trace: " in capsys.readouterr().err
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    assert tuple(rows[0].keys()) == TRACE_COLUMNS
+    times = sorted({float(r["t_s"]) for r in rows})
+    assert 19 <= len(times) <= 22  # every 0.05 s over 1 s
+    assert len(rows) == 4 * len(times)
+    assert all(
+        sorted(r["leg"] for r in rows if float(r["t_s"]) == t) == ["FL", "FR", "RL", "RR"] for t in times
+    )
+    assert {r["phase"] for r in rows} <= {"stance", "swing", "late"}
+    # a swing's plan is made on the swing planner's first replan after lift-off: a sample at the lift-off tick
+    # itself has none yet
+    swinging = [r for r in rows if r["phase"] == "swing"]
+    planned = [r for r in swinging if r["target_x"]]
+    assert len(planned) >= 0.7 * len(swinging) > 0
+    assert all(r["tier"] and r["horizontal_policy"] and r["vertical_policy"] for r in planned)
+    assert all(r["target_x"] == "" for r in rows if r["phase"] == "stance")
+    chosen = [r for r in rows if r["chosen_x"]]
+    assert chosen and all(r["region"] != "" and r["in_inset"] in ("0", "1") for r in chosen)
+    assert all(r["facing"] == "forward" for r in rows)
+    # the body walked forward (x grows) along the trace
+    x = [float(r["body_x"]) for r in rows if r["leg"] == "FL"]
+    assert x[-1] > x[0] + 0.1
