@@ -347,8 +347,32 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
     """Runs one case headless (the same path as `footfall run` and `footfall walk`) and returns its run report."""
     if params["kind"] == "probe":
         return _probe(params)
-    from planning.sim.run import RunOptions, WalkCommand, run_maneuver, run_walk
+    if params["kind"] == "maneuver":
+        from planning.maneuver import parse_maneuver
+        from planning.sim.run import run_maneuver
+
+        return run_maneuver(parse_maneuver(params["maneuver"]), _run_options(params))
+    from planning.sim.run import run_walk
+
+    return run_walk(*_walk_of(params))
+
+
+def rerun_walk_case(params: dict[str, Any], trace_every_s: float | None = None) -> tuple[dict[str, Any], Any]:
+    """Runs one walk case as run_case does, keeping a per-leg trace sampled every trace_every_s (None: none);
+    gives its run report and the trace (planning.sim.trace.LegTrace, or None). `footfall sweep --rerun`."""
+    if params.get("kind") != "walk":
+        raise ValueError(f"a {params.get('kind')!r} case: only walk cases keep a trace")
+    from planning.sim.run import WalkSession
+
+    session = WalkSession(*_walk_of(params), trace_every_s=trace_every_s)
+    return session.run(), session.trace
+
+
+def _run_options(params: dict[str, Any]) -> Any:
+    """The case's RunOptions: terrain, push, duration, robot, layout seed, start, friction."""
+    from planning.sim.run import RunOptions
     from planning.sim.world import Push
+    from planning.terrain.spec import spec_from_mapping
 
     pu = params["push"]
     pushes = []
@@ -356,10 +380,8 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
         f = pu["impulse_ns"] / pu["duration_s"]
         a = math.radians(pu["direction_deg"])
         pushes.append(Push(pu["t_s"], (f * math.cos(a), f * math.sin(a), 0.0), pu["duration_s"]))
-    from planning.terrain.spec import spec_from_mapping
-
     terrain = spec_from_mapping({"name": params["terrain"], "params": params["terrain_params"]}).text()
-    opts = RunOptions(
+    return RunOptions(
         terrain=terrain,
         pushes=pushes,
         duration_s=params["duration_s"],
@@ -368,16 +390,19 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
         start_offset=(params["start"][0], params["start"][1], params["start"][2]),
         friction=params["friction"],
     )
-    if params["kind"] == "maneuver":
-        from planning.maneuver import parse_maneuver
 
-        return run_maneuver(parse_maneuver(params["maneuver"]), opts)
+
+def _walk_of(params: dict[str, Any]) -> tuple[Any, Any]:
+    """A walk case's WalkCommand and RunOptions."""
+    from planning.sim.run import WalkCommand
+
+    opts = _run_options(params)
     w = params["walk"]
     goal = w["goal"]
     if goal == "terrain":
         from planning.terrain.spec import load_terrain
 
-        gx, gy = load_terrain(terrain, seed=params["seed"]).goal_xy
+        gx, gy = load_terrain(opts.terrain, seed=params["seed"]).goal_xy
         dx, dy = w.get("goal_offset", (0.0, 0.0))
         goal = (gx + dx, gy + dy)
     cmd = WalkCommand(
@@ -395,4 +420,4 @@ def run_case(params: dict[str, Any]) -> dict[str, Any]:
     )
     if w.get("descend_backward") is not None:  # (absent: WalkCommand's default)
         cmd = dataclasses.replace(cmd, descend_backward=bool(w["descend_backward"]))
-    return run_walk(cmd, opts)
+    return cmd, opts

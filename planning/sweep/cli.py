@@ -1,5 +1,7 @@
-"""`footfall sweep SPEC [--backend local|ray] [--address ADDR] [--out DIR] [--json FILE] [--workers N]`, and
-`footfall sweep --compare A B [--json FILE]` (two results directories, paired case by case)."""
+"""`footfall sweep SPEC [--backend local|ray] [--address ADDR] [--out DIR] [--json FILE] [--workers N]`,
+`footfall sweep --compare A B [--json FILE]` (two results directories, paired case by case), and
+`footfall sweep --rerun CASE [--trace FILE] [--trace-every S] [--report FILE]` (one case of a results directory run
+again here, its outcome set beside the stored one)."""
 
 from __future__ import annotations
 
@@ -36,7 +38,77 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:  # t
     s.add_argument("--compare", nargs=2, metavar=("A", "B"), help="compare two results directories of the same "
                    "spec (before and after a change) case by case: both rates, the cases B gains and loses, and "
                    "the exact sign test's p on them (no SPEC; --json writes the comparison)")  # fmt: skip
+    s.add_argument("--rerun", metavar="CASE", help="run one case of a results directory again in this process "
+                   "(DIR/cases/KEY.json, or a unique prefix of it: DIR/cases/d3a95a45) and set its outcome beside the "
+                   "stored one (no SPEC)")  # fmt: skip
+    s.add_argument("--trace", metavar="FILE", help="--rerun of a walk case: write its per-leg trace here (CSV; "
+                   "README, Tracing a walk)")  # fmt: skip
+    s.add_argument("--trace-every", type=float, default=0.01, metavar="S", help="the trace's sampling period, "
+                   "simulated seconds (default 0.01, at least 0.002)")  # fmt: skip
+    s.add_argument("--report", metavar="FILE", help="--rerun: write the new run report here (JSON)")
     return s
+
+
+def _case_file(arg: str) -> Path:
+    """The case file --rerun names: the path itself, or the one file of its directory whose name starts with it."""
+    p = Path(arg)
+    if p.is_file():
+        return p
+    if p.is_dir():  # (the cases directory itself: every case in it matches)
+        matches = sorted(p.glob("*.json"))
+    else:
+        matches = sorted(p.parent.glob(p.name + "*.json")) if p.parent.is_dir() else []
+    if len(matches) == 1:
+        return matches[0]
+    if not matches:
+        raise ValueError(f"--rerun {arg}: no such case file (DIR/cases/KEY.json)")
+    raise ValueError(f"--rerun {arg}: {len(matches)} case files start so; give more of the key")
+
+
+def _outcome(report: dict[str, Any] | None) -> str:
+    if not report:
+        return "no report"
+    return "success" if report.get("success") else str(report.get("failure_reason") or "failed")
+
+
+def _rerun(a: argparse.Namespace, err: Any) -> int:
+    from planning.sim.trace import check_trace_every
+    from planning.sweep.cases import rerun_walk_case, run_case
+
+    if a.spec:
+        return err("--rerun takes a case file and no SPEC")
+    if a.trace is not None:
+        why = check_trace_every(a.trace_every)
+        if why is not None:
+            return err(f"--trace-every {why}")
+    for flag, path in (("--trace", a.trace), ("--report", a.report)):
+        if path is not None and not Path(path).expanduser().resolve().parent.is_dir():
+            return err(f"{flag} {path}: no such directory {Path(path).expanduser().resolve().parent}")
+    try:
+        path = _case_file(a.rerun)
+        stored = json.loads(path.read_text())
+        params = stored["case"]["params"]
+        kind = params["kind"]
+    except ValueError as e:  # (json.JSONDecodeError is one)
+        return err(str(e) if str(e).startswith("--rerun") else f"--rerun {a.rerun}: not a case file: {e}")
+    except (KeyError, TypeError):
+        return err(f"--rerun {a.rerun}: not a case file (no case.params.kind)")
+    if a.trace is not None and kind != "walk":
+        return err(f"--trace: only for a walk case (this one is a {kind} case)")
+    trace = None
+    if kind == "walk":
+        report, trace = rerun_walk_case(params, a.trace_every if a.trace is not None else None)
+    else:
+        report = run_case(params)
+    print(f"case {stored.get('key', path.stem)} ({path})")
+    print(f"  stored: {_outcome(stored.get('report'))}")
+    print(f"  now:    {_outcome(report)}")
+    if a.report is not None:
+        Path(a.report).write_text(json.dumps(report, indent=2) + "\n")
+    if trace is not None:
+        out = trace.write_csv(a.trace)
+        print(f"trace: {len(trace.rows)} rows to {out}", file=sys.stderr)
+    return EXIT_OK
 
 
 def _compare(a: argparse.Namespace, err: Any) -> int:
@@ -70,8 +142,14 @@ def main(a: argparse.Namespace) -> int:
     if a.schema:
         print(json.dumps(sweep_json_schema(), indent=2))
         return EXIT_OK
+    if a.trace is None and a.trace_every != 0.01:
+        return err("--trace-every: only with --trace FILE")
     if a.compare:
         return _compare(a, err)
+    if a.rerun:
+        return _rerun(a, err)
+    if a.trace is not None or a.report is not None:
+        return err("--trace, --report: only with --rerun CASE")
     if not a.spec:
         return err("SPEC: give a sweep spec file or a shipped sweep's name (footfall sweep push-stand)")
     if a.workers is not None and not (1 <= a.workers <= 1024):
