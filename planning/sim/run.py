@@ -611,13 +611,23 @@ class WalkSession(_Session):
 
     def _terrain_report(self) -> dict[str, Any]:
         """Ground-truth terrain fields: no-step touchdowns, body collisions, crossed, time taken, the pipeline's stats."""
-        from planning.terrain.crossing import no_step_details, terrain_span_x
+        from planning.terrain.crossing import NEAR_EDGE_M, edge_distance, no_step_details, terrain_span_x
 
         rec = self.recorder
         landings = [td for td in rec.touchdowns if td.landing]
         scuffs = [td for td in rec.touchdowns if not td.landing]
         flags, spread, gap = no_step_details(self.scene, [td.p_world for td in landings])
+        # how near an edge of the true ground the other landings came down: the sole within NEAR_EDGE_M of one
+        edge = edge_distance(self.scene, [td.p_world for td in landings])
+        near_edge = int(np.count_nonzero(~flags & (edge <= self.robot.foot_radius_m + NEAR_EDGE_M + 1e-9)))
+        n_landed = len(landings)
         out: dict[str, Any] = {
+            "near_edge_landings": near_edge,
+            "near_edge_landings_per_100_steps": round(100.0 * near_edge / n_landed, 2) if n_landed else None,
+            # the nearest edge to any landing but a no-step one (None: none within the largest ring, 10 cm)
+            "landing_edge_min_m": (
+                None if not np.isfinite(m := float(np.min(edge[~flags], initial=np.inf))) else round(m, 3)
+            ),
             "no_step_touchdowns": int(np.count_nonzero(flags)),
             "no_step_scuffs": int(
                 np.count_nonzero(no_step_details(self.scene, [td.p_world for td in scuffs])[0])

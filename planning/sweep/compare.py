@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from planning.sweep.spec import DRAW
-from planning.sweep.summary import clean_record, failure_kind, near_miss_totals, reason_group, wilson
+from planning.sweep.summary import clean_record, failure_kind, reason_group, step_totals, wilson
 
 
 class CompareError(ValueError):
@@ -123,6 +123,26 @@ def _label(rec: dict[str, Any]) -> str:
     return " ".join(parts) or rec["key"]
 
 
+def _per_step(
+    a: dict[str, dict[str, Any]], b: dict[str, dict[str, Any]], keys: list[str], field: str
+) -> dict[str, Any] | None:
+    """A per-step count (step_totals' field) on the paired walks both sides counted it on: each side's count and
+    steps, and the exact test of one rate (None: no such walk)."""
+    both = [k for k in keys if _report(a[k]).get(field) is not None and _report(b[k]).get(field) is not None]
+    if not both:
+        return None
+    na = step_totals([_report(a[k]) for k in both], field) or (0, 0)
+    nb = step_totals([_report(b[k]) for k in both], field) or (0, 0)
+    return {
+        "walks": len(both),
+        "a": na[0],
+        "a_steps": na[1],
+        "b": nb[0],
+        "b_steps": nb[1],
+        "rate_test_p": round(rate_test_p(na[0], na[1], nb[0], nb[1]), 4),
+    }
+
+
 def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
     """Gives the paired comparison of two results directories (see the module docstring): the counts on the
     paired cases, each side's rate with its Wilson 95 % interval, the gains, the losses, the sign test's p, the run
@@ -165,24 +185,10 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
                 }
             )
     n = len(keys)
-    near = None
-    # near misses on the paired walks both sides counted them on (terrain walks: see NearMissMonitor)
-    both = [
-        k
-        for k in keys
-        if _report(a[k]).get("near_misses") is not None and _report(b[k]).get("near_misses") is not None
-    ]
-    if both:
-        na = near_miss_totals([_report(a[k]) for k in both]) or (0, 0)
-        nb = near_miss_totals([_report(b[k]) for k in both]) or (0, 0)
-        near = {
-            "walks": len(both),
-            "a": na[0],
-            "a_steps": na[1],
-            "b": nb[0],
-            "b_steps": nb[1],
-            "rate_test_p": round(rate_test_p(na[0], na[1], nb[0], nb[1]), 4),
-        }
+    # near misses and near-edge landings on the paired walks both sides counted them on (terrain walks: see
+    # NearMissMonitor, planning.terrain.crossing.edge_distance)
+    near = _per_step(a, b, keys, "near_misses")
+    edges = _per_step(a, b, keys, "near_edge_landings")
     # the kinds of failure on the paired cases, each side (failure_kind)
     kinds: dict[str, list[int]] = {}
     for k in keys:
@@ -211,6 +217,7 @@ def compare(a_dir: str | Path, b_dir: str | Path) -> dict[str, Any]:
         "changed": changed,
         "draws": _draws(draws) if draws else None,
         "near_misses": near,
+        "near_edge_landings": edges,
         "failure_kinds": {
             k: {"a": v[0], "b": v[1]} for k, v in sorted(kinds.items(), key=lambda kv: -sum(kv[1]))
         },
@@ -259,18 +266,28 @@ def format_compare(c: dict[str, Any]) -> str:
             f"per draw (its success fraction over its paired repeats): B up on {d['up']}, down on {d['down']}, "
             f"the same on {d['same']} of {d['paired']} draws; exact sign test: p = {d['sign_test_p']:.3g}"
         )
-    nm = c.get("near_misses")
-    if nm:
+    from planning.terrain.crossing import NEAR_EDGE_M, NEAR_MISS_M
 
-        def per(k: str) -> str:
+    for field, what in (
+        (
+            "near_misses",
+            f"near misses (a leg or the body within {100 * NEAR_MISS_M:g} cm of the terrain, not touching it)",
+        ),
+        (
+            "near_edge_landings",
+            f"near-edge landings (the sole within {100 * NEAR_EDGE_M:g} cm of an edge, not a no-step one)",
+        ),
+    ):
+        nm = c.get(field)
+        if not nm:
+            continue
+
+        def per(k: str, nm: dict[str, Any] = nm) -> str:
             steps = nm[f"{k}_steps"]
             return f"{nm[k]} in {steps} steps ({100.0 * nm[k] / steps:.2f} per 100)" if steps else f"{nm[k]}"
 
-        from planning.terrain.crossing import NEAR_MISS_M
-
         lines.append(
-            f"near misses (a leg or the body within {100 * NEAR_MISS_M:g} cm of the terrain, not touching it) over "
-            f"the {nm['walks']} "
+            f"{what} over the {nm['walks']} "
             f"paired walks: A {per('a')}, B {per('b')}; exact test of one rate: p = {nm['rate_test_p']:.3g}"
         )
     fk = c.get("failure_kinds")

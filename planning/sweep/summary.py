@@ -118,15 +118,19 @@ def _binner(spec: SweepSpec, cases: list[dict[str, Any]], axis: str) -> _Binner:
     return _Binner([_ax(c, axis) for c in cases], spec.summary.bins, sampled)
 
 
+def step_totals(reports: list[dict[str, Any]], field: str) -> tuple[int, int] | None:
+    """Gives a per-step count of the run reports (field: "near_misses", "near_edge_landings") and the steps, each
+    summed over the reports that count it (None: none does)."""
+    watched = [rep for rep in reports if rep.get(field) is not None]
+    if not watched:
+        return None
+    return sum(int(rep[field]) for rep in watched), sum(int(rep.get("steps_taken") or 0) for rep in watched)
+
+
 def near_miss_totals(reports: list[dict[str, Any]]) -> tuple[int, int] | None:
     """Gives the near misses (terrain walks: a non-foot part near the terrain, not touching it; NearMissMonitor) and
     the steps summed over the run reports that count them (None: none does)."""
-    watched = [rep for rep in reports if rep.get("near_misses") is not None]
-    if not watched:
-        return None
-    return sum(int(rep["near_misses"]) for rep in watched), sum(
-        int(rep.get("steps_taken") or 0) for rep in watched
-    )
+    return step_totals(reports, "near_misses")
 
 
 def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
@@ -147,6 +151,7 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
     )
     watched = [rep for rep in reports if rep.get("near_misses") is not None]
     misses, steps = near_miss_totals(watched) or (0, 0)
+    edged = step_totals(reports, "near_edge_landings")
     return {
         "cases": len(recs),
         "done": len(done),
@@ -161,6 +166,10 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
         "simulated_s": pct([rep.get("duration_s") for rep in reports]),
         "near_misses": misses if watched else None,
         "near_misses_per_100_steps": round(100.0 * misses / steps, 2) if watched and steps else None,
+        "near_edge_landings": None if edged is None else edged[0],
+        "near_edge_landings_per_100_steps": round(100.0 * edged[0] / edged[1], 2)
+        if edged and edged[1]
+        else None,
         "link_clearance_min_m": pct([rep.get("link_clearance_min_m") for rep in watched]),
         "time_to_goal_s": pct([rep.get("time_to_goal_s") for rep in reports]),
         "time_to_cross_s": pct([rep.get("time_to_cross_s") for rep in reports]),
@@ -325,6 +334,9 @@ def format_table(summary: dict[str, Any]) -> str:
     head = [*by, "success", "95 % CI", "crashed", "pos. error p50/p90 m", "wall s p50", "top failure"]
     cells = [*summary["cells"], {"axes": dict.fromkeys(by, ""), **summary["overall"]}]
     near = any(c.get("near_misses") is not None for c in cells)
+    edges = any(c.get("near_edge_landings") is not None for c in cells)
+    if edges:
+        head.insert(len(by) + 3, "near edges /100 steps")
     if near:
         head.insert(len(by) + 3, "near misses /100 steps")
     rows = []
@@ -343,6 +355,9 @@ def format_table(summary: dict[str, Any]) -> str:
                 top[:60],
             ]
         )
+        if edges:
+            v = c.get("near_edge_landings_per_100_steps")
+            rows[-1].insert(len(by) + 3, "" if v is None else f"{v:.2f} ({c['near_edge_landings']})")
         if near:
             v = c.get("near_misses_per_100_steps")
             rows[-1].insert(len(by) + 3, "" if v is None else f"{v:.2f} ({c['near_misses']})")
@@ -390,8 +405,8 @@ def cells_csv(summary: dict[str, Any]) -> str:
 
 
 def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -> str:
-    """One CSV row per case: its axes, status, success, failure reason, attempts, wall time, near misses, no-step
-    landings, what a fall by touch met (the world geom; the run report's fall_contact) and key."""
+    """One CSV row per case: its axes, status, success, failure reason, attempts, wall time, near misses, near-edge
+    landings, no-step landings, what a fall by touch met (the world geom; the run report's fall_contact) and key."""
     names = axis_names(cases)
     out = io.StringIO()
     w = csv.writer(out)
@@ -404,6 +419,7 @@ def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -
             "attempts",
             "wall_s",
             "near_misses",
+            "near_edge_landings",
             "no_step_touchdowns",
             "fall_touched",
             "key",
@@ -419,6 +435,7 @@ def cases_csv(cases: list[dict[str, Any]], records: dict[str, dict[str, Any]]) -
             + [
                 (r or {}).get("wall_s", ""),
                 "" if rep.get("near_misses") is None else rep["near_misses"],
+                "" if rep.get("near_edge_landings") is None else rep["near_edge_landings"],
                 "" if rep.get("no_step_touchdowns") is None else rep["no_step_touchdowns"],
                 (rep.get("fall_contact") or {}).get("touched") or "",
                 c["key"],

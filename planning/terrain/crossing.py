@@ -80,6 +80,39 @@ def no_step_touchdowns(
     return int(np.count_nonzero(no_step_flags(scene, np.array(p_world_contact), check)))
 
 
+# A near-edge landing: a landing, not a no-step one, whose contact point has an edge of the true ground (a height
+# spread above NoStepCheck.max_spread_m) within the foot's radius + NEAR_EDGE_M: the sole within NEAR_EDGE_M of it.
+NEAR_EDGE_M = 0.01
+# the rings (m) around a landing's contact point on which edge_distance looks for the nearest edge, 16 points each
+EDGE_RINGS_M = (0.025, 0.03, 0.035, 0.04, 0.045, 0.05, 0.06, 0.07, 0.08, 0.1)
+_RING16 = np.stack([np.cos(np.arange(16) * np.pi / 8), np.sin(np.arange(16) * np.pi / 8)], axis=1)
+
+
+def edge_distance(
+    scene: TerrainScene,
+    p_world_contact: Sequence[NDArray[np.float64]] | NDArray[np.float64],
+    check: NoStepCheck | None = None,
+) -> NDArray[np.float64]:
+    """Gives, for contact points (N, 3) (m, world), how near the true ground's nearest edge lies (N,) m: the
+    smallest of EDGE_RINGS_M within which (the point and the rings up to it, 16 points each) the true ground's height
+    spread exceeds the check's max_spread_m; inf where none does (no edge within the largest ring)."""
+    c = check or NoStepCheck()
+    p = np.asarray(p_world_contact, dtype=np.float64).reshape(-1, 3)
+    if p.shape[0] == 0:
+        return np.zeros(0)
+    radii = np.asarray(EDGE_RINGS_M)
+    offs = (radii[:, None, None] * _RING16[None]).reshape(-1, 2)  # (R * 16, 2), ring by ring
+    pts = np.concatenate([p[:, None, :2], p[:, None, :2] + offs[None]], axis=1)
+    h = np.asarray(scene.ground_height(pts[..., 0], pts[..., 1]), dtype=np.float64)
+    # the running spread over the centre and the rings up to each one
+    rings = h[:, 1:].reshape(p.shape[0], len(radii), 16)
+    hi = np.maximum.accumulate(np.maximum(rings.max(axis=2), h[:, :1]), axis=1)
+    lo = np.minimum.accumulate(np.minimum(rings.min(axis=2), h[:, :1]), axis=1)
+    edge = (hi - lo) > c.max_spread_m
+    first = np.argmax(edge, axis=1)
+    return np.where(edge.any(axis=1), radii[first], np.inf)
+
+
 NEAR_MISS_M = 0.02  # a near miss: a non-foot part of the robot within this of the world (m), not touching it
 NEAR_MISS_CLEAR_M = 0.025  # ... which ends when it is farther than this again
 NEAR_MISS_EVERY = 2  # the distances are measured every this many physics steps

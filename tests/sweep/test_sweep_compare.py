@@ -253,3 +253,23 @@ def test_compare_counts_the_kinds_of_failure_on_each_side(tmp_path: Path) -> Non
         "fell: trunk": {"a": 0, "b": 1},
     }
     assert "failures by kind, A → B: fell: lower leg 2 → 0" in format_compare(c)
+
+
+def test_near_edge_landings_compare_like_near_misses(tmp_path: Path) -> None:
+    """--compare's near-edge landings (the sole within NEAR_EDGE_M of an edge): over the walks both sides counted
+    them on, with the exact test of one rate."""
+
+    def with_edges(r: dict[str, Any], n: int | None) -> dict[str, Any]:
+        if n is not None:
+            r["report"].update(near_edge_landings=n, steps_taken=50)
+        return r
+
+    a = _write(tmp_path / "a", [with_edges(_record(i, True, "aaaa"), n) for i, n in enumerate([None, 2, 2])])
+    b = _write(tmp_path / "b", [with_edges(_record(i, True, "bbbb"), n) for i, n in enumerate([9, 0, 1])])
+    c = compare(a, b)
+    ne = c["near_edge_landings"]
+    assert (ne["walks"], ne["a"], ne["b"], ne["a_steps"], ne["b_steps"]) == (2, 4, 1, 100, 100)
+    text = format_compare(c)
+    assert "near-edge landings (the sole within 1 cm of an edge" in text
+    assert "A 4 in 100 steps (4.00 per 100), B 1 in 100 steps (1.00 per 100)" in text
+    assert c["near_misses"] is None and "near misses" not in text

@@ -230,3 +230,27 @@ def test_near_misses_are_summed_per_100_steps_over_the_walks_that_watched() -> N
     assert "near misses /100 steps" in format_table(s) and "2.67 (4)" in format_table(s)
     plain = summarize(spec, cases, {k: {**r, "report": {"success": True}} for k, r in records.items()})
     assert plain["overall"]["near_misses"] is None and "near misses" not in format_table(plain)
+
+
+def test_near_edge_landings_are_summed_per_100_steps() -> None:
+    import csv
+    import io
+
+    from planning.sweep.summary import cases_csv, format_table, summarize
+
+    spec = _spec(axes={"seed": [0, 1, 2]})
+    cases = expand(spec)
+    reps = [
+        {"success": True, "near_edge_landings": 5, "steps_taken": 100},
+        {"success": True, "near_edge_landings": 0, "steps_taken": 100},
+        {"success": True, "steps_taken": 400},
+    ]  # (the last: a walk without terrain, not counted)
+    records = {
+        c["key"]: {"status": "done", "report": r, "wall_s": 1.0} for c, r in zip(cases, reps, strict=True)
+    }
+    s = summarize(spec, cases, records)
+    assert s["overall"]["near_edge_landings"] == 5
+    assert s["overall"]["near_edge_landings_per_100_steps"] == pytest.approx(2.5)
+    assert "near edges /100 steps" in format_table(s) and "2.50 (5)" in format_table(s)
+    rows = list(csv.DictReader(io.StringIO(cases_csv(cases, records))))
+    assert [r["near_edge_landings"] for r in rows] == ["5", "0", ""]

@@ -41,6 +41,28 @@ def test_no_step_details_say_why_a_contact_point_is_no_step() -> None:
     assert [a.size for a in empty] == [0, 0, 0]
 
 
+@pytest.mark.parametrize("back_m", [0.027, 0.032, 0.043, 0.055, 0.075, 0.09])
+def test_edge_distance_finds_the_platforms_edge_within_a_ring(back_m: float) -> None:
+    """edge_distance: the smallest ring (EDGE_RINGS_M) around a contact point within which the true ground has an
+    edge; a point back_m from the stones' start platform's edge finds it on the first ring at least that far out."""
+    from planning.terrain.crossing import EDGE_RINGS_M, edge_distance
+
+    scene = build_terrain("stones")
+    x0, _ = terrain_span_x(scene)
+    d = edge_distance(scene, np.array([[x0 - back_m, 0.0, 0.0]]))
+    assert d[0] == min(r for r in EDGE_RINGS_M if r >= back_m)
+
+
+def test_edge_distance_away_from_any_edge_and_on_none() -> None:
+    from planning.terrain.crossing import edge_distance
+
+    scene = build_terrain("stones")
+    x0, _ = terrain_span_x(scene)
+    d = edge_distance(scene, np.array([[x0 - 0.3, 0.0, 0.0], [x0 - 0.015, 0.5, 0.0]]))
+    assert d[0] == np.inf and d[1] == 0.025  # 30 cm back: none within 10 cm; 1.5 cm back: the first ring
+    assert edge_distance(scene, np.zeros((0, 3))).size == 0
+
+
 def test_a_fall_by_touch_names_the_part_what_it_touched_and_where() -> None:
     """The run report's fall_contact: the robot's part, the world geom it touched and the contact point; the
     robot set down with its body's front in the clutter's first tall box falls at once on that box."""
@@ -147,3 +169,27 @@ def test_a_turn_round_that_does_not_come_round_in_time_is_given_up_for_the_walk(
     pipe._watch_turn(dataclasses.replace(view, t_s=5.0, yaw=np.pi), "back")
     pipe._watch_turn(dataclasses.replace(view, t_s=limit + 5.0, yaw=np.pi - 0.8), "back")
     assert pipe.may_turn
+
+
+def test_landings_near_the_start_platforms_edge_are_counted() -> None:
+    """The run report's near_edge_landings: a blind trot at 0.1 m/s started with the front feet 6-10 cm from the
+    stones' start platform's edge lands a foot with its sole within NEAR_EDGE_M of it (not a no-step landing) in
+    at least two of three starts; landing_edge_min_m says how near; a slope has no edge at all."""
+    from planning.robot import load_robot
+    from planning.terrain.crossing import NEAR_EDGE_M
+
+    robot = load_robot("spot")
+    x0, _ = terrain_span_x(build_terrain("stones"))
+    front_x = float(robot.nominal_stance_xy[0])
+    hits = 0
+    for back in (0.06, 0.08, 0.1):
+        opts = RunOptions(terrain="stones", duration_s=1.2, start_offset=(x0 - front_x - back, 0.0, 0.0))
+        r = WalkSession(WalkCommand(0.1, 0.0, 0.0, terrain_aware=False), opts).run()
+        assert not r["fell"]
+        assert 0 <= r["near_edge_landings"] <= r["steps_taken"] - r["no_step_touchdowns"]
+        if r["near_edge_landings"]:
+            hits += 1
+            assert r["landing_edge_min_m"] <= robot.foot_radius_m + NEAR_EDGE_M + 1e-9
+    assert hits >= 2
+    slope = WalkSession(WalkCommand(0.3, 0.0, 0.0), RunOptions(terrain="slope", duration_s=1.0)).run()
+    assert slope["near_edge_landings"] == 0 and slope["landing_edge_min_m"] is None
