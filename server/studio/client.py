@@ -65,6 +65,9 @@ class StudioClient:
         self.generation = -1
         self.token = ""
         self._stop = threading.Event()
+        # show_replay runs on the GUI's callbacks and on the tab's loop: one at a time, each reading the playhead
+        # inside, so the last to run shows the playhead's latest value (not one read before a scrub moved it)
+        self._replay_lock = threading.RLock()
         self._frames: deque[float] = deque(maxlen=200)
         self._seen: deque[tuple[float, int]] = deque(maxlen=1000)  # (time, session's pose count) the loop saw
         self._sent_pose: tuple[np.ndarray, np.ndarray] | None = None  # the robot's pose the browser last got
@@ -462,6 +465,10 @@ class StudioClient:
     def show_replay(self, t_live: float | None = None) -> None:
         """Poses the robot from the recorded preview at the playhead (replay on), and the ghost from the run before
         at the same time (or at the live time `t_live`)."""
+        with self._replay_lock:
+            self._show_replay(t_live)
+
+    def _show_replay(self, t_live: float | None) -> None:
         ed = self.editor
         replay = bool(ed.cb_replay.value)
         t = float(ed.sl_scrub.value) if replay or t_live is None else t_live
