@@ -222,7 +222,7 @@ def _parse_goal(text: str | None) -> tuple[float, float] | None:
 
 
 def cmd_walk(a: argparse.Namespace) -> int:
-    from planning.sim.run import RunOptions, WalkCommand, run_walk
+    from planning.sim.run import RunOptions, WalkCommand, WalkSession
     from planning.steps.gait import GAIT_NAMES
 
     scene = _check_terrain(a.terrain, a.seed)
@@ -256,17 +256,11 @@ def cmd_walk(a: argparse.Namespace) -> int:
         why = check_terrain_speed(a.speed, scene)
         if why is not None:
             raise UsageError(f"--speed {why}")
-    if a.trace is None and a.trace_every != 0.01:
-        raise UsageError("--trace-every: only with --trace FILE")
-    if a.trace is not None:
-        from planning.sim.trace import check_trace_every
+    from planning.sim.trace import trace_args_error
 
-        why = check_trace_every(a.trace_every)
-        if why is not None:
-            raise UsageError(f"--trace-every {why}")
-        parent = Path(a.trace).expanduser().resolve().parent
-        if not parent.is_dir():
-            raise UsageError(f"--trace {a.trace}: no such directory {parent}")
+    why = trace_args_error(a.trace, a.trace_every)
+    if why is not None:
+        raise UsageError(why)
     if getattr(a, "descend_backward", False) and (goal is None or scene == "flat"):
         raise UsageError("--descend-backward: only walking to a --goal on a terrain")
     if getattr(a, "descend_backward", False) and getattr(a, "descend_forward", False):
@@ -304,17 +298,14 @@ def cmd_walk(a: argparse.Namespace) -> int:
             )
             print(f"note: on {scene} the terrain speed caps --vx/--vy at {cap} m/s{more}", file=sys.stderr)
     progress = _Progress("walk")
-    if a.trace is None:
-        report = run_walk(cmd, opts, progress=progress)
-    else:
-        from planning.sim.run import WalkSession
+    from planning.sim.trace import DEFAULT_TRACE_EVERY_S
 
-        session = WalkSession(cmd, opts, trace_every_s=a.trace_every)
-        report = session.run(progress)
+    every = DEFAULT_TRACE_EVERY_S if a.trace_every is None else a.trace_every
+    session = WalkSession(cmd, opts, trace_every_s=None if a.trace is None else every)
+    report = session.run(progress)
     progress.done()
     _write_report(report, a.report)
-    if a.trace is not None and session.trace is not None:
-        trace = session.trace
+    if a.trace is not None and (trace := session.trace) is not None:
         out = trace.write_csv(a.trace)
         cut = (
             f" ({trace.dropped // 4} later samples dropped past {len(trace.rows)} rows)"
@@ -514,7 +505,6 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument(
         "--trace-every",
         type=float,
-        default=0.01,
         metavar="S",
         help="the trace's sampling period, simulated seconds (default 0.01, at least 0.002)",
     )

@@ -53,6 +53,8 @@ TRACE_COLUMNS: tuple[str, ...] = (
 )
 
 _PHASES = ("stance", "swing", "late")
+# the sampling period of `--trace` unless `--trace-every` says, s
+DEFAULT_TRACE_EVERY_S = 0.01
 # the shortest sampling period a trace takes, s (the control loop's own tick is 2 ms)
 MIN_TRACE_EVERY_S = 0.002
 # the most rows a trace keeps (4 legs every 10 ms for 600 s); later samples are dropped and counted
@@ -66,6 +68,18 @@ def check_trace_every(every_s: float) -> str | None:
     return None
 
 
+def trace_args_error(trace: str | None, every_s: float | None) -> str | None:
+    """Gives why a command line's --trace FILE and --trace-every S (None: not given) are not accepted (None:
+    accepted): a period without a file, a period below the control tick, a file in no directory."""
+    if trace is None:
+        return None if every_s is None else "--trace-every: only with --trace FILE"
+    why = None if every_s is None else check_trace_every(every_s)
+    if why is not None:
+        return f"--trace-every {why}"
+    parent = Path(trace).expanduser().resolve().parent
+    return None if parent.is_dir() else f"--trace {trace}: no such directory {parent}"
+
+
 def _r(v: float, nd: int = 4) -> float | str:
     return round(float(v), nd) if math.isfinite(float(v)) else ""
 
@@ -75,7 +89,7 @@ class LegTrace:
     module docstring every every_s seconds. controller: the walk's controller (its handler's phases and swing plans,
     its gait); pipeline: the terrain pipeline (None on flat ground or walking blind)."""
 
-    def __init__(self, controller: Any, pipeline: Any, every_s: float = 0.01) -> None:
+    def __init__(self, controller: Any, pipeline: Any, every_s: float = DEFAULT_TRACE_EVERY_S) -> None:
         why = check_trace_every(every_s)
         if why is not None:
             raise ValueError(f"LegTrace: every_s {why}")

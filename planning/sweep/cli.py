@@ -43,7 +43,7 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:  # t
                    "stored one (no SPEC)")  # fmt: skip
     s.add_argument("--trace", metavar="FILE", help="--rerun of a walk case: write its per-leg trace here (CSV; "
                    "README, Tracing a walk)")  # fmt: skip
-    s.add_argument("--trace-every", type=float, default=0.01, metavar="S", help="the trace's sampling period, "
+    s.add_argument("--trace-every", type=float, metavar="S", help="the trace's sampling period, "
                    "simulated seconds (default 0.01, at least 0.002)")  # fmt: skip
     s.add_argument("--report", metavar="FILE", help="--rerun: write the new run report here (JSON)")
     return s
@@ -72,18 +72,13 @@ def _outcome(report: dict[str, Any] | None) -> str:
 
 
 def _rerun(a: argparse.Namespace, err: Any) -> int:
-    from planning.sim.trace import check_trace_every
+    from planning.sim.trace import DEFAULT_TRACE_EVERY_S
     from planning.sweep.cases import rerun_walk_case, run_case
 
     if a.spec:
         return err("--rerun takes a case file and no SPEC")
-    if a.trace is not None:
-        why = check_trace_every(a.trace_every)
-        if why is not None:
-            return err(f"--trace-every {why}")
-    for flag, path in (("--trace", a.trace), ("--report", a.report)):
-        if path is not None and not Path(path).expanduser().resolve().parent.is_dir():
-            return err(f"{flag} {path}: no such directory {Path(path).expanduser().resolve().parent}")
+    if a.report is not None and not (parent := Path(a.report).expanduser().resolve().parent).is_dir():
+        return err(f"--report {a.report}: no such directory {parent}")
     try:
         path = _case_file(a.rerun)
         stored = json.loads(path.read_text())
@@ -97,7 +92,8 @@ def _rerun(a: argparse.Namespace, err: Any) -> int:
         return err(f"--trace: only for a walk case (this one is a {kind} case)")
     trace = None
     if kind == "walk":
-        report, trace = rerun_walk_case(params, a.trace_every if a.trace is not None else None)
+        every = DEFAULT_TRACE_EVERY_S if a.trace_every is None else a.trace_every
+        report, trace = rerun_walk_case(params, None if a.trace is None else every)
     else:
         report = run_case(params)
     print(f"case {stored.get('key', path.stem)} ({path})")
@@ -142,8 +138,11 @@ def main(a: argparse.Namespace) -> int:
     if a.schema:
         print(json.dumps(sweep_json_schema(), indent=2))
         return EXIT_OK
-    if a.trace is None and a.trace_every != 0.01:
-        return err("--trace-every: only with --trace FILE")
+    from planning.sim.trace import trace_args_error
+
+    why = trace_args_error(a.trace, a.trace_every)
+    if why is not None:
+        return err(why)
     if a.compare:
         return _compare(a, err)
     if a.rerun:

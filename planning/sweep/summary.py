@@ -127,10 +127,22 @@ def step_totals(reports: list[dict[str, Any]], field: str) -> tuple[int, int] | 
     return sum(int(rep[field]) for rep in watched), sum(int(rep.get("steps_taken") or 0) for rep in watched)
 
 
-def near_miss_totals(reports: list[dict[str, Any]]) -> tuple[int, int] | None:
-    """Gives the near misses (terrain walks: a non-foot part near the terrain, not touching it; NearMissMonitor) and
-    the steps summed over the run reports that count them (None: none does)."""
-    return step_totals(reports, "near_misses")
+def _per_step_fields(reports: list[dict[str, Any]], field: str) -> dict[str, Any]:
+    """The summary's fields of a per-step count (step_totals): FIELD and FIELD_per_100_steps (None: not counted)."""
+    totals = step_totals(reports, field)
+    count, steps = totals or (0, 0)
+    return {
+        field: None if totals is None else count,
+        f"{field}_per_100_steps": round(100.0 * count / steps, 2) if totals and steps else None,
+    }
+
+
+# the per-step counts of terrain walks the summary sums (a near miss: NearMissMonitor; a near-edge landing:
+# planning.terrain.crossing.edge_distance), with their columns in the table
+PER_STEP_COLUMNS = (
+    ("near_misses", "near misses /100 steps"),
+    ("near_edge_landings", "near edges /100 steps"),
+)
 
 
 def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
@@ -150,8 +162,6 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
         if (fc := rep.get("fall_contact"))
     )
     watched = [rep for rep in reports if rep.get("near_misses") is not None]
-    misses, steps = near_miss_totals(watched) or (0, 0)
-    edged = step_totals(reports, "near_edge_landings")
     return {
         "cases": len(recs),
         "done": len(done),
@@ -164,12 +174,7 @@ def _stats(recs: list[dict[str, Any] | None]) -> dict[str, Any]:
         "falls_touched": dict(touched.most_common()),
         "wall_s": pct([r["wall_s"] for r in done]),
         "simulated_s": pct([rep.get("duration_s") for rep in reports]),
-        "near_misses": misses if watched else None,
-        "near_misses_per_100_steps": round(100.0 * misses / steps, 2) if watched and steps else None,
-        "near_edge_landings": None if edged is None else edged[0],
-        "near_edge_landings_per_100_steps": round(100.0 * edged[0] / edged[1], 2)
-        if edged and edged[1]
-        else None,
+        **{k: v for field, _ in PER_STEP_COLUMNS for k, v in _per_step_fields(reports, field).items()},
         "link_clearance_min_m": pct([rep.get("link_clearance_min_m") for rep in watched]),
         "time_to_goal_s": pct([rep.get("time_to_goal_s") for rep in reports]),
         "time_to_cross_s": pct([rep.get("time_to_cross_s") for rep in reports]),
@@ -333,12 +338,9 @@ def format_table(summary: dict[str, Any]) -> str:
     by = summary["by"]
     head = [*by, "success", "95 % CI", "crashed", "pos. error p50/p90 m", "wall s p50", "top failure"]
     cells = [*summary["cells"], {"axes": dict.fromkeys(by, ""), **summary["overall"]}]
-    near = any(c.get("near_misses") is not None for c in cells)
-    edges = any(c.get("near_edge_landings") is not None for c in cells)
-    if edges:
-        head.insert(len(by) + 3, "near edges /100 steps")
-    if near:
-        head.insert(len(by) + 3, "near misses /100 steps")
+    # the per-step counts some cell has, each a column after "crashed"
+    counted = [(f, title) for f, title in PER_STEP_COLUMNS if any(c.get(f) is not None for c in cells)]
+    head[len(by) + 3 : len(by) + 3] = [title for _, title in counted]
     rows = []
     for c in cells:
         e = c["final_position_error_m"]
@@ -355,12 +357,9 @@ def format_table(summary: dict[str, Any]) -> str:
                 top[:60],
             ]
         )
-        if edges:
-            v = c.get("near_edge_landings_per_100_steps")
-            rows[-1].insert(len(by) + 3, "" if v is None else f"{v:.2f} ({c['near_edge_landings']})")
-        if near:
-            v = c.get("near_misses_per_100_steps")
-            rows[-1].insert(len(by) + 3, "" if v is None else f"{v:.2f} ({c['near_misses']})")
+        rows[-1][len(by) + 3 : len(by) + 3] = [
+            "" if (v := c.get(f"{f}_per_100_steps")) is None else f"{v:.2f} ({c[f]})" for f, _ in counted
+        ]
     if by:
         rows[-1][0] = "all"
     else:
